@@ -1,0 +1,192 @@
+"""Units at the edge: parse unit strings and convert to and from internal units.
+
+Inside mtmetrology every quantity is in mm (length), rad (angle) or is
+dimensionless (scale errors, squareness slopes: 75 µm/m is 75e-6).  Files, reports
+and the command line use the customary ISO 230-1 units (µm, µrad, µm/m, degrees for
+rotary axis positions).  This module is the only place that knows conversion
+factors; nothing else multiplies by 1e-3.
+
+A unit is parsed into a :class:`Unit`: a *dimension* (``"length"``, ``"angle"``,
+``"ratio"``, ``"temperature"``, ...) and a *factor* to the internal unit of that
+dimension.  Compound units such as ``µm/m``, ``mm/rad``, ``µm/deg`` or ``/°C`` are
+supported as quotients of two simple units.
+
+Examples
+--------
+>>> to_internal(75.0, "µm/m")
+7.5e-05
+>>> from_internal(0.0125, "µm")
+12.5
+>>> parse_unit("deg").dimension
+'angle'
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "Unit",
+    "UnitError",
+    "convert",
+    "from_internal",
+    "internal_unit",
+    "parse_unit",
+    "to_internal",
+]
+
+
+class UnitError(ValueError):
+    """A unit string that does not parse, or a conversion between dimensions."""
+
+
+@dataclass(frozen=True)
+class Unit:
+    """A parsed unit: its dimension and the factor that converts to internal units.
+
+    ``value_internal = value * factor`` (temperatures in °C are treated as
+    differences and have factor 1; kelvin is accepted only as a difference).
+    """
+
+    symbol: str
+    dimension: str
+    factor: float
+
+
+# Simple units: symbol -> (dimension, factor to the internal unit of that dimension).
+_SIMPLE: dict[str, tuple[str, float]] = {
+    # length, internal mm
+    "m": ("length", 1e3),
+    "mm": ("length", 1.0),
+    "um": ("length", 1e-3),
+    "µm": ("length", 1e-3),
+    "μm": ("length", 1e-3),
+    "nm": ("length", 1e-6),
+    "in": ("length", 25.4),
+    # angle, internal rad
+    "rad": ("angle", 1.0),
+    "mrad": ("angle", 1e-3),
+    "urad": ("angle", 1e-6),
+    "µrad": ("angle", 1e-6),
+    "μrad": ("angle", 1e-6),
+    "deg": ("angle", math.pi / 180.0),
+    "°": ("angle", math.pi / 180.0),
+    "arcsec": ("angle", math.pi / 180.0 / 3600.0),
+    '"': ("angle", math.pi / 180.0 / 3600.0),
+    # dimensionless
+    "1": ("ratio", 1.0),
+    "": ("ratio", 1.0),
+    "ppm": ("ratio", 1e-6),
+    "%": ("ratio", 1e-2),
+    # temperature (differences), internal °C
+    "°C": ("temperature", 1.0),
+    "degC": ("temperature", 1.0),
+    "K": ("temperature", 1.0),
+    # time, internal s
+    "s": ("time", 1.0),
+    "min": ("time", 60.0),
+    "h": ("time", 3600.0),
+    # pressure, internal Pa
+    "Pa": ("pressure", 1.0),
+    "hPa": ("pressure", 100.0),
+    "kPa": ("pressure", 1000.0),
+}
+
+_INTERNAL = {
+    "length": "mm",
+    "angle": "rad",
+    "ratio": "1",
+    "temperature": "°C",
+    "time": "s",
+    "pressure": "Pa",
+}
+
+
+def _quotient_dimension(num: str, den: str) -> str:
+    if num == den:
+        return "ratio"
+    if num == "ratio":
+        return f"1/{den}"
+    return f"{num}/{den}"
+
+
+def parse_unit(symbol: str) -> Unit:
+    """Parse a unit string such as ``"µm"``, ``"µm/m"``, ``"deg"`` or ``"/°C"``.
+
+    Parameters
+    ----------
+    symbol : str
+        The unit as written in a file or on the command line.  ``u`` is accepted
+        for ``µ``; surrounding whitespace is ignored.
+
+    Returns
+    -------
+    Unit
+
+    Raises
+    ------
+    UnitError
+        If the string is not a known simple unit or a quotient of two.
+    """
+    if not isinstance(symbol, str):
+        raise UnitError(f"unit must be a string, got {type(symbol).__name__}")
+    text = symbol.strip().replace(" ", "")
+    if text in _SIMPLE:
+        dim, factor = _SIMPLE[text]
+        return Unit(text, dim, factor)
+    if "/" in text:
+        num, _, den = text.partition("/")
+        if "/" in den:
+            raise UnitError(f"unit {symbol!r}: at most one '/' is allowed")
+        num_dim, num_f = _SIMPLE.get(num, (None, None)) if num else ("ratio", 1.0)
+        den_dim, den_f = _SIMPLE.get(den, (None, None))
+        if num_dim is None or den_dim is None or num_f is None or den_f is None:
+            bad = num if num_dim is None else den
+            raise UnitError(f"unit {symbol!r}: unknown unit {bad!r}")
+        return Unit(text, _quotient_dimension(num_dim, den_dim), num_f / den_f)
+    raise UnitError(
+        f"unknown unit {symbol!r}; expected one of {sorted(k for k in _SIMPLE if k)} "
+        "or a quotient such as 'µm/m'"
+    )
+
+
+def internal_unit(dimension: str) -> str:
+    """The internal unit symbol for a dimension (``"length"`` -> ``"mm"``)."""
+    if dimension in _INTERNAL:
+        return _INTERNAL[dimension]
+    if "/" in dimension:
+        num, _, den = dimension.partition("/")
+        num_u = "" if num == "1" else _INTERNAL.get(num, num)
+        return f"{num_u}/{_INTERNAL.get(den, den)}"
+    raise UnitError(f"unknown dimension {dimension!r}")
+
+
+def to_internal(value, unit: str | Unit):
+    """Convert ``value`` given in ``unit`` to internal units (mm, rad, 1)."""
+    u = unit if isinstance(unit, Unit) else parse_unit(unit)
+    return np.multiply(value, u.factor) if isinstance(value, np.ndarray) else value * u.factor
+
+
+def from_internal(value, unit: str | Unit):
+    """Convert ``value`` in internal units to ``unit``."""
+    u = unit if isinstance(unit, Unit) else parse_unit(unit)
+    return np.divide(value, u.factor) if isinstance(value, np.ndarray) else value / u.factor
+
+
+def convert(value, from_unit: str, to_unit: str):
+    """Convert between two units of the same dimension.
+
+    Raises
+    ------
+    UnitError
+        If the dimensions differ (e.g. µm to µrad).
+    """
+    a, b = parse_unit(from_unit), parse_unit(to_unit)
+    if a.dimension != b.dimension:
+        raise UnitError(
+            f"cannot convert {from_unit!r} ({a.dimension}) to {to_unit!r} ({b.dimension})"
+        )
+    return from_internal(to_internal(value, a), b)
