@@ -53,7 +53,6 @@ from scipy.spatial import ConvexHull, QhullError
 from mtmetrology.fitting.elements import Circle, Cylinder, Line, Plane, Sphere
 from mtmetrology.fitting.least_squares import (
     FitError,
-    FitResult,
     fit_circle,
     fit_cylinder,
     fit_line,
