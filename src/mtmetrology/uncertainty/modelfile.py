@@ -1,0 +1,676 @@
+"""Measurement-model files: YAML inputs, correlations and output expressions.
+
+A model file looks like::
+
+    kind: measurement-model
+    version: 1
+    name: GUM H.1 end gauge
+    inputs:
+      - {name: l_s, value: 50000623.6, u: 25, unit: nm, dof: 18}
+      - {name: theta, value: -0.1, unit: °C, distribution: {kind: normal, u: 0.41}}
+      - {name: res, unit: nm, distribution: {kind: rectangular, x: 0, a: 5}}
+    correlations:
+      - {inputs: [l_s, d], r: 0.2}
+    outputs:
+      - {name: l, unit: nm, expression: "l_s + d - l_s * (alpha_s * dtheta + dalpha * theta)"}
+
+``value`` is the estimate, passed as ``x`` to a distribution parameterised by a
+centre (normal, student-t, and the ``x, a`` forms of the bounded ones); ``u``
+without ``distribution`` is shorthand for a normal.
+
+Expressions are a safe subset of Python, parsed with :mod:`ast` and compiled to
+a tree of nodes evaluated over numpy arrays (never ``eval``): numbers, the names
+of inputs and of earlier outputs, ``pi`` and ``e``, ``+ - * / **``, unary minus,
+and calls of the whitelisted functions in :data:`FUNCTIONS`.  Attribute access,
+subscripts, keyword arguments, comparisons and any other construct are refused
+with an error naming the file, the output and the offending token.
+
+The compiled model is vectorised (X of shape (..., N) -> (..., m)), carries an
+analytic Jacobian obtained by symbolic differentiation of the expression tree,
+and pickles as its source text (rebuilt on unpickling), so process pools and Dask
+workers can run it.
+"""
+
+from __future__ import annotations
+
+import ast
+import keyword
+import math
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from mtmetrology.io import InputFileError
+from mtmetrology.uncertainty.distributions import make_distribution
+from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
+from mtmetrology.units import UnitError, parse_unit
+
+__all__ = [
+    "CONSTANTS",
+    "FUNCTIONS",
+    "CompiledModel",
+    "ExpressionError",
+    "MeasurementModel",
+    "ModelFileError",
+    "compile_expressions",
+    "load_model",
+    "parse_model",
+]
+
+
+class ModelFileError(InputFileError):
+    """A model file that cannot be used; the message names the file and the field."""
+
+
+class ExpressionError(ModelFileError):
+    """An output expression outside the safe subset; names file, output and token."""
+
+
+# --------------------------------------------------------------------------- expression tree
+
+
+class Node:
+    """A node of a compiled expression; ``evaluate(values)`` works on numpy arrays."""
+
+    __slots__ = ()
+
+    def evaluate(self, values: Sequence[np.ndarray]):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+@dataclass(frozen=True, slots=True)
+class Const(Node):
+    value: float
+
+    def evaluate(self, values):
+        return self.value
+
+
+@dataclass(frozen=True, slots=True)
+class Var(Node):
+    index: int
+    name: str
+
+    def evaluate(self, values):
+        return values[self.index]
+
+
+@dataclass(frozen=True, slots=True)
+class Neg(Node):
+    operand: Node
+
+    def evaluate(self, values):
+        return -self.operand.evaluate(values)
+
+
+@dataclass(frozen=True, slots=True)
+class Binary(Node):
+    op: str
+    left: Node
+    right: Node
+
+    def evaluate(self, values):
+        a, b = self.left.evaluate(values), self.right.evaluate(values)
+        if self.op == "+":
+            return a + b
+        if self.op == "-":
+            return a - b
+        if self.op == "*":
+            return a * b
+        if self.op == "/":
+            return np.divide(a, b)
+        return np.power(a, b)
+
+
+@dataclass(frozen=True, slots=True)
+class Call(Node):
+    func: str
+    args: tuple[Node, ...]
+
+    def evaluate(self, values):
+        return FUNCTIONS[self.func][0](*(a.evaluate(values) for a in self.args))
+
+
+ZERO, ONE = Const(0.0), Const(1.0)
+
+
+def _add(a: Node, b: Node) -> Node:
+    if a == ZERO:
+        return b
+    if b == ZERO:
+        return a
+    if isinstance(a, Const) and isinstance(b, Const):
+        return Const(a.value + b.value)
+    return Binary("+", a, b)
+
+
+def _sub(a: Node, b: Node) -> Node:
+    if b == ZERO:
+        return a
+    if a == ZERO:
+        return _neg(b)
+    if isinstance(a, Const) and isinstance(b, Const):
+        return Const(a.value - b.value)
+    return Binary("-", a, b)
+
+
+def _mul(a: Node, b: Node) -> Node:
+    if a == ZERO or b == ZERO:
+        return ZERO
+    if a == ONE:
+        return b
+    if b == ONE:
+        return a
+    if isinstance(a, Const) and isinstance(b, Const):
+        return Const(a.value * b.value)
+    return Binary("*", a, b)
+
+
+def _div(a: Node, b: Node) -> Node:
+    if a == ZERO:
+        return ZERO
+    if b == ONE:
+        return a
+    return Binary("/", a, b)
+
+
+def _neg(a: Node) -> Node:
+    if isinstance(a, Const):
+        return Const(-a.value)
+    if isinstance(a, Neg):
+        return a.operand
+    return Neg(a)
+
+
+def _pow(a: Node, b: Node) -> Node:
+    if b == ONE:
+        return a
+    if b == ZERO:
+        return ONE
+    return Binary("**", a, b)
+
+
+def _call(name: str, *args: Node) -> Node:
+    return Call(name, tuple(args))
+
+
+_LN10 = math.log(10.0)
+
+# name -> (numpy function, arity, derivative rule(args, dargs) -> Node)
+FUNCTIONS: dict[str, tuple[Callable, int, Callable[[tuple, tuple], Node]]] = {
+    "sqrt": (np.sqrt, 1, lambda a, d: _div(d[0], _mul(Const(2.0), _call("sqrt", a[0])))),
+    "exp": (np.exp, 1, lambda a, d: _mul(_call("exp", a[0]), d[0])),
+    "log": (np.log, 1, lambda a, d: _div(d[0], a[0])),
+    "log10": (np.log10, 1, lambda a, d: _div(d[0], _mul(Const(_LN10), a[0]))),
+    "log1p": (np.log1p, 1, lambda a, d: _div(d[0], _add(ONE, a[0]))),
+    "expm1": (np.expm1, 1, lambda a, d: _mul(_call("exp", a[0]), d[0])),
+    "sin": (np.sin, 1, lambda a, d: _mul(_call("cos", a[0]), d[0])),
+    "cos": (np.cos, 1, lambda a, d: _neg(_mul(_call("sin", a[0]), d[0]))),
+    "tan": (np.tan, 1, lambda a, d: _div(d[0], _pow(_call("cos", a[0]), Const(2.0)))),
+    "arcsin": (
+        np.arcsin,
+        1,
+        lambda a, d: _div(d[0], _call("sqrt", _sub(ONE, _pow(a[0], Const(2.0))))),
+    ),
+    "arccos": (
+        np.arccos,
+        1,
+        lambda a, d: _neg(_div(d[0], _call("sqrt", _sub(ONE, _pow(a[0], Const(2.0)))))),
+    ),
+    "arctan": (np.arctan, 1, lambda a, d: _div(d[0], _add(ONE, _pow(a[0], Const(2.0))))),
+    "sinh": (np.sinh, 1, lambda a, d: _mul(_call("cosh", a[0]), d[0])),
+    "cosh": (np.cosh, 1, lambda a, d: _mul(_call("sinh", a[0]), d[0])),
+    "tanh": (
+        np.tanh,
+        1,
+        lambda a, d: _mul(_sub(ONE, _pow(_call("tanh", a[0]), Const(2.0))), d[0]),
+    ),
+    "abs": (np.abs, 1, lambda a, d: _mul(_call("sign", a[0]), d[0])),
+    "sign": (np.sign, 1, lambda a, d: ZERO),
+    "square": (np.square, 1, lambda a, d: _mul(_mul(Const(2.0), a[0]), d[0])),
+    "radians": (np.radians, 1, lambda a, d: _mul(Const(math.pi / 180.0), d[0])),
+    "degrees": (np.degrees, 1, lambda a, d: _mul(Const(180.0 / math.pi), d[0])),
+    "arctan2": (
+        np.arctan2,
+        2,
+        lambda a, d: _div(
+            _sub(_mul(a[1], d[0]), _mul(a[0], d[1])),
+            _add(_pow(a[0], Const(2.0)), _pow(a[1], Const(2.0))),
+        ),
+    ),
+    "hypot": (
+        np.hypot,
+        2,
+        lambda a, d: _div(_add(_mul(a[0], d[0]), _mul(a[1], d[1])), _call("hypot", a[0], a[1])),
+    ),
+}
+
+#: Named constants usable in expressions.
+CONSTANTS: dict[str, float] = {"pi": math.pi, "e": math.e}
+
+
+def differentiate(node: Node, index: int) -> Node:
+    """Symbolic derivative of ``node`` with respect to variable ``index``."""
+    if isinstance(node, Const):
+        return ZERO
+    if isinstance(node, Var):
+        return ONE if node.index == index else ZERO
+    if isinstance(node, Neg):
+        return _neg(differentiate(node.operand, index))
+    if isinstance(node, Binary):
+        a, b = node.left, node.right
+        da, db = differentiate(a, index), differentiate(b, index)
+        if node.op == "+":
+            return _add(da, db)
+        if node.op == "-":
+            return _sub(da, db)
+        if node.op == "*":
+            return _add(_mul(da, b), _mul(a, db))
+        if node.op == "/":
+            # (a/b)' = (da·b − a·db)/b²
+            return _div(_sub(_mul(da, b), _mul(a, db)), _pow(b, Const(2.0)))
+        if db == ZERO:
+            # Constant exponent: (a^b)' = b·a^(b−1)·da, valid for negative a too.
+            return _mul(_mul(b, _pow(a, _sub(b, ONE))), da)
+        # General power: (a^b)' = a^b·(db·ln a + b·da/a).
+        return _mul(node, _add(_mul(db, _call("log", a)), _div(_mul(b, da), a)))
+    if isinstance(node, Call):
+        dargs = tuple(differentiate(arg, index) for arg in node.args)
+        if all(d == ZERO for d in dargs):
+            return ZERO
+        return FUNCTIONS[node.func][2](node.args, dargs)
+    raise TypeError(f"unknown node {node!r}")  # pragma: no cover - the compiler builds no others
+
+
+# --------------------------------------------------------------------------- compiler
+
+
+_BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**"}
+
+
+class _Compiler:
+    def __init__(self, input_names: Sequence[str], source: str):
+        self.inputs = {n: i for i, n in enumerate(input_names)}
+        self.outputs: dict[str, Node] = {}
+        self.source = source
+        self.output = ""
+
+    def fail(self, node: ast.AST | None, problem: str) -> ExpressionError:
+        where = (
+            f" (column {node.col_offset + 1})"
+            if node is not None and hasattr(node, "col_offset")
+            else ""
+        )
+        return ExpressionError(f"{self.source}: output {self.output!r}: {problem}{where}")
+
+    def compile(self, name: str, expression: str) -> Node:
+        self.output = name
+        if not isinstance(expression, str) or not expression.strip():
+            raise self.fail(None, "expression must be a non-empty string")
+        try:
+            tree = ast.parse(expression.strip(), mode="eval")
+        except SyntaxError as exc:
+            raise self.fail(None, f"syntax error in {expression!r}: {exc.msg}") from None
+        node = self.visit(tree.body)
+        self.outputs[name] = node
+        return node
+
+    def visit(self, node: ast.AST) -> Node:
+        if isinstance(node, ast.Constant):
+            if isinstance(node.value, bool) or not isinstance(node.value, int | float):
+                raise self.fail(node, f"constant {ast.unparse(node)} is not a real number")
+            return Const(float(node.value))
+        if isinstance(node, ast.Name):
+            return self.name(node)
+        if isinstance(node, ast.BinOp):
+            op = _BINOPS.get(type(node.op))
+            if op is None:
+                raise self.fail(
+                    node, f"operator in {ast.unparse(node)!r} is not allowed (use + - * / **)"
+                )
+            left, right = self.visit(node.left), self.visit(node.right)
+            if isinstance(left, Const) and isinstance(right, Const):
+                return Const(float(Binary(op, left, right).evaluate(())))
+            return Binary(op, left, right)
+        if isinstance(node, ast.UnaryOp):
+            if isinstance(node.op, ast.USub):
+                return _neg(self.visit(node.operand))
+            if isinstance(node.op, ast.UAdd):
+                return self.visit(node.operand)
+            raise self.fail(node, f"operator in {ast.unparse(node)!r} is not allowed")
+        if isinstance(node, ast.Call):
+            return self.call(node)
+        if isinstance(node, ast.Attribute):
+            raise self.fail(node, f"attribute access {ast.unparse(node)!r} is not allowed")
+        if isinstance(node, ast.Subscript):
+            raise self.fail(node, f"subscript {ast.unparse(node)!r} is not allowed")
+        raise self.fail(
+            node, f"{type(node).__name__} {ast.unparse(node)!r} is not allowed in an expression"
+        )
+
+    def name(self, node: ast.Name) -> Node:
+        n = node.id
+        if n in self.inputs:
+            return Var(self.inputs[n], n)
+        if n in self.outputs:
+            return self.outputs[n]  # earlier outputs are inlined (shared subtree)
+        if n in CONSTANTS:
+            return Const(CONSTANTS[n])
+        if n in FUNCTIONS:
+            raise self.fail(node, f"function {n!r} must be called")
+        known = sorted([*self.inputs, *self.outputs, *CONSTANTS])
+        raise self.fail(node, f"unknown name {n!r}; known names: {', '.join(known)}")
+
+    def call(self, node: ast.Call) -> Node:
+        if not isinstance(node.func, ast.Name):
+            raise self.fail(
+                node,
+                f"call of {ast.unparse(node.func)!r} is not allowed; "
+                f"allowed functions: {', '.join(FUNCTIONS)}",
+            )
+        fname = node.func.id
+        if fname not in FUNCTIONS:
+            raise self.fail(
+                node, f"call to {fname!r} is not allowed; allowed functions: {', '.join(FUNCTIONS)}"
+            )
+        if node.keywords or any(isinstance(a, ast.Starred) for a in node.args):
+            raise self.fail(node, f"{fname}() takes positional arguments only")
+        arity = FUNCTIONS[fname][1]
+        if len(node.args) != arity:
+            raise self.fail(node, f"{fname}() takes {arity} argument(s), got {len(node.args)}")
+        return Call(fname, tuple(self.visit(a) for a in node.args))
+
+
+def _check_identifier(name: str, what: str, source: str) -> None:
+    if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name):
+        raise ModelFileError(f"{source}: {what} name {name!r} is not a valid identifier")
+    if name.startswith("__") or name in FUNCTIONS or name in CONSTANTS:
+        raise ModelFileError(f"{source}: {what} name {name!r} is reserved")
+
+
+class CompiledModel:
+    """A vectorised measurement model compiled from output expressions.
+
+    Parameters
+    ----------
+    input_names : sequence of str, length N
+    outputs : sequence of (name, expression), length m
+        Later outputs may use earlier ones.
+    output_units : sequence of str, optional
+    source : str
+        File name used in error messages.
+
+    Notes
+    -----
+    ``__call__`` maps X (..., N) to (..., m); ``jacobian`` maps x (..., N) to
+    (..., m, N) from symbolic derivatives.  Pickling keeps only the source text.
+    """
+
+    def __init__(self, input_names, outputs, output_units=None, source: str = "<model>"):
+        self._state = {
+            "input_names": [str(n) for n in input_names],
+            "outputs": [(str(n), str(e)) for n, e in outputs],
+            "output_units": None if output_units is None else [str(u) for u in output_units],
+            "source": str(source),
+        }
+        self._build()
+
+    def _build(self) -> None:
+        st = self._state
+        src = st["source"]
+        for n in st["input_names"]:
+            _check_identifier(n, "input", src)
+        if not st["outputs"]:
+            raise ModelFileError(f"{src}: a model needs at least one output")
+        seen = set(st["input_names"])
+        compiler = _Compiler(st["input_names"], src)
+        trees = []
+        for name, expression in st["outputs"]:
+            _check_identifier(name, "output", src)
+            if name in seen:
+                raise ModelFileError(f"{src}: output name {name!r} is already used")
+            seen.add(name)
+            trees.append(compiler.compile(name, expression))
+        self._trees = tuple(trees)
+        n = len(st["input_names"])
+        self._derivatives = tuple(tuple(differentiate(t, i) for i in range(n)) for t in trees)
+
+    def __getstate__(self) -> dict:
+        return self._state
+
+    def __setstate__(self, state: dict) -> None:
+        self._state = state
+        self._build()
+
+    @property
+    def input_names(self) -> list[str]:
+        return list(self._state["input_names"])
+
+    @property
+    def output_names(self) -> list[str]:
+        return [n for n, _ in self._state["outputs"]]
+
+    @property
+    def expressions(self) -> list[str]:
+        return [e for _, e in self._state["outputs"]]
+
+    @property
+    def output_units(self) -> list[str] | None:
+        u = self._state["output_units"]
+        return None if u is None else list(u)
+
+    def _columns(self, x) -> tuple[list[np.ndarray], tuple[int, ...]]:
+        x = np.asarray(x, dtype=float)
+        n = len(self._state["input_names"])
+        if x.shape[-1:] != (n,):
+            raise ValueError(f"model expects X with last axis {n}, got shape {x.shape}")
+        return [x[..., i] for i in range(n)], x.shape[:-1]
+
+    def __call__(self, x) -> np.ndarray:
+        """Evaluate the outputs: X (..., N) -> (..., m)."""
+        cols, batch = self._columns(x)
+        with np.errstate(all="ignore"):  # NaN/inf are reported by the caller, not warned
+            vals = [np.broadcast_to(t.evaluate(cols), batch) for t in self._trees]
+        return np.stack(vals, axis=-1)
+
+    def jacobian(self, x) -> np.ndarray:
+        """Analytic sensitivities ∂Y_j/∂X_i: x (..., N) -> (..., m, N)."""
+        cols, batch = self._columns(x)
+        with np.errstate(all="ignore"):
+            rows = [
+                np.stack([np.broadcast_to(d.evaluate(cols), batch) for d in drow], axis=-1)
+                for drow in self._derivatives
+            ]
+        return np.stack(rows, axis=-2)
+
+    def __repr__(self) -> str:
+        outs = ", ".join(f"{n} = {e}" for n, e in self._state["outputs"])
+        return f"CompiledModel({outs})"
+
+
+def compile_expressions(input_names, outputs, output_units=None, source="<model>"):
+    """Compile ``[(name, expression), ...]`` over ``input_names`` into a :class:`CompiledModel`."""
+    return CompiledModel(input_names, outputs, output_units, source)
+
+
+# --------------------------------------------------------------------------- file schema
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+class DistributionSpec(BaseModel):
+    """``{kind: ..., <parameters>}``; parameters are checked by ``make_distribution``."""
+
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
+    kind: str
+
+
+class InputSpec(_Strict):
+    name: str
+    value: float | None = None
+    u: float | None = Field(default=None, ge=0)
+    unit: str = ""
+    distribution: DistributionSpec | None = None
+    dof: float | None = Field(default=None, gt=0, allow_inf_nan=True)
+
+
+class CorrelationSpec(_Strict):
+    inputs: tuple[str, str]
+    r: float = Field(ge=-1.0, le=1.0)
+
+
+class OutputSpec(_Strict):
+    name: str
+    expression: str
+    unit: str = ""
+
+
+class ModelSpec(_Strict):
+    kind: Literal["measurement-model"] = "measurement-model"
+    version: int = 1
+    name: str = ""
+    description: str = ""
+    inputs: list[InputSpec] = Field(min_length=1)
+    correlations: list[CorrelationSpec] = []
+    outputs: list[OutputSpec] = Field(min_length=1)
+
+
+@dataclass(frozen=True)
+class MeasurementModel:
+    """A loaded model file: ``inputs`` for GUF/MCM and the compiled ``model``."""
+
+    name: str
+    description: str
+    inputs: InputSet
+    model: CompiledModel
+    source: str
+
+    @property
+    def output_names(self) -> list[str]:
+        return self.model.output_names
+
+    @property
+    def output_units(self) -> list[str]:
+        return self.model.output_units or [""] * len(self.model.output_names)
+
+
+def _centred(params: dict) -> bool:
+    return not ({"low", "high", "values", "mean", "x"} & params.keys())
+
+
+def _build_input(spec: InputSpec, i: int, source: str) -> InputQuantity:
+    where = f"{source}: inputs.{i} ({spec.name!r})"
+    if spec.distribution is not None and spec.u is not None:
+        raise ModelFileError(f"{where}: give either u (normal) or distribution, not both")
+    if spec.distribution is None:
+        if spec.u is None or spec.value is None:
+            raise ModelFileError(f"{where}: give value and u, or a distribution")
+        kind, params = "normal", {"x": spec.value, "u": spec.u}
+    else:
+        params = dict(spec.distribution.model_extra or {})
+        kind = spec.distribution.kind
+        if spec.value is not None:
+            if not _centred(params):
+                raise ModelFileError(
+                    f"{where}.distribution: value is given and the distribution also has "
+                    f"{sorted({'low', 'high', 'values', 'mean', 'x'} & params.keys())}; "
+                    "give the centre once"
+                )
+            params["x"] = spec.value
+    try:
+        dist = make_distribution(kind, **params)
+    except (ValueError, TypeError) as exc:
+        raise ModelFileError(f"{where}.distribution: {exc}") from None
+    if dist.multivariate:
+        raise ModelFileError(f"{where}.distribution: inputs are scalar; {kind!r} is multivariate")
+    try:
+        return InputQuantity(spec.name, dist, spec.unit, spec.dof)
+    except ValueError as exc:
+        raise ModelFileError(f"{where}: {exc}") from None
+
+
+def parse_model(document: Any, source: str = "<model>") -> MeasurementModel:
+    """Validate a model document (the parsed YAML mapping) and compile it.
+
+    Raises
+    ------
+    ModelFileError
+        Schema errors (with the field path, e.g. ``inputs.2.dof``), bad
+        distributions or units, unknown names in correlations.
+    ExpressionError
+        An output expression outside the safe subset.
+    """
+    try:
+        spec = ModelSpec.model_validate(document)
+    except ValidationError as exc:
+        lines = [
+            f"{'.'.join(str(p) for p in err['loc']) or '(top level)'}: {err['msg']}"
+            for err in exc.errors()
+        ]
+        raise ModelFileError(f"{source}: invalid model file:\n  " + "\n  ".join(lines)) from None
+    quantities = [_build_input(s, i, source) for i, s in enumerate(spec.inputs)]
+    names = [q.name for q in quantities]
+    for n in names:
+        _check_identifier(n, "input", source)
+    if len(set(names)) != len(names):
+        raise ModelFileError(f"{source}: duplicate input names in {names}")
+    corr = None
+    if spec.correlations:
+        corr = np.eye(len(names))
+        for k, c in enumerate(spec.correlations):
+            a, b = c.inputs
+            for n in (a, b):
+                if n not in names:
+                    raise ModelFileError(
+                        f"{source}: correlations.{k}: unknown input {n!r}; inputs are {names}"
+                    )
+            if a == b:
+                raise ModelFileError(f"{source}: correlations.{k}: an input with itself")
+            i, j = names.index(a), names.index(b)
+            corr[i, j] = corr[j, i] = c.r
+    try:
+        inputs = InputSet(quantities, correlation=corr)
+    except ValueError as exc:
+        raise ModelFileError(f"{source}: correlations: {exc}") from None
+    for k, o in enumerate(spec.outputs):
+        try:
+            parse_unit(o.unit)
+        except UnitError as exc:
+            raise ModelFileError(f"{source}: outputs.{k} ({o.name!r}): {exc}") from None
+    model = CompiledModel(
+        names,
+        [(o.name, o.expression) for o in spec.outputs],
+        [o.unit for o in spec.outputs],
+        source,
+    )
+    return MeasurementModel(spec.name, spec.description, inputs, model, source)
+
+
+def load_model(path: str | os.PathLike) -> MeasurementModel:
+    """Read and compile a YAML measurement-model file.
+
+    Raises
+    ------
+    ModelFileError
+        Missing file, YAML syntax error, or any validation error (see :func:`parse_model`).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ModelFileError(f"{path}: cannot read model file ({exc.strerror})") from None
+    try:
+        document = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ModelFileError(f"{path}: YAML syntax error: {exc}") from None
+    if not isinstance(document, dict):
+        raise ModelFileError(f"{path}: a model file must be a YAML mapping")
+    return parse_model(document, str(path))
