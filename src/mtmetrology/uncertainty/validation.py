@@ -1,0 +1,283 @@
+"""Validation of the GUM uncertainty framework by Monte Carlo (JCGM 101 §8, JCGM 102 §8).
+
+GUF results (an estimate and a covariance, from any source) are compared with an
+:class:`~mtmetrology.uncertainty.mcm.MCMResult`; every compared quantity is a row with
+the difference, its numerical tolerance and their ratio, and the GUF is validated when
+every row passes.
+
+- One output (JCGM 101:2008, 8.2): d_low = |y − U(y) − y_low|, d_high = |y + U(y) − y_high|,
+  with y ± U(y) the GUF interval and [y_low, y_high] the probabilistically symmetric MCM
+  interval, each against δ.
+- m > 1 outputs (JCGM 102:2011, 8; seed 000 eqs. 7-3, 7-4): d_y = |y_GUF − y_MCM| and
+  d_u = |u_GUF − u_MCM| per output against δ, d_λ = |λ_max,GUF − λ_max,MCM| against ρ,
+  d_k = |k_p,GUF − k_p,MCM| against κ_p.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from mtmetrology.uncertainty.mcm import MCMResult, Tolerance, check_tolerance, numerical_tolerance
+from mtmetrology.uncertainty.regions import normal_ellipsoidal_coverage_factor
+
+__all__ = ["Tolerance", "ValidationReport", "ValidationRow", "validate_guf"]
+
+
+@dataclass(frozen=True)
+class ValidationRow:
+    """One compared quantity: ``difference = |guf − mcm|`` against ``tolerance``."""
+
+    name: str
+    quantity: str
+    guf: float
+    mcm: float
+    difference: float
+    tolerance: float
+
+    @property
+    def ratio(self) -> float:
+        """difference / tolerance (≤ 1 passes; seed 000 Table 7-1 prints it in %)."""
+        return self.difference / self.tolerance
+
+    @property
+    def passed(self) -> bool:
+        return bool(self.difference <= self.tolerance)
+
+    def to_dict(self) -> dict:
+        return {
+            "name": self.name,
+            "quantity": self.quantity,
+            "guf": self.guf,
+            "mcm": self.mcm,
+            "difference": self.difference,
+            "tolerance": self.tolerance,
+            "ratio": self.ratio,
+            "passed": self.passed,
+        }
+
+
+@dataclass(frozen=True)
+class ValidationReport:
+    """The rows of a GUF-by-MCM validation, the verdict and a one-line message."""
+
+    rows: tuple[ValidationRow, ...]
+    p: float
+    procedure: str
+    message: str
+
+    @property
+    def passed(self) -> bool:
+        """True when every row is within its tolerance (the GUF is validated)."""
+        return all(row.passed for row in self.rows)
+
+    @property
+    def failed(self) -> tuple[ValidationRow, ...]:
+        """The rows outside their tolerance."""
+        return tuple(row for row in self.rows if not row.passed)
+
+    def to_dict(self) -> dict:
+        """JSON-ready form, as stored under ``validation`` in result files."""
+        return {
+            "procedure": self.procedure,
+            "p": self.p,
+            "passed": self.passed,
+            "message": self.message,
+            "rows": [row.to_dict() for row in self.rows],
+        }
+
+    def to_text(self) -> str:
+        """A plain-text table, one line per row, and the verdict."""
+        header = ("output", "quantity", "GUF", "MCM", "|difference|", "tolerance", "ratio", "")
+        lines = [
+            (
+                row.name,
+                row.quantity,
+                f"{row.guf:.6g}",
+                f"{row.mcm:.6g}",
+                f"{row.difference:.3g}",
+                f"{row.tolerance:.3g}",
+                f"{100 * row.ratio:.0f} %",
+                "ok" if row.passed else "FAIL",
+            )
+            for row in self.rows
+        ]
+        widths = [max(len(cells[i]) for cells in [header, *lines]) for i in range(len(header))]
+        render = [
+            "  ".join(c.ljust(w) for c, w in zip(cells, widths, strict=True)).rstrip()
+            for cells in [header, *lines]
+        ]
+        return "\n".join([*render, self.message])
+
+    def to_rich(self):
+        """A ``rich.table.Table`` of the rows, failing rows in red."""
+        from rich.table import Table
+
+        table = Table(title=f"GUF validation ({self.procedure})", caption=self.message)
+        for column in ("output", "quantity", "GUF", "MCM", "|difference|", "tolerance", "ratio"):
+            table.add_column(
+                column, justify="left" if column in ("output", "quantity") else "right"
+            )
+        for row in self.rows:
+            table.add_row(
+                row.name,
+                row.quantity,
+                f"{row.guf:.6g}",
+                f"{row.mcm:.6g}",
+                f"{row.difference:.3g}",
+                f"{row.tolerance:.3g}",
+                f"{100 * row.ratio:.0f} %",
+                style=None if row.passed else "red",
+            )
+        return table
+
+    def __str__(self) -> str:
+        return self.to_text()
+
+
+def _row(name: str, quantity: str, guf, mcm, tolerance) -> ValidationRow:
+    guf, mcm = float(guf), float(mcm)
+    return ValidationRow(name, quantity, guf, mcm, abs(guf - mcm), float(tolerance))
+
+
+def _largest_eigenvalue(covariance: np.ndarray) -> float:
+    u = np.sqrt(np.diag(covariance))
+    if np.any(u <= 0):
+        raise ValueError("guf_covariance has a zero variance: its correlation is undefined")
+    return float(np.linalg.eigvalsh(covariance / np.outer(u, u))[-1])
+
+
+def validate_guf(
+    guf_estimate,
+    guf_covariance,
+    mcm: MCMResult,
+    *,
+    tolerance,
+    p: float = 0.95,
+    guf_coverage_factor: float | None = None,
+    guf_interval=None,
+    names: Sequence[str] | None = None,
+) -> ValidationReport:
+    """Validate GUF results against a Monte Carlo result.
+
+    Parameters
+    ----------
+    guf_estimate : (m,) array or float
+        GUF estimate y, in the units of the MCM outputs.
+    guf_covariance : (m, m) array or float
+        GUF covariance U_y (a variance u² for one output).
+    mcm : MCMResult
+        Monte Carlo result of the same model, run with the same p.
+    tolerance : float, (m,) array or Tolerance
+        δ per output (output units); a :class:`Tolerance` also gives ρ and κ_p, otherwise
+        they follow from two significant digits of the MCM λ_max and k_p (JCGM 101, 7.9.2:
+        λ_max = 1.313 → ρ = 0.05, k_p = 3.55 → κ_p = 0.05, as in seed 000).
+    p : float
+        Coverage probability; must equal ``mcm.p``.
+    guf_coverage_factor : float, optional
+        One output: k of the GUF interval y ± k u (default Φ⁻¹((1 + p)/2), 1.96 for
+        p = 0.95; pass the t-factor for finite effective degrees of freedom). m > 1: the
+        GUF k_p (default sqrt(χ²_m(p)), JCGM 102, 6.5.2.3).
+    guf_interval : (2,) array, optional
+        One output: the GUF coverage interval itself (overrides ``guf_coverage_factor``).
+    names : sequence of str, optional
+        Output names for the rows ("Y" or "Y1", "Y2", … by default).
+
+    Returns
+    -------
+    ValidationReport
+
+    Raises
+    ------
+    ValueError
+        Shapes that disagree with ``mcm``, a covariance that is not symmetric with a
+        non-negative diagonal, a tolerance that is not positive, p different from ``mcm.p``.
+
+    Notes
+    -----
+    JCGM 101:2008, 8.2 (one output): d_low = |y − U(y) − y_low|, d_high = |y + U(y) −
+    y_high|, validated if both ≤ δ. JCGM 102:2011, 8 and seed 000 eqs. 7-3/7-4 (m > 1):
+    d_y, d_u ≤ δ element-wise, d_λ ≤ ρ, d_k ≤ κ_p.
+    """
+    m = mcm.m
+    p = float(p)
+    if not 0.0 < p < 1.0:
+        raise ValueError(f"p must lie strictly between 0 and 1, got {p}")
+    if abs(p - mcm.p) > 1e-12:
+        raise ValueError(f"p={p} differs from the p={mcm.p} the Monte Carlo result was run with")
+    estimate = np.asarray(guf_estimate, dtype=float).reshape(-1)
+    covariance = np.asarray(guf_covariance, dtype=float)
+    if estimate.shape != (m,) or covariance.size != m * m:
+        raise ValueError(
+            f"guf_estimate must have {m} entries and guf_covariance {m}x{m} to match the "
+            f"Monte Carlo result, got {np.shape(guf_estimate)} and {np.shape(guf_covariance)}"
+        )
+    covariance = covariance.reshape(m, m)
+    if not (np.all(np.isfinite(estimate)) and np.all(np.isfinite(covariance))):
+        raise ValueError("guf_estimate and guf_covariance must be finite")
+    if not np.allclose(covariance, covariance.T, rtol=1e-10, atol=0.0) or np.any(
+        np.diag(covariance) < 0
+    ):
+        raise ValueError("guf_covariance must be symmetric with a non-negative diagonal")
+    tolerance = check_tolerance(tolerance)
+    if tolerance is None:
+        raise ValueError("tolerance is required: δ, a per-output array, or a Tolerance")
+    delta = tolerance.for_outputs(m)
+    if names is None:
+        names = ["Y"] if m == 1 else [f"Y{j + 1}" for j in range(m)]
+    names = [str(name) for name in names]
+    if len(names) != m:
+        raise ValueError(f"names has {len(names)} entries for {m} outputs")
+    u = np.sqrt(np.diag(covariance))
+
+    if m == 1:
+        if guf_interval is not None:
+            interval = np.asarray(guf_interval, dtype=float).reshape(-1)
+            if interval.shape != (2,) or not interval[0] <= interval[1]:
+                raise ValueError(f"guf_interval must be [low, high], got {guf_interval!r}")
+        else:
+            k = stats.norm.ppf((1 + p) / 2) if guf_coverage_factor is None else guf_coverage_factor
+            if not k > 0:
+                raise ValueError(f"guf_coverage_factor must be positive, got {k}")
+            interval = estimate[0] + np.array([-1.0, 1.0]) * k * u[0]
+        low, high = mcm.interval_symmetric[0]
+        rows = (
+            _row(names[0], "interval low", interval[0], low, delta[0]),
+            _row(names[0], "interval high", interval[1], high, delta[0]),
+        )
+        procedure = "JCGM 101:2008 §8"
+    else:
+        k_guf = (
+            normal_ellipsoidal_coverage_factor(m, p)
+            if guf_coverage_factor is None
+            else float(guf_coverage_factor)
+        )
+        lam_guf = _largest_eigenvalue(covariance)
+        rho = tolerance.eigenvalue
+        kappa = tolerance.coverage_factor
+        rho = numerical_tolerance(mcm.largest_eigenvalue, 2) if rho is None else rho
+        kappa = numerical_tolerance(mcm.coverage_factor, 2) if kappa is None else kappa
+        rows = (
+            *(_row(names[j], "estimate", estimate[j], mcm.estimate[j], delta[j]) for j in range(m)),
+            *(
+                _row(names[j], "standard uncertainty", u[j], mcm.standard_uncertainty[j], delta[j])
+                for j in range(m)
+            ),
+            _row("all", "largest eigenvalue", lam_guf, mcm.largest_eigenvalue, rho),
+            _row("all", "coverage factor", k_guf, mcm.coverage_factor, kappa),
+        )
+        procedure = "JCGM 102:2011 §8"
+    failed = [row for row in rows if not row.passed]
+    if failed:
+        named = ", ".join(f"{row.name} {row.quantity} ({100 * row.ratio:.0f} %)" for row in failed)
+        message = f"GUF not validated at p = {p:g}: {named} outside tolerance"
+    else:
+        worst = max(rows, key=lambda row: row.ratio)
+        message = (
+            f"GUF validated at p = {p:g}: all {len(rows)} differences within tolerance "
+            f"(largest {100 * worst.ratio:.0f} %, {worst.name} {worst.quantity})"
+        )
+    return ValidationReport(rows=rows, p=p, procedure=procedure, message=message)
