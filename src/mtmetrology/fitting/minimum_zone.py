@@ -523,29 +523,28 @@ def _radial_result(
 
 def _circle(points, normal, kind: Kind, what: str) -> ZoneResult:
     p = _check_points(points, (2, 3), 3, what)
-    if p.shape[1] == 3 and normal is not None:
-        n = _check_normal(normal)
+    if p.shape[1] == 2 and normal is not None:
+        raise FitError("normal applies to points in 3-D; 2-D points lie in their plane")
     centroid, s, _ = _principal_axes(p)
     _require_spread(s, 2, what, "collinear")
     if p.shape[1] == 2:
-        if normal is not None:
-            raise FitError("normal applies to points in 3-D; 2-D points lie in their plane")
-        uv, basis = p - centroid, np.eye(2)
         least_squares = fit_circle(p).element
+        basis = np.eye(2)
     else:
-        least_squares = fit_circle(p).element
-        n = n if normal is not None else least_squares.normal
-        basis = _plane_basis(n)[:2]  # rows u, v spanning the circle's plane
-        uv = (p - centroid) @ basis.T  # (n, 2) in-plane coordinates
-        _require_spread(np.linalg.svd(uv, compute_uv=False), 2, what, "collinear in the plane")
-    start = (least_squares.centre - centroid) @ basis.T
+        # The least-squares circle in the given plane, or in its own least-squares plane.
+        plane = None if normal is None else Plane(centroid, _check_normal(normal))
+        least_squares = fit_circle(p, plane=plane).element
+        basis = _plane_basis(least_squares.normal)[:2]  # rows u, v spanning the plane
+    uv = (p - centroid) @ basis.T  # (n, 2) in-plane coordinates
+    _require_spread(np.linalg.svd(uv, compute_uv=False), 2, what, "collinear in the plane")
+    model = _CentreModel(uv, (least_squares.centre - centroid) @ basis.T)
+    d0, _ = model.evaluate()
     size = _size(p)
-    d0, _ = _CentreModel(uv, start).evaluate()
-    solution = _sequential_lp(_CentreModel(uv, start), kind, size)
+    solution = _sequential_lp(model, kind, size)
 
     def make_element(radius: float) -> Circle:
         centre = centroid + solution.model.centre @ basis
-        return Circle(centre, radius, None if p.shape[1] == 2 else n)
+        return Circle(centre, radius, least_squares.normal)
 
     return _radial_result(solution, kind, size, float(np.ptp(d0)), make_element, what)
 
@@ -616,8 +615,8 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
 
     Examples
     --------
-    >>> round(straightness([[0, 0], [1, 0.002], [2, -0.001], [3, 0.0]]).form_error, 12)
-    0.002333333333
+    >>> round(straightness([[0, 0], [1, 0.002], [2, 0], [3, 0.002]]).form_error, 12)
+    0.002
     """
     p = _check_points(points, (2, 3), 2, "straightness")
     centroid, s, _ = _principal_axes(p)
@@ -702,9 +701,9 @@ def flatness(points) -> ZoneResult:
 
     Examples
     --------
-    >>> pts = [[0, 0, 0], [1, 0, 0.001], [0, 1, -0.001], [1, 1, 0.0005], [0.5, 0.5, 0.002]]
-    >>> round(flatness(pts).form_error, 9)
-    0.00275
+    >>> pts = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0.5, 0.5, 0.003]]
+    >>> round(flatness(pts).form_error, 12)
+    0.003
     """
     p = _check_points(points, (3,), 3, "flatness")
     centroid, s, _ = _principal_axes(p)
