@@ -113,6 +113,21 @@ def _quotient_dimension(num: str, den: str) -> str:
     return f"{num}/{den}"
 
 
+_SUPERSCRIPTS = {"²": 2, "³": 3}
+
+
+def _split_power(den: str, symbol: str) -> tuple[str, int]:
+    """Split ``"m^2"`` or ``"m²"`` into (``"m"``, 2)."""
+    if den and den[-1] in _SUPERSCRIPTS:
+        return den[:-1], _SUPERSCRIPTS[den[-1]]
+    if "^" in den:
+        base, _, exp = den.partition("^")
+        if not exp.isdigit() or int(exp) < 1:
+            raise UnitError(f"unit {symbol!r}: the power {exp!r} is not a positive integer")
+        return base, int(exp)
+    return den, 1
+
+
 def parse_unit(symbol: str) -> Unit:
     """Parse a unit string such as ``"µm"``, ``"µm/m"``, ``"deg"`` or ``"/°C"``.
 
@@ -141,12 +156,15 @@ def parse_unit(symbol: str) -> Unit:
         num, _, den = text.partition("/")
         if "/" in den:
             raise UnitError(f"unit {symbol!r}: at most one '/' is allowed")
+        den, power = _split_power(den, symbol)
         num_dim, num_f = _SIMPLE.get(num, (None, None)) if num else ("ratio", 1.0)
         den_dim, den_f = _SIMPLE.get(den, (None, None))
         if num_dim is None or den_dim is None or num_f is None or den_f is None:
             bad = num if num_dim is None else den
             raise UnitError(f"unit {symbol!r}: unknown unit {bad!r}")
-        return Unit(text, _quotient_dimension(num_dim, den_dim), num_f / den_f)
+        if power == 1:
+            return Unit(text, _quotient_dimension(num_dim, den_dim), num_f / den_f)
+        return Unit(text, f"{num_dim}/{den_dim}^{power}", num_f / den_f**power)
     raise UnitError(
         f"unknown unit {symbol!r}; expected one of {sorted(k for k in _SIMPLE if k)} "
         "or a quotient such as 'µm/m'"
