@@ -590,7 +590,7 @@ def _bounded(kind: str, params: dict, extra: tuple[str, ...] = ()) -> tuple[floa
 
 
 def _normal(p: dict) -> Normal:
-    if "u" in p:
+    if "u" in p or "U" not in p:
         return Normal(p.pop("x"), p.pop("u"))
     # Certificate form: expanded uncertainty U with coverage factor k.
     U, k = _nonnegative("U", p.pop("U")), _finite("k", p.pop("k"))
