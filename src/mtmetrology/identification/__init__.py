@@ -1,0 +1,29 @@
+"""Identification engine: weighted non-linear least squares with identifiability diagnostics."""
+
+from mtmetrology.identification.diagnostics import (
+    IdentifiabilityReport,
+    NullDirection,
+    analyse_identifiability,
+)
+from mtmetrology.identification.observations import (
+    BallCentreProblem,
+    ScaleBar,
+    senses_from_sequence,
+)
+from mtmetrology.identification.solver import (
+    IdentificationError,
+    IdentificationResult,
+    gauss_newton,
+)
+
+__all__ = [
+    "BallCentreProblem",
+    "IdentifiabilityReport",
+    "IdentificationError",
+    "IdentificationResult",
+    "NullDirection",
+    "ScaleBar",
+    "analyse_identifiability",
+    "gauss_newton",
+    "senses_from_sequence",
+]

@@ -318,11 +318,14 @@ class KinematicChain:
         q = readings
         theta = np.zeros(self.n_params) if params is None else params
         t = np.zeros(3) if tool is None else tool
-        if self.has_reversal and senses is None:
-            raise ValueError(
-                "this error model has reversal (backlash) terms: the sense of motion of "
-                "each axis is needed"
-            )
+        if senses is None and self.has_reversal:
+            rev = [i for i, p in enumerate(self.parameters) if p.kind == "reversal"]
+            if d_params or np.any(theta[..., rev] != 0):
+                raise ValueError(
+                    "this error model has reversal (backlash) terms: the sense of motion of "
+                    "each axis is needed"
+                )
+            senses = np.zeros(q.shape)
         shape = np.broadcast_shapes(q.shape[:-1], theta.shape[:-1], t.shape[:-1])
         if senses is not None:
             shape = np.broadcast_shapes(shape, senses.shape[:-1])

@@ -1,0 +1,214 @@
+"""Observation model of ball-centre indications (SAMBA, ball plates, R-test-like set-ups).
+
+A probing of ball i at axis readings q gives a *ball-centre indication*: the readings
+that put the stylus centre at the ball centre.  With machine errors θ, tool-vector
+correction Δt and the (unknown, uncalibrated) ball centre d_i in the workpiece frame,
+the residual is (seed 000 eqs 5-1…5-3, seed 004 eq. 5.2)::
+
+    r_k = p(q_k; θ, t0 + Δt) − d_i(k)                 3 rows per indication
+
+and a calibrated scale bar between balls a and b adds (seed 000 §3.4, seed 004 §3.6)::
+
+    r_L = ‖d_a − d_b‖ − L                              1 row per bar
+
+Rows are weighted by the standard uncertainty of each kind (coordinates σ, bar u_L), so
+the problem is the weighted least squares the identification engine solves.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mtmetrology.kinematics.machine import Machine
+
+__all__ = ["BallCentreProblem", "ScaleBar", "senses_from_sequence"]
+
+
+@dataclass(frozen=True)
+class ScaleBar:
+    """A calibrated distance between two probed balls.
+
+    Attributes
+    ----------
+    ends : (str, str)
+        Ball ids of the two ends.
+    length : float
+        Calibrated centre-to-centre length, mm.
+    u : float
+        Standard uncertainty of the length, mm.
+    """
+
+    ends: tuple[str, str]
+    length: float
+    u: float = 0.001
+
+    def __post_init__(self):
+        if not (self.length > 0 and np.isfinite(self.length)):
+            raise ValueError(f"scale bar length must be positive, got {self.length}")
+        if not (self.u > 0 and np.isfinite(self.u)):
+            raise ValueError(f"scale bar uncertainty u must be positive, got {self.u}")
+        if self.ends[0] == self.ends[1]:
+            raise ValueError(f"scale bar ends must be two different balls, got {self.ends}")
+
+
+def senses_from_sequence(readings: np.ndarray, initial: float = 1.0) -> np.ndarray:
+    """Sense of motion of every axis from the order of the probings.
+
+    The sense of axis k at probing i is the sign of the last non-zero move of that axis
+    before (or at) i; ``initial`` before the first move.  Reversal terms need both senses
+    in the data to be identifiable (identifiability-check Q2).
+
+    Parameters
+    ----------
+    readings : ndarray, shape (n, n_axes)
+        Readings in probing order.
+
+    Returns
+    -------
+    ndarray, shape (n, n_axes) of ±1
+    """
+    q = np.asarray(readings, dtype=float)
+    steps = np.diff(q, axis=0, prepend=q[:1])
+    out = np.empty_like(q)
+    current = np.full(q.shape[1], float(initial))
+    for i in range(q.shape[0]):
+        moved = steps[i] != 0
+        current = np.where(moved, np.sign(steps[i]), current)
+        out[i] = current
+    return out
+
+
+class BallCentreProblem:
+    """Weighted least-squares problem of ball-centre indications.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine with its active error parameters (the identified unknowns).
+    readings : ndarray, shape (n, n_axes)
+        Ball-centre indications in internal units (mm, rad).
+    balls : sequence of str, length n
+        Ball id of each indication.
+    senses : ndarray, shape (n, n_axes), optional
+        Sense of motion per axis (needed for reversal terms).
+    scale_bars : sequence of ScaleBar
+    estimate_tool : bool
+        Add the three tool-vector corrections to the unknowns (identifiable only with
+        spindle indexing, e.g. S = 90°, 180°, 270°).
+    sigma : float
+        Standard uncertainty of one indication coordinate, mm (row weight 1/σ).
+
+    Attributes
+    ----------
+    names : tuple of str
+        Unknowns: machine parameters, ``ball <id> x|y|z``, ``tool x|y|z``.
+    ball_ids : tuple of str
+        Distinct balls in order of first appearance.
+    """
+
+    def __init__(
+        self,
+        machine: Machine,
+        readings: np.ndarray,
+        balls: Sequence[str],
+        *,
+        senses: np.ndarray | None = None,
+        scale_bars: Sequence[ScaleBar] = (),
+        estimate_tool: bool = False,
+        sigma: float = 0.001,
+    ):
+        q = np.asarray(readings, dtype=float)
+        if q.ndim != 2 or q.shape[1] != machine.n_axes:
+            raise ValueError(
+                f"readings must be (n, {machine.n_axes}) for axes {''.join(machine.axis_names)}"
+            )
+        balls = [str(b) for b in balls]
+        if len(balls) != q.shape[0]:
+            raise ValueError(f"{len(balls)} ball ids for {q.shape[0]} indications")
+        if not (sigma > 0):
+            raise ValueError(f"sigma must be positive, got {sigma}")
+        self.machine = machine
+        self.readings = q
+        self.senses = None if senses is None else np.asarray(senses, dtype=float)
+        self.ball_ids = tuple(dict.fromkeys(balls))
+        self._ball_index = np.array([self.ball_ids.index(b) for b in balls])
+        for bar in scale_bars:
+            for end in bar.ends:
+                if end not in self.ball_ids:
+                    raise ValueError(f"scale bar end {end!r} is not among the probed balls")
+        self.scale_bars = tuple(scale_bars)
+        self.estimate_tool = estimate_tool
+        self.sigma = float(sigma)
+        self.n_params = machine.n_params
+        self.n_balls = len(self.ball_ids)
+        ball_names = [f"ball {b} {c}" for b in self.ball_ids for c in "xyz"]
+        tool_names = ["tool x", "tool y", "tool z"] if estimate_tool else []
+        self.names = (*machine.parameter_names, *ball_names, *tool_names)
+
+    @property
+    def n_unknowns(self) -> int:
+        return len(self.names)
+
+    @property
+    def n_rows(self) -> int:
+        return 3 * self.readings.shape[0] + len(self.scale_bars)
+
+    def split(self, x: np.ndarray):
+        """(θ, ball centres (n_balls, 3), tool correction (3,)) from the unknown vector."""
+        p, nb = self.n_params, self.n_balls
+        theta = x[:p]
+        centres = x[p : p + 3 * nb].reshape(nb, 3)
+        dtool = x[p + 3 * nb :] if self.estimate_tool else np.zeros(3)
+        return theta, centres, dtool
+
+    def initial(self, params: np.ndarray | None = None) -> np.ndarray:
+        """Starting point: given (or zero) errors, each ball at the mean of its nominal
+        predicted positions (seed 000 §3.4), zero tool correction."""
+        theta = np.zeros(self.n_params) if params is None else np.asarray(params, dtype=float)
+        pos = self.machine.forward(self.readings, theta, senses=self.senses)
+        centres = np.zeros((self.n_balls, 3))
+        for i in range(self.n_balls):
+            centres[i] = pos[self._ball_index == i].mean(axis=0)
+        parts = [theta, centres.ravel()]
+        if self.estimate_tool:
+            parts.append(np.zeros(3))
+        return np.concatenate(parts)
+
+    def evaluate(self, x: np.ndarray, jacobian: bool = True):
+        """Weighted residuals (n_rows,) and, optionally, their Jacobian (n_rows, n_unknowns)."""
+        theta, centres, dtool = self.split(np.asarray(x, dtype=float))
+        ev = self.machine.evaluate(
+            self.readings,
+            theta,
+            senses=self.senses,
+            tool=self.machine.tool + dtool,
+            d_params=jacobian,
+            d_tool=jacobian and self.estimate_tool,
+        )
+        n = self.readings.shape[0]
+        r_coord = (ev.position - centres[self._ball_index]) / self.sigma  # (n, 3)
+        r_bar = np.empty(len(self.scale_bars))
+        for k, bar in enumerate(self.scale_bars):
+            a, b = (self.ball_ids.index(e) for e in bar.ends)
+            r_bar[k] = (np.linalg.norm(centres[a] - centres[b]) - bar.length) / bar.u
+        r = np.concatenate([r_coord.ravel(), r_bar])
+        if not jacobian:
+            return r, None
+        jac = np.zeros((self.n_rows, self.n_unknowns))
+        p = self.n_params
+        jac[: 3 * n, :p] = ev.d_params.reshape(3 * n, p) / self.sigma
+        rows = np.arange(3 * n)
+        cols = p + 3 * np.repeat(self._ball_index, 3) + np.tile(np.arange(3), n)
+        jac[rows, cols] = -1.0 / self.sigma
+        if self.estimate_tool:
+            jac[: 3 * n, p + 3 * self.n_balls :] = ev.d_tool.reshape(3 * n, 3) / self.sigma
+        for k, bar in enumerate(self.scale_bars):
+            a, b = (self.ball_ids.index(e) for e in bar.ends)
+            diff = centres[a] - centres[b]
+            unit = diff / np.linalg.norm(diff)
+            jac[3 * n + k, p + 3 * a : p + 3 * a + 3] = unit / bar.u
+            jac[3 * n + k, p + 3 * b : p + 3 * b + 3] = -unit / bar.u
+        return r, jac
