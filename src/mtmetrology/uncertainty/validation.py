@@ -261,10 +261,19 @@ def validate_guf(
         rho = numerical_tolerance(mcm.largest_eigenvalue, 2) if rho is None else rho
         kappa = numerical_tolerance(mcm.coverage_factor, 2) if kappa is None else kappa
         rows = (
-            *(_row(names[j], "estimate", estimate[j], mcm.estimate[j], delta[j]) for j in range(m)),
             *(
-                _row(names[j], "standard uncertainty", u[j], mcm.standard_uncertainty[j], delta[j])
+                row
                 for j in range(m)
+                for row in (
+                    _row(names[j], "estimate", estimate[j], mcm.estimate[j], delta[j]),
+                    _row(
+                        names[j],
+                        "standard uncertainty",
+                        u[j],
+                        mcm.standard_uncertainty[j],
+                        delta[j],
+                    ),
+                )
             ),
             _row("all", "largest eigenvalue", lam_guf, mcm.largest_eigenvalue, rho),
             _row("all", "coverage factor", k_guf, mcm.coverage_factor, kappa),
