@@ -277,21 +277,29 @@ def _min_width_3d(p: np.ndarray) -> tuple[np.ndarray, float, float]:
             np.einsum("...j,...j->...", np.cross(m, nb), e) >= -1e-12
         )
 
+    # Gauss-map prefilter: the normal cone of an edge is an arc of the unit sphere with
+    # midpoint mu and half-angle theta; two edges can be antipodal only if the arc of one
+    # meets the reflected arc of the other, which needs angle(mu1, -mu2) <= theta1 + theta2.
+    mu = n_a + n_b
+    mu /= np.linalg.norm(mu, axis=1, keepdims=True)
+    cos_h = np.clip(np.einsum("ij,ij->i", mu, n_a), -1.0, 1.0)
+    sin_h = np.sqrt(1.0 - cos_h**2)
     n_edges = len(direction)
-    chunk = max(1, 2_000_000 // max(n_edges, 1))
+    chunk = max(1, 4_000_000 // max(n_edges, 1))
     for i0 in range(0, n_edges, chunk):
-        i = slice(i0, min(i0 + chunk, n_edges))
-        m = np.cross(direction[i, None, :], direction[None, :, :])  # (c, E, 3)
-        norm = np.linalg.norm(m, axis=2)
+        rows = slice(i0, min(i0 + chunk, n_edges))
+        reach = np.outer(cos_h[rows], cos_h) - np.outer(sin_h[rows], sin_h)  # cos(th1 + th2)
+        i, j = np.nonzero(-(mu[rows] @ mu.T) >= reach - 1e-9)  # (c, E) -> pairs
+        i += i0
+        m = np.cross(direction[i], direction[j])  # (pairs, 3) common normals
+        norm = np.linalg.norm(m, axis=1)
         parallel = norm < 1e-12
-        m = m / np.where(parallel, 1.0, norm)[..., None]
-        cone1 = in_cone(m, direction[i, None], n_a[i, None], n_b[i, None])
-        m = np.where(cone1[..., None], m, -m)  # the sign whose direction is in the first cone
-        cone1 |= in_cone(m, direction[i, None], n_a[i, None], n_b[i, None])
-        cone2 = in_cone(-m, direction[None], n_a[None], n_b[None])
-        keep = cone1 & cone2 & ~parallel
-        if np.any(keep):
-            candidates.append(m[keep])
+        m /= np.where(parallel, 1.0, norm)[:, None]
+        cone1 = in_cone(m, direction[i], n_a[i], n_b[i])
+        m[~cone1] *= -1.0  # the sign whose direction is in the first edge's cone
+        cone1 |= in_cone(m, direction[i], n_a[i], n_b[i])
+        keep = cone1 & in_cone(-m, direction[j], n_a[j], n_b[j]) & ~parallel
+        candidates.append(m[keep])
     normals = np.concatenate(candidates)  # (k, 3)
     best_width, best_n = np.inf, face_n[0]
     for j0 in range(0, len(normals), 4096):
@@ -428,6 +436,10 @@ class _Solution:
     message: str
 
 
+def _count(iterations: int) -> str:
+    return f"{iterations} linear programme{'' if iterations == 1 else 's'}"
+
+
 def _sequential_lp(model, kind: Kind, size: float) -> _Solution:
     """Trust-region sequential LP for a Chebyshev problem on radial distances.
 
@@ -449,9 +461,7 @@ def _sequential_lp(model, kind: Kind, size: float) -> _Solution:
         step, predicted = lp
         decrease = f - predicted
         if decrease <= tol:
-            return _Solution(
-                model, d, iteration, True, f"converged in {iteration} linear programmes"
-            )
+            return _Solution(model, d, iteration, True, f"converged: {_count(iteration)}")
         trial = model.moved(step)
         d_trial, jac_trial = trial.evaluate()
         f_trial = _objective(d_trial, kind)
@@ -469,7 +479,7 @@ def _sequential_lp(model, kind: Kind, size: float) -> _Solution:
                     d,
                     iteration,
                     decrease <= 1e-9 * max(float(d.max() - d.min()), floor),
-                    f"stopped after {iteration} linear programmes: the trust region fell "
+                    f"stopped after {_count(iteration)}: the trust region fell "
                     f"below the rounding level with {decrease:.3g} mm of predicted decrease",
                 )
     return _Solution(
