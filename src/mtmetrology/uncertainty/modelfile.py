@@ -317,9 +317,23 @@ class _Compiler:
             tree = ast.parse(expression.strip(), mode="eval")
         except SyntaxError as exc:
             raise self.fail(None, f"syntax error in {expression!r}: {exc.msg}") from None
+        self.forbidden(tree)
         node = self.visit(tree.body)
         self.outputs[name] = node
         return node
+
+    def forbidden(self, tree: ast.AST) -> None:
+        """Name the most dangerous token first, wherever it is nested (``__import__``...)."""
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Name) and node.id.startswith("__"):
+                raise self.fail(node, f"name {node.id!r} is not allowed")
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
+                if node.func.id not in FUNCTIONS:
+                    raise self.fail(
+                        node,
+                        f"call to {node.func.id!r} is not allowed; "
+                        f"allowed functions: {', '.join(FUNCTIONS)}",
+                    )
 
     def visit(self, node: ast.AST) -> Node:
         if isinstance(node, ast.Constant):

@@ -1,0 +1,265 @@
+"""Tests for mtmetrology.uncertainty.modelfile (safe expressions, YAML schema)."""
+
+from __future__ import annotations
+
+import math
+import pickle
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mtmetrology.uncertainty.distributions import Normal, Rectangular, StudentT
+from mtmetrology.uncertainty.modelfile import (
+    FUNCTIONS,
+    CompiledModel,
+    ExpressionError,
+    ModelFileError,
+    load_model,
+    parse_model,
+)
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "gum-h1-end-gauge.yaml"
+
+
+def _doc(expression="a * b + c", **extra):
+    doc = {
+        "kind": "measurement-model",
+        "inputs": [
+            {"name": "a", "value": 2.0, "u": 0.1, "unit": "mm"},
+            {
+                "name": "b",
+                "value": 3.0,
+                "unit": "1",
+                "distribution": {"kind": "rectangular", "a": 0.5},
+            },
+            {
+                "name": "c",
+                "unit": "mm",
+                "distribution": {"kind": "student-t", "x": 1.0, "s": 0.2, "dof": 4},
+            },
+        ],
+        "outputs": [{"name": "y", "expression": expression, "unit": "mm"}],
+    }
+    doc.update(extra)
+    return doc
+
+
+def test_example_file_loads_with_units_and_dof():
+    m = load_model(EXAMPLE)
+    assert m.inputs.names == ["l_s", "d", "alpha_s", "theta", "dalpha", "dtheta"]
+    assert m.inputs.units[2] == "/°C"
+    np.testing.assert_array_equal(m.inputs.dof, [18, 25.6, math.inf, math.inf, 50, 2])
+    assert m.output_names == ["l"] and m.output_units == ["nm"]
+
+
+def test_inputs_built_from_value_and_distribution():
+    m = parse_model(_doc())
+    qs = m.inputs.quantities
+    assert qs[0].distribution == Normal(2.0, 0.1)
+    assert qs[1].distribution == Rectangular(2.5, 3.5)
+    assert qs[2].distribution == StudentT(1.0, 0.2, 4.0) and qs[2].effective_dof == 4.0
+
+
+def test_compiled_model_is_vectorised():
+    m = parse_model(_doc())
+    x = np.random.default_rng(0).normal(size=(7, 5, 3))
+    y = m.model(x)
+    assert y.shape == (7, 5, 1)
+    np.testing.assert_allclose(y[..., 0], x[..., 0] * x[..., 1] + x[..., 2])
+
+
+def test_outputs_can_use_earlier_outputs_and_constant_outputs_broadcast():
+    doc = _doc()
+    doc["outputs"] = [
+        {"name": "area", "expression": "pi * a**2 / 4"},
+        {"name": "twice", "expression": "2 * area + 0 * b"},
+        {"name": "k", "expression": "sqrt(2) * e"},
+    ]
+    m = parse_model(doc)
+    y = m.model(np.array([[2.0, 1.0, 0.0], [4.0, 1.0, 0.0]]))
+    np.testing.assert_allclose(
+        y,
+        [
+            [math.pi, 2 * math.pi, math.sqrt(2) * math.e],
+            [4 * math.pi, 8 * math.pi, math.sqrt(2) * math.e],
+        ],
+    )
+
+
+ALL_FUNCTIONS = (
+    "sqrt(a) + exp(b / 10) + log(a) + log10(b) + log1p(a) + expm1(b / 10) + sin(a) + cos(b)"
+    " + tan(a / 3) + arcsin(a / 5) + arccos(b / 5) + arctan(a) + sinh(a / 3) + cosh(b / 3)"
+    " + tanh(a) + abs(a - b) + sign(a) + square(b) + radians(a) + degrees(b)"
+    " + arctan2(a, b) + hypot(a, b) + a ** b + a ** 2.5 / b - (-c) ** 3"
+)
+
+
+def test_every_whitelisted_function_is_used_in_the_jacobian_test():
+    for name in FUNCTIONS:
+        assert f"{name}(" in ALL_FUNCTIONS
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.floats(1.0, 3.0), st.floats(1.2, 4.0), st.floats(-2.0, 2.0))
+def test_symbolic_jacobian_matches_central_differences(a, b, c):
+    """Symbolic derivatives of every whitelisted function against 5-point differences."""
+    model = CompiledModel(["a", "b", "c"], [("y", ALL_FUNCTIONS), ("z", "a / (b + c**2)")])
+    x = np.array([a, b, c])
+    jac = model.jacobian(x)
+    assert jac.shape == (2, 3)
+    h = 1e-4
+    num = np.empty((2, 3))
+    for i in range(3):
+        e = np.zeros(3)
+        e[i] = h
+        num[:, i] = (-model(x + 2 * e) + 8 * model(x + e) - 8 * model(x - e) + model(x - 2 * e)) / (
+            12 * h
+        )
+    np.testing.assert_allclose(jac, num, rtol=1e-6, atol=1e-6)
+
+
+def test_jacobian_is_vectorised():
+    model = CompiledModel(["a", "b"], [("y", "a * b"), ("z", "a + 1")])
+    x = np.array([[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]])
+    j = model.jacobian(x)
+    assert j.shape == (3, 2, 2)
+    np.testing.assert_array_equal(j[:, 0, 0], [2.0, 4.0, 6.0])
+    np.testing.assert_array_equal(j[:, 1], np.tile([1.0, 0.0], (3, 1)))
+
+
+def test_pickle_round_trip_rebuilds_from_source():
+    m = parse_model(_doc("hypot(a, b) - c"), "model.yaml").model
+    clone = pickle.loads(pickle.dumps(m))
+    x = np.random.default_rng(3).normal(size=(4, 3))
+    np.testing.assert_array_equal(clone(x), m(x))
+    np.testing.assert_array_equal(clone.jacobian(x), m.jacobian(x))
+    assert clone.expressions == ["hypot(a, b) - c"]
+    assert b"hypot(a, b) - c" in pickle.dumps(m)
+
+
+@pytest.mark.parametrize(
+    ("expression", "message"),
+    [
+        (
+            "__import__('os').system('true')",
+            r"call to '__import__' is not allowed; allowed functions: sqrt",
+        ),
+        ("np.os", r"attribute access 'np.os' is not allowed"),
+        ("a + __builtins__", r"name '__builtins__' is not allowed"),
+        ("a.real + b", r"attribute access 'a.real' is not allowed"),
+        ("a[0] + b", r"subscript 'a\[0\]' is not allowed"),
+        ("open(a)", r"call to 'open' is not allowed"),
+        ("eval('1')", r"call to 'eval' is not allowed"),
+        ("(lambda: 1)()", r"call of 'lambda: 1' is not allowed"),
+        ("a if b else c", r"IfExp 'a if b else c' is not allowed"),
+        ("a < b", r"Compare 'a < b' is not allowed"),
+        ("a // b", r"operator in 'a // b' is not allowed"),
+        ("x + a", r"unknown name 'x'; known names: a, b, c, e, pi"),
+        ("sqrt", r"function 'sqrt' must be called"),
+        ("sqrt(a, b)", r"sqrt\(\) takes 1 argument\(s\), got 2"),
+        ("hypot(a, y=b)", r"positional arguments only"),
+        ("'text'", r"constant 'text' is not a real number"),
+        ("a +", r"syntax error"),
+        ("[a, b]", r"List '\[a, b\]' is not allowed"),
+    ],
+)
+def test_unsafe_expressions_are_refused_naming_file_output_and_token(expression, message):
+    with pytest.raises(ExpressionError, match=r"^model.yaml: output 'y': .*" + message):
+        parse_model(_doc(expression), "model.yaml")
+
+
+def test_expression_errors_report_the_column():
+    with pytest.raises(
+        ExpressionError, match=r"attribute access 'np.os' is not allowed \(column 5\)"
+    ):
+        parse_model(_doc("a + np.os"), "m.yaml")
+
+
+@pytest.mark.parametrize(
+    ("mutate", "message"),
+    [
+        (
+            lambda d: d["inputs"][0].update(value=float("nan")),
+            r"inputs.0.value: Input should be a finite number",
+        ),
+        (
+            lambda d: d["inputs"][0].update(u=-1.0),
+            r"inputs.0.u: Input should be greater than or equal to 0",
+        ),
+        (lambda d: d["inputs"][0].update(dof=float("nan")), r"inputs.0.dof"),
+        (
+            lambda d: d["inputs"][0].update(colour="red"),
+            r"inputs.0.colour: Extra inputs are not permitted",
+        ),
+        (
+            lambda d: d["inputs"][1]["distribution"].update(kind="gaussian"),
+            r"inputs.1 \('b'\).distribution: unknown distribution 'gaussian'; known kinds",
+        ),
+        (
+            lambda d: d["inputs"][1]["distribution"].update(a=-0.5),
+            r"inputs.1 \('b'\).distribution: a must be >= 0",
+        ),
+        (
+            lambda d: d["inputs"][1]["distribution"].update(a=float("nan")),
+            r"inputs.1 \('b'\).distribution: a must be finite, got nan",
+        ),
+        (
+            lambda d: d["inputs"][2]["distribution"].update(low=0.0),
+            r"value is given|unexpected parameter",
+        ),
+        (
+            lambda d: d["inputs"][0].update(unit="furlong"),
+            r"inputs.0 \('a'\): input 'a': unknown unit 'furlong'",
+        ),
+        (lambda d: d["inputs"][1].update(name="a"), r"duplicate input names"),
+        (lambda d: d["inputs"][1].update(name="sqrt"), r"input name 'sqrt' is reserved"),
+        (lambda d: d["inputs"][1].update(name="2x"), r"input name '2x' is not a valid identifier"),
+        (lambda d: d.update(outputs=[]), r"outputs: List should have at least 1 item"),
+        (lambda d: d.update(kind="machine"), r"kind: Input should be 'measurement-model'"),
+        (
+            lambda d: d["outputs"][0].update(unit="parsec"),
+            r"outputs.0 \('y'\): unknown unit 'parsec'",
+        ),
+        (lambda d: d["outputs"][0].update(name="a"), r"output name 'a' is already used"),
+        (
+            lambda d: d.update(correlations=[{"inputs": ["a", "q"], "r": 0.5}]),
+            r"correlations.0: unknown input 'q'",
+        ),
+        (
+            lambda d: d.update(correlations=[{"inputs": ["a", "b"], "r": 1.5}]),
+            r"correlations.0.r: Input should be less than or equal to 1",
+        ),
+        (
+            lambda d: d.update(correlations=[{"inputs": ["a", "b"], "r": 0.5}]),
+            r"'b' is Rectangular; correlations are supported between normal",
+        ),
+    ],
+)
+def test_bad_model_files_name_the_field(mutate, message):
+    doc = _doc()
+    mutate(doc)
+    with pytest.raises(ModelFileError, match=message):
+        parse_model(doc, "bad.yaml")
+
+
+def test_correlated_normal_inputs_from_file():
+    doc = _doc()
+    doc["inputs"][1] = {"name": "b", "value": 3.0, "u": 0.2}
+    doc["correlations"] = [{"inputs": ["a", "b"], "r": -0.5}]
+    m = parse_model(doc)
+    assert m.inputs.covariance[0, 1] == pytest.approx(-0.5 * 0.1 * 0.2)
+
+
+def test_load_model_file_errors(tmp_path):
+    with pytest.raises(ModelFileError, match="cannot read model file"):
+        load_model(tmp_path / "missing.yaml")
+    p = tmp_path / "bad.yaml"
+    p.write_text("inputs: [unclosed\n", encoding="utf-8")
+    with pytest.raises(ModelFileError, match=r"bad.yaml: YAML syntax error"):
+        load_model(p)
+    p.write_text("- just\n- a list\n", encoding="utf-8")
+    with pytest.raises(ModelFileError, match="must be a YAML mapping"):
+        load_model(p)
