@@ -1,0 +1,121 @@
+"""Executors: the same seed gives the same Monte Carlo result on any executor and worker count."""
+
+import numpy as np
+import pytest
+
+from mtmetrology.uncertainty.executors import (
+    DaskExecutor,
+    InProcessExecutor,
+    ProcessPoolExecutor,
+    resolve_executor,
+)
+from mtmetrology.uncertainty.mcm import ModelEvaluationError, monte_carlo
+
+
+class NormalInputs:
+    """Module-level, hence picklable for worker processes."""
+
+    def __init__(self, mean, std):
+        self.mean = np.asarray(mean, dtype=float)
+        self.std = np.asarray(std, dtype=float)
+
+    def sample(self, rng, size):
+        return rng.normal(self.mean, self.std, size=(size, self.mean.size))
+
+
+def product_and_ratio(x):
+    """A non-linear 2-output model (m = 2) so that λ_max and k_p enter the adaptive rule."""
+    return np.column_stack([x[:, 0] * x[:, 1], x[:, 0] / x[:, 1]])
+
+
+def logarithm(x):
+    return np.log(x[:, 0])
+
+
+INPUTS = NormalInputs([2.0, 3.0], [0.2, 0.1])
+
+
+def assert_identical(first, second):
+    """Bit-identical statistics, not merely close."""
+    assert first.trials == second.trials and first.sequences == second.sequences
+    for name in ("estimate", "covariance", "interval_symmetric", "interval_shortest"):
+        np.testing.assert_array_equal(getattr(first, name), getattr(second, name))
+    assert first.coverage_factor == second.coverage_factor
+    assert first.largest_eigenvalue == second.largest_eigenvalue
+
+
+def test_in_process_executor_maps_in_order():
+    executor, owned = resolve_executor(None)
+    assert isinstance(executor, InProcessExecutor) and owned
+    assert executor.map(abs, [-3, 1, -2]) == [3, 1, 2]
+
+
+def test_resolve_executor_specifications():
+    pool, owned = resolve_executor(2)
+    assert isinstance(pool, ProcessPoolExecutor) and pool.workers == 2 and owned
+    named, _ = resolve_executor("processes:3")
+    assert named.workers == 3
+    mine = InProcessExecutor()
+    assert resolve_executor(mine) == (mine, False)
+    with pytest.raises(ValueError, match="integer"):
+        resolve_executor("processes:two")
+    with pytest.raises(TypeError, match="executor must be"):
+        resolve_executor(3.5)
+    with pytest.raises(TypeError, match="executor must be"):
+        resolve_executor(True)
+    with pytest.raises(ValueError, match="workers"):
+        ProcessPoolExecutor(0)
+
+
+def test_fixed_run_is_bit_identical_in_process_and_on_1_or_2_processes():
+    """Chunk streams depend on (seed, chunk index) only, and chunks are reduced in order."""
+    options = {"trials": 40_000, "chunk_size": 7_000, "seed": 2024}
+    reference = monte_carlo(product_and_ratio, INPUTS, **options)
+    with ProcessPoolExecutor(1) as one, ProcessPoolExecutor(2) as two:
+        assert_identical(reference, monte_carlo(product_and_ratio, INPUTS, executor=one, **options))
+        assert_identical(reference, monte_carlo(product_and_ratio, INPUTS, executor=two, **options))
+
+
+def test_adaptive_run_stops_at_the_same_sequence_for_any_worker_count():
+    """With 2 workers sequences are computed two at a time but tested in order, so the
+    stopping point and every statistic equal the one-at-a-time in-process run."""
+    options = {"adaptive": True, "digits": 2, "seed": 7, "sequence_size": 5_000}
+    reference = monte_carlo(product_and_ratio, INPUTS, **options)
+    assert reference.converged and reference.sequences > 2
+    with ProcessPoolExecutor(2) as two:
+        assert_identical(reference, monte_carlo(product_and_ratio, INPUTS, executor=two, **options))
+
+
+def test_model_errors_cross_the_process_boundary():
+    with ProcessPoolExecutor(2) as pool, np.errstate(invalid="ignore"):
+        with pytest.raises(ModelEvaluationError, match=r"output 0: \d+ trials"):
+            monte_carlo(logarithm, NormalInputs([0.5], [1.0]), trials=4_000, executor=pool)
+
+
+@pytest.mark.slow
+def test_dask_local_cluster_gives_the_same_result():
+    """A 2-worker in-process Dask cluster (threads: starts in about a second)."""
+    options = {"trials": 30_000, "chunk_size": 6_000, "seed": 99}
+    reference = monte_carlo(product_and_ratio, INPUTS, **options)
+    executor = DaskExecutor("dask-local", workers=2)
+    try:
+        assert executor.workers == 2
+        assert_identical(
+            reference, monte_carlo(product_and_ratio, INPUTS, executor=executor, **options)
+        )
+        adaptive = {"adaptive": True, "seed": 5, "sequence_size": 5_000}
+        assert_identical(
+            monte_carlo(product_and_ratio, INPUTS, **adaptive),
+            monte_carlo(product_and_ratio, INPUTS, executor=executor, **adaptive),
+        )
+    finally:
+        executor.close()
+
+
+@pytest.mark.slow
+def test_dask_local_by_name_is_closed_after_the_run():
+    result = monte_carlo(
+        product_and_ratio, INPUTS, trials=5_000, chunk_size=2_500, seed=1, executor="dask-local"
+    )
+    reference = monte_carlo(product_and_ratio, INPUTS, trials=5_000, chunk_size=2_500, seed=1)
+    assert_identical(reference, result)
