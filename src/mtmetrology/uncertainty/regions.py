@@ -209,7 +209,8 @@ def ellipsoidal_coverage_factor(
     array, _ = _as_sample(samples)
     trials, _m = array.shape
     q = _region_index(trials, p)
-    mean, sample_covariance = _moments(array)
+    if estimate is None or covariance is None:
+        mean, sample_covariance = _moments(array)
     centre = mean if estimate is None else np.asarray(estimate, dtype=float).reshape(-1)
     cov = sample_covariance if covariance is None else np.asarray(covariance, dtype=float)
     deviations = array - centre  # (M, m)
@@ -259,8 +260,9 @@ def rectangular_coverage_factor(
     array, _ = _as_sample(samples)
     trials = array.shape[0]
     q = _region_index(trials, p)
-    mean = array.mean(axis=0)
-    centre = mean if estimate is None else np.asarray(estimate, dtype=float).reshape(-1)
+    centre = (
+        array.mean(axis=0) if estimate is None else np.asarray(estimate, dtype=float).reshape(-1)
+    )
     scale = (
         array.std(axis=0, ddof=1)
         if standard_uncertainty is None
