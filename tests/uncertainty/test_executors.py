@@ -119,3 +119,25 @@ def test_dask_local_by_name_is_closed_after_the_run():
     )
     reference = monte_carlo(product_and_ratio, INPUTS, trials=5_000, chunk_size=2_500, seed=1)
     assert_identical(reference, result)
+
+
+@pytest.mark.slow
+def test_dask_scheduler_address_and_client_are_accepted_and_left_open():
+    """A scheduler address string and a user's Client give the same result; the user's
+    cluster and client stay open afterwards (the executor closes only what it started)."""
+    import distributed
+
+    options = {"trials": 8_000, "chunk_size": 2_000, "seed": 3}
+    reference = monte_carlo(product_and_ratio, INPUTS, **options)
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+    ) as cluster:
+        by_address = monte_carlo(
+            product_and_ratio, INPUTS, executor=cluster.scheduler_address, **options
+        )
+        assert_identical(reference, by_address)
+        with distributed.Client(cluster) as client:
+            assert_identical(
+                reference, monte_carlo(product_and_ratio, INPUTS, executor=client, **options)
+            )
+            assert client.status == "running"

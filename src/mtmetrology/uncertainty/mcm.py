@@ -99,7 +99,7 @@ def numerical_tolerance(value, digits: int = 2):
     return float(tolerance) if tolerance.ndim == 0 else tolerance
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Tolerance:
     """Numerical tolerances of the adaptive procedure and of GUF validation.
 
@@ -184,7 +184,7 @@ class ScalarSummary:
     p: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class MCMResult:
     """Results of :func:`monte_carlo` for m outputs (m = 1 for a scalar model).
 
@@ -411,8 +411,8 @@ def _run_sequences(executor, model, inputs, root, first: int, count: int, size, 
         first_bad = next(out.first_bad_input for out in outputs if out.bad_trials.any())
         per_output = ", ".join(f"output {j}: {n} trials" for j, n in enumerate(bad) if n)
         raise ModelEvaluationError(
-            f"model returned NaN or infinite values in {count * size} trials evaluated "
-            f"({per_output}); first offending inputs: {np.array2string(first_bad)}"
+            f"model returned NaN or infinite values ({per_output}, of {count * size} trials "
+            f"evaluated); first offending inputs: {np.array2string(first_bad)}"
         )
     sequences = [
         np.concatenate([out.values for out, o in zip(outputs, owner, strict=True) if o == k])
@@ -656,6 +656,10 @@ def monte_carlo(
     κ_p from the digits of λ_max and k_p unless given. Final results use all h·M values.
     Sequences are dispatched in batches of ``executor.workers`` but tested in order, so
     the stopping point and the result do not depend on the executor.
+
+    The strict rule tests the spread of single sequences, which does not shrink as h
+    grows: it passes once one sequence of ``sequence_size`` trials is stable to δ, so raise
+    ``sequence_size`` if it keeps failing.
 
     All h·M model values are kept in memory for the coverage intervals (m floats per
     trial); ``chunk_size`` bounds the memory of the inputs and of the model's work arrays.
