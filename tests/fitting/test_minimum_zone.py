@@ -432,6 +432,7 @@ def test_minimum_zone_never_exceeds_the_least_squares_peak_to_valley():
             (sphericity(ball), fit_sphere(ball).form_error),
         ]
         for result, ls_form_error in cases:
+            assert result.converged
             assert result.form_error <= ls_form_error + 1e-12
             assert result.least_squares_form_error == pytest.approx(ls_form_error, abs=1e-9)
     for _ in range(10):
@@ -470,6 +471,19 @@ def test_zone_result_is_frozen_and_reports_its_method():
     with pytest.raises(dataclasses.FrozenInstanceError):
         result.form_error = 0.0  # type: ignore[misc]
     assert isinstance(sphericity(_ball(rng, 10, 5.0, 0.01)).element, Sphere)
+
+
+def test_inscribed_circle_of_a_partial_arc_is_refused_as_unbounded():
+    """Points on a quarter arc do not surround a centre: the empty circle grows without
+    limit away from them, which must be an error, not a huge number."""
+    rng = np.random.default_rng(11)
+    angle = rng.uniform(0.0, np.pi / 2, 30)
+    arc = 20.0 * np.c_[np.cos(angle), np.sin(angle)]
+    with pytest.raises(FitError, match="inscribed circle is unbounded"):
+        inscribed_circle(arc)
+    # The other criteria are well posed on the arc.
+    assert roundness(arc).form_error <= 1e-9
+    assert circumscribed_circle(arc).converged
 
 
 @pytest.mark.parametrize(

@@ -440,7 +440,7 @@ def _count(iterations: int) -> str:
     return f"{iterations} linear programme{'' if iterations == 1 else 's'}"
 
 
-def _sequential_lp(model, kind: Kind, size: float) -> _Solution:
+def _sequential_lp(model, kind: Kind, size: float, what: str) -> _Solution:
     """Trust-region sequential LP for a Chebyshev problem on radial distances.
 
     A step is accepted when the true objective falls by at least 0.1 % of the decrease the
@@ -448,7 +448,17 @@ def _sequential_lp(model, kind: Kind, size: float) -> _Solution:
     shrinks to a quarter of the step after a poor one. The iteration stops when the LP
     predicts no decrease above ``1e-13 * size`` (first-order Chebyshev optimality), or when
     the region has shrunk below the rounding level of the coordinates.
+
+    Raises
+    ------
+    FitError
+        When the element runs off to infinity. An inscribed element whose centre lies
+        inside the points' hull has a radius below the hull's diameter, ``2 * size``;
+        beyond it the points do not surround the element (an arc, a partial surface).
+        A zone whose radius exceeds ``1e3 * size`` is tending to a straight line or a
+        plane: the points do not determine a centre.
     """
+    limit = 2.0 * size if kind == "inner" else 1e3 * size
     d, jac = model.evaluate()
     f = _objective(d, kind)
     floor = 1e-9 * size
@@ -469,6 +479,11 @@ def _sequential_lp(model, kind: Kind, size: float) -> _Solution:
         reach = float(np.max(np.abs(step / model.scales)))
         if ratio > 1e-3:
             model, d, jac, f = trial, d_trial, jac_trial, f_trial
+            if d.min() > limit:
+                raise FitError(
+                    f"the {what} is unbounded: its radius grows without limit because the "
+                    "points do not surround a centre or axis (a partial arc or surface?)"
+                )
             if ratio > 0.75 and reach >= 0.99 * radius:
                 radius *= 2.0
         else:
@@ -550,7 +565,7 @@ def _circle(points, normal, kind: Kind, what: str) -> ZoneResult:
     model = _CentreModel(uv, (least_squares.centre - centroid) @ basis.T)
     d0, _ = model.evaluate()
     size = _size(p)
-    solution = _sequential_lp(model, kind, size)
+    solution = _sequential_lp(model, kind, size, what)
 
     def make_element(radius: float) -> Circle:
         centre = centroid + solution.model.centre @ basis
@@ -567,7 +582,7 @@ def _sphere(points, kind: Kind, what: str) -> ZoneResult:
     size = _size(p)
     model = _CentreModel(p - centroid, start - centroid)
     d0, _ = model.evaluate()
-    solution = _sequential_lp(model, kind, size)
+    solution = _sequential_lp(model, kind, size, what)
 
     def make_element(radius: float) -> Sphere:
         return Sphere(centroid + solution.model.centre, radius)
@@ -583,7 +598,7 @@ def _cylinder(points, kind: Kind, what: str) -> ZoneResult:
     size = _size(p)
     model = _AxisModel(p - centroid, start.point - centroid, start.direction)
     d0, _ = model.evaluate()
-    solution = _sequential_lp(model, kind, size)
+    solution = _sequential_lp(model, kind, size, what)
 
     def make_element(radius: float) -> Cylinder:
         return Cylinder(centroid + solution.model.point, solution.model.direction, radius)
@@ -636,7 +651,7 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
         size = _size(p)
         model = _AxisModel(p - centroid, start.point - centroid, start.direction)
         d0, _ = model.evaluate()
-        solution = _sequential_lp(model, "outer", size)
+        solution = _sequential_lp(model, "outer", size, "straightness")
         d = solution.distances
         radius = float(d.max())
         return ZoneResult(
