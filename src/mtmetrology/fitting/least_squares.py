@@ -273,6 +273,14 @@ def _gauss_newton(
     return _Solve(state, _MAX_ITER, False, cost)
 
 
+def _better(solve: _Solve, best: _Solve | None) -> bool:
+    """Whether a fit from another starting value beats the best so far: converged first,
+    then a cost lower beyond rounding (ties keep the earlier, preferred candidate)."""
+    if best is None or (solve.converged and not best.converged):
+        return True
+    return solve.converged == best.converged and solve.cost < best.cost * (1.0 - 1e-9)
+
+
 def _message(kind: str, solve: _Solve, rms: float) -> str:
     if solve.converged:
         return f"{kind}: converged in {solve.iterations} iterations (rms {rms:.3g} mm)"
@@ -736,14 +744,35 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
 # ------------------------------------------------------------------- cylinder and cone
 
 
-def _candidate_axes(x: np.ndarray, direction: object, kind: str) -> list[np.ndarray]:
-    """Starting axis directions: the given one, or surface-normal and principal axes.
+def _quadric_axis(x: np.ndarray) -> np.ndarray | None:
+    """Axis of the algebraic quadric through centred points x (n ≥ 9), or None.
 
-    Surface normals from local principal components (k nearest neighbours), oriented
-    away from the centroid, lie on a circle of the unit sphere whose plane is normal to
-    the axis of a cylinder or cone, so the axis is the least-variance direction of the
-    centred normals.  The three principal axes of the points cover long and short
-    cylinders in case the normals are poor (sparse points).
+    The quadric ``xᵀAx + b·x + c = 0`` (smallest right singular vector of the design
+    matrix) of a cylinder or cone has a quadratic form A with eigenvalues (1, 1, 0) or
+    (1, 1, −tan²ψ) up to scale: the axis is the eigenvector of the distinct eigenvalue.
+    """
+    if x.shape[0] < 9:
+        return None
+    y = x / np.sqrt(np.mean(np.sum(x * x, axis=1)))
+    u, v, w = y.T
+    design = np.column_stack(
+        [u * u, v * v, w * w, 2 * u * v, 2 * u * w, 2 * v * w, u, v, w, np.ones(len(u))]
+    )
+    q = np.linalg.svd(design, full_matrices=False)[2][-1]
+    quad = np.array([[q[0], q[3], q[4]], [q[3], q[1], q[5]], [q[4], q[5], q[2]]])
+    lam, vecs = np.linalg.eigh(quad)
+    return vecs[:, 0] if lam[1] - lam[0] > lam[2] - lam[1] else vecs[:, 2]
+
+
+def _candidate_axes(x: np.ndarray, direction: object, kind: str) -> list[np.ndarray]:
+    """Starting axis directions: the given one, or several rotation-equivariant guesses.
+
+    Without a given direction: the axis of the algebraic quadric through the points;
+    the axis from surface normals (local principal components of k nearest neighbours,
+    oriented away from the centroid, lie on a circle of the unit sphere whose plane is
+    normal to the axis of a cylinder or cone, so the axis is the least-variance direction
+    of the centred normals); and the three principal axes of the points (long and short
+    cylinders).  Every candidate is refined and the best fit kept.
     """
     if direction is not None:
         a = np.array(direction, dtype=float)
@@ -752,15 +781,16 @@ def _candidate_axes(x: np.ndarray, direction: object, kind: str) -> list[np.ndar
         return [a / np.linalg.norm(a)]
     n = x.shape[0]
     axes = []
+    quadric = _quadric_axis(x)
+    if quadric is not None:
+        axes.append(quadric)
     if n >= 6:
         k = min(n, 8)
         nb = cKDTree(x).query(x, k=k)[1]  # (n, k) neighbour indices
         patches = x[nb] - x[nb].mean(axis=1, keepdims=True)  # (n, k, 3)
         normals = np.linalg.svd(patches)[2][:, 2, :]  # (n, 3)
-        normals *= (
-            np.sign(np.sum(normals * x, axis=1))[:, None]
-            + (np.sum(normals * x, axis=1) == 0)[:, None]
-        )
+        outward = np.sum(normals * x, axis=1)
+        normals *= np.where(outward < 0, -1.0, 1.0)[:, None]
         cn = normals - normals.mean(axis=0)
         axes.append(np.linalg.svd(cn, full_matrices=False)[2][2])
     axes.extend(np.linalg.svd(x, full_matrices=False)[2])
@@ -842,7 +872,7 @@ def fit_cylinder(points: object, direction: object = None) -> FitResult:
         except FitError:
             continue
         solve = _gauss_newton(evaluate, retract, (c2[0] * e1 + c2[1] * e2, a, r0), scale)
-        if best is None or (solve.converged, -solve.cost) > (best.converged, -best.cost):
+        if _better(solve, best):
             best = solve
     if best is None:
         raise FitError(f"{kind}: no starting axis gave a circular cross-section")
@@ -985,7 +1015,7 @@ def fit_cone(points: object, direction: object = None) -> FitResult:
         except FitError:
             continue
         solve = _gauss_newton(evaluate, retract, start, scale)
-        if best is None or (solve.converged, -solve.cost) > (best.converged, -best.cost):
+        if _better(solve, best):
             best = solve
     if best is None:
         raise FitError(f"{kind}: no starting axis gave a conical surface")
