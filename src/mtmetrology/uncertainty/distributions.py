@@ -661,8 +661,8 @@ def make_distribution(kind: str, **params) -> Distribution:
 
     Examples
     --------
-    >>> make_distribution("rectangular", x=10.0, a=0.5).standard_uncertainty
-    0.28867513459481287
+    >>> round(make_distribution("rectangular", x=10.0, a=0.5).standard_uncertainty, 6)
+    0.288675
     """
     key = str(kind).strip().lower().replace("_", "-")
     if key not in _REGISTRY:
