@@ -266,7 +266,6 @@ def fit(
     A line whose points all have the same z is a profile in that plane (2-D straightness);
     otherwise its minimum zone is the smallest enclosing cylinder (ISO 12780-1).
     """
-    err = Console(stderr=True)
     try:
         if tip_radius is not None and not (math.isfinite(tip_radius) and tip_radius >= 0.0):
             raise _UsageError(f"--tip-radius must be a finite length >= 0 mm, got {tip_radius}")
@@ -308,7 +307,7 @@ def fit(
         if notes:
             extra["notes"] = notes
     except ValueError as exc:  # InputFileError, FitError, _UsageError, element checks
-        err.print(f"error: {exc}", markup=False, highlight=False, soft_wrap=True)
+        typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(code=2) from None
     document = _document(element, method, points_csv, fitted, residuals, form_error, extra)
     if json_output:
