@@ -68,6 +68,7 @@ def test_sampling_is_reproducible_for_a_seeded_generator():
     a = s.sample(np.random.default_rng(99), 10)
     b = s.sample(np.random.default_rng(99), 10)
     np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(s.sample(99, 10), s.sample(99, 10))  # an int seed works too
 
 
 def test_bad_unit_names_the_input():

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.uncertainty.distributions import (
     Distribution,
     MultivariateNormal,
@@ -243,13 +244,21 @@ class InputSet:
         """(N,) degrees of freedom ν_i (inf when not given)."""
         return np.array([q.effective_dof for q in self._quantities], dtype=float)
 
-    def sample(self, rng: np.random.Generator, size: int) -> np.ndarray:
+    def sample(self, rng: SeedLike, size: int) -> np.ndarray:
         """Draw ``size`` joint realisations of the inputs.
+
+        Parameters
+        ----------
+        rng : Generator, SeedSequence or int
+            Source of randomness (see :func:`mtmetrology.rng.as_generator`).
+        size : int
+            Number of draws.
 
         Returns
         -------
         (size, N) ndarray
         """
+        rng = as_generator(rng)
         out = np.empty((size, len(self._quantities)))
         for i in self._single_index:
             out[:, i] = self._quantities[i].distribution.sample(rng, size)
