@@ -96,8 +96,8 @@ class ValidationReport:
             (
                 row.name,
                 row.quantity,
-                f"{row.guf:.6g}",
-                f"{row.mcm:.6g}",
+                _format_value(row.guf, row.tolerance),
+                _format_value(row.mcm, row.tolerance),
                 f"{row.difference:.3g}",
                 f"{row.tolerance:.3g}",
                 f"{100 * row.ratio:.0f} %",
@@ -125,8 +125,8 @@ class ValidationReport:
             table.add_row(
                 row.name,
                 row.quantity,
-                f"{row.guf:.6g}",
-                f"{row.mcm:.6g}",
+                _format_value(row.guf, row.tolerance),
+                _format_value(row.mcm, row.tolerance),
                 f"{row.difference:.3g}",
                 f"{row.tolerance:.3g}",
                 f"{100 * row.ratio:.0f} %",
@@ -136,6 +136,15 @@ class ValidationReport:
 
     def __str__(self) -> str:
         return self.to_text()
+
+
+def _format_value(value: float, tolerance: float) -> str:
+    """Fixed-point with one decimal beyond the tolerance's, so large values keep the digits
+    that the comparison is about (50000771.3 nm against δ = 0.5 nm, not 5.00008e+07)."""
+    if not (np.isfinite(tolerance) and tolerance > 0):
+        return f"{value:.6g}"
+    decimals = max(0, 1 - int(np.floor(np.log10(tolerance))))
+    return f"{value:.{decimals}f}"
 
 
 def _row(name: str, quantity: str, guf, mcm, tolerance) -> ValidationRow:
