@@ -263,3 +263,32 @@ def test_load_model_file_errors(tmp_path):
     p.write_text("- just\n- a list\n", encoding="utf-8")
     with pytest.raises(ModelFileError, match="must be a YAML mapping"):
         load_model(p)
+
+
+def test_every_scalar_distribution_kind_from_a_file():
+    doc = _doc()
+    doc["inputs"] = [
+        {"name": "t1", "distribution": {"kind": "triangular", "low": 0, "mode": 1, "high": 4}},
+        {"name": "t2", "value": 2.0, "distribution": {"kind": "trapezoidal", "a": 1, "beta": 0.5}},
+        {
+            "name": "t3",
+            "value": 0.0,
+            "distribution": {"kind": "curvilinear-trapezoid", "a": 1, "d": 0.1},
+        },
+        {"name": "t4", "value": 5.0, "distribution": {"kind": "arcsine", "a": 2}},
+        {"name": "t5", "distribution": {"kind": "samples", "values": [1, 2, 3, 6]}},
+        {"name": "t6", "value": 1.0, "distribution": {"kind": "normal", "U": 0.4, "k": 2}},
+    ]
+    doc["outputs"] = [{"name": "y", "expression": "t1 + t2 + t3 + t4 + t5 + t6"}]
+    m = parse_model(doc)
+    np.testing.assert_allclose(m.inputs.estimate, [5 / 3, 2.0, 0.0, 5.0, 3.0, 1.0])
+    assert m.inputs.standard_uncertainties[5] == pytest.approx(0.2)
+    x = m.inputs.sample(np.random.default_rng(0), 1000)
+    assert x.shape == (1000, 6) and set(np.unique(x[:, 4])) <= {1.0, 2.0, 3.0, 6.0}
+    with pytest.raises(ModelFileError, match="inputs are scalar"):
+        bad = _doc()
+        bad["inputs"][0] = {
+            "name": "a",
+            "distribution": {"kind": "multivariate-normal", "mean": [0], "covariance": [[1]]},
+        }
+        parse_model(bad)
