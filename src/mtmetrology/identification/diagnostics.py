@@ -215,7 +215,8 @@ def analyse_identifiability(
         for row in _rref(basis, 1e-9):
             v = row / np.linalg.norm(row)
             keep = np.abs(v) >= share * np.abs(v).max()
-            order = np.argsort(-np.abs(v) * keep)
+            # largest share first; ties (equal shares) in column order
+            order = np.lexsort((np.arange(n), -np.round(np.abs(v), 9)))
             terms = tuple((names[i], float(v[i])) for i in order if keep[i])
             nulls.append(NullDirection(terms))
 

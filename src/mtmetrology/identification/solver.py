@@ -69,7 +69,7 @@ def gauss_newton(
     problem,
     x0: np.ndarray | None = None,
     *,
-    xtol: float = 1e-10,
+    xtol: float = 1e-8,
     max_iter: int = 50,
     rtol_rank: float = 1e-8,
 ) -> IdentificationResult:
@@ -82,8 +82,10 @@ def gauss_newton(
     x0 : ndarray, optional
         Starting point; ``problem.initial()`` when omitted.
     xtol : float
-        Stop when the scaled step ``‖D Δx‖`` is below ``xtol`` (dimensionless: D makes
-        every column unit-norm, so this is a step in "residual sigmas").
+        Stop when the scaled step ``‖D Δx‖`` is below ``xtol``.  D makes every column
+        unit-norm, so this is a step in units of the residual weights (input standard
+        uncertainties): 1e-8 is far below any meaningful change and above the rounding
+        noise of positions of a few hundred mm.
     max_iter : int
     rtol_rank : float
         Rank tolerance of the column-scaled Jacobian.
