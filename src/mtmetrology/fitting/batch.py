@@ -1,0 +1,454 @@
+"""Batched least-squares fits of many point sets at once (Monte Carlo trials).
+
+The point sets are stacked as ``(K, n, dim)``: K sets of n points each.  Every fit is the
+same orthogonal-distance least-squares element as in
+:mod:`mtmetrology.fitting.least_squares` (they agree to 1e-10 mm), computed for all
+sets together: an algebraic start (Kåsa) from stacked normal equations, then Gauss–Newton
+on stacked ``(p × p)`` normal equations (``np.linalg.solve`` broadcasts over K) with a
+per-set Levenberg–Marquardt safeguard and per-set convergence checks, iterating only
+the sets that have not converged.  Planes and lines use the stacked SVD.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mtmetrology.fitting.least_squares import FitError
+
+__all__ = [
+    "BatchLineFit",
+    "BatchPlaneFit",
+    "BatchRoundFit",
+    "fit_circles",
+    "fit_lines",
+    "fit_planes",
+    "fit_spheres",
+]
+
+_STEP_TOL = 1e-13
+_FLOOR_TOL = 1e-8
+_MAX_ITER = 100
+_CHUNK = 4096
+
+
+@dataclass(frozen=True, eq=False)
+class BatchRoundFit:
+    """Circles or spheres fitted to K point sets.
+
+    Attributes
+    ----------
+    centres : (K, dim) array, mm
+    radii : (K,) array, mm
+    normals : (K, 3) array or None
+        Plane normals of 3-D circles (largest component positive); None otherwise.
+    residuals : (K, n) array, mm
+        Signed radial deviations (in the circle's plane for 3-D circles).
+    rms, form_error : (K,) arrays, mm
+        Root mean square and peak-to-valley (max − min) of the residuals.
+    converged : (K,) bool array
+    iterations : (K,) int array
+        Gauss–Newton iterations per set.
+    message : str
+    """
+
+    centres: np.ndarray
+    radii: np.ndarray
+    normals: np.ndarray | None
+    residuals: np.ndarray
+    rms: np.ndarray
+    form_error: np.ndarray
+    converged: np.ndarray
+    iterations: np.ndarray
+    message: str
+
+
+@dataclass(frozen=True, eq=False)
+class BatchPlaneFit:
+    """Planes fitted to K point sets: ``points`` (K, 3) centroids, ``normals`` (K, 3),
+    ``residuals`` (K, n), ``rms`` and ``form_error`` (flatness) (K,)."""
+
+    points: np.ndarray
+    normals: np.ndarray
+    residuals: np.ndarray
+    rms: np.ndarray
+    form_error: np.ndarray
+    message: str
+
+
+@dataclass(frozen=True, eq=False)
+class BatchLineFit:
+    """Lines fitted to K point sets: ``points`` (K, dim) centroids, ``directions``
+    (K, dim), ``residuals`` (K, n) (signed in 2-D, ≥ 0 in 3-D), ``rms`` and
+    ``form_error`` (K,) (max − min in 2-D, 2·max in 3-D, as for :func:`fit_line`)."""
+
+    points: np.ndarray
+    directions: np.ndarray
+    residuals: np.ndarray
+    rms: np.ndarray
+    form_error: np.ndarray
+    message: str
+
+
+def _check_sets(points: object, kind: str, dims: tuple[int, ...], min_points: int) -> np.ndarray:
+    try:
+        arr = np.array(points, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise FitError(f"{kind}: points must be a numeric (K, n, d) array ({exc})") from exc
+    if arr.ndim != 3 or arr.shape[2] not in dims:
+        want = " or ".join(f"(K, n, {d})" for d in dims)
+        raise FitError(f"{kind}: points must have shape {want}, got {arr.shape}")
+    if arr.shape[0] == 0:
+        raise FitError(f"{kind}: no point sets (K = 0)")
+    if arr.shape[1] < min_points:
+        raise FitError(
+            f"{kind}: {arr.shape[1]} points per set are fewer than the {min_points} needed"
+        )
+    bad = ~np.all(np.isfinite(arr), axis=(1, 2))
+    if bad.any():
+        raise FitError(
+            f"{kind}: {int(bad.sum())} set(s) contain NaN or inf (first: set {int(np.argmax(bad))})"
+        )
+    return arr
+
+
+def _centred(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    centroid = points.mean(axis=1)  # (K, d)
+    x = points - centroid[:, None, :]  # (K, n, d)
+    scale = np.sqrt(np.mean(np.sum(x * x, axis=2), axis=1))  # (K,)
+    return x, centroid, scale
+
+
+def _require_spread(kind: str, x: np.ndarray, rank: int, what: str) -> np.ndarray:
+    """Raise naming the first set whose centred points span fewer than ``rank`` dims.
+
+    Returns the stacked right singular vectors (K, d, d) for reuse.
+    """
+    _, s, vt = np.linalg.svd(x, full_matrices=False)
+    rel = s[:, rank - 1] / np.maximum(s[:, 0], 1e-300)
+    bad = (s[:, 0] == 0) | (rel <= 1e-10)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise FitError(
+            f"{kind}: {int(bad.sum())} set(s) are {what}; first: set {k} "
+            f"(relative singular value {rel[k]:.1e} of its centred points)"
+        )
+    return vt
+
+
+def _require_spread_scatter(kind: str, scatter: np.ndarray, first_index: int) -> None:
+    """Coplanarity check of centred 3-D sets from the eigenvalues of their 3×3 scatter
+    matrices (cheaper than the SVD of the points; the eigenvalues are squared singular
+    values, resolved down to ~1e-16 of the largest, so the threshold on the singular
+    value ratio is 1e-7)."""
+    lam = np.linalg.eigvalsh(scatter)  # (k, 3) ascending
+    bad = lam[:, 0] <= 1e-14 * lam[:, 2]
+    if bad.any():
+        k = int(np.argmax(bad))
+        rel = np.sqrt(max(lam[k, 0], 0.0) / max(lam[k, 2], 1e-300))
+        raise FitError(
+            f"{kind}: {int(bad.sum())} set(s) are coplanar; first: set {first_index + k} "
+            f"(relative singular value {rel:.1e} of its centred points)"
+        )
+
+
+def _canonical(v: np.ndarray) -> np.ndarray:
+    """Per-row sign convention (K, d): largest component positive."""
+    k = np.argmax(np.abs(v), axis=1)
+    sign = np.where(v[np.arange(len(v)), k] > 0, 1.0, -1.0)
+    return v * sign[:, None]
+
+
+def _squared_norms(xt: np.ndarray) -> np.ndarray:
+    """Σ_d xt[:, d, :]² for coordinate-major sets (k, d, n) -> (k, n)."""
+    out = xt[:, 0] * xt[:, 0]
+    for j in range(1, xt.shape[1]):
+        out += xt[:, j] * xt[:, j]
+    return out
+
+
+def _kasa(xt: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Stacked Kåsa fit ``‖x‖² = 2 c·x + k`` of centred coordinate-major sets (k, d, n).
+
+    One batched product ``D Dᵀ`` of ``D = [2y, 1, ‖y‖²]`` (y = x / scale) holds both the
+    normal matrix and the right-hand side.  Returns centres (k, d) and radii (k,).
+    """
+    k, d, n = xt.shape
+    design = np.empty((k, d + 2, n))
+    np.multiply(xt, 2.0 / scale[:, None, None], out=design[:, :d])
+    design[:, d] = 1.0
+    design[:, d + 1] = 0.25 * _squared_norms(design[:, :d])
+    m = np.matmul(design, design.transpose(0, 2, 1))  # (k, d + 2, d + 2)
+    sol = np.linalg.solve(m[:, : d + 1, : d + 1], m[:, : d + 1, d + 1 :])[..., 0]
+    centres = sol[:, :d]
+    radii = np.sqrt(np.maximum(sol[:, d] + np.sum(centres * centres, axis=1), 0.0))
+    return centres * scale[:, None], radii * scale
+
+
+def _round_gauss_newton(
+    xt: np.ndarray, scale: np.ndarray, radius: float | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Batched geometric circle/sphere fit of centred coordinate-major sets xt (K, d, n).
+
+    Returns centres (K, d), radii (K,), converged (K,), iterations (K,).
+    """
+    n_sets, d, _ = xt.shape
+    centres, radii = _kasa(xt, scale)
+    if radius is not None:
+        radii = np.full(n_sets, float(radius))
+    p = d if radius is not None else d + 1
+    lam = np.zeros(n_sets)
+    converged = np.zeros(n_sets, dtype=bool)
+    iterations = np.zeros(n_sets, dtype=int)
+
+    def moments(xs: np.ndarray, c: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """Stacked moment matrices A Aᵀ of A = [u; 1; ρ − r] (k, d + 2, n): they hold the
+        normal equations JᵀJ, Jᵀd of J = [−u, −1] and the cost Σd² in one product."""
+        a = np.empty((xs.shape[0], d + 2, xs.shape[2]))
+        np.subtract(xs, c[:, :, None], out=a[:, :d])
+        rho = np.sqrt(_squared_norms(a[:, :d]))  # (k, n)
+        a[:, :d] /= rho[:, None, :]
+        a[:, d] = 1.0
+        np.subtract(rho, r[:, None], out=a[:, d + 1])
+        return np.matmul(a, a.transpose(0, 2, 1))  # (k, d + 2, d + 2)
+
+    mom = moments(xt, centres, radii)
+    previous = np.full(n_sets, np.inf)
+    active = np.arange(n_sets)
+    for _ in range(_MAX_ITER):
+        if active.size == 0:
+            break
+        every = active.size == n_sets  # views instead of copies while all sets iterate
+        xs = xt if every else xt[active]
+        c = centres if every else centres[active]
+        r = radii if every else radii[active]
+        m = mom if every else mom[active]
+        jtj, jtr = m[:, :p, :p], -m[:, :p, d + 1]
+        cost = m[:, d + 1, d + 1]
+        lam_a = lam[active]
+        damped = jtj + lam_a[:, None, None] * (np.eye(p) * jtj) if lam_a.any() else jtj
+        step = np.linalg.solve(damped, -jtr[..., None])[..., 0]  # (k, p)
+        size = np.linalg.norm(step, axis=1)
+        iterations[active] += 1
+        near = size <= _FLOOR_TOL * scale[active]
+        done = (size <= _STEP_TOL * scale[active]) | (near & (size >= previous[active]))
+        converged[active[done]] = True
+        todo = ~done
+        idx = active[todo]
+        c_t = c[todo] + step[todo, :d]
+        r_t = r[todo] if radius is not None else r[todo] + step[todo, d]
+        m_t = moments(xs[todo], c_t, r_t)
+        # Near the solution cost changes are rounding noise: step sizes decide.
+        cost_now = cost[todo]
+        limit = np.where(near[todo], cost_now * (1.0 + 1e-9), cost_now)
+        better = (m_t[:, d + 1, d + 1] <= limit) & (r_t > 0)
+        moved = idx[better]
+        centres[moved], radii[moved], mom[moved] = c_t[better], r_t[better], m_t[better]
+        previous[moved] = np.where(near[todo][better], size[todo][better], np.inf)
+        lam[moved] = np.where(lam[moved] <= 1e-6, 0.0, lam[moved] / 10.0)
+        worse = idx[~better]
+        previous[worse] = np.inf
+        lam[worse] = np.where(lam[worse] == 0.0, 1e-3, lam[worse] * 10.0)
+        active = idx[lam[idx] <= 1e12]
+    return centres, radii, converged, iterations
+
+
+def _round_residuals(xt: np.ndarray, c: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Radial residuals (k, n) of coordinate-major sets about centres c, radii r."""
+    return np.sqrt(_squared_norms(xt - c[:, :, None])) - r[:, None]
+
+
+def _summary(kind: str, converged: np.ndarray) -> str:
+    n_bad = int((~converged).sum())
+    if n_bad == 0:
+        return f"{kind}: all {converged.size} fits converged"
+    return f"{kind}: {n_bad} of {converged.size} fits did not converge (see converged)"
+
+
+def fit_spheres(points: object, radius: float | None = None) -> BatchRoundFit:
+    """Least-squares spheres of K point sets (centre only when ``radius`` is given).
+
+    Parameters
+    ----------
+    points : (K, n, 3) array, mm
+        n ≥ 4 non-coplanar points per set.
+    radius : float, mm, optional
+        Known radius (SAMBA ball centres); the returned radii are this value.
+
+    Returns
+    -------
+    BatchRoundFit
+
+    Raises
+    ------
+    FitError
+        Wrong shape, NaN/inf, too few points, or a coplanar set (named by its index).
+
+    Notes
+    -----
+    Minimises ``Σ_i (‖p_ki − c_k‖ − r_k)²`` for every set k (digest 000 §3.12), the same
+    element as :func:`mtmetrology.fitting.least_squares.fit_sphere`.
+    """
+    kind = "spheres (known radius)" if radius is not None else "spheres"
+    p = _check_sets(points, kind, (3,), 4)
+    if radius is not None and not (np.isfinite(radius) and radius > 0):
+        raise FitError(f"{kind}: radius must be a positive finite number, got {radius!r}")
+    n_sets = p.shape[0]
+    centres, radii = np.empty((n_sets, 3)), np.empty(n_sets)
+    residuals = np.empty(p.shape[:2])
+    converged, iterations = np.empty(n_sets, dtype=bool), np.empty(n_sets, dtype=int)
+    # Chunks of a few thousand sets keep the temporaries in cache.
+    for start in range(0, n_sets, _CHUNK):
+        part = slice(start, start + _CHUNK)
+        xt = np.ascontiguousarray(p[part].transpose(0, 2, 1))  # (k, 3, n) coordinate-major
+        centroid = xt.mean(axis=2)
+        xt -= centroid[:, :, None]
+        scatter = np.matmul(xt, xt.transpose(0, 2, 1))  # (k, 3, 3)
+        _require_spread_scatter(kind, scatter, start)
+        scale = np.sqrt(np.trace(scatter, axis1=1, axis2=2) / xt.shape[2])
+        c, r, converged[part], iterations[part] = _round_gauss_newton(xt, scale, radius)
+        residuals[part] = _round_residuals(xt, c, r)
+        centres[part], radii[part] = c + centroid, r
+    return BatchRoundFit(
+        centres=centres,
+        radii=radii,
+        normals=None,
+        residuals=residuals,
+        rms=np.sqrt(np.mean(residuals * residuals, axis=1)),
+        form_error=residuals.max(axis=1) - residuals.min(axis=1),
+        converged=converged,
+        iterations=iterations,
+        message=_summary(kind, converged),
+    )
+
+
+def fit_circles(points: object) -> BatchRoundFit:
+    """Least-squares circles of K point sets, 2-D or in their least-squares planes (3-D).
+
+    Parameters
+    ----------
+    points : (K, n, 2) or (K, n, 3) array, mm
+        n ≥ 3 non-collinear points per set.
+
+    Returns
+    -------
+    BatchRoundFit
+        ``normals`` is set for 3-D sets; residuals are in-plane radial deviations.
+
+    Raises
+    ------
+    FitError
+        Wrong shape, NaN/inf, too few points, or a collinear set (named by its index).
+
+    Notes
+    -----
+    Same element as :func:`mtmetrology.fitting.least_squares.fit_circle` without a
+    given plane: the plane by SVD, then ``Σ (ρ_i − r)²`` in it (Forbes §4.5).
+    """
+    kind = "circles"
+    p = _check_sets(points, kind, (2, 3), 3)
+    x, centroid, scale = _centred(p)
+    vt = _require_spread(kind, x, 2, "collinear")
+    if p.shape[2] == 2:
+        xt = np.ascontiguousarray(x.transpose(0, 2, 1))
+        c, r, converged, iterations = _round_gauss_newton(xt, scale, None)
+        res = _round_residuals(xt, c, r)
+        centres, normals = c + centroid, None
+    else:
+        normals = _canonical(vt[:, 2])
+        e1 = vt[:, 0]
+        e2 = np.cross(normals, e1)
+        uv = np.stack([np.einsum("knd,kd->kn", x, e1), np.einsum("knd,kd->kn", x, e2)], axis=1)
+        uv_mean = uv.mean(axis=2)  # (K, 2); uv is coordinate-major (K, 2, n)
+        c2, r, converged, iterations = _round_gauss_newton(uv - uv_mean[:, :, None], scale, None)
+        c2 = c2 + uv_mean
+        res = _round_residuals(uv, c2, r)
+        centres = centroid + c2[:, 0:1] * e1 + c2[:, 1:2] * e2
+    return BatchRoundFit(
+        centres=centres,
+        radii=r,
+        normals=normals,
+        residuals=res,
+        rms=np.sqrt(np.mean(res * res, axis=1)),
+        form_error=res.max(axis=1) - res.min(axis=1),
+        converged=converged,
+        iterations=iterations,
+        message=_summary(kind, converged),
+    )
+
+
+def fit_planes(points: object) -> BatchPlaneFit:
+    """Least-squares planes of K point sets (stacked SVD of the centred sets).
+
+    Parameters
+    ----------
+    points : (K, n, 3) array, mm
+        n ≥ 3 non-collinear points per set.
+
+    Returns
+    -------
+    BatchPlaneFit
+        ``form_error`` is the least-squares flatness of each set.
+
+    Raises
+    ------
+    FitError
+        Wrong shape, NaN/inf, too few points, or a collinear set.
+    """
+    kind = "planes"
+    p = _check_sets(points, kind, (3,), 3)
+    x, centroid, _ = _centred(p)
+    vt = _require_spread(kind, x, 2, "collinear")
+    normals = _canonical(vt[:, 2])
+    res = np.einsum("knd,kd->kn", x, normals)
+    return BatchPlaneFit(
+        points=centroid,
+        normals=normals,
+        residuals=res,
+        rms=np.sqrt(np.mean(res * res, axis=1)),
+        form_error=res.max(axis=1) - res.min(axis=1),
+        message=f"{kind}: {p.shape[0]} closed-form SVD fits",
+    )
+
+
+def fit_lines(points: object) -> BatchLineFit:
+    """Least-squares lines of K point sets, 2-D or 3-D (stacked SVD).
+
+    Parameters
+    ----------
+    points : (K, n, 2) or (K, n, 3) array, mm
+        n ≥ 2 points per set, not all coincident.
+
+    Returns
+    -------
+    BatchLineFit
+
+    Raises
+    ------
+    FitError
+        Wrong shape, NaN/inf, too few points, or a set of coincident points.
+    """
+    kind = "lines"
+    p = _check_sets(points, kind, (2, 3), 2)
+    x, centroid, scale = _centred(p)
+    if np.any(scale == 0):
+        raise FitError(f"{kind}: set {int(np.argmax(scale == 0))} has coincident points")
+    vt = np.linalg.svd(x, full_matrices=False)[2]
+    directions = _canonical(vt[:, 0])
+    if p.shape[2] == 2:
+        normal = np.stack([-directions[:, 1], directions[:, 0]], axis=1)
+        res = np.einsum("knd,kd->kn", x, normal)
+        form = res.max(axis=1) - res.min(axis=1)
+    else:
+        along = np.einsum("knd,kd->kn", x, directions)
+        res = np.linalg.norm(x - along[..., None] * directions[:, None, :], axis=2)
+        form = 2.0 * res.max(axis=1)
+    return BatchLineFit(
+        points=centroid,
+        directions=directions,
+        residuals=res,
+        rms=np.sqrt(np.mean(res * res, axis=1)),
+        form_error=form,
+        message=f"{kind}: {p.shape[0]} closed-form SVD fits",
+    )
