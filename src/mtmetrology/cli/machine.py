@@ -1,5 +1,215 @@
 """``mtm machine``: presets, machine files and identifiability."""
 
-import typer
+from __future__ import annotations
 
-app = typer.Typer(help="Machine definitions: list, show, check, identifiability.", no_args_is_help=True)
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table as RichTable
+
+from mtmetrology.cli._common import (
+    print_json,
+    readings_from_table,
+    senses_from_table,
+    user_errors,
+)
+from mtmetrology.identification import (
+    BallCentreProblem,
+    ScaleBar,
+    analyse_identifiability,
+    senses_from_sequence,
+)
+from mtmetrology.io.files import read_csv_table
+from mtmetrology.kinematics.machine import Machine, list_presets
+from mtmetrology.kinematics.topology import LINEAR_AXES
+from mtmetrology.samba.artefact import load_artefact
+
+app = typer.Typer(
+    help="Machine definitions: list, show, check, identifiability.", no_args_is_help=True
+)
+
+MachineArg = Annotated[str, typer.Argument(help="Preset name or machine YAML file.")]
+ModelOpt = Annotated[
+    str | None, typer.Option("--model", help="Named error model of the definition.")
+]
+
+
+@app.command("list")
+def list_command() -> None:
+    """List the machine presets shipped with mtmetrology."""
+    console = Console()
+    table = RichTable(title="machine presets")
+    for col in ("name", "topology", "error models", "description"):
+        table.add_column(col)
+    for name in list_presets():
+        m = Machine.load(name)
+        models = ", ".join(m.spec.error_models) if m.spec else ""
+        desc = (m.spec.description if m.spec else "").replace("\n", " ")
+        desc = desc.split(",")[0].split(":")[0]
+        table.add_row(name, m.topology.string, models, desc)
+    console.print(table)
+
+
+def _direction_label(v) -> str:
+    """``+X``/``-Z`` for axis-aligned directions, else the vector."""
+    for k, letter in enumerate("XYZ"):
+        if abs(abs(v[k]) - 1.0) < 1e-12:
+            return ("+" if v[k] > 0 else "-") + letter
+    return "(" + ", ".join(f"{c:.6g}" for c in v) + ")"
+
+
+def _describe(machine: Machine) -> dict:
+    axes = []
+    for a in machine.axis_names:
+        g = machine.axes[a]
+        linear = a in LINEAR_AXES
+        unit = "mm" if linear else "deg"
+        conv = 1.0 if linear else 180.0 / 3.141592653589793
+        axes.append(
+            {
+                "axis": a,
+                "type": "linear" if linear else "rotary",
+                "branch": machine.topology.side(a),
+                "direction": [float(v) for v in g.direction],
+                "sign": int(g.sign),
+                "travel": None if g.travel is None else [g.travel[0] * conv, g.travel[1] * conv],
+                "resolution": None if g.resolution is None else g.resolution * conv,
+                "unit": unit,
+                "offset_mm": [float(v) for v in g.offset],
+                "basis": g.basis.kind,
+            }
+        )
+    params = [
+        {"name": p.name, "unit": u, "kind": p.kind, "description": p.describe()}
+        for p, u in zip(machine.parameters, machine.parameter_units, strict=True)
+    ]
+    return {
+        "kind": "machine-description",
+        "version": 1,
+        "name": machine.name,
+        "topology": machine.topology.string,
+        "model": machine.model_name,
+        "models": list(machine.spec.error_models) if machine.spec else [],
+        "tool_mm": machine.tool.tolist(),
+        "tip_radius_mm": machine.tip_radius,
+        "axes": axes,
+        "parameters": params,
+    }
+
+
+@app.command("show")
+@user_errors
+def show(
+    machine: MachineArg,
+    model: ModelOpt = None,
+    json: Annotated[bool, typer.Option("--json", help="Print a JSON document.")] = False,
+) -> None:
+    """Show a machine: axes, and the parameters of its error model with units."""
+    m = Machine.load(machine, model)
+    doc = _describe(m)
+    if json:
+        print_json(doc)
+        return
+    console = Console()
+    console.print(f"[bold]{m.name}[/bold]  topology {m.topology.string}  model {m.model_name}")
+    at = RichTable(title="axes")
+    for col in ("axis", "type", "branch", "direction", "sign", "travel", "resolution", "basis"):
+        at.add_column(col)
+    for a in doc["axes"]:
+        travel = "" if a["travel"] is None else f"{a['travel'][0]:g} .. {a['travel'][1]:g}"
+        res = "" if a["resolution"] is None else f"{a['resolution']:g}"
+        at.add_row(
+            a["axis"],
+            a["type"],
+            a["branch"],
+            _direction_label(a["direction"]),
+            f"{a['sign']:+d}",
+            f"{travel} {a['unit']}",
+            f"{res} {a['unit']}",
+            a["basis"],
+        )
+    console.print(at)
+    pt = RichTable(title=f"error model {m.model_name}: {m.n_params} parameters")
+    for col in ("parameter", "unit", "meaning"):
+        pt.add_column(col)
+    for p in doc["parameters"]:
+        pt.add_row(p["name"], p["unit"], p["description"])
+    console.print(pt)
+
+
+@app.command("check")
+@user_errors
+def check(machine_file: Annotated[Path, typer.Argument(help="Machine YAML file.")]) -> None:
+    """Validate a machine file: schema, topology, every error model."""
+    first = Machine.load(machine_file)
+    names = list(first.spec.error_models) if first.spec else []
+    console = Console()
+    console.print(f"{machine_file}: machine {first.name!r}, topology {first.topology.string}")
+    for n in names:
+        m = Machine.load(machine_file, n)
+        console.print(f"  model {n!r}: {m.n_params} parameters, OK")
+    if not names:
+        console.print("  no error model defined (nominal kinematics only)")
+    console.print("valid")
+
+
+@app.command("identifiability")
+@user_errors
+def identifiability(
+    machine: MachineArg,
+    poses: Annotated[Path, typer.Argument(help="Ball-centre indications CSV: ball,X,Y,Z,B,C[,S].")],
+    model: ModelOpt = None,
+    artefact: Annotated[Path | None, typer.Option(help="SAMBA artefact YAML (scale bar).")] = None,
+    add: Annotated[
+        list[str] | None, typer.Option("--add", help="Extra parameter to test (repeatable).")
+    ] = None,
+    estimate_tool: Annotated[
+        bool, typer.Option(help="Tool offset among the unknowns (needs S indexing).")
+    ] = True,
+    json: Annotated[bool, typer.Option("--json", help="Print a JSON document.")] = False,
+) -> None:
+    """Rank, conditioning and unidentifiable combinations of a probing set-up.
+
+    The Jacobian is evaluated at the nominal point (zero errors); ball centres are
+    nuisance unknowns, and so is the tool offset unless --no-estimate-tool.
+    """
+    m = Machine.load(machine, model)
+    if add:
+        m = m.with_parameters([*m.parameter_names, *add])
+    table = read_csv_table(poses, required=["ball"])
+    q = readings_from_table(m, table)
+    senses = senses_from_table(m, table)
+    if senses is None and m.chain.has_reversal:
+        senses = senses_from_sequence(q)
+    bars: list[ScaleBar] = load_artefact(artefact).scale_bars() if artefact else []
+    problem = BallCentreProblem(
+        m, q, table.strings("ball"), senses=senses, scale_bars=bars, estimate_tool=estimate_tool
+    )
+    _, jac = problem.evaluate(problem.initial())
+    rep = analyse_identifiability(
+        jac, problem.names, n_measurements=len(table), report_names=m.parameter_names
+    )
+    if json:
+        print_json(rep.to_dict())
+        return
+    console = Console()
+    console.print(
+        f"{m.name} model {m.model_name or 'custom'}: {m.n_params} parameters, "
+        f"{problem.n_balls} balls, {len(table)} indications, {len(bars)} scale bar(s), "
+        f"tool {'estimated' if estimate_tool else 'known'}"
+    )
+    console.print(f"unknowns {rep.n_unknowns}, rank {rep.rank}")
+    if rep.full_rank:
+        console.print(
+            f"condition number {rep.condition_scaled:.4g} (columns scaled to unit norm), "
+            f"{rep.condition_raw:.4g} (raw: mm, rad, internal units)"
+        )
+        console.print(
+            "observability " + ", ".join(f"{k} {v:.4g}" for k, v in rep.observability.items())
+        )
+    else:
+        console.print("[bold red]rank deficient[/bold red]: unidentifiable combinations")
+        for d in rep.null_directions:
+            console.print(f"  {d}    ({d.combination()})")

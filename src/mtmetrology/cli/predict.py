@@ -1,6 +1,56 @@
-"""``mtm predict``: compensated workpiece coordinates from axis readings."""
+"""``mtm predict``: compensated workpiece coordinates of probing records."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from mtmetrology.cli._common import readings_from_table, senses_from_table, user_errors
+from mtmetrology.io.files import read_csv_table, write_csv_table
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
 
 
-def predict() -> None:
-    """Predict compensated coordinates (under construction)."""
-    raise SystemExit("mtm predict is not available yet")
+@user_errors
+def predict(
+    readings: Annotated[Path, typer.Argument(help="Probing records CSV: X,Y,Z,B,C[,S] ...")],
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    params: Annotated[
+        Path | None, typer.Option("--params", help="Parameter set (JSON/YAML); zero if omitted.")
+    ] = None,
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Output CSV (standard output if omitted).")
+    ] = None,
+) -> None:
+    """Compensated stylus-centre coordinates x, y, z (mm) in the workpiece frame.
+
+    Readings are stylus-centre readings (mm, degrees); input columns are copied and
+    x, y, z appended. Sense-of-motion columns sense_<axis> (+1/-1) feed reversal terms.
+    """
+    m = Machine.load(machine)
+    if params is not None:
+        pset = ParameterSet.load(params, m)
+        m = pset.machine(m)
+        theta = pset.vector_for(m)
+    else:
+        theta = None
+    table = read_csv_table(readings)
+    q = readings_from_table(m, table)
+    senses = senses_from_table(m, table)
+    xyz = m.forward(q, theta, senses=senses)
+    header = [*table.header, "x", "y", "z"]
+    rows = (
+        [*row, *(f"{v:.6f}" for v in p)]
+        for row, p in zip(table.rows, np.atleast_2d(xyz), strict=True)
+    )
+    if output is None:
+        sys.stdout.write(",".join(header) + "\n")
+        for r in rows:
+            sys.stdout.write(",".join(r) + "\n")
+    else:
+        write_csv_table(output, header, rows)
+        typer.echo(f"wrote {len(table)} rows to {output}", err=True)

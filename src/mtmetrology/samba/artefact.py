@@ -1,0 +1,82 @@
+"""SAMBA artefact files (ARCHITECTURE.md, "Files users bring and get")::
+
+kind: samba-artefact
+balls:
+  - {id: "1", diameter_mm: 12.7}
+  - {id: SB1, diameter_mm: 12.7}
+  - {id: SB2, diameter_mm: 12.7}
+scale_bar: {ends: [SB1, SB2], length_mm: 305.2105, u_mm: 0.0012}
+stylus_tip_diameter_mm: 5.925
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from mtmetrology.identification.observations import ScaleBar
+from mtmetrology.io.files import InputFileError
+
+__all__ = ["SambaArtefact", "load_artefact"]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class BallSpec(_Strict):
+    id: str
+    diameter_mm: float = Field(gt=0)
+
+
+class ScaleBarSpec(_Strict):
+    ends: tuple[str, str]
+    length_mm: float = Field(gt=0)
+    u_mm: float = Field(gt=0)
+
+
+class SambaArtefact(_Strict):
+    """A SAMBA artefact: master balls, scale-bar balls and the calibrated bar length."""
+
+    kind: Literal["samba-artefact"] = "samba-artefact"
+    balls: list[BallSpec] = Field(min_length=1)
+    scale_bar: ScaleBarSpec | None = None
+    stylus_tip_diameter_mm: float | None = Field(default=None, gt=0)
+
+    @model_validator(mode="after")
+    def _ends_are_balls(self):
+        ids = [b.id for b in self.balls]
+        dup = sorted({i for i in ids if ids.count(i) > 1})
+        if dup:
+            raise ValueError(f"ball id(s) listed twice: {', '.join(dup)}")
+        if self.scale_bar is not None:
+            for end in self.scale_bar.ends:
+                if end not in ids:
+                    raise ValueError(f"scale_bar end {end!r} is not one of the balls")
+        return self
+
+    def scale_bars(self) -> list[ScaleBar]:
+        if self.scale_bar is None:
+            return []
+        s = self.scale_bar
+        return [ScaleBar(tuple(s.ends), s.length_mm, s.u_mm)]
+
+
+def load_artefact(path: str | Path) -> SambaArtefact:
+    """Read and validate a SAMBA artefact YAML file; errors name the file and field."""
+    p = Path(path)
+    if not p.is_file():
+        raise InputFileError(f"{p}: file not found")
+    try:
+        data = yaml.safe_load(p.read_text(encoding="utf-8"))
+        return SambaArtefact.model_validate(data)
+    except yaml.YAMLError as err:
+        raise InputFileError(f"{p}: not valid YAML: {err}") from None
+    except ValidationError as err:
+        lines = [f"{p}: invalid artefact"]
+        for e in err.errors():
+            lines.append(f"  {'.'.join(str(x) for x in e['loc']) or '(top level)'}: {e['msg']}")
+        raise InputFileError("\n".join(lines)) from None

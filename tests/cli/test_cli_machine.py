@@ -1,0 +1,154 @@
+"""mtm machine list/show/check/identifiability and mtm predict."""
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from mtmetrology.cli import app
+from mtmetrology.kinematics import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.samba import SambaSetup, probing_sequence
+
+runner = CliRunner()
+
+ARTEFACT = """kind: samba-artefact
+balls:
+  - {id: "1", diameter_mm: 12.7}
+  - {id: "2", diameter_mm: 12.7}
+  - {id: SB1, diameter_mm: 12.7}
+  - {id: SB2, diameter_mm: 12.7}
+scale_bar: {ends: [SB1, SB2], length_mm: 305.2105, u_mm: 0.0012}
+"""
+
+
+@pytest.fixture(scope="module")
+def poses(tmp_path_factory):
+    """A two-ball SAMBA strategy with spindle indexing, as a ball-centre CSV."""
+    m = Machine.load("five-axis-wcbxfzyst")
+    setup = SambaSetup(
+        balls={"1": (-80, -40, 100), "2": (80, 120, 150)},
+        scale_bar={"SB1": (-152.60525, 0, 30), "SB2": (152.60525, 0, 30)},
+    )
+    pairs = [(b, c) for b in (-90, -45, 0, 45, 90) for c in range(0, 360, 60)]
+    ids, q = probing_sequence(m, setup, pairs)
+    c = m.readings_to_customary(q)
+    d = tmp_path_factory.mktemp("poses")
+    path = d / "poses.csv"
+    lines = ["ball,X,Y,Z,B,C,S"] + [
+        f"{i}," + ",".join(f"{v:.6f}" for v in row) for i, row in zip(ids, c, strict=True)
+    ]
+    path.write_text("\n".join(lines) + "\n")
+    (d / "artefact.yaml").write_text(ARTEFACT)
+    return path, d / "artefact.yaml"
+
+
+def test_list_names_every_preset():
+    result = runner.invoke(app, ["machine", "list"])
+    assert result.exit_code == 0
+    for name in ("five-axis-wcbxfzyst", "three-axis-xfyz", "cmm-moving-bridge"):
+        assert name in result.output
+
+
+def test_show_json_lists_parameters_with_units():
+    result = runner.invoke(app, ["machine", "show", "five-axis-wcbxfzyst", "--json"])
+    assert result.exit_code == 0
+    doc = json.loads(result.output)
+    units = {p["name"]: p["unit"] for p in doc["parameters"]}
+    assert units["E_XX1"] == "µm/m" and units["E_X0C"] == "µm" and units["E_A0B"] == "µrad"
+    assert [a["axis"] for a in doc["axes"]] == ["X", "Y", "Z", "B", "C", "S"]
+    result = runner.invoke(app, ["machine", "show", "five-axis-wcbxfzyst", "--model", "84"])
+    assert result.exit_code == 0 and "84 parameters" in result.output
+
+
+def test_check_reports_every_model_and_names_bad_fields(tmp_path):
+    good = tmp_path / "good.yaml"
+    good.write_text("name: g\ntopology: WXFYZT\nerror_models:\n  a: {parameters: [E_XX1]}\n")
+    result = runner.invoke(app, ["machine", "check", str(good)])
+    assert result.exit_code == 0 and "model 'a': 1 parameters" in result.output
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: b\ntopology: WXFYZT\naxes:\n  X: {travel_mm: [5, 1]}\n")
+    result = runner.invoke(app, ["machine", "check", str(bad)])
+    assert result.exit_code == 2
+    assert "axes.X.travel_mm" in result.output
+
+
+def test_identifiability_full_rank_and_confounded(poses):
+    path, artefact = poses
+    ok = runner.invoke(
+        app,
+        [
+            "machine",
+            "identifiability",
+            "five-axis-wcbxfzyst",
+            str(path),
+            "--artefact",
+            str(artefact),
+        ],
+    )
+    assert ok.exit_code == 0, ok.output
+    assert "unknowns 28, rank 28" in ok.output
+    bad = runner.invoke(
+        app,
+        [
+            "machine",
+            "identifiability",
+            "five-axis-wcbxfzyst",
+            str(path),
+            "--artefact",
+            str(artefact),
+            "--add",
+            "E_Y0C",
+            "--json",
+        ],
+    )
+    doc = json.loads(bad.output)
+    assert doc["rank"] == 28 and doc["n_unknowns"] == 29
+    assert doc["null_directions"][0]["summary"] == "E_Y0S ~ E_Y0C"
+    no_bar = runner.invoke(
+        app, ["machine", "identifiability", "five-axis-wcbxfzyst", str(path), "--json"]
+    )
+    assert json.loads(no_bar.output)["rank"] == 27  # the scale gains need the bar
+
+
+def test_predict_writes_compensated_coordinates(tmp_path):
+    rec = tmp_path / "rec.csv"
+    rec.write_text("id,X,Y,Z,B,C\np1,-138.5650,94.6560,196.2320,-42,-293\n")
+    m = Machine.load("five-axis-wcbxfzyst")
+    values = np.zeros(13)
+    values[m.parameter_names.index("E_X0C")] = -0.1046  # -104.6 µm
+    ParameterSet(m.parameter_names, values, m.parameter_units).save(tmp_path / "p.json")
+    out = tmp_path / "out.csv"
+    result = runner.invoke(
+        app,
+        [
+            "predict",
+            "--machine",
+            "five-axis-wcbxfzyst",
+            "--params",
+            str(tmp_path / "p.json"),
+            str(rec),
+            "-o",
+            str(out),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    header, row = out.read_text().splitlines()
+    assert header == "id,X,Y,Z,B,C,x,y,z"
+    xyz = np.array(row.split(",")[-3:], dtype=float)
+    q = m.readings_from_customary({"X": -138.565, "Y": 94.656, "Z": 196.232, "B": -42, "C": -293})
+    np.testing.assert_allclose(xyz, m.forward(q, values), atol=1e-6)
+    nominal = runner.invoke(app, ["predict", "--machine", "five-axis-wcbxfzyst", str(rec)])
+    assert "-178.671288,-178.669635,53.110713" in nominal.output
+
+
+def test_predict_bad_input_names_file_and_column(tmp_path):
+    rec = tmp_path / "rec.csv"
+    rec.write_text("X,Y,Z,B\n1,2,3,4\n")
+    result = runner.invoke(app, ["predict", "--machine", "five-axis-wcbxfzyst", str(rec)])
+    assert result.exit_code == 2
+    assert "missing column 'C'" in result.output
+    rec.write_text("X,Y,Z,B,C\n1,2,nan,4,5\n")
+    result = runner.invoke(app, ["predict", "--machine", "five-axis-wcbxfzyst", str(rec)])
+    assert result.exit_code == 2 and "line 2" in result.output
