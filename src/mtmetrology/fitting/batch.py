@@ -28,7 +28,8 @@ __all__ = [
 ]
 
 _STEP_TOL = 1e-13
-_FLOOR_TOL = 1e-8
+_NEAR_REL = 1e-10
+_EPS = float(np.finfo(float).eps)
 _MAX_ITER = 100
 _CHUNK = 4096
 
@@ -228,10 +229,18 @@ def _round_gauss_newton(
         cost = m[:, d + 1, d + 1]
         lam_a = lam[active]
         damped = jtj + lam_a[:, None, None] * (np.eye(p) * jtj) if lam_a.any() else jtj
-        step = np.linalg.solve(damped, -jtr[..., None])[..., 0]  # (k, p)
+        try:
+            step = np.linalg.solve(damped, -jtr[..., None])[..., 0]  # (k, p)
+        except np.linalg.LinAlgError:
+            # Some set has a singular system (e.g. the centre ran off to infinity): the
+            # pseudo-inverse keeps the others going and that set stops without converging.
+            step = np.matmul(np.linalg.pinv(damped), -jtr[..., None])[..., 0]
         size = np.linalg.norm(step, axis=1)
         iterations[active] += 1
-        near = size <= _FLOOR_TOL * scale[active]
+        # Near the solution the predicted decrease δᵀJᵀJδ is below the rounding noise of
+        # the cost, so the cost can no longer judge steps (as in least_squares).
+        predicted = np.einsum("ki,kij,kj->k", step, jtj, step)
+        near = predicted <= _NEAR_REL * cost + xt.shape[2] * (_EPS * scale[active]) ** 2
         done = (size <= _STEP_TOL * scale[active]) | (near & (size >= previous[active]))
         converged[active[done]] = True
         todo = ~done

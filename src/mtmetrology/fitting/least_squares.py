@@ -54,9 +54,10 @@ __all__ = [
 _DEGENERATE = 1e-10
 # Gauss–Newton stops when the step is below this fraction of the data size.
 _STEP_TOL = 1e-13
-# Below this fraction of the data size, steps are accepted whatever the (rounding-level)
-# change of the cost, and the iteration ends when they stop contracting.
-_FLOOR_TOL = 1e-8
+# Steps whose predicted relative cost decrease is below this are accepted whatever the
+# (rounding-level) change of the cost; the iteration ends when they stop contracting.
+_NEAR_REL = 1e-10
+_EPS = float(np.finfo(float).eps)
 _MAX_ITER = 200
 
 
@@ -254,7 +255,10 @@ def _gauss_newton(
             rhs = np.concatenate([-d, np.zeros(jac.shape[1])])
             step = np.linalg.lstsq(aug, rhs, rcond=None)[0]
         size = float(np.linalg.norm(step))
-        near = size <= _FLOOR_TOL * scale
+        # Near the solution the predicted decrease ‖Jδ‖² is below the rounding noise of
+        # the cost, so the cost can no longer judge steps.
+        predicted = float(np.sum((jac @ step) ** 2))
+        near = predicted <= _NEAR_REL * cost + d.size * (_EPS * scale) ** 2
         # Converged: a negligible step, or near the solution steps stopped contracting
         # (they are rounding noise).
         if size <= _STEP_TOL * scale or (near and size >= previous):
