@@ -31,7 +31,7 @@ _STEP_TOL = 1e-13
 _NEAR_REL = 1e-10
 _EPS = float(np.finfo(float).eps)
 _MAX_ITER = 100
-_CHUNK = 4096
+_CHUNK = 1024
 
 
 @dataclass(frozen=True, eq=False)
