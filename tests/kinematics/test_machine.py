@@ -259,3 +259,38 @@ def test_machine_file_round_trip(tmp_path):
     assert m.parameter_units == ("µm/m", "µm/m^2", "µrad")
     with pytest.raises(MachineFileError, match="neither a machine file nor a preset"):
         Machine.load(tmp_path / "missing.yaml")
+
+
+@pytest.mark.parametrize(("name", "model"), PRESET_MODELS)
+def test_chunked_evaluation_equals_one_block(name, model):
+    """Large inputs are evaluated in cache-sized blocks; the blocks must not show."""
+    m = Machine.load(name, model)
+    rng = np.random.default_rng(9)
+    q, theta, senses, tool = random_state(m, 40, rng)
+    whole = m.evaluate(
+        q[:, None],
+        theta[:5],
+        senses=senses[:, None],
+        tool=tool[:5],
+        d_params=True,
+        d_axes=True,
+        d_tool=True,
+    )
+    m.chain.chunk_size = 7
+    parts = m.evaluate(
+        q[:, None],
+        theta[:5],
+        senses=senses[:, None],
+        tool=tool[:5],
+        d_params=True,
+        d_axes=True,
+        d_tool=True,
+    )
+    assert parts.position.shape == (40, 5, 3)
+    for a, b in [
+        (whole.position, parts.position),
+        (whole.d_params, parts.d_params),
+        (whole.d_axes, parts.d_axes),
+        (whole.d_tool, parts.d_tool),
+    ]:
+        np.testing.assert_allclose(a, b, rtol=1e-14, atol=1e-15)

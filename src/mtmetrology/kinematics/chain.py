@@ -56,6 +56,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mtmetrology.kinematics import _sparse3 as s3
 from mtmetrology.kinematics.basis import Basis
 from mtmetrology.kinematics.parameters import ErrorParameter
 from mtmetrology.kinematics.topology import LINEAR_AXES, Topology
@@ -150,60 +151,11 @@ class ChainEvaluation:
     d_tool: np.ndarray | None = None
 
 
-def _cross_const(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """u × v for a constant 3-vector u and v of shape (..., 3)."""
-    out = np.empty_like(v)
-    out[..., 0] = u[1] * v[..., 2] - u[2] * v[..., 1]
-    out[..., 1] = u[2] * v[..., 0] - u[0] * v[..., 2]
-    out[..., 2] = u[0] * v[..., 1] - u[1] * v[..., 0]
-    return out
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-    return out
-
-
-def _rotate(u: np.ndarray, angle: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rodrigues: rotate v (..., 3) about unit u by angle (...)."""
-    c = np.cos(angle)[..., None]
-    s = np.sin(angle)[..., None]
-    return v * c + _cross_const(u, v) * s + u * ((v @ u)[..., None] * (1.0 - c))
-
-
-def _rotation_matrix(u: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    c = np.cos(angle)[..., None, None]
-    s = np.sin(angle)[..., None, None]
-    ux = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
-    return c * np.eye(3) + s * ux + (1.0 - c) * np.outer(u, u)
-
-
-def _skew(e: np.ndarray) -> np.ndarray:
-    m = np.zeros((*e.shape[:-1], 3, 3))
-    m[..., 0, 1], m[..., 0, 2] = -e[..., 2], e[..., 1]
-    m[..., 1, 0], m[..., 1, 2] = e[..., 2], -e[..., 0]
-    m[..., 2, 0], m[..., 2, 1] = -e[..., 1], e[..., 0]
-    return m
-
-
-def _rot_generator_cols(r: np.ndarray) -> np.ndarray:
-    """Columns e_c × r for c = A, B, C: shape (..., 3, 3), column c = e_c × r."""
-    g = np.zeros((*r.shape[:-1], 3, 3))
-    # e_x × r = (0, -r_z, r_y); e_y × r = (r_z, 0, -r_x); e_z × r = (-r_y, r_x, 0)
-    g[..., 1, 0], g[..., 2, 0] = -r[..., 2], r[..., 1]
-    g[..., 0, 1], g[..., 2, 1] = r[..., 2], -r[..., 0]
-    g[..., 0, 2], g[..., 1, 2] = -r[..., 1], r[..., 0]
-    return g
-
-
-def _apply_lin(a: np.ndarray | None, x: np.ndarray) -> np.ndarray:
-    """a @ x for a (..., 3, 3) (None is the identity) and a vector x (..., 3)."""
-    if a is None:
-        return x
-    return np.einsum("...ij,...j->...i", a, x)
+def _accumulate(out: np.ndarray, j: int, col, factor, shape) -> None:
+    """out[i, j] += factor * col[i] for a sparse column; ``out`` is (3, n, *shape)."""
+    for i in range(3):
+        if col[i] is not s3.ZERO:
+            out[i, j] += factor * (1.0 if col[i] is s3.ONE else col[i])
 
 
 class KinematicChain:
@@ -284,6 +236,10 @@ class KinematicChain:
     def n_axes(self) -> int:
         return len(self.axis_names)
 
+    #: (trial, point) pairs per block: arrays of this size stay in the CPU cache, which
+    #: makes the many small element-wise operations of the chain several times faster.
+    chunk_size = 16384
+
     def evaluate(
         self,
         readings: np.ndarray,
@@ -315,9 +271,46 @@ class KinematicChain:
         -------
         ChainEvaluation
         """
-        q = readings
         theta = np.zeros(self.n_params) if params is None else params
         t = np.zeros(3) if tool is None else tool
+        arrays = [readings, theta, t] + ([] if senses is None else [senses])
+        shape = np.broadcast_shapes(*(a.shape[:-1] for a in arrays))
+        total = int(np.prod(shape))
+        if total <= self.chunk_size:
+            return self._evaluate_block(readings, theta, senses, t, d_params, d_axes, d_tool)
+        flat = [
+            a if a.ndim == 1 else np.broadcast_to(a, (*shape, a.shape[-1])).reshape(total, -1)
+            for a in arrays
+        ]
+        position = np.empty((total, 3))
+        jp = np.empty((total, 3, self.n_params)) if d_params else None
+        ja = np.empty((total, 3, self.n_axes)) if d_axes else None
+        jt = np.empty((total, 3, 3)) if d_tool else None
+        for start in range(0, total, self.chunk_size):
+            sl = slice(start, start + self.chunk_size)
+            part = [a if a.ndim == 1 else a[sl] for a in flat]
+            ev = self._evaluate_block(
+                part[0],
+                part[1],
+                part[3] if senses is not None else None,
+                part[2],
+                d_params,
+                d_axes,
+                d_tool,
+            )
+            position[sl] = ev.position
+            for out, res in ((jp, ev.d_params), (ja, ev.d_axes), (jt, ev.d_tool)):
+                if out is not None:
+                    out[sl] = res
+        return ChainEvaluation(
+            position.reshape(*shape, 3),
+            None if jp is None else jp.reshape(*shape, 3, self.n_params),
+            None if ja is None else ja.reshape(*shape, 3, self.n_axes),
+            None if jt is None else jt.reshape(*shape, 3, 3),
+        )
+
+    def _evaluate_block(self, q, theta, senses, t, d_params, d_axes, d_tool) -> ChainEvaluation:
+        """One block of :meth:`evaluate` (inputs already defaulted)."""
         if senses is None and self.has_reversal:
             rev = [i for i, p in enumerate(self.parameters) if p.kind == "reversal"]
             if d_params or np.any(theta[..., rev] != 0):
@@ -329,113 +322,131 @@ class KinematicChain:
         shape = np.broadcast_shapes(q.shape[:-1], theta.shape[:-1], t.shape[:-1])
         if senses is not None:
             shape = np.broadcast_shapes(shape, senses.shape[:-1])
+        elements = self._elements
+        if theta.ndim > 1:
+            # one contiguous copy instead of a strided read per parameter
+            theta = np.moveaxis(np.ascontiguousarray(np.moveaxis(theta, -1, 0)), 0, -1)
 
-        # Error values of each block: (delta_eps (...,6), derivative wrt q (...,6), factors).
-        block_data: dict[int, tuple] = {}
-        for i, el in enumerate(self._elements):
+        # Per element: sparse error values (δ, ε), their q-derivatives, term factors;
+        # rotation matrices of rotary motions.  Arrays keep their own (broadcastable)
+        # shapes: a rotation depends on the points only, not on the trials.
+        data: list = [None] * len(elements)
+        for i, el in enumerate(elements):
             if isinstance(el, _Errors):
-                block_data[i] = self._block_values(el, q, theta, senses, need_dq=d_axes)
+                data[i] = self._block_values(el, q, theta, senses, need_dq=d_axes)
+            elif isinstance(el, _Motion) and not el.linear:
+                data[i] = s3.axis_rotation(el.direction, el.sigma * q[..., el.axis])
 
         # Right-to-left pass: inputs[i] is the point entering element i.
-        v = np.broadcast_to(t, (*shape, 3)).astype(float, copy=True)
+        v = (t[..., 0], t[..., 1], t[..., 2])
         need_inputs = d_params or d_axes
-        inputs: list = [None] * len(self._elements)
-        for i in range(len(self._elements) - 1, -1, -1):
-            el = self._elements[i]
+        inputs: list = [None] * len(elements)
+        for i in range(len(elements) - 1, -1, -1):
+            el = elements[i]
             if need_inputs:
                 inputs[i] = v
             if isinstance(el, _Offset):
-                v = v + el.vector
+                v = tuple(s3.add(v[k], float(el.vector[k])) for k in range(3))
             elif isinstance(el, _Motion):
-                qk = q[..., el.axis]
                 if el.linear:
-                    v = v + (el.sigma * qk)[..., None] * el.direction
+                    step = el.sigma * q[..., el.axis]
+                    v = tuple(
+                        s3.add(v[k], step * el.direction[k]) if el.direction[k] else v[k]
+                        for k in range(3)
+                    )
                 else:
-                    v = _rotate(el.direction, el.sigma * qk, v)
+                    v = s3.matvec(data[i], v)
             else:
-                de = block_data[i][0]
-                v = v + el.varsign * (de[..., :3] + _cross(de[..., 3:], v))
-        position = v
+                de = data[i][0]
+                w = s3.add_vectors(de[:3], s3.cross(de[3:], v))
+                v = tuple(s3.add(v[k], w[k] if el.varsign > 0 else s3.neg(w[k])) for k in range(3))
+        position = s3.stack_vector(v, shape)
         if not (d_params or d_axes or d_tool):
             return ChainEvaluation(position)
 
-        jp = np.zeros((*shape, 3, self.n_params)) if d_params else None
-        ja = np.zeros((*shape, 3, self.n_axes)) if d_axes else None
-        a = None  # linear part of the prefix F_1 ... F_{i-1}; None is the identity
-        for i, el in enumerate(self._elements):
+        # Left-to-right pass: a is the linear part of F_1 ... F_{i-1}.  The last element
+        # that needs it bounds the pass (no product is formed for nothing).
+        needs = [
+            i
+            for i, el in enumerate(elements)
+            if (isinstance(el, _Errors) and (d_params or (d_axes and data[i][1] is not None)))
+            or (isinstance(el, _Motion) and d_axes)
+        ]
+        last = len(elements) - 1 if d_tool else (max(needs) if needs else -1)
+        # Jacobians are filled component-major, (3, n, *shape), so every write is
+        # contiguous, and returned as (..., 3, n) views.
+        jp = np.zeros((3, self.n_params, *shape)) if d_params else None
+        ja = np.zeros((3, self.n_axes, *shape)) if d_axes else None
+        a = s3.IDENTITY
+        for i, el in enumerate(elements[: last + 1]):
             if isinstance(el, _Offset):
                 continue
             if isinstance(el, _Motion):
-                qk = q[..., el.axis]
-                if el.linear:
-                    if d_axes:
-                        ja[..., :, el.axis] += el.sigma * _apply_lin(
-                            a, np.broadcast_to(el.direction, (*shape, 3))
-                        )
-                    continue
-                r = _rotation_matrix(el.direction, el.sigma * qk)
                 if d_axes:
-                    out = inputs[i - 1] if i > 0 else position
-                    # d/dq Rot(u, σq) v = σ u × (Rot v), applied through the prefix.
-                    ja[..., :, el.axis] += el.sigma * _apply_lin(a, _cross_const(el.direction, out))
-                a = r if a is None else a @ r
+                    if el.linear:
+                        # d/dq (v + σ q u) = σ u
+                        u = tuple(float(x) for x in el.direction)
+                        col = s3.matvec(a, tuple(x if x else s3.ZERO for x in u))
+                    else:
+                        # d/dq Rot(u, σq) v = σ u × (Rot v), through the prefix
+                        out = inputs[i - 1] if i > 0 else v
+                        u = tuple(float(x) if x else s3.ZERO for x in el.direction)
+                        col = s3.matvec(a, s3.cross(u, out))
+                    _accumulate(ja, el.axis, col, el.sigma, shape)
+                if not el.linear and (i < last or d_tool):
+                    a = s3.matmul(a, data[i])
                 continue
-            de, dde, factors = block_data[i]
+            de, dde, factors = data[i]
             r_in = inputs[i]
             gs = el.varsign
-            trans_cols = None
-            rot_cols = None
-            if d_params or d_axes:
-                if any(c < 3 for c in el.components):
-                    trans_cols = np.broadcast_to(np.eye(3), (*shape, 3, 3)) if a is None else a
-                if el.has_rotation:
-                    g = _rot_generator_cols(r_in)
-                    rot_cols = g if a is None else a @ g
+            cols = {}
+            for c in set(el.components):
+                if c < 3:
+                    cols[c] = (a[0][c], a[1][c], a[2][c])
+                else:
+                    e = [s3.ZERO, s3.ZERO, s3.ZERO]
+                    e[c - 3] = s3.ONE
+                    cols[c] = s3.matvec(a, s3.cross(tuple(e), r_in))
             if d_params:
                 for k, j in enumerate(el.params):
-                    c = el.components[k]
-                    base = trans_cols[..., :, c] if c < 3 else rot_cols[..., :, c - 3]
-                    jp[..., :, j] += gs * factors[k][..., None] * base
+                    _accumulate(jp, j, cols[el.components[k]], gs * factors[k], shape)
             if d_axes and dde is not None:
-                contrib = np.zeros((*shape, 3))
-                if trans_cols is not None:
-                    contrib += np.einsum("...ij,...j->...i", trans_cols, dde[..., :3])
-                if rot_cols is not None:
-                    contrib += np.einsum("...ij,...j->...i", rot_cols, dde[..., 3:])
-                ja[..., :, el.axis] += gs * contrib
-            if el.has_rotation:
-                # Linear part of I + ς[ε]×.
-                skew = gs * _skew(de[..., 3:])
-                a = np.eye(3) + skew if a is None else a + a @ skew
-        dt = None
-        if d_tool:
-            dt = np.broadcast_to(np.eye(3), (*shape, 3, 3)).copy() if a is None else a
+                for c, col in cols.items():
+                    if dde[c] is not s3.ZERO:
+                        _accumulate(ja, el.axis, col, gs * dde[c], shape)
+            if el.has_rotation and (i < last or d_tool):
+                eps = de[3:] if gs > 0 else tuple(s3.neg(x) for x in de[3:])
+                # linear part of I + ς[ε]×
+                a = s3.add_matrices(a, s3.matmul(a, s3.skew(eps)))
+        dt = s3.stack_matrix(a, shape) if d_tool else None
+        if jp is not None:
+            jp = np.moveaxis(jp, (0, 1), (-2, -1))
+        if ja is not None:
+            ja = np.moveaxis(ja, (0, 1), (-2, -1))
         return ChainEvaluation(position, jp, ja, dt)
 
     def _block_values(self, el: _Errors, q, theta, senses, need_dq: bool):
-        """δε (..., 6) of an error block, its q-derivative, and each term's factor."""
+        """Sparse δε (6 entries) of an error block, its q-derivative, each term's factor."""
         qk = q[..., el.axis]
         phi = dphi = None
         if el.max_degree >= 0:
             phi, dphi = el.basis.values(qk, el.max_degree)
         factors = []
-        de = None
-        dde = None
+        de = [s3.ZERO] * 6
+        dde = [s3.ZERO] * 6
+        has_motion = False
         for k, j in enumerate(el.params):
             kind = el.kinds[k]
             if kind == "location":
-                f = np.ones(qk.shape)
+                f = 1.0
             elif kind == "reversal":
-                f = senses[..., el.axis] * np.ones(qk.shape)
+                f = senses[..., el.axis]
             else:
                 f = phi[el.degrees[k]]
             factors.append(f)
-            val = theta[..., j] * f
-            if de is None:
-                de = np.zeros((*np.broadcast_shapes(val.shape, qk.shape), 6))
-            de[..., el.components[k]] += val
+            c = el.components[k]
+            de[c] = s3.add(de[c], theta[..., j] * f)
             if need_dq and kind == "motion":
-                if dde is None:
-                    dde = np.zeros_like(de)
-                dde[..., el.components[k]] += theta[..., j] * dphi[el.degrees[k]]
-        return de, dde, factors
+                has_motion = True
+                dde[c] = s3.add(dde[c], theta[..., j] * dphi[el.degrees[k]])
+        return tuple(de), (tuple(dde) if has_motion else None), factors

@@ -143,7 +143,9 @@ class ParameterSet:
             try:
                 value = float(e["value"])
             except (TypeError, ValueError):
-                raise InputFileError(f"{where} ({p.name}): value {e['value']!r} is not a number")
+                raise InputFileError(
+                    f"{where} ({p.name}): value {e['value']!r} is not a number"
+                ) from None
             if not np.isfinite(value):
                 raise InputFileError(f"{where} ({p.name}): value is not finite")
             names.append(p.name)
