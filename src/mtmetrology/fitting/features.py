@@ -1,0 +1,273 @@
+"""Features (GD&T characteristics) of probed point sets, for the uncertainty engine.
+
+A feature maps the stylus-centre points of one measurement task, ``(n, 3)`` mm, to one
+or more values (digest 000 §3.12: "feature = g(points (3n)) → scalar or vector").  Every
+feature offers
+
+* ``value(points)`` for points ``(..., n, 3)``, vectorised over the leading (Monte Carlo
+  trial) axes through the batched fits of :mod:`mtmetrology.fitting.batch`; it returns
+  ``(...,)`` for a scalar feature and ``(..., k)`` for ``k`` outputs;
+* ``jacobian(points)`` for one point set ``(n, 3)``: the analytic ``(k, 3n)`` matrix
+  ``∂g/∂q`` with the coordinates flattened point by point (x1, y1, z1, x2, ...), for GUF
+  propagation ``U_g = G U_q Gᵀ`` (digest 000 §3.12, "Propagation to the feature").
+
+Jacobians of fitted features come from the least-squares fits' first-order
+implicit-function derivatives (:mod:`mtmetrology.fitting.least_squares`), exact at
+zero form error and first-order accurate otherwise, as the GUF linearisation is.
+Form errors (max − min residual) are differentiated at the extreme points, which is
+exact where they are unique (almost everywhere).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from mtmetrology.fitting import batch
+from mtmetrology.fitting.least_squares import FitResult, fit_circle, fit_plane, fit_sphere
+
+__all__ = [
+    "BallCentre",
+    "CircleDiameter",
+    "Feature",
+    "Flatness",
+    "GaugeLength",
+    "Roundness",
+    "SphereDiameter",
+    "Sphericity",
+]
+
+
+@runtime_checkable
+class Feature(Protocol):
+    """What the uncertainty engine needs from a feature."""
+
+    name: str
+    unit: str
+
+    @property
+    def output_names(self) -> tuple[str, ...]: ...
+
+    def value(self, points: object) -> np.ndarray: ...
+
+    def jacobian(self, points: object) -> np.ndarray: ...
+
+
+def _stack(points: object, name: str, min_points: int) -> tuple[np.ndarray, tuple[int, ...]]:
+    """Points (..., n, 3) -> stacked (K, n, 3) and the leading shape."""
+    arr = np.asarray(points, dtype=float)
+    if arr.ndim < 2 or arr.shape[-1] != 3:
+        raise ValueError(f"{name}: points must have shape (..., n, 3), got {arr.shape}")
+    if arr.shape[-2] < min_points:
+        raise ValueError(f"{name}: needs at least {min_points} points, got {arr.shape[-2]}")
+    lead = arr.shape[:-2]
+    return arr.reshape((-1, *arr.shape[-2:])), lead
+
+
+def _single(points: object, name: str, min_points: int) -> np.ndarray:
+    arr = np.asarray(points, dtype=float)
+    if arr.ndim != 2 or arr.shape[1] != 3 or arr.shape[0] < min_points:
+        raise ValueError(
+            f"{name}: jacobian needs one point set of shape (n >= {min_points}, 3), got {arr.shape}"
+        )
+    return arr
+
+
+def _tip(tip_diameter: float) -> float:
+    d = float(tip_diameter)
+    if not math.isfinite(d) or d < 0:
+        raise ValueError(f"tip_diameter must be a finite length >= 0 mm, got {tip_diameter!r}")
+    return d
+
+
+def _peak_to_valley_jacobian(fit: FitResult) -> np.ndarray:
+    """d(max − min residual)/dP, flattened to (1, n·dim)."""
+    rj = fit.residual_jacobian()  # (n, n, dim)
+    i_max, i_min = int(np.argmax(fit.residuals)), int(np.argmin(fit.residuals))
+    return (rj[i_max] - rj[i_min]).reshape(1, -1)
+
+
+@dataclass(frozen=True)
+class GaugeLength:
+    """Bipoint length ``l = ‖q2 − q1‖ − d_tip`` (digest 000 §3.12, thesis eq. 6-20).
+
+    Points ``(..., 2, 3)``: the stylus-centre points probed on the two faces.  Seed 000
+    Table 7-1 gives 499.9966 mm with ``d_tip`` = 5.925 mm.
+    """
+
+    tip_diameter: float
+    name: str = "gauge_length"
+    unit: str = "mm"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "tip_diameter", _tip(self.tip_diameter))
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return (self.name,)
+
+    def value(self, points: object) -> np.ndarray:
+        arr = np.asarray(points, dtype=float)
+        if arr.ndim < 2 or arr.shape[-2:] != (2, 3):
+            raise ValueError(f"{self.name}: points must have shape (..., 2, 3), got {arr.shape}")
+        return np.linalg.norm(arr[..., 1, :] - arr[..., 0, :], axis=-1) - self.tip_diameter
+
+    def jacobian(self, points: object) -> np.ndarray:
+        """``[−e, e]`` with ``e = (q2 − q1)/‖q2 − q1‖``, shape (1, 6)."""
+        arr = np.asarray(points, dtype=float)
+        if arr.shape != (2, 3):
+            raise ValueError(f"{self.name}: jacobian needs points of shape (2, 3), got {arr.shape}")
+        diff = arr[1] - arr[0]
+        e = diff / np.linalg.norm(diff)
+        return np.concatenate([-e, e])[None, :]
+
+
+@dataclass(frozen=True)
+class SphereDiameter:
+    """Least-squares sphere diameter with tip compensation: ``2R ∓ d_tip``.
+
+    ``inner=False`` (a ball probed from outside): ``D = 2 R_fit − d_tip``;
+    ``inner=True`` (a spherical cavity): ``D = 2 R_fit + d_tip`` (digest 000 §3.12 [R]).
+    """
+
+    tip_diameter: float = 0.0
+    inner: bool = False
+    name: str = "sphere_diameter"
+    unit: str = "mm"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "tip_diameter", _tip(self.tip_diameter))
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return (self.name,)
+
+    def _offset(self) -> float:
+        return self.tip_diameter if self.inner else -self.tip_diameter
+
+    def value(self, points: object) -> np.ndarray:
+        stack, lead = _stack(points, self.name, 4)
+        return (2.0 * batch.fit_spheres(stack).radii + self._offset()).reshape(lead)
+
+    def jacobian(self, points: object) -> np.ndarray:
+        fit = fit_sphere(_single(points, self.name, 4))
+        return 2.0 * fit.parameter_jacobian[3].reshape(1, -1)
+
+
+@dataclass(frozen=True)
+class Sphericity:
+    """Least-squares sphericity: max − min residual of the LS sphere (digest 000 §3.12)."""
+
+    name: str = "sphericity"
+    unit: str = "mm"
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return (self.name,)
+
+    def value(self, points: object) -> np.ndarray:
+        stack, lead = _stack(points, self.name, 4)
+        return batch.fit_spheres(stack).form_error.reshape(lead)
+
+    def jacobian(self, points: object) -> np.ndarray:
+        return _peak_to_valley_jacobian(fit_sphere(_single(points, self.name, 4)))
+
+
+@dataclass(frozen=True)
+class CircleDiameter:
+    """Least-squares circle diameter (in the LS plane) with tip compensation.
+
+    ``inner=True`` (bore, ring gauge probed from inside): ``D = 2 R_fit + d_tip``;
+    ``inner=False`` (a shaft): ``D = 2 R_fit − d_tip`` (digest 001-003 §B2.2).
+    """
+
+    inner: bool = True
+    tip_diameter: float = 0.0
+    name: str = "circle_diameter"
+    unit: str = "mm"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "tip_diameter", _tip(self.tip_diameter))
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return (self.name,)
+
+    def value(self, points: object) -> np.ndarray:
+        stack, lead = _stack(points, self.name, 3)
+        offset = self.tip_diameter if self.inner else -self.tip_diameter
+        return (2.0 * batch.fit_circles(stack).radii + offset).reshape(lead)
+
+    def jacobian(self, points: object) -> np.ndarray:
+        fit = fit_circle(_single(points, self.name, 3))
+        return 2.0 * fit.parameter_jacobian[6].reshape(1, -1)
+
+
+@dataclass(frozen=True)
+class Roundness:
+    """Least-squares roundness: max − min radial residual in the LS plane."""
+
+    name: str = "roundness"
+    unit: str = "mm"
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return (self.name,)
+
+    def value(self, points: object) -> np.ndarray:
+        stack, lead = _stack(points, self.name, 3)
+        return batch.fit_circles(stack).form_error.reshape(lead)
+
+    def jacobian(self, points: object) -> np.ndarray:
+        return _peak_to_valley_jacobian(fit_circle(_single(points, self.name, 3)))
+
+
+@dataclass(frozen=True)
+class Flatness:
+    """Least-squares flatness: max − min signed distance to the LS plane."""
+
+    name: str = "flatness"
+    unit: str = "mm"
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return (self.name,)
+
+    def value(self, points: object) -> np.ndarray:
+        stack, lead = _stack(points, self.name, 3)
+        return batch.fit_planes(stack).form_error.reshape(lead)
+
+    def jacobian(self, points: object) -> np.ndarray:
+        return _peak_to_valley_jacobian(fit_plane(_single(points, self.name, 3)))
+
+
+@dataclass(frozen=True)
+class BallCentre:
+    """Ball centre (x, y, z) from probed points: LS sphere, or centre only with a known
+    radius (SAMBA: ball radius + effective tip radius; digest 000 §3.4, §3.12)."""
+
+    radius: float | None = None
+    name: str = "ball_centre"
+    unit: str = "mm"
+
+    def __post_init__(self) -> None:
+        if self.radius is not None:
+            r = float(self.radius)
+            if not math.isfinite(r) or r <= 0:
+                raise ValueError(f"radius must be a positive length, got {self.radius!r}")
+            object.__setattr__(self, "radius", r)
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return (f"{self.name}_x", f"{self.name}_y", f"{self.name}_z")
+
+    def value(self, points: object) -> np.ndarray:
+        stack, lead = _stack(points, self.name, 4)
+        return batch.fit_spheres(stack, radius=self.radius).centres.reshape((*lead, 3))
+
+    def jacobian(self, points: object) -> np.ndarray:
+        fit = fit_sphere(_single(points, self.name, 4), radius=self.radius)
+        return fit.parameter_jacobian[:3].reshape(3, -1)
