@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["as_generator", "chunk_generators", "SeedLike"]
+__all__ = ["SeedLike", "as_generator", "chunk_generators"]
 
 SeedLike = int | np.random.SeedSequence | np.random.Generator | None
 

@@ -1,4 +1,4 @@
-"""Tests for mtmetrology.uncertainty.guf and regions_gauss (JCGM 100 / JCGM 102)."""
+"""Tests for mtmetrology.uncertainty.guf (JCGM 100 / JCGM 102)."""
 
 from __future__ import annotations
 
@@ -14,11 +14,10 @@ from mtmetrology.uncertainty.distributions import Normal, Rectangular, StudentT
 from mtmetrology.uncertainty.guf import guf, welch_satterthwaite
 from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
 from mtmetrology.uncertainty.modelfile import load_model
-from mtmetrology.uncertainty.regions_gauss import (
-    bonferroni_coverage_factor,
+from mtmetrology.uncertainty.regions import (
     ellipse_area,
-    ellipsoid_coverage_factor,
-    independent_rectangular_factor,
+    normal_ellipsoidal_coverage_factor,
+    normal_rectangular_coverage_factor,
     rectangle_area,
 )
 from mtmetrology.units import to_internal
@@ -222,7 +221,7 @@ def test_seed000_hyperellipsoid_coverage_factors(m, k_p):
     s = normals(np.zeros(m), np.ones(m))
     r = guf(lambda x: x, s)
     assert r.region_coverage_factor == pytest.approx(k_p, abs=0.005)
-    assert ellipsoid_coverage_factor(m) == pytest.approx(k_p, abs=0.005)
+    assert normal_ellipsoidal_coverage_factor(m) == pytest.approx(k_p, abs=0.005)
 
 
 def test_seed000_table_5_4_largest_eigenvalue_4_47():
@@ -234,7 +233,7 @@ def test_seed000_table_5_4_largest_eigenvalue_4_47():
     assert r.largest_eigenvalue == pytest.approx(4.4685, abs=5e-4)
     assert round(r.largest_eigenvalue, 2) == 4.47
     assert np.linalg.eigvalsh(r_in)[0] == pytest.approx(0.0051, abs=1e-4)
-    assert r.rectangular_coverage_factor == pytest.approx(bonferroni_coverage_factor(13))
+    assert r.rectangular_coverage_factor == pytest.approx(normal_rectangular_coverage_factor(13))
 
 
 def test_seed000_pairwise_areas():
@@ -242,16 +241,19 @@ def test_seed000_pairwise_areas():
     E_Y0S–E_X0S ellipse 17.25, rectangle 18.42 (GUF, u = 0.89, 1.03 µm), 18.13 with the
     independent-outputs factor and MCM u = 0.88 µm.  Inputs have 2-3 significant figures,
     so the published areas are matched to 0.1 %."""
-    k_q = bonferroni_coverage_factor(2)
+    k_q = normal_rectangular_coverage_factor(2)
+    k_p2 = normal_ellipsoidal_coverage_factor(2)
     assert k_q == pytest.approx(2.2414, abs=1e-4)
-    assert independent_rectangular_factor(2) == pytest.approx(2.2365, abs=1e-4)
-    assert ellipse_area(6.1, 5.4, 0.965) == pytest.approx(162.6, rel=1e-3)
-    assert rectangle_area(6.1, 5.4, k_q) == pytest.approx(662.0, rel=1e-3)
-    assert ellipse_area(0.89, 1.03, 0.001) == pytest.approx(17.25, rel=1e-3)
-    assert rectangle_area(0.89, 1.03, k_q) == pytest.approx(18.42, rel=1e-3)
-    assert rectangle_area(0.88, 1.03, independent_rectangular_factor(2)) == pytest.approx(
-        18.13, rel=1e-3
+    assert normal_rectangular_coverage_factor(2, independent=True) == pytest.approx(
+        2.2365, abs=1e-4
     )
+    assert ellipse_area(k_p2, 6.1, 5.4, 0.965) == pytest.approx(162.6, rel=1e-3)
+    assert rectangle_area(k_q, 6.1, 5.4) == pytest.approx(662.0, rel=1e-3)
+    assert ellipse_area(k_p2, 0.89, 1.03, 0.001) == pytest.approx(17.25, rel=1e-3)
+    assert rectangle_area(k_q, 0.89, 1.03) == pytest.approx(18.42, rel=1e-3)
+    assert rectangle_area(
+        normal_rectangular_coverage_factor(2, independent=True), 0.88, 1.03
+    ) == pytest.approx(18.13, rel=1e-3)
 
 
 def test_seed000_one_dimensional_covariance_example_gives_1_um_not_2_2():

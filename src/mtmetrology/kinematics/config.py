@@ -34,6 +34,8 @@ from typing import Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from mtmetrology.io.schema import describe_validation_error
+
 __all__ = [
     "AxisSpec",
     "ErrorModelSpec",
@@ -128,14 +130,6 @@ class MachineSpec(_Strict):
     default_model: str | None = None
 
 
-def _format_validation_error(source: str, err: ValidationError) -> str:
-    lines = [f"{source}: invalid machine definition"]
-    for e in err.errors():
-        path = ".".join(str(p) for p in e["loc"]) or "(top level)"
-        lines.append(f"  {path}: {e['msg']}")
-    return "\n".join(lines)
-
-
 def parse_machine_spec(data: object, source: str = "<machine>") -> MachineSpec:
     """Validate a machine definition already parsed from YAML/JSON."""
     if not isinstance(data, dict):
@@ -143,7 +137,9 @@ def parse_machine_spec(data: object, source: str = "<machine>") -> MachineSpec:
     try:
         return MachineSpec.model_validate(data)
     except ValidationError as err:
-        raise MachineFileError(_format_validation_error(source, err)) from None
+        raise MachineFileError(
+            describe_validation_error(source, "machine definition", err)
+        ) from None
 
 
 def load_machine_spec(path: str | Path) -> MachineSpec:

@@ -19,6 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from mtmetrology.identification.observations import ScaleBar
 from mtmetrology.io.files import InputFileError
+from mtmetrology.io.schema import describe_validation_error
 
 __all__ = ["SambaArtefact", "load_artefact"]
 
@@ -76,7 +77,4 @@ def load_artefact(path: str | Path) -> SambaArtefact:
     except yaml.YAMLError as err:
         raise InputFileError(f"{p}: not valid YAML: {err}") from None
     except ValidationError as err:
-        lines = [f"{p}: invalid artefact"]
-        for e in err.errors():
-            lines.append(f"  {'.'.join(str(x) for x in e['loc']) or '(top level)'}: {e['msg']}")
-        raise InputFileError("\n".join(lines)) from None
+        raise InputFileError(describe_validation_error(str(p), "SAMBA artefact", err)) from None

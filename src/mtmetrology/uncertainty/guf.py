@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from mtmetrology.uncertainty.regions_gauss import (
-    bonferroni_coverage_factor,
-    ellipsoid_coverage_factor,
+from mtmetrology.uncertainty.regions import (
+    normal_ellipsoidal_coverage_factor,
+    normal_rectangular_coverage_factor,
 )
 
 __all__ = ["BudgetRow", "GUFResult", "guf", "welch_satterthwaite"]
@@ -417,8 +417,8 @@ def guf(
         coverage_factor=k,
         expanded_uncertainty=expanded,
         interval=interval,
-        region_coverage_factor=ellipsoid_coverage_factor(m, p),
-        rectangular_coverage_factor=bonferroni_coverage_factor(m, p),
+        region_coverage_factor=normal_ellipsoidal_coverage_factor(m, p),
+        rectangular_coverage_factor=normal_rectangular_coverage_factor(m, p),
         p=p,
         scalar=bool(scalar),
         message=message,

@@ -47,6 +47,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from mtmetrology.io import InputFileError
+from mtmetrology.io.schema import describe_validation_error
 from mtmetrology.uncertainty.distributions import make_distribution
 from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
 from mtmetrology.units import UnitError, parse_unit
@@ -625,11 +626,7 @@ def parse_model(document: Any, source: str = "<model>") -> MeasurementModel:
     try:
         spec = ModelSpec.model_validate(document)
     except ValidationError as exc:
-        lines = [
-            f"{'.'.join(str(p) for p in err['loc']) or '(top level)'}: {err['msg']}"
-            for err in exc.errors()
-        ]
-        raise ModelFileError(f"{source}: invalid model file:\n  " + "\n  ".join(lines)) from None
+        raise ModelFileError(describe_validation_error(source, "model file", exc)) from None
     quantities = [_build_input(s, i, source) for i, s in enumerate(spec.inputs)]
     names = [q.name for q in quantities]
     for n in names:
