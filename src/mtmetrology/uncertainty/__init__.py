@@ -1,0 +1,66 @@
+"""Uncertainty engine: distributions, GUF (JCGM 100/102), adaptive Monte Carlo
+(JCGM 101/102), coverage regions, GUF validation, executors and model files.
+
+- :mod:`~mtmetrology.uncertainty.distributions` — input distributions, PSD factors;
+- :mod:`~mtmetrology.uncertainty.inputs` — input quantities with units and correlations;
+- :mod:`~mtmetrology.uncertainty.typeab` — Type A and Type B helpers;
+- :mod:`~mtmetrology.uncertainty.guf` — law of propagation, budgets, Welch–Satterthwaite;
+- :mod:`~mtmetrology.uncertainty.mcm` — fixed and adaptive Monte Carlo;
+- :mod:`~mtmetrology.uncertainty.regions` — coverage intervals and regions;
+- :mod:`~mtmetrology.uncertainty.validation` — GUF validated by Monte Carlo;
+- :mod:`~mtmetrology.uncertainty.executors` — in-process, process pool, Dask;
+- :mod:`~mtmetrology.uncertainty.modelfile` — measurement models in YAML.
+"""
+
+from mtmetrology.uncertainty.distributions import (
+    Arcsine,
+    CurvilinearTrapezoid,
+    MultivariateNormal,
+    MultivariateT,
+    Normal,
+    Rectangular,
+    Samples,
+    StudentT,
+    Trapezoidal,
+    Triangular,
+    make_distribution,
+)
+from mtmetrology.uncertainty.executors import (
+    DaskExecutor,
+    InProcessExecutor,
+    ProcessPoolExecutor,
+    resolve_executor,
+)
+from mtmetrology.uncertainty.guf import GUFResult, guf
+from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
+from mtmetrology.uncertainty.mcm import MCMResult, monte_carlo
+from mtmetrology.uncertainty.modelfile import MeasurementModel, load_model
+from mtmetrology.uncertainty.validation import ValidationReport, validate_guf
+
+__all__ = [
+    "Arcsine",
+    "CurvilinearTrapezoid",
+    "DaskExecutor",
+    "GUFResult",
+    "InProcessExecutor",
+    "InputQuantity",
+    "InputSet",
+    "MCMResult",
+    "MeasurementModel",
+    "MultivariateNormal",
+    "MultivariateT",
+    "Normal",
+    "ProcessPoolExecutor",
+    "Rectangular",
+    "Samples",
+    "StudentT",
+    "Trapezoidal",
+    "Triangular",
+    "ValidationReport",
+    "guf",
+    "load_model",
+    "make_distribution",
+    "monte_carlo",
+    "resolve_executor",
+    "validate_guf",
+]
