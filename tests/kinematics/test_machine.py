@@ -294,3 +294,14 @@ def test_chunked_evaluation_equals_one_block(name, model):
         (whole.d_tool, parts.d_tool),
     ]:
         np.testing.assert_allclose(a, b, rtol=1e-14, atol=1e-15)
+
+
+@settings(max_examples=40, deadline=None)
+@given(xyz=st.lists(st.floats(-1000, 1000), min_size=3, max_size=3), seed=st.integers(0, 2**32 - 1))
+@pytest.mark.parametrize("name", ["three-axis-xfyz", "cmm-moving-bridge"])
+def test_zero_errors_of_three_axis_machines_add_readings_and_tool(name, xyz, seed):
+    """With no errors a Cartesian machine reports its readings: p = (x, y, z) + t,
+    whichever branch carries each axis (sign −1 on the workpiece side)."""
+    m = Machine.load(name)
+    tool = np.random.default_rng(seed).normal(size=3) * 100
+    np.testing.assert_allclose(m.forward(np.array(xyz), tool=tool), np.array(xyz) + tool, atol=1e-9)
