@@ -753,13 +753,13 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
 
 
 def _quadric_axis(x: np.ndarray) -> np.ndarray | None:
-    """Axis of the algebraic quadric through centred points x (n ≥ 9), or None.
+    """Axis of the algebraic quadric through centred points x (n ≥ 10), or None.
 
     The quadric ``xᵀAx + b·x + c = 0`` (smallest right singular vector of the design
     matrix) of a cylinder or cone has a quadratic form A with eigenvalues (1, 1, 0) or
     (1, 1, −tan²ψ) up to scale: the axis is the eigenvector of the distinct eigenvalue.
     """
-    if x.shape[0] < 9:
+    if x.shape[0] < 10:  # with 9 points the quadric interpolates: no information
         return None
     y = x / np.sqrt(np.mean(np.sum(x * x, axis=1)))
     u, v, w = y.T
@@ -940,29 +940,39 @@ def _cone_local(x: np.ndarray, x0: np.ndarray, a: np.ndarray, psi: float, s: flo
     return d, j, g, e1, e2
 
 
-def _cone_start(x: np.ndarray, a: np.ndarray):
-    """Algebraic cone about a given axis: ``u² + v² = A u + B v + C + D z + E z²``.
+def _cone_starts(x: np.ndarray, a: np.ndarray) -> list[tuple]:
+    """Starting cones about a candidate axis, as states (x0, a, ψ, s).
 
-    The model is ``(u − uc)² + (v − vc)² = (ρ0 + t z)²``, linear in (A, B, C, D, E) with
-    ``t² = E`` and ``2 ρ0 t = D``.  Returns (x0, a, ψ, s) with a pointing into the cone.
+    First the algebraic cone ``u² + v² = A u + B v + C + D z + E z²``, i.e.
+    ``(u − uc)² + (v − vc)² = (ρ0 + t z)²`` with ``t² = E`` and ``2 ρ0 t = D``, linear in
+    (A, B, C, D, E), its axis turned to point into the cone.  When that model has no
+    real cone (E ≤ 0: the candidate axis is too far off), two slender cones (ψ = 0.05
+    rad) opening either way about the circle through the projected points, from which
+    Gauss–Newton can still reach the cone.
     """
     e1, e2 = _perp_basis(a)
     lu, lv, lz = x @ e1, x @ e2, x @ a
     m = np.column_stack([lu, lv, np.ones(len(x)), lz, lz * lz])
     coef = np.linalg.lstsq(m, lu * lu + lv * lv, rcond=None)[0]
-    if not coef[4] > 0:
-        raise FitError("no cone about this axis")
-    t = float(np.sqrt(coef[4]))
-    rho0 = coef[3] / (2.0 * t)
-    if np.median(rho0 + t * lz) < 0:
-        t, rho0 = -t, -rho0
-    if t < 0:
-        a, t = -a, -t
-    psi = float(np.arctan(t))
-    if not 0 < psi < np.pi / 2 or rho0 <= 0:
-        raise FitError("no cone about this axis")
-    x0 = coef[0] / 2.0 * e1 + coef[1] / 2.0 * e2
-    return x0, a, psi, float(rho0 * np.cos(psi))
+    if coef[4] > 0:
+        t = float(np.sqrt(coef[4]))
+        rho0 = coef[3] / (2.0 * t)
+        if np.median(rho0 + t * lz) < 0:
+            t, rho0 = -t, -rho0
+        axis = a if t > 0 else -a
+        psi = float(np.arctan(abs(t)))
+        if 0 < psi < np.pi / 2 and rho0 > 0:
+            x0 = coef[0] / 2.0 * e1 + coef[1] / 2.0 * e2
+            return [(x0, axis, psi, float(rho0 * np.cos(psi)))]
+    uv = np.column_stack([lu, lv])
+    try:
+        _require_spread("cone", uv - uv.mean(axis=0), 2, "collinear")
+        c2, rho0 = _hyper_fit(uv)
+    except FitError:
+        return []
+    x0 = c2[0] * e1 + c2[1] * e2
+    psi = 0.05
+    return [(x0, axis, psi, float(rho0 * np.cos(psi))) for axis in (a, -a)]
 
 
 def fit_cone(points: object, direction: object = None) -> FitResult:
@@ -974,7 +984,9 @@ def fit_cone(points: object, direction: object = None) -> FitResult:
         n ≥ 6 points.
     direction : (3,) array, optional
         Approximate axis direction (either sense) used as the starting value; the fitted
-        axis is free and points into the cone (the radius grows along it).
+        axis is free and points into the cone (the radius grows along it).  Give it for
+        sparse sets (fewer than 10 points on a partial cone), where the automatic axis
+        candidates can lead to a local minimum (compare ``rms`` with the probing noise).
 
     Returns
     -------
@@ -1018,13 +1030,10 @@ def fit_cone(points: object, direction: object = None) -> FitResult:
 
     best: _Solve | None = None
     for a in _candidate_axes(x, direction, kind):
-        try:
-            start = _cone_start(x, a)
-        except FitError:
-            continue
-        solve = _gauss_newton(evaluate, retract, start, scale)
-        if _better(solve, best):
-            best = solve
+        for start in _cone_starts(x, a):
+            solve = _gauss_newton(evaluate, retract, start, scale)
+            if _better(solve, best):
+                best = solve
     if best is None:
         raise FitError(f"{kind}: no starting axis gave a conical surface")
     x0, a, psi, s = best.state
