@@ -4,7 +4,7 @@ The point sets are stacked as ``(K, n, dim)``: K sets of n points each.  Every f
 same orthogonal-distance least-squares element as in
 :mod:`mtmetrology.fitting.least_squares` (they agree to 1e-10 mm), computed for all
 sets together: an algebraic start (Kåsa) from stacked normal equations, then Gauss–Newton
-on stacked ``(p × p)`` normal equations (``np.linalg.solve`` broadcasts over K) with a
+on stacked ``(p × p)`` normal equations (a Cholesky solve vectorised over K) with a
 per-set Levenberg–Marquardt safeguard and per-set convergence checks, iterating only
 the sets that have not converged.  Planes and lines use the stacked SVD.
 """
@@ -139,19 +139,51 @@ def _require_spread(kind: str, x: np.ndarray, rank: int, what: str) -> np.ndarra
 
 
 def _require_spread_scatter(kind: str, scatter: np.ndarray, first_index: int) -> None:
-    """Coplanarity check of centred 3-D sets from the eigenvalues of their 3×3 scatter
-    matrices (cheaper than the SVD of the points; the eigenvalues are squared singular
-    values, resolved down to ~1e-16 of the largest, so the threshold on the singular
-    value ratio is 1e-7)."""
-    lam = np.linalg.eigvalsh(scatter)  # (k, 3) ascending
-    bad = lam[:, 0] <= 1e-14 * lam[:, 2]
+    """Coplanarity check of centred 3-D sets from their 3×3 scatter matrices (k, 3, 3).
+
+    With eigenvalues λ1 ≤ λ2 ≤ λ3, ``det / m2`` (m2 the sum of the principal 2×2 minors)
+    lies in [λ1/3, λ1], so ``det ≤ 1e-14 · m2 · trace`` flags sets whose smallest
+    singular value is below ~1e-7 of the largest (exactly coplanar sets sit at the
+    rounding level ~1e-16); closed-form and much cheaper than stacked eigenvalues.
+    """
+    a, b, c = scatter[:, 0, 0], scatter[:, 1, 1], scatter[:, 2, 2]
+    d, e, f = scatter[:, 0, 1], scatter[:, 0, 2], scatter[:, 1, 2]
+    det = a * (b * c - f * f) - d * (d * c - f * e) + e * (d * f - b * e)
+    m2 = a * b - d * d + a * c - e * e + b * c - f * f
+    bad = det <= 1e-14 * m2 * (a + b + c)
     if bad.any():
         k = int(np.argmax(bad))
-        rel = np.sqrt(max(lam[k, 0], 0.0) / max(lam[k, 2], 1e-300))
+        lam = np.linalg.eigvalsh(scatter[k])
+        rel = np.sqrt(max(lam[0], 0.0) / max(lam[2], 1e-300))
         raise FitError(
             f"{kind}: {int(bad.sum())} set(s) are coplanar; first: set {first_index + k} "
             f"(relative singular value {rel:.1e} of its centred points)"
         )
+
+
+def _solve_spd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Solve stacked small symmetric positive-definite systems a x = b by Cholesky.
+
+    a : (k, p, p), b : (k, p) -> x (k, p).  Written out over the p ≤ 5 indices with
+    vector operations over k, which beats LAPACK's per-matrix call overhead for tiny
+    matrices.  A set whose matrix is not positive definite gets NaN.
+    """
+    k, p, _ = a.shape
+    chol = np.zeros((p, p, k))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for j in range(p):
+            diag = a[:, j, j] - sum(chol[j, m] ** 2 for m in range(j))
+            chol[j, j] = np.sqrt(np.where(diag > 0, diag, np.nan))
+            for i in range(j + 1, p):
+                off = a[:, i, j] - sum(chol[i, m] * chol[j, m] for m in range(j))
+                chol[i, j] = off / chol[j, j]
+        y = np.empty((p, k))
+        for i in range(p):
+            y[i] = (b[:, i] - sum(chol[i, m] * y[m] for m in range(i))) / chol[i, i]
+        x = np.empty((p, k))
+        for i in reversed(range(p)):
+            x[i] = (y[i] - sum(chol[m, i] * x[m] for m in range(i + 1, p))) / chol[i, i]
+    return x.T
 
 
 def _canonical(v: np.ndarray) -> np.ndarray:
@@ -181,7 +213,7 @@ def _kasa(xt: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     design[:, d] = 1.0
     design[:, d + 1] = 0.25 * _squared_norms(design[:, :d])
     m = np.matmul(design, design.transpose(0, 2, 1))  # (k, d + 2, d + 2)
-    sol = np.linalg.solve(m[:, : d + 1, : d + 1], m[:, : d + 1, d + 1 :])[..., 0]
+    sol = _solve_spd(m[:, : d + 1, : d + 1], m[:, : d + 1, d + 1])
     centres = sol[:, :d]
     radii = np.sqrt(np.maximum(sol[:, d] + np.sum(centres * centres, axis=1), 0.0))
     return centres * scale[:, None], radii * scale
@@ -229,21 +261,22 @@ def _round_gauss_newton(
         cost = m[:, d + 1, d + 1]
         lam_a = lam[active]
         damped = jtj + lam_a[:, None, None] * (np.eye(p) * jtj) if lam_a.any() else jtj
-        try:
-            step = np.linalg.solve(damped, -jtr[..., None])[..., 0]  # (k, p)
-        except np.linalg.LinAlgError:
-            # Some set has a singular system (e.g. the centre ran off to infinity): the
-            # pseudo-inverse keeps the others going and that set stops without converging.
-            step = np.matmul(np.linalg.pinv(damped), -jtr[..., None])[..., 0]
+        step = _solve_spd(damped, -jtr)  # (k, p); NaN where the system is singular
+        singular = ~np.all(np.isfinite(step), axis=1)
+        if singular.any():
+            # Such a set (e.g. its centre ran off to infinity) stops, not converged.
+            step[singular] = 0.0
         size = np.linalg.norm(step, axis=1)
         iterations[active] += 1
         # Near the solution the predicted decrease δᵀJᵀJδ is below the rounding noise of
         # the cost, so the cost can no longer judge steps (as in least_squares).
-        predicted = np.einsum("ki,kij,kj->k", step, jtj, step)
+        # δᵀJᵀJδ ≤ −δᵀJᵀd (equal for an undamped step), the cheaper bound is used.
+        predicted = -np.einsum("ki,ki->k", step, jtr)
         near = predicted <= _NEAR_REL * cost + xt.shape[2] * (_EPS * scale[active]) ** 2
         done = (size <= _STEP_TOL * scale[active]) | (near & (size >= previous[active]))
+        done &= ~singular
         converged[active[done]] = True
-        todo = ~done
+        todo = ~done & ~singular
         idx = active[todo]
         c_t = c[todo] + step[todo, :d]
         r_t = r[todo] if radius is not None else r[todo] + step[todo, d]
