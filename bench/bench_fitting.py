@@ -104,7 +104,7 @@ def main() -> None:
     print(
         f"scikit-spatial Sphere.best_fit loop: {t_sk:.1f} s for {SETS:,} sets "
         f"(timed on {LOOP_SETS:,}); ratio {t_sk / t_batch:.0f}x; "
-        f"max centre difference {dev:.1e} mm (its fit is algebraic, not orthogonal)"
+        f"max centre difference {dev:.1e} mm (its fit is the algebraic Kåsa fit, not orthogonal)"
     )
 
 

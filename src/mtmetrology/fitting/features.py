@@ -96,6 +96,12 @@ class GaugeLength:
 
     Points ``(..., 2, 3)``: the stylus-centre points probed on the two faces.  Seed 000
     Table 7-1 gives 499.9966 mm with ``d_tip`` = 5.925 mm.
+
+    Examples
+    --------
+    >>> q = [[-178.6461, -178.6461, 53.1107], [179.1009, 179.0881, 53.1067]]
+    >>> round(float(GaugeLength(tip_diameter=5.925).value(q)), 4)
+    499.9966
     """
 
     tip_diameter: float

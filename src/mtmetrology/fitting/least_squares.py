@@ -90,13 +90,13 @@ class FitResult:
     """
 
     element: Element
-    residuals: np.ndarray
+    residuals: np.ndarray = field(repr=False)
     rms: float
     form_error: float
     iterations: int
     converged: bool
     message: str
-    parameter_jacobian: np.ndarray
+    parameter_jacobian: np.ndarray = field(repr=False)
     # Residual sensitivities: d_i depends on its own point through direct (n, dim) and on
     # the local parameters through local (n, p) whose derivatives are local_jacobian.
     _direct: np.ndarray = field(repr=False)
@@ -600,6 +600,13 @@ def fit_sphere(points: object, radius: float | None = None) -> FitResult:
     Minimises ``Σ (‖p_i − c‖ − r)²`` (digest 000 §3.12; Forbes §4.6) from the algebraic
     hyper fit.  Coplanar points leave the free radius undetermined and a known-radius
     centre ambiguous (two mirror images), so both raise.
+
+    Examples
+    --------
+    >>> pts = [[10, 0, 0], [0, 10, 0], [-10, 0, 0], [0, -10, 0], [0, 0, 10]]
+    >>> fit = fit_sphere(pts)
+    >>> bool(np.allclose(fit.element.centre, 0.0, atol=1e-12)), round(fit.element.radius, 12)
+    (True, 10.0)
     """
     fixed = radius is not None
     kind = "sphere (known radius)" if fixed else "sphere"
@@ -665,6 +672,12 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
     centre (digest 001-003 §B2.2 eq. 4; Forbes §4.5: plane first, then circle in it).
     For the 3-D fit without a given plane, the parameter Jacobian includes the
     dependence on the fitted plane (two-stage chain rule).
+
+    Examples
+    --------
+    >>> fit = fit_circle([[31.75, 0], [0, 31.75], [-31.75, 0], [0, -31.75]])
+    >>> round(2 * fit.element.radius, 12), fit.form_error < 1e-12
+    (63.5, True)
     """
     p = _check_points(points, "circle", (2, 3), 3)
     x, centroid, scale = _centred(p)
