@@ -206,7 +206,11 @@ def test_fits_move_with_the_points(rot, off):
 # ---------------------------------------------------- high-precision references
 
 
-mp.mp.dps = 50
+@pytest.fixture(autouse=True)
+def _fifty_digits():
+    """mpmath at 50 significant digits for the reference fits, restored afterwards."""
+    with mp.workdps(50):
+        yield
 
 
 def _mp_gauss_newton(residuals, beta, iterations=40):
