@@ -9,18 +9,14 @@ from mtmetrology.uncertainty.executors import (
     ProcessPoolExecutor,
     resolve_executor,
 )
+from mtmetrology.uncertainty.inputs import InputSet
 from mtmetrology.uncertainty.mcm import ModelEvaluationError, monte_carlo
 
 
-class NormalInputs:
-    """Module-level, hence picklable for worker processes."""
-
-    def __init__(self, mean, std):
-        self.mean = np.asarray(mean, dtype=float)
-        self.std = np.asarray(std, dtype=float)
-
-    def sample(self, rng, size):
-        return rng.normal(self.mean, self.std, size=(size, self.mean.size))
+def normal_inputs(mean, std):
+    """Independent normal inputs x0, x1, ... as an InputSet (picklable for workers)."""
+    std = np.asarray(std, dtype=float)
+    return InputSet.from_covariance([f"x{i}" for i in range(std.size)], mean, np.diag(std**2))
 
 
 def product_and_ratio(x):
@@ -32,7 +28,7 @@ def logarithm(x):
     return np.log(x[:, 0])
 
 
-INPUTS = NormalInputs([2.0, 3.0], [0.2, 0.1])
+INPUTS = normal_inputs([2.0, 3.0], [0.2, 0.1])
 
 
 def assert_identical(first, second):
@@ -89,7 +85,7 @@ def test_adaptive_run_stops_at_the_same_sequence_for_any_worker_count():
 def test_model_errors_cross_the_process_boundary():
     with ProcessPoolExecutor(2) as pool, np.errstate(invalid="ignore"):
         with pytest.raises(ModelEvaluationError, match=r"output 0: \d+ trials"):
-            monte_carlo(logarithm, NormalInputs([0.5], [1.0]), trials=4_000, executor=pool)
+            monte_carlo(logarithm, normal_inputs([0.5], [1.0]), trials=4_000, executor=pool)
 
 
 @pytest.mark.slow

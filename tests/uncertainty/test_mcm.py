@@ -4,6 +4,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from mtmetrology.uncertainty.distributions import Rectangular
+from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
 from mtmetrology.uncertainty.mcm import (
     ModelEvaluationError,
     Tolerance,
@@ -13,40 +15,20 @@ from mtmetrology.uncertainty.mcm import (
 from mtmetrology.uncertainty.regions import coverage_intervals
 
 
-class NormalInputs:
-    """Independent normal inputs (a minimal stand-in for an InputSet)."""
-
-    def __init__(self, mean, std):
-        self.mean = np.asarray(mean, dtype=float)
-        self.std = np.asarray(std, dtype=float)
-
-    def sample(self, rng, size):
-        return rng.normal(self.mean, self.std, size=(size, self.mean.size))
+def normal_inputs(mean, std):
+    """Independent normal inputs x0, x1, ... as an InputSet (picklable for workers)."""
+    std = np.asarray(std, dtype=float)
+    return InputSet.from_covariance([f"x{i}" for i in range(std.size)], mean, np.diag(std**2))
 
 
-class CorrelatedNormalInputs:
-    def __init__(self, mean, covariance):
-        self.mean = np.asarray(mean, dtype=float)
-        self.factor = np.linalg.cholesky(np.asarray(covariance, dtype=float))
-
-    def sample(self, rng, size):
-        return self.mean + rng.standard_normal((size, self.mean.size)) @ self.factor.T
-
-
-class RectangularInputs:
-    def __init__(self, low, high):
-        self.low = np.asarray(low, dtype=float)
-        self.high = np.asarray(high, dtype=float)
-
-    def sample(self, rng, size):
-        return rng.uniform(self.low, self.high, size=(size, self.low.size))
+RECTANGULAR_PAIR = InputSet([InputQuantity(n, Rectangular(-1.0, 1.0)) for n in ("x0", "x1")])
 
 
 def total(x):
     return x.sum(axis=1)
 
 
-SUM_INPUTS = NormalInputs([1.0, 2.0, -1.0], [0.1, 0.2, 0.3])
+SUM_INPUTS = normal_inputs([1.0, 2.0, -1.0], [0.1, 0.2, 0.3])
 SUM_U = np.sqrt(0.1**2 + 0.2**2 + 0.3**2)  # 0.374166
 
 
@@ -83,7 +65,7 @@ def test_sum_of_two_equal_rectangulars_is_triangular():
     """R(−1, 1) + R(−1, 1) is triangular on [−2, 2]: P(Y ≤ −a) = (2 − a)²/8 = 0.025 gives
     the 95 % interval ±(2 − √0.2) = ±1.5528 (probabilistically symmetric and shortest).
     At M = 4·10⁵ each end has a standard deviation of 0.0022; tolerance 0.01."""
-    result = monte_carlo(total, RectangularInputs([-1, -1], [1, 1]), trials=400_000, seed=12)
+    result = monte_carlo(total, RECTANGULAR_PAIR, trials=400_000, seed=12)
     exact = np.array([-1.0, 1.0]) * (2.0 - np.sqrt(0.2))
     np.testing.assert_allclose(result.scalar.interval_symmetric, exact, atol=0.01)
     np.testing.assert_allclose(result.scalar.interval_shortest, exact, atol=0.015)
@@ -98,7 +80,7 @@ def test_linear_vector_model_matches_jcgm102_gaussian_results():
     M = 3·10⁵: covariance entries have relative standard deviations below 0.3 %, k_p 0.004."""
     a = np.array([[1.0, 2.0, 0.0], [0.5, -1.0, 1.0], [0.0, 1.0, 3.0]])
     covariance_x = np.array([[0.04, 0.01, 0.0], [0.01, 0.09, -0.02], [0.0, -0.02, 0.01]])
-    inputs = CorrelatedNormalInputs([1.0, 2.0, 3.0], covariance_x)
+    inputs = InputSet.from_covariance(["x0", "x1", "x2"], [1.0, 2.0, 3.0], covariance_x)
     result = monte_carlo(lambda x: x @ a.T, inputs, trials=300_000, seed=13)
     exact = a @ covariance_x @ a.T
     u = np.sqrt(np.diag(exact))
@@ -230,7 +212,7 @@ def test_coverage_of_the_mcm_interval_is_95_percent():
         assert 0.94 <= covered <= 0.96
     # monte_carlo gives the same interval as coverage_intervals on its own samples.
     run = monte_carlo(
-        total, NormalInputs([measured[0]], [sigma]), trials=1_000, seed=1, keep_samples=True
+        total, normal_inputs([measured[0]], [sigma]), trials=1_000, seed=1, keep_samples=True
     )
     np.testing.assert_array_equal(run.interval_symmetric, coverage_intervals(run.samples)[0])
 
@@ -239,7 +221,7 @@ def test_shortest_interval_of_an_asymmetric_output_is_strictly_shorter():
     """Y = X² with X ~ N(0, 1) (χ²_1): the shortest interval starts at 0, ≈ [0, 3.84]; the
     symmetric one is [χ²_1(0.025), χ²_1(0.975)] = [0.00098, 5.02]."""
     result = monte_carlo(
-        lambda x: x[:, 0] ** 2, NormalInputs([0.0], [1.0]), trials=200_000, seed=32
+        lambda x: x[:, 0] ** 2, normal_inputs([0.0], [1.0]), trials=200_000, seed=32
     )
     low, high = result.scalar.interval_shortest
     assert high - low < 0.8 * np.ptp(result.scalar.interval_symmetric)
@@ -273,7 +255,7 @@ def test_non_finite_model_values_name_trials_and_output():
     def log_model(x):
         return np.column_stack([x[:, 0], np.log(x[:, 1])])  # log of negative -> NaN
 
-    inputs = NormalInputs([1.0, 0.0], [0.1, 1.0])
+    inputs = normal_inputs([1.0, 0.0], [0.1, 1.0])
     with pytest.raises(ModelEvaluationError, match=r"output 1: \d+ trials") as error:
         with np.errstate(invalid="ignore", divide="ignore"):
             monte_carlo(log_model, inputs, trials=1_000, seed=41)

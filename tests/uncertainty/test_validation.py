@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from rich.console import Console
 
+from mtmetrology.uncertainty.inputs import InputSet
 from mtmetrology.uncertainty.mcm import monte_carlo
 from mtmetrology.uncertainty.validation import (
     Tolerance,
@@ -14,20 +15,17 @@ from mtmetrology.uncertainty.validation import (
 )
 
 
-class NormalInputs:
-    def __init__(self, mean, std):
-        self.mean = np.asarray(mean, dtype=float)
-        self.std = np.asarray(std, dtype=float)
-
-    def sample(self, rng, size):
-        return rng.normal(self.mean, self.std, size=(size, self.mean.size))
+def normal_inputs(mean, std):
+    """Independent normal inputs x0, x1, ... as an InputSet (picklable for workers)."""
+    std = np.asarray(std, dtype=float)
+    return InputSet.from_covariance([f"x{i}" for i in range(std.size)], mean, np.diag(std**2))
 
 
 def test_linear_scalar_model_is_validated():
     """Y = X1 + 2 X2, X ~ N((1, 2), diag(0.1², 0.2²)): GUF is exact, y = 5, u = 0.4123.
     δ = 0.005 (2 digits of u). At M = 10⁶ the MCM interval ends have standard deviations of
     about 0.0012, so d_low and d_high are well inside δ."""
-    inputs = NormalInputs([1.0, 2.0], [0.1, 0.2])
+    inputs = normal_inputs([1.0, 2.0], [0.1, 0.2])
     mcm = monte_carlo(lambda x: x[:, 0] + 2 * x[:, 1], inputs, trials=1_000_000, seed=1)
     u = np.sqrt(0.1**2 + 4 * 0.2**2)
     report = validate_guf(5.0, u**2, mcm, tolerance=0.005)
@@ -45,7 +43,7 @@ def test_linear_vector_model_is_validated_with_jcgm102_rows():
     """Y = A X with m = 2: rows for y and u of each output, λ_max and k_p (2m + 2 rows);
     GUF k_p = sqrt(χ²_2(0.95)) = 2.4477 against the sample k_p."""
     a = np.array([[1.0, 1.0, 0.0], [0.0, 1.0, 1.0]])
-    inputs = NormalInputs([1.0, 2.0, 3.0], [0.1, 0.2, 0.3])
+    inputs = normal_inputs([1.0, 2.0, 3.0], [0.1, 0.2, 0.3])
     mcm = monte_carlo(lambda x: x @ a.T, inputs, adaptive=True, seed=2)
     covariance = a @ np.diag([0.01, 0.04, 0.09]) @ a.T
     report = validate_guf(
@@ -64,7 +62,7 @@ def test_linear_vector_model_is_validated_with_jcgm102_rows():
 def test_square_of_a_normal_is_not_validated_and_names_the_failing_rows():
     """Y = X², X ~ N(0, 1): the GUF linearisation gives y = 0, u = 0 (zero sensitivity),
     while the output is χ²_1 with the symmetric interval [0.001, 5.02]; d_high ≈ 5 ≫ δ."""
-    mcm = monte_carlo(lambda x: x[:, 0] ** 2, NormalInputs([0.0], [1.0]), trials=100_000, seed=3)
+    mcm = monte_carlo(lambda x: x[:, 0] ** 2, normal_inputs([0.0], [1.0]), trials=100_000, seed=3)
     report = validate_guf(0.0, 0.0, mcm, tolerance=0.05)
     assert not report.passed
     assert [row.quantity for row in report.failed] == ["interval high"]
@@ -80,7 +78,7 @@ def test_polar_coordinates_of_jcgm102_9_3_are_not_validated():
     def polar(x):
         return np.column_stack([np.hypot(x[:, 0], x[:, 1]), np.arctan2(x[:, 1], x[:, 0])])
 
-    mcm = monte_carlo(polar, NormalInputs([0.001, 0.0], [0.01, 0.01]), trials=200_000, seed=4)
+    mcm = monte_carlo(polar, normal_inputs([0.001, 0.0], [0.01, 0.01]), trials=200_000, seed=4)
     jacobian = np.array([[1.0, 0.0], [0.0, 1.0 / 0.001]])  # ∂(R, Φ)/∂(X1, X2) at (0.001, 0)
     covariance = jacobian @ np.diag([1e-4, 1e-4]) @ jacobian.T
     report = validate_guf(
@@ -110,7 +108,7 @@ def test_default_rho_and_kappa_follow_two_digits_of_the_mcm_values():
     """Without a Tolerance, ρ and κ_p are ½·10^l of λ_max and k_p to two digits
     (λ ≈ 1.6 and k_p ≈ 2.45 both give 0.05, the seed 000 values)."""
     a = np.array([[1.0, 1.0, 0.0], [0.0, 1.0, 1.0]])
-    mcm = monte_carlo(lambda x: x @ a.T, NormalInputs([0, 0, 0], [1, 1, 1]), trials=50_000, seed=5)
+    mcm = monte_carlo(lambda x: x @ a.T, normal_inputs([0, 0, 0], [1, 1, 1]), trials=50_000, seed=5)
     report = validate_guf([0.0, 0.0], a @ a.T, mcm, tolerance=0.05)
     tolerances = {row.quantity: row.tolerance for row in report.rows}
     assert tolerances["largest eigenvalue"] == pytest.approx(0.05)
@@ -119,7 +117,7 @@ def test_default_rho_and_kappa_follow_two_digits_of_the_mcm_values():
 
 def test_t_factor_and_explicit_interval_for_one_output():
     """GUF interval from a t-factor (finite ν_eff) or given directly."""
-    inputs = NormalInputs([0.0], [1.0])
+    inputs = normal_inputs([0.0], [1.0])
     mcm = monte_carlo(lambda x: x[:, 0], inputs, trials=200_000, seed=6)
     wide = validate_guf(0.0, 1.0, mcm, tolerance=0.05, guf_coverage_factor=2.57)  # t_95(5)
     assert not wide.passed  # 2.57 − 1.96 = 0.61 ≫ 0.05
@@ -128,7 +126,7 @@ def test_t_factor_and_explicit_interval_for_one_output():
 
 
 def test_report_renders_as_text_dict_and_rich_table():
-    mcm = monte_carlo(lambda x: x[:, 0] ** 2, NormalInputs([0.0], [1.0]), trials=10_000, seed=7)
+    mcm = monte_carlo(lambda x: x[:, 0] ** 2, normal_inputs([0.0], [1.0]), trials=10_000, seed=7)
     report = validate_guf(0.0, 0.0, mcm, tolerance=0.05, names=["square"])
     text = report.to_text()
     assert "FAIL" in text and "square" in text and "interval high" in text
@@ -156,7 +154,7 @@ def test_report_renders_as_text_dict_and_rich_table():
     ],
 )
 def test_bad_input_is_refused(kwargs, match):
-    mcm = monte_carlo(lambda x: x[:, 0], NormalInputs([0.0], [1.0]), trials=2_000, seed=8)
+    mcm = monte_carlo(lambda x: x[:, 0], normal_inputs([0.0], [1.0]), trials=2_000, seed=8)
     arguments = {"guf_estimate": 0.0, "guf_covariance": 1.0, "tolerance": 0.05} | kwargs
     estimate = arguments.pop("guf_estimate")
     covariance = arguments.pop("guf_covariance")
@@ -166,6 +164,6 @@ def test_bad_input_is_refused(kwargs, match):
 
 def test_asymmetric_guf_covariance_is_refused():
     a = np.eye(2)
-    mcm = monte_carlo(lambda x: x @ a, NormalInputs([0, 0], [1, 1]), trials=2_000, seed=9)
+    mcm = monte_carlo(lambda x: x @ a, normal_inputs([0, 0], [1, 1]), trials=2_000, seed=9)
     with pytest.raises(ValueError, match="symmetric"):
         validate_guf([0, 0], [[1.0, 0.5], [0.2, 1.0]], mcm, tolerance=0.1)
