@@ -118,13 +118,8 @@ class Normal(Distribution):
 
 
 @dataclass(frozen=True)
-class Rectangular(Distribution):
-    """Uniform on [low, high] (JCGM 101:2008, 6.4.2).
-
-    Notes
-    -----
-    E = (low + high)/2, u = (high − low)/√12 = a/√3 with half-width a.
-    """
+class _SymmetricInterval(Distribution):
+    """A distribution symmetric about the centre of [low, high]: E = (low + high)/2."""
 
     low: float
     high: float
@@ -137,6 +132,16 @@ class Rectangular(Distribution):
     @property
     def mean(self) -> float:
         return 0.5 * (self.low + self.high)
+
+
+@dataclass(frozen=True)
+class Rectangular(_SymmetricInterval):
+    """Uniform on [low, high] (JCGM 101:2008, 6.4.2).
+
+    Notes
+    -----
+    E = (low + high)/2, u = (high − low)/√12 = a/√3 with half-width a.
+    """
 
     @property
     def standard_uncertainty(self) -> float:
@@ -186,7 +191,7 @@ class Triangular(Distribution):
 
 
 @dataclass(frozen=True)
-class Trapezoidal(Distribution):
+class Trapezoidal(_SymmetricInterval):
     """Symmetric trapezoid on [low, high]; ``beta`` is top width / base width (JCGM 101, 6.4.4).
 
     Notes
@@ -196,22 +201,14 @@ class Trapezoidal(Distribution):
     β = 0 is triangular, β = 1 rectangular.
     """
 
-    low: float
-    high: float
     beta: float
 
     def __post_init__(self):
-        lo, hi = _limits(self.low, self.high)
+        super().__post_init__()
         beta = _finite("beta", self.beta)
         if not 0.0 <= beta <= 1.0:
             raise ValueError(f"beta must lie in [0, 1], got {beta}")
-        object.__setattr__(self, "low", lo)
-        object.__setattr__(self, "high", hi)
         object.__setattr__(self, "beta", beta)
-
-    @property
-    def mean(self) -> float:
-        return 0.5 * (self.low + self.high)
 
     @property
     def standard_uncertainty(self) -> float:
@@ -224,7 +221,7 @@ class Trapezoidal(Distribution):
 
 
 @dataclass(frozen=True)
-class CurvilinearTrapezoid(Distribution):
+class CurvilinearTrapezoid(_SymmetricInterval):
     """Rectangular with inexactly known limits low ± d, high ± d (JCGM 101:2008, 6.4.3).
 
     Notes
@@ -234,24 +231,17 @@ class CurvilinearTrapezoid(Distribution):
     (6.4.3.4).  Requires d <= (high − low)/2.
     """
 
-    low: float
-    high: float
     d: float
 
     def __post_init__(self):
-        lo, hi = _limits(self.low, self.high)
+        super().__post_init__()
+        lo, hi = self.low, self.high
         d = _nonnegative("d", self.d)
         if d > 0.5 * (hi - lo):
             raise ValueError(
                 f"d ({d}) must not exceed the half-width (high - low)/2 = {0.5 * (hi - lo)}"
             )
-        object.__setattr__(self, "low", lo)
-        object.__setattr__(self, "high", hi)
         object.__setattr__(self, "d", d)
-
-    @property
-    def mean(self) -> float:
-        return 0.5 * (self.low + self.high)
 
     @property
     def standard_uncertainty(self) -> float:
@@ -265,7 +255,7 @@ class CurvilinearTrapezoid(Distribution):
 
 
 @dataclass(frozen=True)
-class Arcsine(Distribution):
+class Arcsine(_SymmetricInterval):
     """Arcsine (U-shaped) on [low, high] (JCGM 101:2008, 6.4.6).
 
     Notes
@@ -273,18 +263,6 @@ class Arcsine(Distribution):
     E = (low + high)/2, u = (high − low)/√8 = a/√2; sampled as
     (low + high)/2 + (high − low)/2 · sin(2π r) (6.4.6.4).
     """
-
-    low: float
-    high: float
-
-    def __post_init__(self):
-        lo, hi = _limits(self.low, self.high)
-        object.__setattr__(self, "low", lo)
-        object.__setattr__(self, "high", hi)
-
-    @property
-    def mean(self) -> float:
-        return 0.5 * (self.low + self.high)
 
     @property
     def standard_uncertainty(self) -> float:
