@@ -198,7 +198,8 @@ def uncertainty_and_fit() -> None:
         f"end gauge: GUF u_c = {g.standard_uncertainty[0]:.1f} nm (GUM H.1: 32 nm), "
         f"ν_eff = {g.dof_effective[0]:.1f}, U99 = {g.expanded_uncertainty[0]:.0f} nm; "
         f"Monte Carlo u = {mc.standard_uncertainty[0]:.1f} nm; "
-        f"GUF validated at δ = 0.5 nm: {'yes' if report.passed else 'no'}"
+        f"GUF validated at δ = 0.5 nm: {'yes' if report.passed else 'no'} (the product terms "
+        f"δα·θ and α_s·δθ are not linear: GUM H.1.7 gives 34 nm to second order)"
     )
     rng = np.random.default_rng(SEED)
     d = rng.standard_normal((25, 3))
