@@ -60,6 +60,14 @@ def test_show_json_lists_parameters_with_units():
     assert [a["axis"] for a in doc["axes"]] == ["X", "Y", "Z", "B", "C", "S"]
     result = runner.invoke(app, ["machine", "show", "five-axis-wcbxfzyst", "--model", "84"])
     assert result.exit_code == 0 and "84 parameters" in result.output
+    result = runner.invoke(
+        app, ["machine", "show", "three-axis-xfyz", "--catalogue", "--degree", "2", "--json"]
+    )
+    doc = json.loads(result.output)
+    # 3 axes x (6 location + 6 x 3 motion coefficients + 6 reversal terms)
+    assert len(doc["parameters"]) == 3 * (6 + 18 + 6)
+    units = {p["name"]: p["unit"] for p in doc["parameters"]}
+    assert units["E_XX2"] == "µm" and units["E_B0Z"] == "µrad"  # Legendre: error units
 
 
 def test_check_reports_every_model_and_names_bad_fields(tmp_path):

@@ -104,10 +104,19 @@ def _describe(machine: Machine) -> dict:
 def show(
     machine: MachineArg,
     model: ModelOpt = None,
+    catalogue: Annotated[
+        bool,
+        typer.Option(
+            "--catalogue", help="List every candidate error parameter of the topology instead."
+        ),
+    ] = False,
+    degree: Annotated[int, typer.Option(help="Highest error-motion degree in the catalogue.")] = 3,
     json: Annotated[bool, typer.Option("--json", help="Print a JSON document.")] = False,
 ) -> None:
     """Show a machine: axes, and the parameters of its error model with units."""
     m = Machine.load(machine, model)
+    if catalogue:
+        m = m.with_parameters([p.name for p in m.catalogue(degree)])
     doc = _describe(m)
     if json:
         print_json(doc)
@@ -131,7 +140,8 @@ def show(
             a["basis"],
         )
     console.print(at)
-    pt = RichTable(title=f"error model {m.model_name}: {m.n_params} parameters")
+    title = "catalogue" if catalogue else f"error model {m.model_name}"
+    pt = RichTable(title=f"{title}: {m.n_params} parameters")
     for col in ("parameter", "unit", "meaning"):
         pt.add_column(col)
     for p in doc["parameters"]:
