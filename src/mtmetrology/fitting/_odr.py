@@ -1,0 +1,335 @@
+"""Machinery shared by the orthogonal-distance least-squares fits.
+
+The result object, input checks, Gauss–Newton with a Levenberg–Marquardt safeguard,
+local frames and the algebraic starting values used by :mod:`.least_squares` (line,
+plane, circle, sphere) and :mod:`.axial` (cylinder, cone).  See
+:mod:`mtmetrology.fitting.least_squares` for the definitions and references.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+
+from mtmetrology.fitting.elements import Element
+
+# A singular value below this fraction of the largest marks a degenerate point set.
+_DEGENERATE = 1e-10
+# Gauss–Newton stops when the step is below this fraction of the data size.
+_STEP_TOL = 1e-13
+# Steps whose predicted relative cost decrease is below this are accepted whatever the
+# (rounding-level) change of the cost; the iteration ends when they stop contracting.
+_NEAR_REL = 1e-10
+_EPS = float(np.finfo(float).eps)
+_MAX_ITER = 200
+
+
+class FitError(ValueError):
+    """A point set from which the requested element cannot be fitted."""
+
+
+@dataclass(frozen=True, eq=False)
+class FitResult:
+    """Result of an orthogonal-distance least-squares fit.
+
+    Attributes
+    ----------
+    element : Element
+        The fitted element (mm, rad).
+    residuals : (n,) array, mm
+        Signed orthogonal distances of the points to the element.
+    rms : float, mm
+        Root mean square of the residuals.
+    form_error : float, mm
+        Peak-to-valley ``max − min`` of the residuals (for a 3-D line, whose distances are
+        unsigned, ``2·max``: the diameter of the coaxial cylinder containing the points).
+    iterations : int
+        Gauss–Newton iterations (0 for the closed-form SVD fits).
+    converged : bool
+    message : str
+    parameter_jacobian : (n_params, n, dim) array
+        dθ/dP of ``element.parameters`` with respect to the point coordinates
+        (first-order implicit-function form, see the module notes).
+    """
+
+    element: Element
+    residuals: np.ndarray = field(repr=False)
+    rms: float
+    form_error: float
+    iterations: int
+    converged: bool
+    message: str
+    parameter_jacobian: np.ndarray = field(repr=False)
+    # Residual sensitivities: d_i depends on its own point through direct (n, dim) and on
+    # the local parameters through local (n, p) whose derivatives are local_jacobian.
+    _direct: np.ndarray = field(repr=False)
+    _local: np.ndarray = field(repr=False)
+    _local_jacobian: np.ndarray = field(repr=False)
+
+    @property
+    def parameters(self) -> np.ndarray:
+        return self.element.parameters
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return self.element.parameter_names
+
+    def parameter_covariance(self, sigma: float) -> np.ndarray:
+        """Covariance of the parameters for independent isotropic point noise.
+
+        Parameters
+        ----------
+        sigma : float, mm
+            Standard deviation of every point coordinate.
+
+        Returns
+        -------
+        (n_params, n_params) array
+            ``σ² G Gᵀ`` with ``G`` the parameter Jacobian flattened to
+            ``(n_params, n·dim)`` (GUM 5.1.2 in matrix form, JCGM 102:2011, 6.2.1.3).
+        """
+        s = float(sigma)
+        if not np.isfinite(s) or s < 0:
+            raise ValueError(f"sigma must be a non-negative finite number, got {sigma!r}")
+        g = self.parameter_jacobian.reshape(self.parameter_jacobian.shape[0], -1)
+        return s * s * (g @ g.T)
+
+    def residual_jacobian(self) -> np.ndarray:
+        """d(residual_i)/d(P_j), shape ``(n, n, dim)`` (first-order form).
+
+        Form errors (max − min residual) differentiate through it.
+        """
+        out = np.einsum("ip,pjd->ijd", self._local, self._local_jacobian)
+        idx = np.arange(out.shape[0])
+        out[idx, idx, :] += self._direct
+        return out
+
+
+def _check_points(points: object, kind: str, dims: tuple[int, ...], min_points: int) -> np.ndarray:
+    """Validate a point array at the public boundary; return a float (n, d) copy."""
+    try:
+        arr = np.array(points, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise FitError(f"{kind}: points must be a numeric (n, d) array ({exc})") from exc
+    if arr.ndim != 2 or arr.shape[1] not in dims:
+        want = " or ".join(f"(n, {d})" for d in dims)
+        raise FitError(f"{kind}: points must have shape {want}, got {arr.shape}")
+    bad = ~np.all(np.isfinite(arr), axis=1)
+    if bad.any():
+        rows = np.flatnonzero(bad)
+        raise FitError(
+            f"{kind}: {rows.size} point(s) contain NaN or inf (first at row {int(rows[0])})"
+        )
+    if arr.shape[0] < min_points:
+        raise FitError(
+            f"{kind}: {arr.shape[0]} points are fewer than the {min_points} needed "
+            f"to determine the element"
+        )
+    return arr
+
+
+def _singular_values(x: np.ndarray) -> np.ndarray:
+    return np.linalg.svd(x, compute_uv=False)
+
+
+def _require_spread(kind: str, centred: np.ndarray, rank: int, what: str, hint: str = "") -> None:
+    """Raise unless the centred points span at least ``rank`` dimensions."""
+    s = _singular_values(centred)
+    if s[0] == 0.0 or s[rank - 1] <= _DEGENERATE * s[0]:
+        rel = 0.0 if s[0] == 0.0 else s[rank - 1] / s[0]
+        raise FitError(
+            f"{kind}: the {centred.shape[0]} points are {what} (relative singular value "
+            f"{rel:.1e} of the centred points){hint}"
+        )
+
+
+def _canonical(v: np.ndarray) -> np.ndarray:
+    """Sign convention for undirected axes and normals: largest component positive."""
+    return v if v[np.argmax(np.abs(v))] > 0 else -v
+
+
+def _perp_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors completing ``a`` to a right-handed orthonormal frame.
+
+    A deterministic function of ``a``: evaluation and update use the same frame.
+    """
+    helper = np.eye(3)[int(np.argmin(np.abs(a)))]
+    e1 = np.cross(a, helper)
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(a, e1)
+
+
+def _local_to_points(j: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """dβ/dP = −J⁺ ∂d/∂P for residuals grouped per point.
+
+    j : (n, q, p) Jacobian of the q residuals of each point w.r.t. local parameters β.
+    g : (n, q, dim) derivative of each residual w.r.t. its own point.
+    Returns (p, n, dim).
+    """
+    n, q, p = j.shape
+    a = -np.linalg.pinv(j.reshape(n * q, p)).reshape(p, n, q)
+    return np.einsum("pnq,nqd->pnd", a, g)
+
+
+def _check_conditioning(kind: str, j: np.ndarray, names: str) -> None:
+    s = _singular_values(j)
+    if s[-1] <= 1e-12 * s[0]:
+        raise FitError(
+            f"{kind}: the parameters ({names}) are not determined by these points "
+            f"(Jacobian condition number {s[0] / max(s[-1], 1e-300):.1e})"
+        )
+
+
+@dataclass
+class _Solve:
+    state: Any
+    iterations: int
+    converged: bool
+    cost: float
+
+
+def _gauss_newton(
+    evaluate: Callable[[Any], tuple[np.ndarray, np.ndarray]],
+    retract: Callable[[Any, np.ndarray], Any],
+    state: Any,
+    scale: float,
+) -> _Solve:
+    """Gauss–Newton with a Levenberg–Marquardt safeguard.
+
+    ``evaluate(state) -> (d (m,), J (m, p))``; ``retract(state, δ)`` applies a step in the
+    local parameters and returns the new state (None if it leaves the domain).  A pure
+    Gauss–Newton step is tried first; if it does not lower the cost, the damped step
+    ``(JᵀJ + λ diag(JᵀJ)) δ = −Jᵀd`` is used with growing λ (Moré's scaling), and λ is
+    relaxed again after each success.
+    """
+    d, jac = evaluate(state)
+    cost = float(d @ d)
+    lam = 0.0
+    previous = np.inf  # last accepted step size in the near-converged regime
+    for it in range(1, _MAX_ITER + 1):
+        if lam == 0.0:
+            step = np.linalg.lstsq(jac, -d, rcond=None)[0]
+        else:
+            dscale = np.sqrt(lam) * np.maximum(np.linalg.norm(jac, axis=0), 1e-300)
+            aug = np.vstack([jac, np.diag(dscale)])
+            rhs = np.concatenate([-d, np.zeros(jac.shape[1])])
+            step = np.linalg.lstsq(aug, rhs, rcond=None)[0]
+        size = float(np.linalg.norm(step))
+        # Near the solution the predicted decrease ‖Jδ‖² is below the rounding noise of
+        # the cost, so the cost can no longer judge steps.
+        predicted = float(np.sum((jac @ step) ** 2))
+        near = predicted <= _NEAR_REL * cost + d.size * (_EPS * scale) ** 2
+        # Converged: a negligible step, or near the solution steps stopped contracting
+        # (they are rounding noise).
+        if size <= _STEP_TOL * scale or (near and size >= previous):
+            return _Solve(state, it, True, cost)
+        trial = retract(state, step)
+        if trial is not None:
+            d_t, jac_t = evaluate(trial)
+            cost_t = float(d_t @ d_t)
+            # Near the solution the cost changes by less than its rounding error, so the
+            # step sizes decide convergence; far from it the cost must not increase.
+            if cost_t <= (cost * (1.0 + 1e-9) if near else cost):
+                state, d, jac, cost = trial, d_t, jac_t, cost_t
+                previous = size if near else np.inf
+                lam = 0.0 if lam <= 1e-6 else lam / 10.0
+                continue
+        previous = np.inf
+        lam = 1e-3 if lam == 0.0 else lam * 10.0
+        if lam > 1e12:
+            return _Solve(state, it, False, cost)
+    return _Solve(state, _MAX_ITER, False, cost)
+
+
+def _better(solve: _Solve, best: _Solve | None) -> bool:
+    """Whether a fit from another starting value beats the best so far: converged first,
+    then a cost lower beyond rounding (ties keep the earlier, preferred candidate)."""
+    if best is None or (solve.converged and not best.converged):
+        return True
+    return solve.converged == best.converged and solve.cost < best.cost * (1.0 - 1e-9)
+
+
+def _message(kind: str, solve: _Solve, rms: float) -> str:
+    if solve.converged:
+        return f"{kind}: converged in {solve.iterations} iterations (rms {rms:.3g} mm)"
+    return (
+        f"{kind}: not converged after {solve.iterations} iterations "
+        f"(rms {rms:.3g} mm); the result is the best point reached"
+    )
+
+
+def _result(
+    element: Element,
+    residuals: np.ndarray,
+    iterations: int,
+    converged: bool,
+    message: str,
+    jacobian: np.ndarray,
+    direct: np.ndarray,
+    local: np.ndarray,
+    local_jacobian: np.ndarray,
+    form_error: float | None = None,
+) -> FitResult:
+    rms = float(np.sqrt(np.mean(residuals**2)))
+    pv = float(residuals.max() - residuals.min()) if form_error is None else form_error
+    return FitResult(
+        element=element,
+        residuals=residuals,
+        rms=rms,
+        form_error=pv,
+        iterations=iterations,
+        converged=converged,
+        message=message,
+        parameter_jacobian=jacobian,
+        _direct=direct,
+        _local=local,
+        _local_jacobian=local_jacobian,
+    )
+
+
+def _centred(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    centroid = points.mean(axis=0)
+    x = points - centroid
+    scale = float(np.sqrt(np.mean(np.sum(x * x, axis=1))))
+    return x, centroid, scale
+
+
+def _hyper_fit(x: np.ndarray) -> tuple[np.ndarray, float]:
+    """Algebraic "hyper" circle/sphere fit of centred points x (n, d).
+
+    Minimises ``AᵀMA`` subject to ``AᵀNA = 1`` for ``A0‖x‖² + b·x + c = 0`` with the
+    hyper constraint ``N = 2 N_Taubin − N_Pratt`` (Al-Sharadqah & Chernov, Electron. J.
+    Stat. 3 (2009) 886), which has no essential bias; used only as a starting value.
+    """
+    n, d = x.shape
+    scale = float(np.sqrt(np.mean(np.sum(x * x, axis=1))))
+    y = x / scale
+    z = np.sum(y * y, axis=1)
+    zmat = np.column_stack([z, y, np.ones(n)])  # (n, d + 2)
+    m = zmat.T @ zmat / n
+    nmat = np.zeros((d + 2, d + 2))
+    nmat[0, 0] = 8.0 * z.mean()
+    nmat[0, 1 : d + 1] = nmat[1 : d + 1, 0] = 4.0 * y.mean(axis=0)
+    nmat[1 : d + 1, 1 : d + 1] = np.eye(d)
+    nmat[0, d + 1] = nmat[d + 1, 0] = 2.0
+    eta, vecs = scipy.linalg.eig(m, nmat)
+    eta = np.real_if_close(eta, tol=1e6)
+    ok = np.isfinite(eta) & (np.abs(np.imag(eta)) == 0)
+    eta_r = np.real(eta)
+    ok &= eta_r >= -1e-10 * np.max(np.abs(eta_r[ok])) if ok.any() else ok
+    if not ok.any():
+        raise FitError("no admissible algebraic circle/sphere")
+    k = np.flatnonzero(ok)[np.argmin(eta_r[ok])]
+    a = np.real(vecs[:, k])
+    if abs(a[0]) <= 1e-14 * np.linalg.norm(a):
+        raise FitError("the points lie on a line/plane: no finite circle/sphere")
+    centre = -a[1 : d + 1] / (2.0 * a[0])
+    r2 = float(centre @ centre - a[d + 1] / a[0])
+    radius = float(np.sqrt(max(r2, 0.0)))
+    if radius == 0.0:
+        radius = float(np.mean(np.linalg.norm(y - centre, axis=1)))
+    return centre * scale, radius * scale

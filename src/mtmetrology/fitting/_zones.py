@@ -1,0 +1,126 @@
+"""Shared pieces of the Chebyshev-type fits: the result object and input checks.
+
+Used by :mod:`.minimum_zone` (exact hull methods) and :mod:`.chebyshev` (sequential
+linear programming); see :mod:`mtmetrology.fitting.minimum_zone` for the definitions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from mtmetrology.fitting.elements import Circle, Cylinder, Line, Plane, Sphere
+from mtmetrology.fitting.least_squares import FitError
+
+Kind = Literal["zone", "outer", "inner"]
+
+# Contacts are the points within this fraction of the point-set size of a zone boundary:
+# far below any form error a CMM resolves, far above the rounding of the distances.
+_CONTACT_RTOL = 1e-9
+_MAX_ITERATIONS = 200
+
+
+@dataclass(frozen=True)
+class ZoneResult:
+    """A Chebyshev-type reference element and the zone it defines.
+
+    Attributes
+    ----------
+    element : Line, Plane, Circle, Sphere or Cylinder
+        The reference element: the mid-zone element for a minimum zone (mid plane, mean
+        circle of the two concentric circles, ...), the axis of the smallest enclosing
+        cylinder for a 3-D straightness, and the inscribed or circumscribed element itself.
+    method : {"minimum-zone", "inscribed", "circumscribed"}
+        What was solved.
+    form_error : float
+        Zone width, mm: the distance between the two planes or lines, the radial separation
+        of the two circles, spheres or cylinders; the diameter of the smallest enclosing
+        cylinder for a 3-D straightness; for an inscribed or circumscribed element the
+        radial range of the points about it.
+    bounds : tuple of float
+        The two zone boundaries, mm: (inner, outer) radii for circles, spheres and
+        cylinders; signed offsets (-t/2, t/2) of the two parallel lines or planes from the
+        mid element; (0, radius) of the enclosing cylinder for a 3-D straightness.
+    residuals : (n,) ndarray
+        Deviations of the points from ``element``, mm (signed normal distances; radial
+        distances from the axis for a 3-D straightness).
+    contacts : (m,) ndarray of int
+        Indices of the points on the zone boundaries: those that define the zone.
+    least_squares_form_error : float
+        Peak-to-valley of the residuals of the least-squares element the iteration
+        started from, mm (same definition as ``form_error``), for comparison.
+    iterations : int
+        Linear programmes solved (0 for the exact hull methods).
+    converged : bool
+        Whether the stopping test was met.
+    message : str
+        What happened, in words.
+    """
+
+    element: Line | Plane | Circle | Sphere | Cylinder
+    method: str
+    form_error: float
+    bounds: tuple[float, float]
+    residuals: np.ndarray = field(repr=False)
+    contacts: np.ndarray
+    least_squares_form_error: float
+    iterations: int
+    converged: bool
+    message: str
+
+
+# --------------------------------------------------------------------------------------
+# input checks
+
+
+def _check_points(points, dims: tuple[int, ...], min_points: int, what: str) -> np.ndarray:
+    """Points as a float (n, dim) array, refused with a clear message when unusable."""
+    p = np.asarray(points, dtype=float)
+    if p.ndim != 2 or p.shape[1] not in dims:
+        shapes = " or ".join(f"(n, {d})" for d in dims)
+        raise FitError(f"points for {what} must be an array of shape {shapes}, got {p.shape}")
+    if not np.all(np.isfinite(p)):
+        bad = int(np.flatnonzero(~np.all(np.isfinite(p), axis=1))[0])
+        raise FitError(f"points for {what}: point {bad} is not finite (NaN or infinite)")
+    if len(p) < min_points:
+        raise FitError(f"{what} needs at least {min_points} points, got {len(p)}")
+    return p
+
+
+def _principal_axes(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Centroid, singular values and principal directions (rows) of a point set."""
+    centroid = p.mean(axis=0)
+    _, s, vt = np.linalg.svd(p - centroid, full_matrices=False)
+    return centroid, s, vt
+
+
+def _require_spread(s: np.ndarray, rank: int, what: str, degenerate: str) -> None:
+    """Refuse a point set whose centred coordinates have rank below ``rank``."""
+    if s[0] == 0.0 or s[rank - 1] <= 1e-10 * s[0]:
+        raise FitError(f"{what} is undefined: the points are {degenerate}")
+
+
+def _check_normal(normal) -> np.ndarray:
+    n = np.asarray(normal, dtype=float)
+    if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) == 0.0:
+        raise FitError(f"normal must be a finite, non-zero 3-vector, got {normal!r}")
+    return n / np.linalg.norm(n)
+
+
+def _plane_basis(normal: np.ndarray) -> np.ndarray:
+    """Rows u, v, n: a right-handed orthonormal frame whose third axis is ``normal``."""
+    helper = np.eye(3)[int(np.argmin(np.abs(normal)))]
+    u = np.cross(normal, helper)
+    u /= np.linalg.norm(u)
+    return np.stack([u, np.cross(normal, u), normal])
+
+
+def _contacts(values: np.ndarray, level: float, tol: float) -> np.ndarray:
+    return np.flatnonzero(np.abs(values - level) <= tol)
+
+
+def _size(p: np.ndarray) -> float:
+    """Radius of the point set about its centroid: the scale of its coordinates."""
+    return float(np.max(np.linalg.norm(p - p.mean(axis=0), axis=1)))
