@@ -160,3 +160,20 @@ def test_predict_bad_input_names_file_and_column(tmp_path):
     rec.write_text("X,Y,Z,B,C\n1,2,nan,4,5\n")
     result = runner.invoke(app, ["predict", "--machine", "five-axis-wcbxfzyst", str(rec)])
     assert result.exit_code == 2 and "line 2" in result.output
+
+
+def test_predict_with_backlash_needs_sense_columns(tmp_path):
+    m = Machine.load("five-axis-wcbxfzyst", "84")
+    values = np.zeros(m.n_params)
+    values[m.parameter_names.index("E_BBb")] = 5e-6
+    ParameterSet(m.parameter_names, values, m.parameter_units).save(tmp_path / "p.yaml")
+    rec = tmp_path / "rec.csv"
+    rec.write_text("X,Y,Z,B,C\n10,20,30,45,90\n")
+    args = ["predict", "--machine", "five-axis-wcbxfzyst", "--params", str(tmp_path / "p.yaml")]
+    result = runner.invoke(app, [*args, str(rec)])
+    assert result.exit_code == 2 and "sense_B" in result.output
+    rec.write_text("X,Y,Z,B,C,sense_B\n10,20,30,45,90,1\n10,20,30,45,90,-1\n")
+    result = runner.invoke(app, [*args, str(rec)])
+    assert result.exit_code == 0, result.output
+    up, down = (np.array(r.split(",")[-3:], dtype=float) for r in result.output.split()[1:3])
+    assert np.linalg.norm(up - down) > 1e-4  # 2 x 5 µrad over ~50 mm

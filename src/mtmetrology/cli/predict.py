@@ -10,7 +10,7 @@ import numpy as np
 import typer
 
 from mtmetrology.cli._common import readings_from_table, senses_from_table, user_errors
-from mtmetrology.io.files import read_csv_table, write_csv_table
+from mtmetrology.io.files import InputFileError, read_csv_table, write_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 
@@ -41,6 +41,15 @@ def predict(
     table = read_csv_table(readings)
     q = readings_from_table(m, table)
     senses = senses_from_table(m, table)
+    reversal = [p.name for p in m.parameters if p.kind == "reversal"]
+    if reversal and senses is None:
+        columns = ", ".join(
+            sorted({f"sense_{p.axis}" for p in m.parameters if p.kind == "reversal"})
+        )
+        raise InputFileError(
+            f"{readings}: the parameter set has reversal terms ({', '.join(reversal)}); "
+            f"add the sense-of-motion column(s) {columns} (+1 or -1)"
+        )
     xyz = m.forward(q, theta, senses=senses)
     header = [*table.header, "x", "y", "z"]
     rows = (
