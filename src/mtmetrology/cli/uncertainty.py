@@ -63,26 +63,8 @@ def _fmt(value: float, u: float) -> str:
     return f"{value:.{_decimals(u)}f}"
 
 
-def _dof(v: float) -> float | None:
-    return None if math.isinf(v) else float(v)
-
-
 def _guf_outputs(r: GUFResult) -> list[dict]:
-    return [
-        {
-            "name": r.names[j],
-            "value": float(r.estimate[j]),
-            "unit": r.units[j],
-            "u": float(r.standard_uncertainty[j]),
-            "U": float(r.expanded_uncertainty[j]),
-            "k": float(r.coverage_factor[j]),
-            "p": r.p,
-            "interval": [float(v) for v in r.interval[j]],
-            "dof": _dof(r.dof_effective[j]),
-            "method": "guf",
-        }
-        for j in range(len(r.names))
-    ]
+    return [{**o, "method": "guf"} for o in r.to_dict()["outputs"]]
 
 
 def _mcm_outputs(r, names, units) -> list[dict]:
