@@ -182,19 +182,19 @@ def internal_unit(dimension: str) -> str:
     raise UnitError(f"unknown dimension {dimension!r}")
 
 
-def to_internal(value, unit: str | Unit):
+def to_internal(value: float | np.ndarray, unit: str | Unit) -> float | np.ndarray:
     """Convert ``value`` given in ``unit`` to internal units (mm, rad, 1)."""
     u = unit if isinstance(unit, Unit) else parse_unit(unit)
     return np.multiply(value, u.factor) if isinstance(value, np.ndarray) else value * u.factor
 
 
-def from_internal(value, unit: str | Unit):
+def from_internal(value: float | np.ndarray, unit: str | Unit) -> float | np.ndarray:
     """Convert ``value`` in internal units to ``unit``."""
     u = unit if isinstance(unit, Unit) else parse_unit(unit)
     return np.divide(value, u.factor) if isinstance(value, np.ndarray) else value / u.factor
 
 
-def convert(value, from_unit: str, to_unit: str):
+def convert(value: float | np.ndarray, from_unit: str, to_unit: str) -> float | np.ndarray:
     """Convert between two units of the same dimension.
 
     Raises

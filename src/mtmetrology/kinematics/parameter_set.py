@@ -103,7 +103,9 @@ class ParameterSet:
             fh.write(text)
 
     @classmethod
-    def from_document(cls, doc: object, machine: Machine, source: str = "<parameters>"):
+    def from_document(
+        cls, doc: object, machine: Machine, source: str = "<parameters>"
+    ) -> ParameterSet:
         """Validate a parameter document against a machine's catalogue and bases.
 
         Raises
