@@ -219,6 +219,11 @@ def identifiability(
         console.print(
             "observability " + ", ".join(f"{k} {v:.4g}" for k, v in rep.observability.items())
         )
+        s = rep.singular_values
+        console.print(
+            f"singular values (columns scaled): largest {s[0]:.4g}, smallest {s[-1]:.4g}; "
+            "--json lists them all"
+        )
     else:
         console.print("[bold red]rank deficient[/bold red]: unidentifiable combinations")
         for d in rep.null_directions:

@@ -121,6 +121,7 @@ class IdentifiabilityReport:
             "condition_raw": _finite_or_none(self.condition_raw),
             "condition_scaled": _finite_or_none(self.condition_scaled),
             "singular_values_scaled": self.singular_values.tolist(),
+            "singular_values_raw": self.singular_values_raw.tolist(),
             "observability": self.observability,
             "null_directions": [
                 {"summary": str(d), "terms": [{"name": n, "coefficient": c} for n, c in d.terms]}
