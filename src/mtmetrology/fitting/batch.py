@@ -276,18 +276,18 @@ def _round_gauss_newton(
         done = (size <= _STEP_TOL * scale[active]) | (near & (size >= previous[active]))
         done &= ~singular
         converged[active[done]] = True
-        todo = ~done & ~singular
-        idx = active[todo]
-        c_t = c[todo] + step[todo, :d]
-        r_t = r[todo] if radius is not None else r[todo] + step[todo, d]
-        m_t = moments(xs[todo], c_t, r_t)
+        pending = ~done & ~singular
+        idx = active[pending]
+        c_t = c[pending] + step[pending, :d]
+        r_t = r[pending] if radius is not None else r[pending] + step[pending, d]
+        m_t = moments(xs[pending], c_t, r_t)
         # Near the solution cost changes are rounding noise: step sizes decide.
-        cost_now = cost[todo]
-        limit = np.where(near[todo], cost_now * (1.0 + 1e-9), cost_now)
+        cost_now = cost[pending]
+        limit = np.where(near[pending], cost_now * (1.0 + 1e-9), cost_now)
         better = (m_t[:, d + 1, d + 1] <= limit) & (r_t > 0)
         moved = idx[better]
         centres[moved], radii[moved], mom[moved] = c_t[better], r_t[better], m_t[better]
-        previous[moved] = np.where(near[todo][better], size[todo][better], np.inf)
+        previous[moved] = np.where(near[pending][better], size[pending][better], np.inf)
         lam[moved] = np.where(lam[moved] <= 1e-6, 0.0, lam[moved] / 10.0)
         worse = idx[~better]
         previous[worse] = np.inf
