@@ -156,8 +156,7 @@ def simulated_calibration(m: Machine) -> ParameterSet:
             f"{from_internal(u[i], unit):.2f}",
         )
     console.print(t)
-    cov = result.covariance[: m.n_params, : m.n_params]
-    return ParameterSet(m.parameter_names, est, m.parameter_units, cov, {"source": "demo"})
+    return result.parameter_set(m, {"source": "make demo, simulated SAMBA"})
 
 
 def compensated_readings(m: Machine, pset: ParameterSet) -> None:

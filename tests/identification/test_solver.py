@@ -50,6 +50,12 @@ def test_noise_free_13_parameter_round_trip(samba_setup):
     np.testing.assert_allclose(result.estimate[-3:], tool_error, atol=1e-10)
     balls = result.estimate[m.n_params : m.n_params + 3].reshape(1, 3)
     np.testing.assert_allclose(balls[0], samba_setup.balls["1"], atol=1e-9)
+    pset = result.parameter_set(m)
+    assert pset.names == m.parameter_names and pset.units[8] == "µm/m"
+    np.testing.assert_allclose(pset.values, theta, rtol=1e-9, atol=1e-12 * np.abs(theta).max())
+    np.testing.assert_allclose(
+        pset.covariance, result.covariance[: m.n_params, : m.n_params], rtol=0, atol=0
+    )
 
 
 def test_noise_free_84_coefficient_round_trip(samba_setup):

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from mtmetrology.identification.diagnostics import IdentifiabilityReport, analyse_identifiability
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
 
 __all__ = ["IdentificationError", "IdentificationResult", "gauss_newton"]
 
@@ -63,6 +65,24 @@ class IdentificationResult:
     @property
     def standard_uncertainties(self) -> np.ndarray:
         return np.sqrt(np.diag(self.covariance))
+
+    def parameter_set(self, machine: Machine, provenance: dict | None = None) -> ParameterSet:
+        """The machine's error parameters with their covariance (nuisance unknowns dropped).
+
+        Dropping the ball and tool unknowns does not change the statistics of the
+        parameters (seed 000 §5: the 13 of 31 outputs keep their covariance block).
+        """
+        missing = [n for n in machine.parameter_names if n not in self.names]
+        if missing:
+            raise ValueError(f"the identification has no unknown {', '.join(missing)}")
+        idx = [self.names.index(n) for n in machine.parameter_names]
+        return ParameterSet(
+            machine.parameter_names,
+            self.estimate[idx],
+            machine.parameter_units,
+            self.covariance[np.ix_(idx, idx)],
+            {"message": self.message, **(provenance or {})},
+        )
 
 
 def gauss_newton(
