@@ -417,8 +417,22 @@ def psd_factor(covariance, name: str = "covariance", rtol: float = 1e-9) -> np.n
     return factor
 
 
+class _VectorDistribution(Distribution):
+    """A distribution of a vector quantity; samples have shape (size, N)."""
+
+    multivariate = True
+
+    @property
+    def dimension(self) -> int:
+        return self.mean_vector.size
+
+    @property
+    def mean(self) -> np.ndarray:
+        return self.mean_vector
+
+
 @dataclass(frozen=True)
-class MultivariateNormal(Distribution):
+class MultivariateNormal(_VectorDistribution):
     """Multivariate Gaussian N(mean, covariance), also for singular PSD covariances.
 
     Notes
@@ -426,8 +440,6 @@ class MultivariateNormal(Distribution):
     Samples are mean + S z with S from :func:`psd_factor` (JCGM 101:2008, 6.4.8
     uses a Cholesky factor; the eigen factor also covers rank-deficient cases).
     """
-
-    multivariate = True
 
     mean_vector: np.ndarray = field(repr=False)
     covariance: np.ndarray = field(repr=False)
@@ -472,14 +484,6 @@ class MultivariateNormal(Distribution):
         return obj
 
     @property
-    def dimension(self) -> int:
-        return self.mean_vector.size
-
-    @property
-    def mean(self) -> np.ndarray:
-        return self.mean_vector
-
-    @property
     def standard_uncertainty(self) -> np.ndarray:
         return np.sqrt(np.diag(self.covariance))
 
@@ -490,7 +494,7 @@ class MultivariateNormal(Distribution):
 
 
 @dataclass(frozen=True)
-class MultivariateT(Distribution):
+class MultivariateT(_VectorDistribution):
     """Multivariate t_ν(mean, scale) (JCGM 102:2011, 5.3.2; JCGM 101:2008, 6.4.9).
 
     Notes
@@ -498,8 +502,6 @@ class MultivariateT(Distribution):
     X = mean + S z · sqrt(ν/χ²_ν) with S Sᵀ = scale; covariance ν/(ν − 2)·scale
     for ν > 2 (infinite otherwise).
     """
-
-    multivariate = True
 
     mean_vector: np.ndarray = field(repr=False)
     scale: np.ndarray = field(repr=False)
@@ -523,14 +525,6 @@ class MultivariateT(Distribution):
         object.__setattr__(self, "scale", scale)
         object.__setattr__(self, "dof", dof)
         object.__setattr__(self, "_factor", factor)
-
-    @property
-    def dimension(self) -> int:
-        return self.mean_vector.size
-
-    @property
-    def mean(self) -> np.ndarray:
-        return self.mean_vector
 
     @property
     def covariance(self) -> np.ndarray:
