@@ -308,6 +308,21 @@ def _summary(kind: str, converged: np.ndarray) -> str:
     return f"{kind}: {n_bad} of {converged.size} fits did not converge (see converged)"
 
 
+def _round_fit(kind, centres, radii, normals, residuals, converged, iterations) -> BatchRoundFit:
+    """Assemble a :class:`BatchRoundFit` with its residual statistics."""
+    return BatchRoundFit(
+        centres=centres,
+        radii=radii,
+        normals=normals,
+        residuals=residuals,
+        rms=np.sqrt(np.mean(residuals * residuals, axis=1)),
+        form_error=residuals.max(axis=1) - residuals.min(axis=1),
+        converged=converged,
+        iterations=iterations,
+        message=_summary(kind, converged),
+    )
+
+
 def fit_spheres(points: object, radius: float | None = None) -> BatchRoundFit:
     """Least-squares spheres of K point sets (centre only when ``radius`` is given).
 
@@ -352,17 +367,7 @@ def fit_spheres(points: object, radius: float | None = None) -> BatchRoundFit:
         c, r, converged[part], iterations[part] = _round_gauss_newton(xt, scale, radius)
         residuals[part] = _round_residuals(xt, c, r)
         centres[part], radii[part] = c + centroid, r
-    return BatchRoundFit(
-        centres=centres,
-        radii=radii,
-        normals=None,
-        residuals=residuals,
-        rms=np.sqrt(np.mean(residuals * residuals, axis=1)),
-        form_error=residuals.max(axis=1) - residuals.min(axis=1),
-        converged=converged,
-        iterations=iterations,
-        message=_summary(kind, converged),
-    )
+    return _round_fit(kind, centres, radii, None, residuals, converged, iterations)
 
 
 def fit_circles(points: object) -> BatchRoundFit:
@@ -407,17 +412,7 @@ def fit_circles(points: object) -> BatchRoundFit:
         c2 = c2 + uv_mean
         res = _round_residuals(uv, c2, r)
         centres = centroid + c2[:, 0:1] * e1 + c2[:, 1:2] * e2
-    return BatchRoundFit(
-        centres=centres,
-        radii=r,
-        normals=normals,
-        residuals=res,
-        rms=np.sqrt(np.mean(res * res, axis=1)),
-        form_error=res.max(axis=1) - res.min(axis=1),
-        converged=converged,
-        iterations=iterations,
-        message=_summary(kind, converged),
-    )
+    return _round_fit(kind, centres, r, normals, res, converged, iterations)
 
 
 def fit_planes(points: object) -> BatchPlaneFit:
