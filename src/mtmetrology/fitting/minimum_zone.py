@@ -214,6 +214,24 @@ def _min_width_3d(p: np.ndarray) -> tuple[np.ndarray, float, float]:
     return best_n, float(h.min()), float(h.max())
 
 
+def _parallel_zone(element, residuals, width, size, least_squares_pv, message) -> ZoneResult:
+    """Result of an exact zone between two parallel lines or planes."""
+    half = 0.5 * width
+    tol = _CONTACT_RTOL * size
+    return ZoneResult(
+        element=element,
+        method="minimum-zone",
+        form_error=width,
+        bounds=(-half, half),
+        residuals=residuals,
+        contacts=np.union1d(_contacts(residuals, -half, tol), _contacts(residuals, half, tol)),
+        least_squares_form_error=least_squares_pv,
+        iterations=0,
+        converged=True,
+        message=message,
+    )
+
+
 def straightness(points, *, plane_normal=None) -> ZoneResult:
     """Minimum-zone straightness of a line in a plane or in space.
 
@@ -287,20 +305,13 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
     if n @ least_squares.normal < 0.0:  # same orientation as the least-squares line
         n, low, high = -n, -high, -low
     mid = 0.5 * (low + high)
-    residuals = uv @ n - mid
-    half = 0.5 * (high - low)
-    tol = _CONTACT_RTOL * _size(p)
-    return ZoneResult(
-        element=Line(centroid + (mid * n) @ basis, np.array([n[1], -n[0]]) @ basis),
-        method="minimum-zone",
-        form_error=high - low,
-        bounds=(-half, half),
-        residuals=residuals,
-        contacts=np.union1d(_contacts(residuals, -half, tol), _contacts(residuals, half, tol)),
-        least_squares_form_error=float(np.ptp(least_squares.distances(uv))),
-        iterations=0,
-        converged=True,
-        message="exact: minimum width of the convex hull (rotating calipers)",
+    return _parallel_zone(
+        Line(centroid + (mid * n) @ basis, np.array([n[1], -n[0]]) @ basis),
+        uv @ n - mid,
+        high - low,
+        _size(p),
+        float(np.ptp(least_squares.distances(uv))),
+        "exact: minimum width of the convex hull (rotating calipers)",
     )
 
 
@@ -347,18 +358,11 @@ def flatness(points) -> ZoneResult:
     if n @ least_squares.normal < 0.0:
         n, low, high = -n, -high, -low
     mid = 0.5 * (low + high)
-    residuals = q @ n - mid
-    half = 0.5 * (high - low)
-    tol = _CONTACT_RTOL * _size(p)
-    return ZoneResult(
-        element=Plane(centroid + mid * n, n),
-        method="minimum-zone",
-        form_error=high - low,
-        bounds=(-half, half),
-        residuals=residuals,
-        contacts=np.union1d(_contacts(residuals, -half, tol), _contacts(residuals, half, tol)),
-        least_squares_form_error=float(np.ptp(least_squares.distances(p))),
-        iterations=0,
-        converged=True,
-        message="exact: minimum width of the convex hull (faces and antipodal edge pairs)",
+    return _parallel_zone(
+        Plane(centroid + mid * n, n),
+        q @ n - mid,
+        high - low,
+        _size(p),
+        float(np.ptp(least_squares.distances(p))),
+        "exact: minimum width of the convex hull (faces and antipodal edge pairs)",
     )
