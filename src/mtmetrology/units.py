@@ -28,6 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mtmetrology.errors import InputError
+
 __all__ = [
     "Unit",
     "UnitError",
@@ -39,7 +41,7 @@ __all__ = [
 ]
 
 
-class UnitError(ValueError):
+class UnitError(InputError):
     """A unit string that does not parse, or a conversion between dimensions."""
 
 

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from mtmetrology.errors import InputError
 from mtmetrology.fitting.elements import Element
 
 # A singular value below this fraction of the largest marks a degenerate point set.
@@ -28,7 +29,7 @@ _EPS = float(np.finfo(float).eps)
 _MAX_ITER = 200
 
 
-class FitError(ValueError):
+class FitError(InputError):
     """A point set from which the requested element cannot be fitted."""
 
 

@@ -19,6 +19,8 @@ from typing import IO
 
 import numpy as np
 
+from mtmetrology.errors import InputError
+
 __all__ = [
     "InputFileError",
     "Table",
@@ -29,7 +31,7 @@ __all__ = [
 ]
 
 
-class InputFileError(ValueError):
+class InputFileError(InputError):
     """A user file that cannot be used; the message names file, line and field."""
 
 

@@ -34,6 +34,7 @@ from typing import Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from mtmetrology.errors import InputError
 from mtmetrology.io.schema import describe_validation_error
 
 __all__ = [
@@ -46,7 +47,7 @@ __all__ = [
 ]
 
 
-class MachineFileError(ValueError):
+class MachineFileError(InputError):
     """A machine definition that cannot be used; the message names file and field."""
 
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from mtmetrology.errors import InputError
 from mtmetrology.kinematics.topology import LINEAR_AXES, Topology
 from mtmetrology.units import parse_unit
 
@@ -48,7 +49,7 @@ _MOTION = re.compile(r"^E_([XYZABC])([XYZABCS])(\d+)$")
 _REVERSAL = re.compile(r"^E_([XYZABC])([XYZABCS])b$")
 
 
-class ParameterNameError(ValueError):
+class ParameterNameError(InputError):
     """A parameter name that is not an ISO 230-1 error name of the machine."""
 
 

@@ -23,6 +23,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from mtmetrology.errors import InputError
+
 __all__ = ["AXIS_LETTERS", "LINEAR_AXES", "ROTARY_AXES", "Topology", "TopologyError"]
 
 LINEAR_AXES = ("X", "Y", "Z")
@@ -32,7 +34,7 @@ AXIS_LETTERS = LINEAR_AXES + ROTARY_AXES
 _READING_ORDER = "XYZABCS"
 
 
-class TopologyError(ValueError):
+class TopologyError(InputError):
     """A topology string that does not describe a serial machine."""
 
 

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from mtmetrology.errors import InputError
 from mtmetrology.rng import SeedLike, chunk_generators
 from mtmetrology.uncertainty.executors import resolve_executor
 from mtmetrology.uncertainty.regions import (
@@ -54,7 +55,7 @@ DEFAULT_CHUNK_SIZE = 100_000
 HISTOGRAM_BINS = 100
 
 
-class ModelEvaluationError(ValueError):
+class ModelEvaluationError(InputError):
     """The model returned values of the wrong shape or non-finite values."""
 
 
