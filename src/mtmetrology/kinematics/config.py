@@ -31,10 +31,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from mtmetrology.errors import InputError
+from mtmetrology.io.documents import load_document
 from mtmetrology.io.schema import describe_validation_error
 
 __all__ = [
@@ -145,11 +145,8 @@ def parse_machine_spec(data: object, source: str = "<machine>") -> MachineSpec:
 
 def load_machine_spec(path: str | Path) -> MachineSpec:
     """Read and validate a machine YAML file."""
-    p = Path(path)
-    if not p.is_file():
-        raise MachineFileError(f"{p}: file not found")
     try:
-        data = yaml.safe_load(p.read_text(encoding="utf-8"))
-    except yaml.YAMLError as err:
-        raise MachineFileError(f"{p}: not valid YAML: {err}") from None
-    return parse_machine_spec(data, str(p))
+        data = load_document(path, "machine definition")
+    except InputError as err:
+        raise MachineFileError(str(err)) from None
+    return parse_machine_spec(data, str(path))

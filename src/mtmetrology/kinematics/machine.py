@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mtmetrology.io.documents import parse_document
 from mtmetrology.kinematics.basis import Basis
 from mtmetrology.kinematics.chain import AxisGeometry, ChainEvaluation, KinematicChain
 from mtmetrology.kinematics.config import (
@@ -135,9 +136,9 @@ class Machine:
         """
         text = str(source)
         if not Path(text).is_file() and text in list_presets():
-            import yaml
-
-            data = yaml.safe_load(_preset_path(text).read_text(encoding="utf-8"))
+            data = parse_document(
+                _preset_path(text).read_text(encoding="utf-8"), f"preset {text}.yaml"
+            )
             spec = parse_machine_spec(data, f"preset {text}")
         elif Path(text).is_file():
             spec = load_machine_spec(text)

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError, atomic_write
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameters import ParameterNameError, parse_parameter
@@ -204,15 +205,8 @@ class ParameterSet:
     @classmethod
     def load(cls, path: str | Path, machine: Machine) -> ParameterSet:
         """Read a JSON or YAML parameter file."""
-        p = Path(path)
-        if not p.is_file():
-            raise InputFileError(f"{p}: file not found")
-        text = p.read_text(encoding="utf-8")
-        try:
-            doc = json.loads(text) if p.suffix == ".json" else yaml.safe_load(text)
-        except (json.JSONDecodeError, yaml.YAMLError) as err:
-            raise InputFileError(f"{p}: cannot parse: {err}") from None
-        return cls.from_document(doc, machine, str(p))
+        doc = load_document(path, "parameter set")
+        return cls.from_document(doc, machine, str(path))
 
     def vector_for(self, machine: Machine) -> np.ndarray:
         """Values ordered as ``machine.parameter_names`` (which must hold these names)."""

@@ -14,10 +14,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from mtmetrology.identification.observations import ScaleBar
+from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError
 from mtmetrology.io.schema import describe_validation_error
 
@@ -69,12 +69,8 @@ class SambaArtefact(_Strict):
 def load_artefact(path: str | Path) -> SambaArtefact:
     """Read and validate a SAMBA artefact YAML file; errors name the file and field."""
     p = Path(path)
-    if not p.is_file():
-        raise InputFileError(f"{p}: file not found")
+    data = load_document(p, "SAMBA artefact")
     try:
-        data = yaml.safe_load(p.read_text(encoding="utf-8"))
         return SambaArtefact.model_validate(data)
-    except yaml.YAMLError as err:
-        raise InputFileError(f"{p}: not valid YAML: {err}") from None
     except ValidationError as err:
         raise InputFileError(describe_validation_error(str(p), "SAMBA artefact", err)) from None
