@@ -30,6 +30,7 @@ from mtmetrology.identification import (
     senses_from_sequence,
 )
 from mtmetrology.kinematics import Machine
+from mtmetrology.kinematics.conventions import describe_parameter
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.samba import SambaSetup, probing_sequence
 from mtmetrology.uncertainty.guf import guf
@@ -90,7 +91,7 @@ def show_machine(m: Machine) -> None:
     for col in ("parameter", "unit", "meaning"):
         t.add_column(col)
     for p, u in zip(m.parameters, m.parameter_units, strict=True):
-        t.add_row(p.name, u, p.describe())
+        t.add_row(p.name, u, describe_parameter(m, p.name).positive)
     console.print(t)
 
 

@@ -22,8 +22,8 @@ from mtmetrology.identification import (
     senses_from_sequence,
 )
 from mtmetrology.io.files import read_csv_table
+from mtmetrology.kinematics.conventions import machine_description
 from mtmetrology.kinematics.machine import Machine, list_presets
-from mtmetrology.kinematics.topology import LINEAR_AXES
 from mtmetrology.samba.artefact import load_artefact
 
 app = typer.Typer(
@@ -60,45 +60,6 @@ def _direction_label(v) -> str:
     return "(" + ", ".join(f"{c:.6g}" for c in v) + ")"
 
 
-def _describe(machine: Machine) -> dict:
-    axes = []
-    for a in machine.axis_names:
-        g = machine.axes[a]
-        linear = a in LINEAR_AXES
-        unit = "mm" if linear else "deg"
-        conv = 1.0 if linear else 180.0 / 3.141592653589793
-        axes.append(
-            {
-                "axis": a,
-                "type": "linear" if linear else "rotary",
-                "branch": machine.topology.side(a),
-                "direction": [float(v) for v in g.direction],
-                "sign": int(g.sign),
-                "travel": None if g.travel is None else [g.travel[0] * conv, g.travel[1] * conv],
-                "resolution": None if g.resolution is None else g.resolution * conv,
-                "unit": unit,
-                "offset_mm": [float(v) for v in g.offset],
-                "basis": g.basis.kind,
-            }
-        )
-    params = [
-        {"name": p.name, "unit": u, "kind": p.kind, "description": p.describe()}
-        for p, u in zip(machine.parameters, machine.parameter_units, strict=True)
-    ]
-    return {
-        "kind": "machine-description",
-        "version": 1,
-        "name": machine.name,
-        "topology": machine.topology.string,
-        "model": machine.model_name,
-        "models": list(machine.spec.error_models) if machine.spec else [],
-        "tool_mm": machine.tool.tolist(),
-        "tip_radius_mm": machine.tip_radius,
-        "axes": axes,
-        "parameters": params,
-    }
-
-
 @app.command("show")
 @user_errors
 def show(
@@ -117,7 +78,7 @@ def show(
     m = Machine.load(machine, model)
     if catalogue:
         m = m.with_parameters([p.name for p in m.catalogue(degree)])
-    doc = _describe(m)
+    doc = machine_description(m)
     if json:
         print_json(doc)
         return
@@ -141,12 +102,18 @@ def show(
         )
     console.print(at)
     title = "catalogue" if catalogue else f"error model {m.model_name}"
-    pt = RichTable(title=f"{title}: {m.n_params} parameters")
-    for col in ("parameter", "unit", "meaning"):
-        pt.add_column(col)
+    pt = RichTable(title=f"{title}: {m.n_params} parameters", show_lines=True)
+    for col in ("parameter", "unit", "a positive value", "referred to"):
+        pt.add_column(col, overflow="fold")
     for p in doc["parameters"]:
-        pt.add_row(p["name"], p["unit"], p["description"])
+        pt.add_row(p["name"], p["unit"], p["positive"], p["reference"])
     console.print(pt)
+    console.print(
+        "Error motions are deviations of the tool relative to the workpiece (ISO 230-1, "
+        "ISO 841), whichever component moves; location errors place the axis average lines "
+        f"in the machine frame (right-hand rule). Stylus centre at zero readings: "
+        f"{tuple(doc['stylus_at_zero_mm'])} mm."
+    )
 
 
 @app.command("check")

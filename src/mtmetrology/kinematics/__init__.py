@@ -5,12 +5,19 @@
 - :mod:`~mtmetrology.kinematics.basis` — monomial, Legendre, Chebyshev error-motion bases;
 - :mod:`~mtmetrology.kinematics.chain` — forward kinematics and analytic Jacobians;
 - :mod:`~mtmetrology.kinematics.machine` — machine definitions, presets, inverse kinematics;
+- :mod:`~mtmetrology.kinematics.conventions` — what each parameter means: sign, reference point;
 - :mod:`~mtmetrology.kinematics.parameter_set` — parameter values with covariance (files).
 """
 
 from mtmetrology.kinematics.basis import Basis
 from mtmetrology.kinematics.chain import AxisGeometry, ChainEvaluation, KinematicChain
 from mtmetrology.kinematics.config import MachineFileError
+from mtmetrology.kinematics.conventions import (
+    ParameterConvention,
+    describe_parameter,
+    describe_parameters,
+    machine_description,
+)
 from mtmetrology.kinematics.machine import Machine, list_presets
 from mtmetrology.kinematics.parameters import (
     ErrorParameter,
@@ -27,11 +34,15 @@ __all__ = [
     "ErrorParameter",
     "KinematicChain",
     "Machine",
+    "ParameterConvention",
     "MachineFileError",
     "ParameterNameError",
     "Topology",
     "TopologyError",
     "catalogue",
+    "describe_parameter",
+    "describe_parameters",
+    "machine_description",
     "list_presets",
     "parse_parameter",
     "parse_topology",

@@ -10,36 +10,53 @@ Each axis k carries, from its parent body outwards (F -> W or F -> T)::
     nominal offset of the axis reference point in the parent frame at zero reading
     (a rotary axis turns about the line through this point);
 ``L_k``
-    location errors ``E_X0k … E_C0k``: a small displacement of the axis relative to its
-    parent, at its reference point, in the parent frame;
+    location errors ``E_X0k … E_C0k``: a small displacement of the axis average line,
+    with everything the axis carries, relative to its parent, about the axis reference
+    point, in the parent frame (the machine frame when the parent axes read zero);
 ``M_k(q)``
     exact nominal motion: ``Trans(s_k q u_k)`` (linear) or ``Rot(u_k, s_k q)`` (rotary),
     ``u_k`` the axis direction and ``s_k = ±1`` its sign convention.  With the machine
     reading convention (relative tool motion is +q) table-carrying axes have ``s = −1``;
     this reproduces ``q = R_z(C) R_y(B) p`` of seed 000 (digest 000 §3.2.2);
 ``E_k(q)``
-    error motions and reversal terms of the moving component, at the axis frame origin:
-    translations ``δ = (E_Xk, E_Yk, E_Zk)(q)`` and rotations ``ε = (E_Ak, E_Bk, E_Ck)(q)``,
-    each ``Σ_d c_d φ_d(q) + c_b · sense``.
+    error motions and reversal terms of axis k at its reference point (the frame origin
+    that moves with the axis): translations ``δ = (E_Xk, E_Yk, E_Zk)(q)`` and rotations
+    ``ε = (E_Ak, E_Bk, E_Ck)(q)``, each ``Σ_d c_d φ_d(q) + c_b · sense``.
 
 Every error transform is the first-order (small-angle) matrix::
 
         | 1    -εc    εb   δx |
-    E = | εc    1    -εa   δy |      (digest 004 §3.5)
+    G = | εc    1    -εa   δy |      (E = I + G; digest 004 §3.5)
         | -εb   εa    1    δz |
 
-so a positive error displaces the component (the body carried by the axis, and
-everything it carries) in the positive direction relative to its carrier, rotations by
-the right-hand rule.  On the workpiece branch this is the table's own error: a positive
-``E_XX1`` on a table-carrying X (``s = −1``) shortens the relative tool travel.
+Sign conventions (ISO 230-1:2012, ISO 841)
+-------------------------------------------
+*Error motions and reversal terms* are deviations of the tool relative to the workpiece,
+positive in the positive direction of the principal axes (rotations by the right-hand
+rule), whichever component moves.  A tool-side axis carries ``E_k = I + G``; a
+table-side axis carries the opposite displacement of the table, ``E_k = I − G``, so the
+tool relative to the workpiece again deviates by ``+G``.  Thus ``E_XX1 = +100 µm/m``
+puts the stylus at x = 200.02 mm for X = 200 mm whether X moves the table or the
+spindle, and a positioning slope measured per ISO 230-2 enters with the same sign on
+every axis.
+
+*Location errors* state the position and orientation of the axis average line in the
+machine frame, right-hand rule, about the axis reference point (``o_k`` and the offsets
+of its parents): ``E_X0C > 0`` displaces the C axis (and the table it carries) by +X;
+``E_B0C > 0`` tilts it about +Y.  Changing the reference point of an orientation error
+by a lever r changes the position errors of the same line by ``r × ε``; the presets
+state their reference points (:mod:`mtmetrology.kinematics.conventions`).
 
 The stylus-centre position in the workpiece frame is the chain from W to T,
 ``p = T_W⁻¹ · T_T · t`` with ``t`` the tool (stylus-centre) vector in the last tool-axis
 frame.  ``T_W⁻¹`` is formed factor by factor: nominal offsets and motions are inverted
-exactly, each error transform ``E`` by its first-order inverse ``I − G`` (equal to
-``E⁻¹`` up to second order in the errors).  The model is thus a product of factors each
-*linear* in its error parameters, so the Jacobians below are exact derivatives of the
-model (first order in the small errors by construction, exact in the nominal motion).
+exactly, each small error factor ``I ± G`` by its first-order inverse ``I ∓ G`` (equal
+to the exact inverse up to second order in the errors).  In the W -> T product every
+error factor is thus ``I + ς G`` with ``ς = +1`` for tool-side location errors and for
+all error motions, ``ς = −1`` for table-side location errors.  The model is a product of
+factors each *linear* in its error parameters, so the Jacobians below are exact
+derivatives of the model (first order in the small errors by construction, exact in the
+nominal motion).
 
 Jacobians
 ---------
@@ -48,6 +65,16 @@ to a parameter of factor ``F_i = I + ς G(θ)`` is ``A_i · ς (∂δ + ∂ε ×
 ``A_i`` is the linear part of ``F_1 … F_{i−1}`` and ``r_i = F_{i+1} … F_n t`` the point
 entering factor i.  One right-to-left pass gives every ``r_i``, one left-to-right pass of
 3×3 products every ``A_i``; all arrays are vectorised over (trial, point).
+
+References
+----------
+ISO 230-1:2012, *Test code for machine tools — Part 1: Geometric accuracy of machines
+operating under no-load or quasi-static conditions*, §3 and Annex A (error motions,
+location errors, ISO 841 axis directions).
+ISO 841:2001, *Industrial automation systems and integration — Numerical control of
+machines — Coordinate system and motion nomenclature*.
+I. Alami Mchichi, *Calibration of five-axis machine tools with the SAMBA method: optimized
+artefact layout and measurement sequence*, Polytechnique Montréal, 2018, §3.5 (HTM chain).
 """
 
 from __future__ import annotations
@@ -115,7 +142,7 @@ class _Motion:
 @dataclass(frozen=True)
 class _Errors:
     axis: int
-    varsign: float  # +1 tool branch, -1 workpiece branch (first-order inverse)
+    varsign: float  # ς of the factor I + ς G in the W -> T chain (module notes)
     params: tuple[int, ...]  # indices into the parameter vector
     components: tuple[int, ...]
     kinds: tuple[str, ...]
@@ -197,7 +224,9 @@ class KinematicChain:
             self._elements.append(_Offset(-self.workpiece_offset))
         for name in reversed(topology.workpiece_axes):
             g = axes[name]
-            self._elements.append(self._errors(name, col[name], ("motion", "reversal"), -1.0))
+            # ISO 230-1: table error motions are stated as the tool relative to the
+            # workpiece, so the table's own displacement is I - G and its inverse I + G.
+            self._elements.append(self._errors(name, col[name], ("motion", "reversal"), 1.0))
             self._elements.append(_Motion(col[name], g.linear, g.direction, -g.sign))
             self._elements.append(self._errors(name, col[name], ("location",), -1.0))
             if np.any(g.offset):

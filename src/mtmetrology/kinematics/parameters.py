@@ -35,14 +35,6 @@ __all__ = [
 ]
 
 COMPONENTS = "XYZABC"
-_COMPONENT_WORDS = {
-    "X": "translation along X",
-    "Y": "translation along Y",
-    "Z": "translation along Z",
-    "A": "rotation about X",
-    "B": "rotation about Y",
-    "C": "rotation about Z",
-}
 
 _LOCATION = re.compile(r"^E_([XYZABC])0([XYZABCS])$")
 _MOTION = re.compile(r"^E_([XYZABC])([XYZABCS])(\d+)$")
@@ -79,15 +71,6 @@ class ErrorParameter:
     @property
     def is_rotation(self) -> bool:
         return self.component >= 3
-
-    def describe(self) -> str:
-        """A one-line description in the field's words."""
-        what = _COMPONENT_WORDS[COMPONENTS[self.component]]
-        if self.kind == "location":
-            return f"location error of axis {self.axis}: {what}"
-        if self.kind == "reversal":
-            return f"reversal (backlash) of axis {self.axis}: {what} × sense of motion"
-        return f"error motion of axis {self.axis}: {what}, basis degree {self.degree}"
 
 
 def normalise_name(name: str) -> str:
