@@ -73,8 +73,9 @@ def identifiability_report(machine, pairs, *, bar_pairs=((0, 0), (0, 90)), backl
         q,
         ids,
         senses=senses_from_sequence(q) if backlash else None,
-        scale_bars=[ScaleBar(("SB1", "SB2"), SETUP.scale_bar_length)],
+        scale_bars=[ScaleBar(("SB1", "SB2"), SETUP.scale_bar_length, u=0.001)],
         estimate_tool=True,
+        sigma=0.001,
     )
     _, jac = problem.evaluate(problem.initial())
     return analyse_identifiability(jac, problem.names, report_names=machine.parameter_names)
@@ -141,13 +142,15 @@ def simulated_calibration(m: Machine) -> ParameterSet:
     rng = np.random.default_rng(SEED)
     q[:, :3] += 0.001 * rng.standard_normal((len(ids), 3))
     bar = ScaleBar(("SB1", "SB2"), SETUP.scale_bar_length, u=0.0012)
-    result = gauss_newton(BallCentreProblem(m, q, ids, scale_bars=[bar], estimate_tool=True))
+    result = gauss_newton(
+        BallCentreProblem(m, q, ids, scale_bars=[bar], estimate_tool=True, sigma=0.001)
+    )
     console.print(f"{len(ids)} ball-centre indications; {result.message}")
     t = Table()
     for col in ("parameter", "unit", "true", "identified", "u (k=1)"):
         t.add_column(col, justify="right")
     est = result.estimate[: m.n_params]
-    u = result.standard_uncertainties[: m.n_params]
+    u = result.standard_uncertainty[: m.n_params]
     for i, (n, unit) in enumerate(zip(m.parameter_names, m.parameter_units, strict=True)):
         t.add_row(
             n,

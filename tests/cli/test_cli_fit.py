@@ -94,7 +94,10 @@ def test_every_element_and_method_gives_a_complete_json_document(csv_files, elem
     assert doc["form_error"]["unit"] == "µm"
     # Simulated form error 2 µm: every criterion reports a form error of that order.
     assert 0.5 <= doc["form_error"]["value"] <= 10.0
-    assert doc["converged"] is True
+    assert doc["success"] is True
+    if method == "ls":
+        assert doc["status"] == (3 if element in ("line", "plane") else doc["status"])
+        assert doc["status"] in (1, 2, 3)
     if method == "minimum-zone":
         assert doc["form_error"]["value"] <= doc["least_squares_form_error"]["value"] + 1e-9
     if method != "ls":

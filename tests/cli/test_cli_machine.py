@@ -126,7 +126,9 @@ def test_predict_writes_compensated_coordinates(tmp_path):
     m = Machine.load("five-axis-wcbxfzyst")
     values = np.zeros(13)
     values[m.parameter_names.index("E_X0C")] = -0.1046  # -104.6 µm
-    ParameterSet(m.parameter_names, values, m.parameter_units).save(tmp_path / "p.json")
+    ParameterSet(m.parameter_names, values, m.parameter_units, machine=m.name).save(
+        tmp_path / "p.json"
+    )
     out = tmp_path / "out.csv"
     result = runner.invoke(
         app,
@@ -166,7 +168,9 @@ def test_predict_with_backlash_needs_sense_columns(tmp_path):
     m = Machine.load("five-axis-wcbxfzyst", "84")
     values = np.zeros(m.n_params)
     values[m.parameter_names.index("E_BBb")] = 5e-6
-    ParameterSet(m.parameter_names, values, m.parameter_units).save(tmp_path / "p.yaml")
+    ParameterSet(m.parameter_names, values, m.parameter_units, machine=m.name).save(
+        tmp_path / "p.yaml"
+    )
     rec = tmp_path / "rec.csv"
     rec.write_text("X,Y,Z,B,C\n10,20,30,45,90\n")
     args = ["predict", "--machine", "five-axis-wcbxfzyst", "--params", str(tmp_path / "p.yaml")]

@@ -46,7 +46,7 @@ def test_spheres_agree_with_single_fits(cap, n):
     rng = np.random.default_rng(1)
     pts = _caps(rng, 40, n, 12.4875, cap)
     batch = fit_spheres(pts)
-    assert batch.converged.all() and batch.centres.shape == (40, 3)
+    assert batch.success.all() and batch.centres.shape == (40, 3)
     for k in range(40):
         single = fit_sphere(pts[k])
         assert np.abs(batch.centres[k] - single.element.centre).max() < AGREE
@@ -72,7 +72,7 @@ def test_circles_agree_with_single_fits(arc, dim):
     rng = np.random.default_rng(3)
     pts = _arcs(rng, 40, 10, 31.75, arc, dim)
     batch = fit_circles(pts)
-    assert batch.converged.all()
+    assert batch.success.all()
     for k in range(40):
         single = fit_circle(pts[k])
         assert np.abs(batch.centres[k] - single.element.centre).max() < AGREE
@@ -118,7 +118,7 @@ def test_exact_spheres_recovered_in_many_chunks():
     assert np.abs(batch.centres - centres).max() < 1e-9
     assert np.abs(batch.radii - radii).max() < 1e-9
     assert batch.form_error.max() < 1e-9
-    assert batch.iterations.max() <= 10
+    assert batch.nit.max() <= 10
     assert batch.message == "spheres: all 2500 fits converged"
 
 
@@ -130,7 +130,7 @@ def test_poor_algebraic_starts_are_rescued():
     pts = 40.0 * np.stack([np.cos(theta), np.sin(theta)], axis=2)
     pts = pts + 0.05 * rng.standard_normal(pts.shape)
     batch = fit_circles(pts)
-    assert batch.converged.all()
+    assert batch.success.all()
     for k in range(20):
         single = fit_circle(pts[k])
         assert np.abs(batch.centres[k] - single.element.centre).max() < 1e-8
@@ -181,9 +181,9 @@ def test_ill_posed_sets_do_not_stop_the_batch():
     unit = rng.normal(size=(12, 3))
     pts[0] = unit / np.linalg.norm(unit, axis=1, keepdims=True)
     batch = fit_spheres(pts)
-    assert batch.converged[0]
+    assert batch.success[0]
     assert batch.radii[0] == pytest.approx(1.0, abs=1e-12)
-    flat = batch.converged[1:]
+    flat = batch.success[1:]
     assert np.all(~flat | (batch.radii[1:] > 1e4))
     assert not flat.all()
-    assert f"{int((~batch.converged).sum())} of 5 fits did not converge" in batch.message
+    assert f"{int((~batch.success).sum())} of 5 fits did not converge" in batch.message

@@ -14,6 +14,8 @@ from mtmetrology.kinematics import Machine
 from mtmetrology.samba import probing_sequence
 
 GRID_PAIRS = [(b, c) for b in (-90, -45, 0, 45, 90) for c in range(0, 360, 60)]
+# probing noise and scale-bar u of the identifiability check (1 µm each)
+SIGMA = 0.001
 
 
 def report(
@@ -28,13 +30,14 @@ def report(
     backlash=False,
 ):
     ids, q = probing_sequence(machine, setup, pairs, spindle_deg=spindle, bar_pairs_deg=bar_pairs)
-    bars = [ScaleBar(("SB1", "SB2"), setup.scale_bar_length)] if bar else []
+    bars = [ScaleBar(("SB1", "SB2"), setup.scale_bar_length, u=SIGMA)] if bar else []
     problem = BallCentreProblem(
         machine,
         q,
         ids,
         scale_bars=bars,
         estimate_tool=tool,
+        sigma=SIGMA,
         senses=senses_from_sequence(q) if backlash else None,
     )
     _, jac = problem.evaluate(problem.initial())
@@ -152,9 +155,10 @@ def test_unidirectional_approach_loses_the_backlash(samba_setup):
         m,
         q,
         ids,
-        scale_bars=[ScaleBar(("SB1", "SB2"), samba_setup.scale_bar_length)],
+        scale_bars=[ScaleBar(("SB1", "SB2"), samba_setup.scale_bar_length, u=SIGMA)],
         estimate_tool=True,
         senses=np.ones_like(q),
+        sigma=SIGMA,
     )
     rep = analyse_identifiability(problem.evaluate(problem.initial())[1], problem.names)
     assert rep.rank == rep.n_unknowns - 2

@@ -9,6 +9,8 @@ from mtmetrology.io.files import InputFileError
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 
+HEADER = {"kind": "parameter-set", "version": 1, "machine": "five-axis-wcbxfzyst"}
+
 
 @pytest.fixture
 def machine():
@@ -20,7 +22,9 @@ def test_round_trip_converts_units_at_the_edge(tmp_path, machine):
     values = rng.normal(size=13) * 50 * machine.parameter_scales
     a = rng.normal(size=(13, 13))
     cov = (a @ a.T) * np.outer(machine.parameter_scales, machine.parameter_scales)
-    pset = ParameterSet(machine.parameter_names, values, machine.parameter_units, cov)
+    pset = ParameterSet(
+        machine.parameter_names, values, machine.parameter_units, cov, machine=machine.name
+    )
     for name in ("p.json", "p.yaml"):
         pset.save(tmp_path / name)
         back = ParameterSet.load(tmp_path / name, machine)
@@ -34,15 +38,16 @@ def test_round_trip_converts_units_at_the_edge(tmp_path, machine):
 
 def test_other_units_of_the_same_dimension_are_converted(machine):
     doc = {
+        **HEADER,
         "parameters": [
             {"name": "E_X0C", "value": -0.1046, "unit": "mm", "u": 0.00048},
             {"name": "E_A(0Z)B", "value": -8.73e-3, "unit": "mrad", "u": 0.86e-3},
-        ]
+        ],
     }
     pset = ParameterSet.from_document(doc, machine)
     assert pset.names == ("E_X0C", "E_A0B")
     np.testing.assert_allclose(pset.values, [-0.1046, -8.73e-6])
-    np.testing.assert_allclose(pset.standard_uncertainties, [0.00048, 0.86e-6])
+    np.testing.assert_allclose(pset.standard_uncertainty, [0.00048, 0.86e-6])
     assert pset.units == ("µm", "µrad")
 
 
@@ -53,17 +58,21 @@ def test_other_units_of_the_same_dimension_are_converted(machine):
         ({"name": "E_X0C", "value": 1, "unit": "µrad"}, r"unit 'µrad' does not fit"),
         ({"name": "E_X0C", "value": 1, "unit": "furlong"}, "unknown unit"),
         ({"name": "E_X0C", "value": "abc", "unit": "µm"}, "is not a number"),
-        ({"name": "E_X0C", "value": float("nan"), "unit": "µm"}, "not finite"),
+        ({"name": "E_X0C", "value": "12.5", "unit": "µm"}, "'12.5' is not a number"),
+        ({"name": "E_X0C", "value": True, "unit": "µm"}, "True is not a number"),
+        ({"name": "E_X0C", "value": 1, "unit": "µm", "sigma": 2}, "sigma: unknown key"),
+        ({"name": "E_X0C", "value": float("nan"), "unit": "µm"}, "is not finite"),
         ({"name": "E_X0A", "value": 1, "unit": "µm"}, "axis A, not in"),
     ],
 )
 def test_bad_parameter_entries_are_named(machine, entry, message):
     with pytest.raises(InputFileError, match=message):
-        ParameterSet.from_document({"parameters": [entry]}, machine, "p.json")
+        ParameterSet.from_document({**HEADER, "parameters": [entry]}, machine, "p.json")
 
 
 def test_bad_covariance(machine):
     doc = {
+        **HEADER,
         "parameters": [
             {"name": "E_X0C", "value": 1, "unit": "µm"},
             {"name": "E_X0S", "value": 1, "unit": "µm"},
@@ -75,3 +84,59 @@ def test_bad_covariance(machine):
     doc["covariance"]["matrix"] = [[1, 0.5], [0.4, 1]]
     with pytest.raises(InputFileError, match="not symmetric"):
         ParameterSet.from_document(doc, machine)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"kind": "parameters"}, "kind: 'parameters' is not a parameter set"),
+        ({"kind": None}, "kind: None is not a parameter set"),
+        ({"version": 99}, "version: 99 is not supported"),
+        ({"version": True}, "version: True is not supported"),
+        ({"machine": "cmm-moving-bridge"}, "made for machine 'cmm-moving-bridge'"),
+        ({"machine": 5}, "machine: must be a string"),
+        ({"model": "21-chebyshev"}, "error model '21-chebyshev' is not a model"),
+        ({"comment": "x"}, "comment: unknown key"),
+    ],
+)
+def test_the_header_is_checked_not_ignored(machine, change, message):
+    """Issue 9: kind, version, machine, model and unknown keys were ignored."""
+    doc = {**HEADER, "parameters": [{"name": "E_X0C", "value": 1, "unit": "µm"}], **change}
+    with pytest.raises(InputFileError, match=message):
+        ParameterSet.from_document(doc, machine, "p.json")
+
+
+def test_a_missing_machine_is_refused(machine):
+    doc = {
+        "kind": "parameter-set",
+        "version": 1,
+        "parameters": [{"name": "E_X0C", "value": 1, "unit": "µm"}],
+    }
+    with pytest.raises(InputFileError, match="machine: missing"):
+        ParameterSet.from_document(doc, machine, "p.json")
+
+
+def test_the_sets_model_defines_the_basis(tmp_path):
+    """A set made with a named model is evaluated under that model's bases, whatever model
+    the machine was loaded with: the 84-coefficient set keeps its meaning."""
+    m84 = Machine.load("five-axis-wcbxfzyst", "84")
+    values = np.zeros(m84.n_params)
+    values[m84.parameter_names.index("E_XX1")] = 1e-4
+    ParameterSet(
+        m84.parameter_names, values, m84.parameter_units, machine=m84.name, model="84"
+    ).save(tmp_path / "p.json")
+    base = Machine.load("five-axis-wcbxfzyst")
+    pset = ParameterSet.load(tmp_path / "p.json", base)
+    m = pset.machine_for(base)
+    assert m.model_name == "84" and m.parameter_names == m84.parameter_names
+
+
+def test_duplicate_keys_are_refused(tmp_path, machine):
+    """Issue 9: a second key silently won."""
+    text = (
+        '{"kind": "parameter-set", "version": 1, "machine": "five-axis-wcbxfzyst", '
+        '"parameters": [{"name": "E_X0C", "value": 1, "value": 2, "unit": "µm"}]}'
+    )
+    (tmp_path / "p.json").write_text(text)
+    with pytest.raises(InputFileError, match="'value' appears twice"):
+        ParameterSet.load(tmp_path / "p.json", machine)

@@ -28,6 +28,7 @@ from rich.console import Console
 from rich.table import Table as RichTable
 
 from mtmetrology.fitting import minimum_zone
+from mtmetrology.fitting.documents import fit_document
 from mtmetrology.fitting.elements import Circle, Cone, Cylinder, Line, Sphere
 from mtmetrology.fitting.least_squares import (
     FitResult,
@@ -38,12 +39,11 @@ from mtmetrology.fitting.least_squares import (
     fit_plane,
     fit_sphere,
 )
+from mtmetrology.fitting.probe import compensate
 from mtmetrology.io import read_csv_table
 from mtmetrology.units import from_internal
 
 __all__ = ["ElementName", "Method", "fit"]
-
-RESULT_VERSION = 1
 
 
 class ElementName(enum.StrEnum):
@@ -85,15 +85,6 @@ _CHEBYSHEV = {
     (ElementName.cylinder, Method.minimum_zone): minimum_zone.cylindricity,
     (ElementName.cylinder, Method.inscribed): minimum_zone.inscribed_cylinder,
     (ElementName.cylinder, Method.circumscribed): minimum_zone.circumscribed_cylinder,
-}
-
-_FORM_NAMES = {
-    ElementName.line: "straightness",
-    ElementName.plane: "flatness",
-    ElementName.circle: "roundness",
-    ElementName.sphere: "sphericity",
-    ElementName.cylinder: "cylindricity",
-    ElementName.cone: "conicity",
 }
 
 
@@ -141,65 +132,12 @@ def _chebyshev(element: ElementName, method: Method, points: np.ndarray):
 
 
 def _compensate(element, tip_radius: float, inside: bool):
-    """The element offset by the tip radius towards the material (module notes)."""
-    sign = 1.0 if inside else -1.0
-    if isinstance(element, Circle | Sphere | Cylinder):
-        radius = element.radius + sign * tip_radius
-        if radius <= 0.0:
-            raise _UsageError(
-                f"--tip-radius {tip_radius} mm is not smaller than the fitted radius "
-                f"{element.radius:.6f} mm of the stylus-centre {type(element).__name__.lower()}"
-            )
-        if isinstance(element, Circle):
-            return Circle(element.centre, radius, element.normal)
-        if isinstance(element, Sphere):
-            return Sphere(element.centre, radius)
-        return Cylinder(element.point, element.direction, radius)
-    if isinstance(element, Cone):
-        shift = -sign * tip_radius / math.sin(element.half_angle)
-        return Cone(element.apex + shift * element.direction, element.direction, element.half_angle)
+    """The element offset by the tip radius towards the material (module notes): round
+    elements and cones through :func:`mtmetrology.fitting.probe.compensate`; a plane or a
+    line carries no material side in x, y, z alone and is returned as fitted."""
+    if isinstance(element, Circle | Sphere | Cylinder | Cone):
+        return compensate(element, tip_radius, inside)
     return element
-
-
-def _parameters(element) -> list[dict]:
-    """Element parameters with their units: positions and radii mm, angles deg."""
-    rows = []
-    for name, value in zip(element.parameter_names, element.parameters, strict=True):
-        if name == "half_angle":
-            rows.append({"name": name, "value": float(from_internal(value, "deg")), "unit": "deg"})
-        elif name in ("ax", "ay", "az", "nx", "ny", "nz"):
-            rows.append({"name": name, "value": float(value), "unit": "1"})
-        else:
-            rows.append({"name": name, "value": float(value), "unit": "mm"})
-    return rows
-
-
-def _um(value: float) -> float:
-    return float(from_internal(value, "µm"))
-
-
-def _document(element_name, method, path, element, residuals, form_error, extra) -> dict:
-    return {
-        "kind": "fit-result",
-        "version": RESULT_VERSION,
-        "source": str(path),
-        "element": element_name.value,
-        "method": method.value,
-        "parameters": _parameters(element),
-        "residuals": {
-            "n": len(residuals),
-            "rms": _um(math.sqrt(float(np.mean(residuals**2)))),
-            "min": _um(float(residuals.min())),
-            "max": _um(float(residuals.max())),
-            "unit": "µm",
-        },
-        "form_error": {
-            "name": _FORM_NAMES[element_name],
-            "value": _um(form_error),
-            "unit": "µm",
-        },
-        **extra,
-    }
 
 
 def _print(console: Console, document: dict) -> None:
@@ -276,20 +214,23 @@ def fit(
             fitted, result = _least_squares(element, points)
             residuals, form_error = result.residuals, result.form_error
             extra.update(
-                iterations=result.iterations, converged=result.converged, message=result.message
+                status=result.status,
+                success=result.success,
+                nit=result.nit,
+                message=result.message,
             )
         else:
             zone = _chebyshev(element, method, points)
             fitted, residuals, form_error = zone.element, zone.residuals, zone.form_error
             extra.update(
                 least_squares_form_error={
-                    "value": _um(zone.least_squares_form_error),
+                    "value": float(from_internal(zone.least_squares_form_error, "µm")),
                     "unit": "µm",
                 },
                 zone={"low": zone.bounds[0], "high": zone.bounds[1], "unit": "mm"},
                 contact_lines=[int(line) for line in lines[zone.contacts]],
-                iterations=zone.iterations,
-                converged=zone.converged,
+                nit=zone.iterations,
+                success=zone.converged,
                 message=zone.message,
             )
         if tip_radius is not None:
@@ -309,7 +250,9 @@ def fit(
     except ValueError as exc:  # InputFileError, FitError, _UsageError, element checks
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(code=2) from None
-    document = _document(element, method, points_csv, fitted, residuals, form_error, extra)
+    document = fit_document(
+        element.value, method.value, str(points_csv), fitted, residuals, form_error, extra
+    )
     if json_output:
         typer.echo(json.dumps(document, indent=2, allow_nan=False, ensure_ascii=False))
     else:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated
 
@@ -15,6 +16,7 @@ from mtmetrology.cli._common import (
     senses_from_table,
     user_errors,
 )
+from mtmetrology.errors import EXIT_INPUT, InputError, RankDeficientError
 from mtmetrology.identification import (
     BallCentreProblem,
     ScaleBar,
@@ -25,6 +27,7 @@ from mtmetrology.io.files import read_csv_table
 from mtmetrology.kinematics.conventions import machine_description
 from mtmetrology.kinematics.machine import Machine, list_presets
 from mtmetrology.samba.artefact import load_artefact
+from mtmetrology.units import to_internal
 
 app = typer.Typer(
     help="Machine definitions: list, show, check, identifiability.", no_args_is_help=True
@@ -145,13 +148,32 @@ def identifiability(
     estimate_tool: Annotated[
         bool, typer.Option(help="Tool offset among the unknowns (needs S indexing).")
     ] = True,
+    sigma_um: Annotated[
+        float,
+        typer.Option(
+            "--sigma-um",
+            help="Standard uncertainty of one indication coordinate, µm (row weights; the "
+            "scale bar keeps its u from the artefact file).",
+        ),
+    ] = 1.0,
+    allow_deficient: Annotated[
+        bool,
+        typer.Option(
+            "--allow-deficient",
+            help="Report a rank-deficient set-up and exit 0 instead of refusing it.",
+        ),
+    ] = False,
     json: Annotated[bool, typer.Option("--json", help="Print a JSON document.")] = False,
 ) -> None:
     """Rank, conditioning and unidentifiable combinations of a probing set-up.
 
     The Jacobian is evaluated at the nominal point (zero errors); ball centres are
-    nuisance unknowns, and so is the tool offset unless --no-estimate-tool.
+    nuisance unknowns, and so is the tool offset unless --no-estimate-tool. A
+    rank-deficient set-up exits with code 2 after naming the confounded parameters
+    (exit 0 with --allow-deficient).
     """
+    if not (math.isfinite(sigma_um) and sigma_um > 0):
+        raise InputError(f"--sigma-um must be a positive number of µm, got {sigma_um}")
     m = Machine.load(machine, model)
     if add:
         m = m.with_parameters([*m.parameter_names, *add])
@@ -162,20 +184,31 @@ def identifiability(
         senses = senses_from_sequence(q)
     bars: list[ScaleBar] = load_artefact(artefact).scale_bars() if artefact else []
     problem = BallCentreProblem(
-        m, q, table.strings("ball"), senses=senses, scale_bars=bars, estimate_tool=estimate_tool
+        m,
+        q,
+        table.strings("ball"),
+        senses=senses,
+        scale_bars=bars,
+        estimate_tool=estimate_tool,
+        sigma=float(to_internal(sigma_um, "µm")),
     )
     _, jac = problem.evaluate(problem.initial())
     rep = analyse_identifiability(
         jac, problem.names, n_measurements=len(table), report_names=m.parameter_names
     )
+    deficient = not rep.full_rank and not allow_deficient
     if json:
-        print_json(rep.to_dict())
+        print_json({**rep.to_dict(), "sigma_um": sigma_um})
+        if deficient:
+            raise typer.Exit(code=EXIT_INPUT)
         return
     console = Console()
+    if not rep.full_rank:
+        console.print(f"[bold red]rank deficient[/bold red]: {rep.message}")
     console.print(
         f"{m.name} model {m.model_name or 'custom'}: {m.n_params} parameters, "
         f"{problem.n_balls} balls, {len(table)} indications, {len(bars)} scale bar(s), "
-        f"tool {'estimated' if estimate_tool else 'known'}"
+        f"tool {'estimated' if estimate_tool else 'known'}, indication σ = {sigma_um:g} µm"
     )
     console.print(f"unknowns {rep.n_unknowns}, rank {rep.rank}")
     if rep.full_rank:
@@ -192,6 +225,13 @@ def identifiability(
             "--json lists them all"
         )
     else:
-        console.print("[bold red]rank deficient[/bold red]: unidentifiable combinations")
+        console.print("unidentifiable combinations:")
         for d in rep.null_directions:
             console.print(f"  {d}    ({d.combination()})")
+        if deficient:
+            raise RankDeficientError(
+                f"rank {rep.rank} of {rep.n_unknowns}: {rep.message.split(': ', 1)[-1]}; "
+                "add balls, indexations or spindle indexing that separate them "
+                "(--allow-deficient reports without failing)",
+                confounded=rep.confounded(),
+            )

@@ -34,7 +34,7 @@ def predict(
     m = Machine.load(machine)
     if params is not None:
         pset = ParameterSet.load(params, m)
-        m = pset.machine(m)
+        m = pset.machine_for(m)
         theta = pset.vector_for(m)
     else:
         theta = None

@@ -17,6 +17,7 @@ import scipy.linalg
 
 from mtmetrology.errors import InputError
 from mtmetrology.fitting.elements import Element
+from mtmetrology.optimize import LeastSquaresResult, Status, least_squares
 
 # A singular value below this fraction of the largest marks a degenerate point set.
 _DEGENERATE = 1e-10
@@ -48,9 +49,11 @@ class FitResult:
     form_error : float, mm
         Peak-to-valley ``max − min`` of the residuals (for a 3-D line, whose distances are
         unsigned, ``2·max``: the diameter of the coaxial cylinder containing the points).
-    iterations : int
-        Gauss–Newton iterations (0 for the closed-form SVD fits).
-    converged : bool
+    status : int
+        :class:`mtmetrology.optimize.Status` of the solve (``EXACT`` for the closed-form
+        SVD fits of lines and planes).
+    nit, nfev : int
+        Iterations and residual evaluations (0 for closed-form fits).
     message : str
     parameter_jacobian : (n_params, n, dim) array
         dθ/dP of ``element.parameters`` with respect to the point coordinates
@@ -61,8 +64,9 @@ class FitResult:
     residuals: np.ndarray = field(repr=False)
     rms: float
     form_error: float
-    iterations: int
-    converged: bool
+    status: int
+    nit: int
+    nfev: int
     message: str
     parameter_jacobian: np.ndarray = field(repr=False)
     # Residual sensitivities: d_i depends on its own point through direct (n, dim) and on
@@ -70,6 +74,11 @@ class FitResult:
     _direct: np.ndarray = field(repr=False)
     _local: np.ndarray = field(repr=False)
     _local_jacobian: np.ndarray = field(repr=False)
+
+    @property
+    def success(self) -> bool:
+        """Whether the fit converged (or was solved in closed form)."""
+        return self.status > 0
 
     @property
     def parameters(self) -> np.ndarray:
@@ -185,89 +194,50 @@ def _check_conditioning(kind: str, j: np.ndarray, names: str) -> None:
         )
 
 
-@dataclass
-class _Solve:
-    state: Any
-    iterations: int
-    converged: bool
-    cost: float
-
-
 def _gauss_newton(
     evaluate: Callable[[Any], tuple[np.ndarray, np.ndarray]],
     retract: Callable[[Any, np.ndarray], Any],
     state: Any,
     scale: float,
-) -> _Solve:
-    """Gauss–Newton with a Levenberg–Marquardt safeguard.
+) -> LeastSquaresResult:
+    """The project's least-squares core on a fit's local parameters.
 
     ``evaluate(state) -> (d (m,), J (m, p))``; ``retract(state, δ)`` applies a step in the
-    local parameters and returns the new state (None if it leaves the domain).  A pure
-    Gauss–Newton step is tried first; if it does not lower the cost, the damped step
-    ``(JᵀJ + λ diag(JᵀJ)) δ = −Jᵀd`` is used with growing λ (Moré's scaling), and λ is
-    relaxed again after each success.
+    local parameters and returns the new state (None if it leaves the domain).  Distances
+    are differences of coordinates of size ``scale``, so their rounding unit is
+    ``eps·scale``: below it the cost cannot judge steps and the iteration stops when they
+    stop contracting (status 2).
     """
-    d, jac = evaluate(state)
-    cost = float(d @ d)
-    lam = 0.0
-    previous = np.inf  # last accepted step size in the near-converged regime
-    for it in range(1, _MAX_ITER + 1):
-        if lam == 0.0:
-            step = np.linalg.lstsq(jac, -d, rcond=None)[0]
-        else:
-            dscale = np.sqrt(lam) * np.maximum(np.linalg.norm(jac, axis=0), 1e-300)
-            aug = np.vstack([jac, np.diag(dscale)])
-            rhs = np.concatenate([-d, np.zeros(jac.shape[1])])
-            step = np.linalg.lstsq(aug, rhs, rcond=None)[0]
-        size = float(np.linalg.norm(step))
-        # Near the solution the predicted decrease ‖Jδ‖² is below the rounding noise of
-        # the cost, so the cost can no longer judge steps.
-        predicted = float(np.sum((jac @ step) ** 2))
-        near = predicted <= _NEAR_REL * cost + d.size * (_EPS * scale) ** 2
-        # Converged: a negligible step, or near the solution steps stopped contracting
-        # (they are rounding noise).
-        if size <= _STEP_TOL * scale or (near and size >= previous):
-            return _Solve(state, it, True, cost)
-        trial = retract(state, step)
-        if trial is not None:
-            d_t, jac_t = evaluate(trial)
-            cost_t = float(d_t @ d_t)
-            # Near the solution the cost changes by less than its rounding error, so the
-            # step sizes decide convergence; far from it the cost must not increase.
-            if cost_t <= (cost * (1.0 + 1e-9) if near else cost):
-                state, d, jac, cost = trial, d_t, jac_t, cost_t
-                previous = size if near else np.inf
-                lam = 0.0 if lam <= 1e-6 else lam / 10.0
-                continue
-        previous = np.inf
-        lam = 1e-3 if lam == 0.0 else lam * 10.0
-        if lam > 1e12:
-            return _Solve(state, it, False, cost)
-    return _Solve(state, _MAX_ITER, False, cost)
+    return least_squares(
+        evaluate,
+        state,
+        retract=retract,
+        xtol=_STEP_TOL * scale,
+        max_iter=_MAX_ITER,
+        residual_rounding=_EPS * scale,
+    )
 
 
-def _better(solve: _Solve, best: _Solve | None) -> bool:
+def _better(solve: LeastSquaresResult, best: LeastSquaresResult | None) -> bool:
     """Whether a fit from another starting value beats the best so far: converged first,
     then a cost lower beyond rounding (ties keep the earlier, preferred candidate)."""
-    if best is None or (solve.converged and not best.converged):
+    if best is None or (solve.success and not best.success):
         return True
-    return solve.converged == best.converged and solve.cost < best.cost * (1.0 - 1e-9)
+    return solve.success == best.success and solve.cost < best.cost * (1.0 - 1e-9)
 
 
-def _message(kind: str, solve: _Solve, rms: float) -> str:
-    if solve.converged:
-        return f"{kind}: converged in {solve.iterations} iterations (rms {rms:.3g} mm)"
-    return (
-        f"{kind}: not converged after {solve.iterations} iterations "
-        f"(rms {rms:.3g} mm); the result is the best point reached"
-    )
+def _message(kind: str, solve: LeastSquaresResult | None, rms: float) -> str:
+    """One line from the status: what stopped the fit, and the rms residual."""
+    if solve is None:
+        return f"{kind}: closed-form SVD fit (rms {rms:.3g} mm)"
+    text = f"{kind}: {solve.message} after {solve.nit} iterations (rms {rms:.3g} mm)"
+    return text if solve.success else f"{text}; the result is the best point reached"
 
 
 def _result(
     element: Element,
     residuals: np.ndarray,
-    iterations: int,
-    converged: bool,
+    solve: LeastSquaresResult | None,
     message: str,
     jacobian: np.ndarray,
     direct: np.ndarray,
@@ -282,8 +252,9 @@ def _result(
         residuals=residuals,
         rms=rms,
         form_error=pv,
-        iterations=iterations,
-        converged=converged,
+        status=int(Status.EXACT) if solve is None else solve.status,
+        nit=0 if solve is None else solve.nit,
+        nfev=0 if solve is None else solve.nfev,
         message=message,
         parameter_jacobian=jacobian,
         _direct=direct,

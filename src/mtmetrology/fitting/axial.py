@@ -26,9 +26,9 @@ from mtmetrology.fitting._odr import (
     _perp_basis,
     _require_spread,
     _result,
-    _Solve,
 )
 from mtmetrology.fitting.elements import Cone, Cylinder
+from mtmetrology.optimize import LeastSquaresResult
 
 __all__ = ["fit_cone", "fit_cylinder"]
 
@@ -151,7 +151,7 @@ def fit_cylinder(points: object, direction: object = None) -> FitResult:
         r_new = r + step[4]
         return (x0_new, a_new, r_new) if r_new > 0 else None
 
-    best: _Solve | None = None
+    best: LeastSquaresResult | None = None
     for a in _candidate_axes(x, direction, kind):
         e1, e2 = _perp_basis(a)
         uv = np.column_stack([x @ e1, x @ e2])
@@ -165,7 +165,7 @@ def fit_cylinder(points: object, direction: object = None) -> FitResult:
             best = solve
     if best is None:
         raise FitError(f"{kind}: no starting axis gave a circular cross-section")
-    x0, a, r = best.state
+    x0, a, r = best.x
     a_canon = _canonical(a)
     rho, j, g, e1, e2 = _cylinder_local(x, x0, a_canon)
     _check_conditioning(kind, j, "axis and radius")
@@ -184,8 +184,7 @@ def fit_cylinder(points: object, direction: object = None) -> FitResult:
     return _result(
         Cylinder(x0 + centroid, a_canon, r),
         residuals,
-        best.iterations,
-        best.converged,
+        best,
         _message(kind, best, rms),
         jac,
         g,
@@ -309,7 +308,7 @@ def fit_cone(points: object, direction: object = None) -> FitResult:
         tau = -(x0_new @ a_new)  # slide to the foot of the centroid
         return (x0_new + tau * a_new, a_new, psi_new, s + step[5] + tau * np.sin(psi_new))
 
-    best: _Solve | None = None
+    best: LeastSquaresResult | None = None
     for a in _candidate_axes(x, direction, kind):
         for start in _cone_starts(x, a):
             solve = _gauss_newton(evaluate, retract, start, scale)
@@ -317,7 +316,7 @@ def fit_cone(points: object, direction: object = None) -> FitResult:
                 best = solve
     if best is None:
         raise FitError(f"{kind}: no starting axis gave a conical surface")
-    x0, a, psi, s = best.state
+    x0, a, psi, s = best.x
     d, j, g, e1, e2 = _cone_local(x, x0, a, psi, s)
     _check_conditioning(kind, j, "axis, half-angle and size")
     dbeta = _local_to_points(j[:, None, :], g[:, None, :])  # (6, n, 3)
@@ -335,8 +334,7 @@ def fit_cone(points: object, direction: object = None) -> FitResult:
     return _result(
         Cone(apex, a, psi),
         d,
-        best.iterations,
-        best.converged,
+        best,
         _message(kind, best, rms),
         jac,
         g,

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mtmetrology.fitting.least_squares import FitError
+from mtmetrology.optimize import least_squares_batch
 
 __all__ = [
     "BatchLineFit",
@@ -28,7 +29,6 @@ __all__ = [
 ]
 
 _STEP_TOL = 1e-13
-_NEAR_REL = 1e-10
 _EPS = float(np.finfo(float).eps)
 _MAX_ITER = 100
 _CHUNK = 1024
@@ -48,8 +48,9 @@ class BatchRoundFit:
         Signed radial deviations (in the circle's plane for 3-D circles).
     rms, form_error : (K,) arrays, mm
         Root mean square and peak-to-valley (max − min) of the residuals.
-    converged : (K,) bool array
-    iterations : (K,) int array
+    status : (K,) int array
+        :class:`mtmetrology.optimize.Status` of each set's solve (> 0: converged).
+    nit : (K,) int array
         Gauss–Newton iterations per set.
     message : str
     """
@@ -60,9 +61,14 @@ class BatchRoundFit:
     residuals: np.ndarray
     rms: np.ndarray
     form_error: np.ndarray
-    converged: np.ndarray
-    iterations: np.ndarray
+    status: np.ndarray
+    nit: np.ndarray
     message: str
+
+    @property
+    def success(self) -> np.ndarray:
+        """(K,) bool: the sets whose fit converged."""
+        return self.status > 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -224,16 +230,14 @@ def _round_gauss_newton(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Batched geometric circle/sphere fit of centred coordinate-major sets xt (K, d, n).
 
-    Returns centres (K, d), radii (K,), converged (K,), iterations (K,).
+    The project's batched least-squares core iterates; this function supplies the stacked
+    normal equations from one product per set (see ``moments``).  Returns centres (K, d),
+    radii (K,), status (K,), nit (K,).
     """
-    n_sets, d, _ = xt.shape
+    n_sets, d, n_points = xt.shape
     centres, radii = _kasa(xt, scale)
-    if radius is not None:
-        radii = np.full(n_sets, float(radius))
-    p = d if radius is not None else d + 1
-    lam = np.zeros(n_sets)
-    converged = np.zeros(n_sets, dtype=bool)
-    iterations = np.zeros(n_sets, dtype=int)
+    fixed = radius is not None
+    p = d if fixed else d + 1
 
     def moments(xs: np.ndarray, c: np.ndarray, r: np.ndarray) -> np.ndarray:
         """Stacked moment matrices A Aᵀ of A = [u; 1; ρ − r] (k, d + 2, n): they hold the
@@ -246,54 +250,27 @@ def _round_gauss_newton(
         np.subtract(rho, r[:, None], out=a[:, d + 1])
         return np.matmul(a, a.transpose(0, 2, 1))  # (k, d + 2, d + 2)
 
-    mom = moments(xt, centres, radii)
-    previous = np.full(n_sets, np.inf)
-    active = np.arange(n_sets)
-    for _ in range(_MAX_ITER):
-        if active.size == 0:
-            break
-        every = active.size == n_sets  # views instead of copies while all sets iterate
-        xs = xt if every else xt[active]
-        c = centres if every else centres[active]
-        r = radii if every else radii[active]
-        m = mom if every else mom[active]
-        jtj, jtr = m[:, :p, :p], -m[:, :p, d + 1]
-        cost = m[:, d + 1, d + 1]
-        lam_a = lam[active]
-        damped = jtj + lam_a[:, None, None] * (np.eye(p) * jtj) if lam_a.any() else jtj
-        step = _solve_spd(damped, -jtr)  # (k, p); NaN where the system is singular
-        singular = ~np.all(np.isfinite(step), axis=1)
-        if singular.any():
-            # Such a set (e.g. its centre ran off to infinity) stops, not converged.
-            step[singular] = 0.0
-        size = np.linalg.norm(step, axis=1)
-        iterations[active] += 1
-        # Near the solution the predicted decrease δᵀJᵀJδ is below the rounding noise of
-        # the cost, so the cost can no longer judge steps (as in least_squares).
-        # δᵀJᵀJδ ≤ −δᵀJᵀd (equal for an undamped step), the cheaper bound is used.
-        predicted = -np.einsum("ki,ki->k", step, jtr)
-        near = predicted <= _NEAR_REL * cost + xt.shape[2] * (_EPS * scale[active]) ** 2
-        done = (size <= _STEP_TOL * scale[active]) | (near & (size >= previous[active]))
-        done &= ~singular
-        converged[active[done]] = True
-        pending = ~done & ~singular
-        idx = active[pending]
-        c_t = c[pending] + step[pending, :d]
-        r_t = r[pending] if radius is not None else r[pending] + step[pending, d]
-        m_t = moments(xs[pending], c_t, r_t)
-        # Near the solution cost changes are rounding noise: step sizes decide.
-        cost_now = cost[pending]
-        limit = np.where(near[pending], cost_now * (1.0 + 1e-9), cost_now)
-        better = (m_t[:, d + 1, d + 1] <= limit) & (r_t > 0)
-        moved = idx[better]
-        centres[moved], radii[moved], mom[moved] = c_t[better], r_t[better], m_t[better]
-        previous[moved] = np.where(near[pending][better], size[pending][better], np.inf)
-        lam[moved] = np.where(lam[moved] <= 1e-6, 0.0, lam[moved] / 10.0)
-        worse = idx[~better]
-        previous[worse] = np.inf
-        lam[worse] = np.where(lam[worse] == 0.0, 1e-3, lam[worse] * 10.0)
-        active = idx[lam[idx] <= 1e12]
-    return centres, radii, converged, iterations
+    def normal_equations(x: np.ndarray, index: np.ndarray):
+        xs = xt if index.size == n_sets else xt[index]  # a view while every set iterates
+        r = np.full(index.size, float(radius)) if fixed else x[:, d]
+        m = moments(xs, x[:, :d], r)
+        return m[:, :p, :p], -m[:, :p, d + 1], m[:, d + 1, d + 1], n_points
+
+    def retract(x: np.ndarray, steps: np.ndarray, index: np.ndarray):
+        new = x + steps
+        return new, (None if fixed else new[:, d] > 0)
+
+    x0 = centres if fixed else np.column_stack([centres, radii])
+    solve = least_squares_batch(
+        normal_equations,
+        x0,
+        retract=retract,
+        xtol=_STEP_TOL * scale,
+        max_iter=_MAX_ITER,
+        residual_rounding=_EPS * scale,
+    )
+    out_radii = np.full(n_sets, float(radius)) if fixed else solve.x[:, d]
+    return solve.x[:, :d], out_radii, solve.status, solve.nit
 
 
 def _round_residuals(xt: np.ndarray, c: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -301,14 +278,14 @@ def _round_residuals(xt: np.ndarray, c: np.ndarray, r: np.ndarray) -> np.ndarray
     return np.sqrt(_squared_norms(xt - c[:, :, None])) - r[:, None]
 
 
-def _summary(kind: str, converged: np.ndarray) -> str:
-    n_bad = int((~converged).sum())
+def _summary(kind: str, status: np.ndarray) -> str:
+    n_bad = int((status <= 0).sum())
     if n_bad == 0:
-        return f"{kind}: all {converged.size} fits converged"
-    return f"{kind}: {n_bad} of {converged.size} fits did not converge (see converged)"
+        return f"{kind}: all {status.size} fits converged"
+    return f"{kind}: {n_bad} of {status.size} fits did not converge (see status)"
 
 
-def _round_fit(kind, centres, radii, normals, residuals, converged, iterations) -> BatchRoundFit:
+def _round_fit(kind, centres, radii, normals, residuals, status, nit) -> BatchRoundFit:
     """Assemble a :class:`BatchRoundFit` with its residual statistics."""
     return BatchRoundFit(
         centres=centres,
@@ -317,9 +294,9 @@ def _round_fit(kind, centres, radii, normals, residuals, converged, iterations) 
         residuals=residuals,
         rms=np.sqrt(np.mean(residuals * residuals, axis=1)),
         form_error=residuals.max(axis=1) - residuals.min(axis=1),
-        converged=converged,
-        iterations=iterations,
-        message=_summary(kind, converged),
+        status=status,
+        nit=nit,
+        message=_summary(kind, status),
     )
 
 
@@ -354,7 +331,7 @@ def fit_spheres(points: object, radius: float | None = None) -> BatchRoundFit:
     n_sets = p.shape[0]
     centres, radii = np.empty((n_sets, 3)), np.empty(n_sets)
     residuals = np.empty(p.shape[:2])
-    converged, iterations = np.empty(n_sets, dtype=bool), np.empty(n_sets, dtype=int)
+    status, nit = np.empty(n_sets, dtype=np.int8), np.empty(n_sets, dtype=int)
     # Chunks of a few thousand sets keep the temporaries in cache.
     for start in range(0, n_sets, _CHUNK):
         part = slice(start, start + _CHUNK)
@@ -364,10 +341,10 @@ def fit_spheres(points: object, radius: float | None = None) -> BatchRoundFit:
         scatter = np.matmul(xt, xt.transpose(0, 2, 1))  # (k, 3, 3)
         _require_spread_scatter(kind, scatter, start)
         scale = np.sqrt(np.trace(scatter, axis1=1, axis2=2) / xt.shape[2])
-        c, r, converged[part], iterations[part] = _round_gauss_newton(xt, scale, radius)
+        c, r, status[part], nit[part] = _round_gauss_newton(xt, scale, radius)
         residuals[part] = _round_residuals(xt, c, r)
         centres[part], radii[part] = c + centroid, r
-    return _round_fit(kind, centres, radii, None, residuals, converged, iterations)
+    return _round_fit(kind, centres, radii, None, residuals, status, nit)
 
 
 def fit_circles(points: object) -> BatchRoundFit:
@@ -399,7 +376,7 @@ def fit_circles(points: object) -> BatchRoundFit:
     vt = _require_spread(kind, x, 2, "collinear")
     if p.shape[2] == 2:
         xt = np.ascontiguousarray(x.transpose(0, 2, 1))
-        c, r, converged, iterations = _round_gauss_newton(xt, scale, None)
+        c, r, status, nit = _round_gauss_newton(xt, scale, None)
         res = _round_residuals(xt, c, r)
         centres, normals = c + centroid, None
     else:
@@ -408,11 +385,11 @@ def fit_circles(points: object) -> BatchRoundFit:
         e2 = np.cross(normals, e1)
         uv = np.stack([np.einsum("knd,kd->kn", x, e1), np.einsum("knd,kd->kn", x, e2)], axis=1)
         uv_mean = uv.mean(axis=2)  # (K, 2); uv is coordinate-major (K, 2, n)
-        c2, r, converged, iterations = _round_gauss_newton(uv - uv_mean[:, :, None], scale, None)
+        c2, r, status, nit = _round_gauss_newton(uv - uv_mean[:, :, None], scale, None)
         c2 = c2 + uv_mean
         res = _round_residuals(uv, c2, r)
         centres = centroid + c2[:, 0:1] * e1 + c2[:, 1:2] * e2
-    return _round_fit(kind, centres, r, normals, res, converged, iterations)
+    return _round_fit(kind, centres, r, normals, res, status, nit)
 
 
 def fit_planes(points: object) -> BatchPlaneFit:

@@ -46,10 +46,10 @@ from mtmetrology.fitting._odr import (
     _perp_basis,
     _require_spread,
     _result,
-    _Solve,
 )
 from mtmetrology.fitting.axial import fit_cone, fit_cylinder
 from mtmetrology.fitting.elements import Circle, Line, Plane, Sphere
+from mtmetrology.optimize import LeastSquaresResult
 
 __all__ = [
     "FitError",
@@ -114,7 +114,7 @@ def fit_line(points: object) -> FitResult:
         direct[0:2] = (np.outer(a, a) / n)[:, None, :]
         jac = np.einsum("tb,bnd->tnd", t, dbeta) + direct
         return _result(
-            line, y, 0, True, "line: closed-form SVD fit", jac, g[:, 0, :], j[:, 0, :], dbeta
+            line, y, None, "line: closed-form SVD fit", jac, g[:, 0, :], j[:, 0, :], dbeta
         )
     e1, e2 = vt[1], vt[2]
     u, v = x @ e1, x @ e2  # (n,) components of the perpendicular offsets
@@ -141,8 +141,7 @@ def fit_line(points: object) -> FitResult:
     return _result(
         line,
         rho,
-        0,
-        True,
+        None,
         "line: closed-form SVD fit",
         jac,
         np.einsum("nq,nqd->nd", w, g),
@@ -209,8 +208,7 @@ def fit_plane(points: object) -> FitResult:
     return _result(
         Plane(centroid, nrm),
         x @ nrm,
-        0,
-        True,
+        None,
         "plane: closed-form SVD fit",
         jac,
         g[:, 0, :],
@@ -224,7 +222,7 @@ def fit_plane(points: object) -> FitResult:
 
 def _fit_round(
     x: np.ndarray, scale: float, radius: float | None, kind: str
-) -> tuple[np.ndarray, float, _Solve]:
+) -> tuple[np.ndarray, float, LeastSquaresResult]:
     """Geometric circle/sphere fit of centred points (n, d); radius fixed if given."""
     try:
         c0, r0 = _hyper_fit(x)
@@ -250,7 +248,7 @@ def _fit_round(
         return (c + step, r)
 
     solve = _gauss_newton(evaluate, retract, (c0, r0), scale)
-    c, r = solve.state
+    c, r = solve.x
     return c, r, solve
 
 
@@ -326,8 +324,7 @@ def fit_sphere(points: object, radius: float | None = None) -> FitResult:
     return _result(
         sphere,
         residuals,
-        solve.iterations,
-        solve.converged,
+        solve,
         _message(kind, solve, rms),
         jac,
         g[:, 0, :],
@@ -384,8 +381,7 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
         return _result(
             Circle(c + centroid, r),
             residuals,
-            solve.iterations,
-            solve.converged,
+            solve,
             _message("circle", solve, rms),
             dbeta,
             g[:, 0, :],
@@ -444,8 +440,7 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
     return _result(
         Circle(centre, r, nrm),
         residuals,
-        solve.iterations,
-        solve.converged,
+        solve,
         _message("circle", solve, rms),
         jac,
         g3,

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mtmetrology.fitting.elements import Circle, Cone, Cylinder, Element, Line, Plane, Sphere
-from mtmetrology.fitting.least_squares import FitResult, fit_sphere
+from mtmetrology.fitting.least_squares import FitError, FitResult, fit_sphere
 from mtmetrology.units import from_internal
 
 __all__ = [
@@ -40,7 +40,7 @@ __all__ = [
 def _tip_radius(tip_radius: float) -> float:
     r = float(tip_radius)
     if not math.isfinite(r) or r < 0.0:
-        raise ValueError(f"tip_radius must be a finite length >= 0 mm, got {tip_radius!r}")
+        raise FitError(f"tip_radius must be a finite length >= 0 mm, got {tip_radius!r}")
     return r
 
 
@@ -65,7 +65,7 @@ def compensate(element: Element, tip_radius: float, inside: bool = False) -> Ele
 
     Raises
     ------
-    ValueError
+    FitError
         A negative tip radius, a tip not smaller than an outer feature's radius, or an
         element without a surface normal (a line).
 
@@ -79,9 +79,9 @@ def compensate(element: Element, tip_radius: float, inside: bool = False) -> Ele
     if isinstance(element, Sphere | Circle | Cylinder):
         radius = element.radius + sign * r
         if radius <= 0.0:
-            raise ValueError(
-                f"tip radius {r} mm is not smaller than the fitted radius {element.radius} mm "
-                "of an outer feature"
+            raise FitError(
+                f"tip radius {r} mm is not smaller than the fitted radius {element.radius:.6f} "
+                f"mm of the stylus-centre {type(element).__name__.lower()}"
             )
         if isinstance(element, Sphere):
             return Sphere(element.centre, radius)
@@ -94,7 +94,7 @@ def compensate(element: Element, tip_radius: float, inside: bool = False) -> Ele
         return Cone(element.apex + shift * element.direction, element.direction, element.half_angle)
     if isinstance(element, Plane):
         return Plane(element.point + sign * r * element.normal, element.normal)
-    raise ValueError(f"no probe compensation for a {type(element).__name__}")
+    raise FitError(f"no probe compensation for a {type(element).__name__}")
 
 
 def surface_normals(element: Element, points: object) -> np.ndarray:
@@ -124,10 +124,10 @@ def surface_normals(element: Element, points: object) -> np.ndarray:
         v = p - origin
         v = v - (v @ element.direction)[..., None] * element.direction
     else:
-        raise ValueError(f"a {type(element).__name__} of dimension {element.dim} has no normal")
+        raise FitError(f"a {type(element).__name__} of dimension {element.dim} has no normal")
     norm = np.linalg.norm(v, axis=-1, keepdims=True)
     if np.any(norm == 0.0):
-        raise ValueError("a point lies on the centre or axis: its normal is undefined")
+        raise FitError("a point lies on the centre or axis: its normal is undefined")
     u = v / norm
     if isinstance(element, Cone):
         psi = element.half_angle
@@ -216,7 +216,7 @@ def effective_tip_diameter(
     ------
     FitError
         Degenerate points (see :func:`fit_sphere`).
-    ValueError
+    FitError
         Non-positive calibrated diameter, negative uncertainties, or a fitted sphere
         smaller than the calibrated one (the points cannot be stylus centres outside it).
 
@@ -228,16 +228,16 @@ def effective_tip_diameter(
     """
     d_cal = float(calibrated_diameter)
     if not math.isfinite(d_cal) or d_cal <= 0:
-        raise ValueError(
+        raise FitError(
             f"calibrated_diameter must be a positive length, got {calibrated_diameter!r}"
         )
     u_cal = float(u_calibrated)
     if not math.isfinite(u_cal) or u_cal < 0:
-        raise ValueError(f"u_calibrated must be >= 0 mm, got {u_calibrated!r}")
+        raise FitError(f"u_calibrated must be >= 0 mm, got {u_calibrated!r}")
     fit = fit_sphere(points)
     diameter = 2.0 * fit.element.radius - d_cal
     if diameter <= 0:
-        raise ValueError(
+        raise FitError(
             f"the fitted sphere (Ø {2 * fit.element.radius:.6f} mm) is not larger than the "
             f"calibrated sphere (Ø {d_cal} mm): these are not stylus-centre points outside it"
         )
@@ -245,7 +245,7 @@ def effective_tip_diameter(
     if sigma_points is not None:
         sigma = float(sigma_points)
         if not math.isfinite(sigma) or sigma < 0:
-            raise ValueError(f"sigma_points must be >= 0 mm, got {sigma_points!r}")
+            raise FitError(f"sigma_points must be >= 0 mm, got {sigma_points!r}")
         u_r = math.sqrt(fit.parameter_covariance(sigma)[3, 3])
     u = math.sqrt(4.0 * u_r**2 + u_cal**2)
     message = (

@@ -163,6 +163,7 @@ def analyse_identifiability(
     n_measurements: int | None = None,
     report_names: Sequence[str] | None = None,
     share: float = 1e-3,
+    svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> IdentifiabilityReport:
     """Rank, conditioning and null directions of an identification Jacobian.
 
@@ -183,6 +184,9 @@ def analyse_identifiability(
         (e.g. the machine parameters, not the ball coordinates).
     share : float
         Smallest |coefficient| (relative to the largest) kept in a null direction.
+    svd : (column_norms, singular_values, vt), optional
+        The SVD of the column-scaled Jacobian when the caller has it (the least-squares
+        core does): it is not computed again.
 
     Returns
     -------
@@ -195,15 +199,18 @@ def analyse_identifiability(
     if not np.all(np.isfinite(j)):
         raise ValueError("jacobian holds NaN or infinite values")
     n = j.shape[1]
-    norms = np.linalg.norm(j, axis=0)
-    zero_cols = norms == 0
-    scaled = j / np.where(zero_cols, 1.0, norms)
-    _, s, vt = np.linalg.svd(scaled, full_matrices=True)
+    if svd is None or svd[2].shape[0] < n:
+        norms = np.linalg.norm(j, axis=0)
+        norms = np.where(norms > 0, norms, 1.0)
+        _, s, vt = np.linalg.svd(j / norms, full_matrices=True)
+    else:
+        norms, s, vt = svd
     s_full = np.zeros(n)
     s_full[: s.size] = s
     tol = rtol * (s_full[0] if s_full[0] > 0 else 1.0)
     rank = int(np.sum(s_full > tol))
-    s_raw = np.linalg.svd(j, compute_uv=False)
+    # J = U S Vᵀ D: the raw singular values are those of the n×n matrix S Vᵀ D
+    s_raw = np.linalg.svd(s_full[: vt.shape[0], None] * vt * norms, compute_uv=False)
     if rank == n:
         cond_scaled = float(s_full[0] / s_full[-1])
         cond_raw = float(s_raw[0] / s_raw[-1]) if s_raw[-1] > 0 else float("inf")

@@ -43,7 +43,7 @@ class ScaleBar:
 
     ends: tuple[str, str]
     length: float
-    u: float = 0.001
+    u: float
 
     def __post_init__(self):
         if not (self.length > 0 and np.isfinite(self.length)):
@@ -99,7 +99,9 @@ class BallCentreProblem:
         Add the three tool-vector corrections to the unknowns (identifiable only with
         spindle indexing, e.g. S = 90°, 180°, 270°).
     sigma : float
-        Standard uncertainty of one indication coordinate, mm (row weight 1/σ).
+        Standard uncertainty of one indication coordinate, mm (row weight 1/σ); required,
+        because it sets the weight of the indications against the scale bar and the scale
+        of the covariance.
 
     Attributes
     ----------
@@ -118,7 +120,7 @@ class BallCentreProblem:
         senses: np.ndarray | None = None,
         scale_bars: Sequence[ScaleBar] = (),
         estimate_tool: bool = False,
-        sigma: float = 0.001,
+        sigma: float,
     ):
         q = np.asarray(readings, dtype=float)
         if q.ndim != 2 or q.shape[1] != machine.n_axes:
@@ -155,6 +157,13 @@ class BallCentreProblem:
     @property
     def n_rows(self) -> int:
         return 3 * self.readings.shape[0] + len(self.scale_bars)
+
+    @property
+    def residual_rounding(self) -> float:
+        """Rounding unit of one weighted residual: eps × the largest coordinate / σ (a
+        residual is a difference of positions of that size)."""
+        size = max(float(np.abs(self.readings).max(initial=0.0)), 1.0)
+        return float(np.finfo(float).eps) * size / self.sigma
 
     def split(self, x: np.ndarray):
         """(θ, ball centres (n_balls, 3), tool correction (3,)) from the unknown vector."""

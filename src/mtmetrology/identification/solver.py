@@ -1,69 +1,112 @@
-"""Weighted non-linear least squares (Gauss–Newton) with rank and conditioning checks.
+"""Identification: the weighted non-linear least squares of machine errors, with diagnostics.
 
-The identification engine of mtmetrology: any problem object exposing ``names``,
-``n_rows`` and ``evaluate(x, jacobian=True) -> (r, J)`` (weighted residuals and their
-Jacobian) is solved by Gauss–Newton with column scaling (seed 004 §3.6, seed 000
-eqs 5-4…5-6)::
+Any problem object exposing ``names``, ``n_rows`` and ``evaluate(x, jacobian=True) -> (r,
+J)`` (weighted residuals and their Jacobian), optionally ``initial()`` and
+``residual_rounding``, is solved by the project's least-squares core
+(:func:`mtmetrology.optimize.least_squares`: Gauss–Newton with column scaling and a
+Levenberg–Marquardt safeguard; seed 004 §3.6, seed 000 eqs 5-4…5-6)::
 
     J_s = J · D⁻¹,   D = diag(‖J_:,j‖)         (unit-norm columns)
     Δx  = −D⁻¹ · J_s⁺ r                          (least-squares step, SVD)
 
-A rank-deficient Jacobian stops the solve with an error that names the unidentifiable
-combinations (no silent minimum-norm answer).  The covariance of the estimate is
-``(JᵀJ)⁻¹`` of the weighted problem (the weights carry the input uncertainties), and the
-a-posteriori variance factor ``s² = ‖r‖²/(m − n)`` is reported beside it.
+A rank-deficient Jacobian is refused with a :class:`~mtmetrology.errors.RankDeficientError`
+that names the unidentifiable combinations, unless the minimum-norm solution is asked
+for explicitly (then it is flagged in the result).  The covariance of the estimate is
+``(JᵀJ)⁻¹`` of the weighted problem (the weights carry the input uncertainties; seed 000
+eq. 5-6); the a-posteriori variance factor ``s² = ‖r‖²/(m − n)`` is reported beside it when
+the problem has redundancy (m > n).  The SVD of the last accepted iterate serves the step,
+the rank, the condition number, the observability indices and the covariance: it is
+computed once per accepted point, never again for the diagnostics.
+
+References
+----------
+S. Sepahi-Boroujeni, *Uncertainty of form and size measurement with on-machine tool
+metrology*, PhD thesis, Polytechnique Montréal, 2021, eqs 5-4–5-6 (SAMBA Gauss–Newton).
+I. Alami Mchichi, *Calibration of five-axis machine tools with the SAMBA method: optimized
+artefact layout and measurement sequence*, Polytechnique Montréal, 2018, §3.6.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from mtmetrology.errors import RankDeficientError
 from mtmetrology.identification.diagnostics import IdentifiabilityReport, analyse_identifiability
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.optimize import STATUS_MESSAGES, Status, least_squares
 
 __all__ = ["IdentificationError", "IdentificationResult", "gauss_newton"]
 
+#: Former name of the rank-deficiency error of an identification.
+IdentificationError = RankDeficientError
 
-class IdentificationError(ValueError):
-    """The identification cannot be solved; the message says why and what to do."""
 
-
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class IdentificationResult:
     """Result of :func:`gauss_newton`.
 
     Attributes
     ----------
     names : tuple of str
-    estimate : ndarray, shape (n,)
+        The unknowns.
+    estimate : (n,) ndarray
         Unknowns in internal units.
-    covariance : ndarray, shape (n, n)
-        ``(JᵀJ)⁻¹`` of the weighted problem at the solution.
-    residuals : ndarray, shape (m,)
-        Weighted residuals at the solution.
-    variance_factor : float
-        ``‖r‖²/(m − n)``; ≈ 1 when the weights are the true input uncertainties.
-    iterations : int
-    converged : bool
+    covariance : (n, n) ndarray
+        ``(JᵀJ)⁻¹`` of the weighted problem at the estimate (internal units); the
+        pseudo-inverse over the rank for a minimum-norm solution.
+    residuals : (m,) ndarray
+        Weighted residuals at the estimate.
+    jacobian : (m, n) ndarray
+        Their Jacobian.
+    cost : float
+        ``½‖r‖²``.
+    dof : int
+        Redundancy ``m − rank``.
+    variance_factor : float or None
+        ``‖r‖²/(m − n)``, ≈ 1 when the weights are the true input uncertainties; None
+        when there is no redundancy (m ≤ n).
+    nit, nfev, njev : int
+        Iterations, residual and Jacobian evaluations.
+    status : int
+        :class:`mtmetrology.optimize.Status` code of the solve.
+    minimum_norm : bool
+        True when a rank-deficient problem was solved by its minimum-norm solution.
     diagnostics : IdentifiabilityReport
-    message : str
+        Rank, condition numbers, observability indices, null directions at the estimate.
     """
 
     names: tuple[str, ...]
     estimate: np.ndarray
-    covariance: np.ndarray
-    residuals: np.ndarray
-    variance_factor: float
-    iterations: int
-    converged: bool
-    diagnostics: IdentifiabilityReport
-    message: str
+    covariance: np.ndarray = field(repr=False)
+    residuals: np.ndarray = field(repr=False)
+    jacobian: np.ndarray = field(repr=False)
+    cost: float
+    dof: int
+    variance_factor: float | None
+    nit: int
+    nfev: int
+    njev: int
+    status: int
+    minimum_norm: bool
+    diagnostics: IdentifiabilityReport = field(repr=False)
 
     @property
-    def standard_uncertainties(self) -> np.ndarray:
+    def success(self) -> bool:
+        return self.status > 0
+
+    @property
+    def message(self) -> str:
+        text = f"{STATUS_MESSAGES[Status(self.status)]} after {self.nit} iterations"
+        if self.minimum_norm:
+            text += "; MINIMUM-NORM solution of a rank-deficient problem"
+        return f"{text}; {self.diagnostics.message}"
+
+    @property
+    def standard_uncertainty(self) -> np.ndarray:
+        """Square roots of the diagonal of :attr:`covariance`, internal units."""
         return np.sqrt(np.diag(self.covariance))
 
     def parameter_set(self, machine: Machine, provenance: dict | None = None) -> ParameterSet:
@@ -81,7 +124,9 @@ class IdentificationResult:
             self.estimate[idx],
             machine.parameter_units,
             self.covariance[np.ix_(idx, idx)],
-            {"message": self.message, **(provenance or {})},
+            {"identification": self.message, **(provenance or {})},
+            machine=machine.name,
+            model=machine.model_name,
         )
 
 
@@ -92,13 +137,17 @@ def gauss_newton(
     xtol: float = 1e-8,
     max_iter: int = 50,
     rtol_rank: float = 1e-8,
+    minimum_norm: bool = False,
+    report_names=None,
 ) -> IdentificationResult:
-    """Solve a weighted non-linear least-squares problem by Gauss–Newton.
+    """Solve a weighted non-linear least-squares identification problem.
 
     Parameters
     ----------
     problem : object
-        Exposes ``names``, ``evaluate(x, jacobian=True)`` and optionally ``initial()``.
+        Exposes ``names``, ``evaluate(x, jacobian=True) -> (r, J)`` and optionally
+        ``initial()`` and ``residual_rounding`` (the rounding unit of one weighted
+        residual, for the rounding-level stop of the core).
     x0 : ndarray, optional
         Starting point; ``problem.initial()`` when omitted.
     xtol : float
@@ -109,58 +158,80 @@ def gauss_newton(
     max_iter : int
     rtol_rank : float
         Rank tolerance of the column-scaled Jacobian.
+    minimum_norm : bool
+        Solve a rank-deficient problem by its minimum-norm solution instead of refusing
+        it; the result says so (``minimum_norm``) and its covariance is the pseudo-inverse.
+    report_names : sequence of str, optional
+        The unknowns whose confounding matters (e.g. the machine parameters): messages list
+        the null directions that touch them.
 
     Returns
     -------
     IdentificationResult
+        A solve that stops without converging is returned, not raised: read ``status``
+        and ``success``.
 
     Raises
     ------
-    IdentificationError
-        If the Jacobian is rank deficient (the message names the confounded unknowns)
-        or the residuals are not finite.
+    RankDeficientError
+        If the Jacobian is rank deficient at the start or at the solution and
+        ``minimum_norm`` is False; ``confounded`` lists the names of each combination.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> class Line:                       # y = a + b t, three exact points
+    ...     names = ("a", "b")
+    ...     t = np.array([0.0, 1.0, 2.0])
+    ...     def initial(self):
+    ...         return np.zeros(2)
+    ...     def evaluate(self, x, jacobian=True):
+    ...         r = x[0] + x[1] * self.t - (1.0 + 2.0 * self.t)
+    ...         return r, np.column_stack([np.ones(3), self.t])
+    >>> res = gauss_newton(Line())
+    >>> res.success, np.round(res.estimate, 12).tolist(), res.dof
+    (True, [1.0, 2.0], 1)
     """
-    x = np.array(problem.initial() if x0 is None else x0, dtype=float)
     names = tuple(problem.names)
-    converged = False
-    it = 0
-    for it in range(1, max_iter + 1):
-        r, jac = problem.evaluate(x, jacobian=True)
-        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac))):
-            raise IdentificationError("residuals or Jacobian are not finite at the current point")
-        norms = np.linalg.norm(jac, axis=0)
-        if it == 1:
-            report = analyse_identifiability(jac, names, rtol=rtol_rank)
-            if not report.full_rank:
-                raise IdentificationError(
-                    f"the identification is rank deficient ({report.message}); remove one "
-                    "parameter of each confounded group or add measurements that separate them"
-                )
-        scaled = jac / norms
-        step, *_ = np.linalg.lstsq(scaled, -r, rcond=None)
-        x = x + step / norms
-        if np.linalg.norm(step) <= xtol:
-            converged = True
-            break
-    r, jac = problem.evaluate(x, jacobian=True)
-    report = analyse_identifiability(jac, names, rtol=rtol_rank)
-    norms = np.linalg.norm(jac, axis=0)
-    scaled = jac / norms
-    inv = np.linalg.pinv(scaled.T @ scaled)
-    cov = inv / np.outer(norms, norms)
-    dof = r.size - x.size
-    vf = float(r @ r / dof) if dof > 0 else float("nan")
-    message = (
-        f"converged in {it} iterations" if converged else f"not converged after {it} iterations"
+    start = np.array(problem.initial() if x0 is None else x0, dtype=float)
+    solve = least_squares(
+        lambda x: problem.evaluate(x, jacobian=True),
+        start,
+        xtol=xtol,
+        max_iter=max_iter,
+        residual_rounding=float(getattr(problem, "residual_rounding", 0.0)),
+        rank_rtol=rtol_rank,
+        require_full_rank=not minimum_norm,
     )
+    report = analyse_identifiability(
+        solve.jacobian,
+        names,
+        rtol=rtol_rank,
+        report_names=report_names,
+        svd=(solve.column_norms, solve.singular_values, solve.right_singular_vectors),
+    )
+    if not report.full_rank and not minimum_norm:
+        raise RankDeficientError(
+            f"the identification is rank deficient ({report.message}); remove one parameter "
+            "of each confounded group or add measurements that separate them",
+            confounded=report.confounded(),
+        )
+    r = solve.residuals
+    m = r.size
+    dof = m - solve.rank
     return IdentificationResult(
         names=names,
-        estimate=x,
-        covariance=cov,
+        estimate=np.asarray(solve.x, dtype=float),
+        covariance=solve.covariance(),
         residuals=r,
-        variance_factor=vf,
-        iterations=it,
-        converged=converged,
+        jacobian=solve.jacobian,
+        cost=solve.cost,
+        dof=dof,
+        variance_factor=float(r @ r / dof) if dof > 0 else None,
+        nit=solve.nit,
+        nfev=solve.nfev,
+        njev=solve.njev,
+        status=solve.status,
+        minimum_norm=not report.full_rank,
         diagnostics=report,
-        message=f"{message}; {report.message}",
     )

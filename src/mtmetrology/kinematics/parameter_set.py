@@ -10,11 +10,18 @@ The file form follows ARCHITECTURE.md::
 
 Values are converted to internal units on reading (µm -> mm, µrad -> rad, µm/m -> 1)
 and back on writing; a unit whose dimension does not fit the parameter is an error.
+
+Reading is strict, because a parameter set moves a machine: ``kind`` must be
+``parameter-set`` (or a calibration result that embeds one, :data:`RESULT_KINDS`, whose
+other keys belong to that result), ``version`` must be 1, ``machine`` must name the machine
+the set is applied to, ``model`` (when given) must be one of its error models, values must
+be JSON/YAML numbers (``true`` or ``"12.5"`` are refused), and unknown keys are errors.
 """
 
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,7 +34,25 @@ from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameters import ParameterNameError, parse_parameter
 from mtmetrology.units import UnitError, parse_unit
 
-__all__ = ["ParameterSet"]
+__all__ = ["KIND", "RESULT_KINDS", "ParameterSet"]
+
+KIND = "parameter-set"
+VERSION = 1
+#: Result documents that embed a parameter set (``mtm predict --params`` reads them as they
+#: are); their keys beyond the parameter set are the result's own.
+RESULT_KINDS = ("samba-calibration", "ballplate-calibration")
+_KEYS = {"kind", "version", "machine", "model", "parameters", "covariance", "provenance"}
+_ENTRY_KEYS = {"name", "value", "unit", "u"}
+
+
+def _number(value: object, where: str) -> float:
+    """A finite JSON/YAML number; booleans and strings are refused."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise InputFileError(f"{where}: {value!r} is not a number")
+    v = float(value)
+    if not math.isfinite(v):
+        raise InputFileError(f"{where}: {value!r} is not finite")
+    return v
 
 
 @dataclass(frozen=True)
@@ -44,6 +69,10 @@ class ParameterSet:
     covariance : ndarray, shape (n, n) or None
         Internal units.
     provenance : dict
+    machine : str or None
+        Name of the machine the set belongs to (its definition's ``name``).
+    model : str or None
+        The machine's error model the set was made with, when it was a named model.
     """
 
     names: tuple[str, ...]
@@ -51,37 +80,81 @@ class ParameterSet:
     units: tuple[str, ...]
     covariance: np.ndarray | None = None
     provenance: dict = field(default_factory=dict)
+    machine: str | None = None
+    model: str | None = None
 
     @property
-    def standard_uncertainties(self) -> np.ndarray | None:
+    def standard_uncertainty(self) -> np.ndarray | None:
+        """Square roots of the covariance diagonal (internal units), None without one."""
         if self.covariance is None:
             return None
         return np.sqrt(np.diag(self.covariance))
 
     @classmethod
     def zeros(cls, machine: Machine) -> ParameterSet:
-        return cls(machine.parameter_names, np.zeros(machine.n_params), machine.parameter_units)
+        """Zero errors for every active parameter of ``machine``."""
+        return cls(
+            machine.parameter_names,
+            np.zeros(machine.n_params),
+            machine.parameter_units,
+            machine=machine.name,
+            model=machine.model_name,
+        )
 
-    def machine(self, base: Machine) -> Machine:
-        """``base`` with exactly these parameters active (same geometry and bases)."""
+    def machine_for(self, base: Machine) -> Machine:
+        """``base`` with exactly these parameters active, under the set's error model.
+
+        The named model of the set is activated first (its basis defines what the
+        coefficients mean), then the parameter list is matched.
+
+        Raises
+        ------
+        InputFileError
+            If the set was made for another machine.
+        """
+        self.check_machine(base)
+        if self.model is not None and base.spec is not None and base.model_name != self.model:
+            base = Machine.from_spec(base.spec, model=self.model, source=base.name)
         if base.parameter_names == self.names:
             return base
         return base.with_parameters(self.names)
 
+    def check_machine(self, machine: Machine, source: str = "parameter set") -> None:
+        """Refuse a set made for another machine or model."""
+        if self.machine is not None and self.machine != machine.name:
+            raise InputFileError(
+                f"{source}: made for machine {self.machine!r}, not {machine.name!r}"
+            )
+        if (
+            self.model is not None
+            and machine.spec is not None
+            and self.model not in machine.spec.error_models
+        ):
+            raise InputFileError(
+                f"{source}: error model {self.model!r} is not a model of {machine.name} "
+                f"(models: {', '.join(machine.spec.error_models)})"
+            )
+
     def scales(self) -> np.ndarray:
+        """Factors from the customary units to internal units."""
         return np.array([parse_unit(u).factor for u in self.units])
 
     def to_document(self) -> dict:
         """The JSON-ready document with values in customary units."""
         f = self.scales()
-        u = self.standard_uncertainties
+        u = self.standard_uncertainty
         params = []
         for i, n in enumerate(self.names):
             entry = {"name": n, "value": float(self.values[i] / f[i]), "unit": self.units[i]}
             if u is not None:
                 entry["u"] = float(u[i] / f[i])
             params.append(entry)
-        doc: dict = {"kind": "parameter-set", "version": 1, "parameters": params}
+        doc: dict = {"kind": KIND, "version": VERSION}
+        if self.machine is not None:
+            doc["machine"] = self.machine
+        if self.model is not None:
+            doc["model"] = self.model
+        doc["parameters"] = params
         if self.covariance is not None:
             doc["covariance"] = {
                 "names": list(self.names),
@@ -112,20 +185,46 @@ class ParameterSet:
         Raises
         ------
         InputFileError
-            Naming the file, the parameter and what is wrong.
+            Naming the file, the key or parameter, and what is wrong.
         """
         if not isinstance(doc, dict):
             raise InputFileError(f"{source}: a parameter set must be a mapping")
+        kind = doc.get("kind")
+        if kind != KIND and kind not in RESULT_KINDS:
+            raise InputFileError(
+                f"{source}: kind: {kind!r} is not a parameter set (expected {KIND!r} or a "
+                f"calibration result: {', '.join(RESULT_KINDS)})"
+            )
+        if kind == KIND:
+            unknown = sorted(set(doc) - _KEYS)
+            if unknown:
+                raise InputFileError(f"{source}: {unknown[0]}: unknown key in a parameter set")
+        version = doc.get("version")
+        if isinstance(version, bool) or version != VERSION:
+            raise InputFileError(f"{source}: version: {version!r} is not supported (1 is)")
+        for key in ("machine", "model"):
+            if key in doc and not isinstance(doc[key], str):
+                raise InputFileError(f"{source}: {key}: must be a string, got {doc[key]!r}")
+        if "machine" not in doc:
+            raise InputFileError(
+                f"{source}: machine: missing; name the machine the set belongs to "
+                f"(here {machine.name!r})"
+            )
+        names, values, units, factors = [], [], [], []
         entries = doc.get("parameters")
         if not isinstance(entries, list) or not entries:
-            raise InputFileError(f"{source}: 'parameters' must be a non-empty list")
-        names, values, units = [], [], []
+            raise InputFileError(f"{source}: parameters: must be a non-empty list")
         for k, e in enumerate(entries):
             where = f"{source}: parameters[{k}]"
-            if not isinstance(e, dict) or "name" not in e or "value" not in e:
+            if not isinstance(e, dict) or not {"name", "value", "unit"} <= set(e):
                 raise InputFileError(f"{where}: needs 'name', 'value' and 'unit'")
+            extra = sorted(set(e) - _ENTRY_KEYS)
+            if extra:
+                raise InputFileError(f"{where}: {extra[0]}: unknown key")
+            if not isinstance(e["name"], str):
+                raise InputFileError(f"{where}: name must be a string, got {e['name']!r}")
             try:
-                p = parse_parameter(str(e["name"]))
+                p = parse_parameter(e["name"])
             except ParameterNameError as err:
                 raise InputFileError(f"{where}: {err}") from None
             if p.axis not in machine.topology.axes:
@@ -133,63 +232,74 @@ class ParameterSet:
                     f"{where}: {p.name} refers to axis {p.axis}, not in {machine.name}"
                 )
             expected = machine.unit_of(p)
-            unit = str(e.get("unit", expected))
+            if not isinstance(e["unit"], str):
+                raise InputFileError(f"{where} ({p.name}): unit must be a string")
             try:
-                declared = parse_unit(unit)
+                declared = parse_unit(e["unit"])
             except UnitError as err:
                 raise InputFileError(f"{where} ({p.name}): {err}") from None
             if declared.dimension != parse_unit(expected).dimension:
                 raise InputFileError(
-                    f"{where} ({p.name}): unit {unit!r} does not fit this parameter "
+                    f"{where} ({p.name}): unit {e['unit']!r} does not fit this parameter "
                     f"(expected a unit like {expected!r})"
                 )
-            try:
-                value = float(e["value"])
-            except (TypeError, ValueError):
-                raise InputFileError(
-                    f"{where} ({p.name}): value {e['value']!r} is not a number"
-                ) from None
-            if not np.isfinite(value):
-                raise InputFileError(f"{where} ({p.name}): value is not finite")
+            value = _number(e["value"], f"{where} ({p.name}): value")
             names.append(p.name)
             values.append(value * declared.factor)
             units.append(expected)
+            factors.append(declared.factor)
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise InputFileError(f"{source}: parameter(s) listed twice: {', '.join(dup)}")
         cov = None
         if doc.get("covariance") is not None:
-            cov = cls._covariance(doc["covariance"], names, entries, units, source)
-        elif all("u" in e for e in entries):
-            u = np.array([float(e["u"]) for e in entries])
-            if np.any(u < 0) or not np.all(np.isfinite(u)):
-                raise InputFileError(f"{source}: standard uncertainties u must be >= 0")
-            declared_f = np.array(
-                [parse_unit(str(e.get("unit", units[i]))).factor for i, e in enumerate(entries)]
+            cov = cls._covariance(doc["covariance"], names, np.array(factors), source)
+        elif any("u" in e for e in entries):
+            if not all("u" in e for e in entries):
+                missing = next(e["name"] for e in entries if "u" not in e)
+                raise InputFileError(f"{source}: {missing}: u missing while others have one")
+            u = np.array(
+                [_number(e["u"], f"{source}: {e['name']}: u") for e in entries], dtype=float
             )
-            cov = np.diag((u * declared_f) ** 2)
-        return cls(
+            if np.any(u < 0):
+                raise InputFileError(f"{source}: standard uncertainties u must be >= 0")
+            cov = np.diag((u * np.array(factors)) ** 2)
+        provenance = doc.get("provenance") or {}
+        if not isinstance(provenance, dict):
+            raise InputFileError(f"{source}: provenance: must be a mapping")
+        pset = cls(
             tuple(names),
             np.array(values),
             tuple(units),
             cov,
-            dict(doc.get("provenance") or {}),
+            dict(provenance),
+            machine=doc["machine"],
+            model=doc.get("model"),
         )
+        pset.check_machine(machine, source)
+        return pset
 
     @staticmethod
-    def _covariance(block, names, entries, units, source):
-        if not isinstance(block, dict) or "names" not in block or "matrix" not in block:
-            raise InputFileError(f"{source}: covariance needs 'names' and 'matrix'")
-        cnames = [parse_parameter(str(n)).name for n in block["names"]]
+    def _covariance(block, names, factors, source):
+        if not isinstance(block, dict) or set(block) != {"names", "matrix"}:
+            raise InputFileError(f"{source}: covariance needs exactly 'names' and 'matrix'")
+        if not isinstance(block["names"], list) or not all(
+            isinstance(n, str) for n in block["names"]
+        ):
+            raise InputFileError(f"{source}: covariance.names must be a list of names")
+        cnames = [parse_parameter(n).name for n in block["names"]]
         if sorted(cnames) != sorted(names):
             raise InputFileError(f"{source}: covariance names differ from the parameter names")
-        try:
-            mat = np.array(block["matrix"], dtype=float)
-        except (TypeError, ValueError):
-            raise InputFileError(f"{source}: covariance matrix is not numeric") from None
+        rows = block["matrix"]
         n = len(names)
-        if mat.shape != (n, n) or not np.all(np.isfinite(mat)):
-            raise InputFileError(f"{source}: covariance matrix must be finite and {n}x{n}")
+        if not isinstance(rows, list) or len(rows) != n:
+            raise InputFileError(f"{source}: covariance.matrix must be {n}x{n}")
+        mat = np.empty((n, n))
+        for i, row in enumerate(rows):
+            if not isinstance(row, list) or len(row) != n:
+                raise InputFileError(f"{source}: covariance.matrix row {i} must have {n} entries")
+            for j, v in enumerate(row):
+                mat[i, j] = _number(v, f"{source}: covariance.matrix[{i}][{j}]")
         if not np.allclose(mat, mat.T, rtol=1e-9, atol=0):
             raise InputFileError(f"{source}: covariance matrix is not symmetric")
         order = [cnames.index(nm) for nm in names]
@@ -197,14 +307,11 @@ class ParameterSet:
         if np.linalg.eigvalsh(mat).min() < -1e-9 * np.abs(mat).max():
             raise InputFileError(f"{source}: covariance matrix is not positive semi-definite")
         # the matrix is in the units listed with the parameters
-        listed = np.array(
-            [parse_unit(str(e.get("unit", u))).factor for e, u in zip(entries, units, strict=True)]
-        )
-        return mat * np.outer(listed, listed)
+        return mat * np.outer(factors, factors)
 
     @classmethod
     def load(cls, path: str | Path, machine: Machine) -> ParameterSet:
-        """Read a JSON or YAML parameter file."""
+        """Read a JSON or YAML parameter file (strict; see the module notes)."""
         doc = load_document(path, "parameter set")
         return cls.from_document(doc, machine, str(path))
 
