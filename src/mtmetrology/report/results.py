@@ -243,10 +243,10 @@ def _identifiability(rep: Report, d, **_) -> None:
     rows = [
         ["unknowns", d.n_unknowns],
         ["rank", d.rank],
-        ["condition number (columns scaled)", d.condition_scaled],
-        ["condition number (internal units)", d.condition_raw],
+        ["condition number (columns scaled)", f"{d.condition_scaled:.4g}"],
+        ["condition number (internal units)", f"{d.condition_raw:.4g}"],
     ]
-    rows += [[f"observability {k}", v] for k, v in d.observability.items()]
+    rows += [[f"observability {k}", f"{v:.4g}"] for k, v in d.observability.items()]
     rep.table(["quantity", "value"], rows)
     if d.null_directions:
         rep.table(
