@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import json
+import shlex
 import sys
 from collections.abc import Callable
 from functools import wraps
+from pathlib import Path
+from typing import Annotated
 
 import numpy as np
 import typer
@@ -68,3 +71,47 @@ def senses_from_table(machine: Machine, table: Table) -> np.ndarray | None:
                 )
             out[:, k] = v
     return out
+
+
+ReportOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--report",
+        help="Also write a self-contained HTML report (tables, figures, provenance) here.",
+        dir_okay=False,
+    ),
+]
+
+
+def command_line(ctx: typer.Context) -> str:
+    """The running command as a user would type it, rebuilt from its parsed parameters.
+
+    Options left at their default are omitted, so the line reruns the same command.
+    (Rebuilt rather than read from ``sys.argv``, which is the test runner's under
+    ``CliRunner`` and ``python -m``'s when run as a module.)
+    """
+    words = ctx.command_path.split()
+    words[0] = "mtm"
+    for param in ctx.command.params:
+        value = ctx.params.get(param.name)
+        if value is None or value == param.get_default(ctx) or param.expose_value is False:
+            continue
+        if param.param_type_name == "argument":
+            words += [str(v) for v in value] if isinstance(value, list | tuple) else [str(value)]
+        elif getattr(param, "is_flag", False):
+            flag = param.opts[0] if value else (param.secondary_opts or [None])[0]
+            words += [flag] if flag else []
+        else:
+            values = value if isinstance(value, list | tuple) else [value]
+            for v in values:
+                words += [param.opts[0], str(getattr(v, "value", v))]
+    return shlex.join(words)
+
+
+def write_report(report, path: Path) -> None:
+    """Write ``report`` atomically to ``path`` and say so on stderr (stdout stays data)."""
+    try:
+        report.write(path)
+    except OSError as exc:
+        fail(f"{path}: cannot write the report ({exc.strerror or exc})")
+    typer.echo(f"report written to {path}", err=True)

@@ -27,6 +27,7 @@ import typer
 from rich.console import Console
 from rich.table import Table as RichTable
 
+from mtmetrology.cli._common import ReportOption, command_line, write_report
 from mtmetrology.fitting import minimum_zone
 from mtmetrology.fitting.documents import fit_document
 from mtmetrology.fitting.elements import Circle, Cone, Cylinder, Line, Sphere
@@ -170,6 +171,7 @@ def _print(console: Console, document: dict) -> None:
 
 
 def fit(
+    ctx: typer.Context,
     element: Annotated[ElementName, typer.Argument(help="The element to fit.")],
     points_csv: Annotated[
         Path, typer.Argument(help="CSV file with columns x, y, z (mm), one point a row.")
@@ -198,6 +200,7 @@ def fit(
     json_output: Annotated[
         bool, typer.Option("--json", help="Print a fit-result JSON document.")
     ] = False,
+    report_path: ReportOption = None,
 ) -> None:
     """Fit a line, plane, circle, sphere, cylinder or cone to points and report its form.
 
@@ -253,6 +256,16 @@ def fit(
     document = fit_document(
         element.value, method.value, str(points_csv), fitted, residuals, form_error, extra
     )
+    if report_path is not None:
+        from mtmetrology.report import Report
+        from mtmetrology.report.results import add_fit_document
+
+        rep = Report(
+            f"{element.value.capitalize()} fit: {points_csv.name}",
+            command=command_line(ctx),
+            provenance={"inputs": [points_csv]},
+        )
+        write_report(add_fit_document(rep, document, residuals, points), report_path)
     if json_output:
         typer.echo(json.dumps(document, indent=2, allow_nan=False, ensure_ascii=False))
     else:

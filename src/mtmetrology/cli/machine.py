@@ -11,10 +11,13 @@ from rich.console import Console
 from rich.table import Table as RichTable
 
 from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
     print_json,
     readings_from_table,
     senses_from_table,
     user_errors,
+    write_report,
 )
 from mtmetrology.errors import EXIT_INPUT, InputError, RankDeficientError
 from mtmetrology.identification import (
@@ -135,9 +138,23 @@ def check(machine_file: Annotated[Path, typer.Argument(help="Machine YAML file."
     console.print("valid")
 
 
+def _identifiability_report(diagnosis, setup, command, inputs, path) -> None:
+    from mtmetrology.report import Report
+    from mtmetrology.report.results import add_result
+
+    report = Report(
+        "Identifiability of a probing set-up",
+        command=command,
+        provenance={"inputs": [p for p in inputs if p is not None]},
+    )
+    report.section("Set-up").table(["item", "value"], setup)
+    write_report(add_result(report, diagnosis), path)
+
+
 @app.command("identifiability")
 @user_errors
 def identifiability(
+    ctx: typer.Context,
     machine: MachineArg,
     poses: Annotated[Path, typer.Argument(help="Ball-centre indications CSV: ball,X,Y,Z,B,C[,S].")],
     model: ModelOpt = None,
@@ -164,6 +181,7 @@ def identifiability(
         ),
     ] = False,
     json: Annotated[bool, typer.Option("--json", help="Print a JSON document.")] = False,
+    report_path: ReportOption = None,
 ) -> None:
     """Rank, conditioning and unidentifiable combinations of a probing set-up.
 
@@ -197,6 +215,17 @@ def identifiability(
         jac, problem.names, n_measurements=len(table), report_names=m.parameter_names
     )
     deficient = not rep.full_rank and not allow_deficient
+    if report_path is not None:
+        setup = [
+            ["machine", f"{m.name}, model {m.model_name or 'custom'}"],
+            ["parameters", m.n_params],
+            ["balls", problem.n_balls],
+            ["indications", len(table)],
+            ["scale bars", len(bars)],
+            ["tool offset", "estimated" if estimate_tool else "known"],
+            ["indication σ (µm)", sigma_um],
+        ]
+        _identifiability_report(rep, setup, command_line(ctx), [poses, artefact], report_path)
     if json:
         print_json({**rep.to_dict(), "sigma_um": sigma_um})
         if deficient:

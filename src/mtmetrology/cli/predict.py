@@ -9,14 +9,49 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from mtmetrology.cli._common import readings_from_table, senses_from_table, user_errors
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    readings_from_table,
+    senses_from_table,
+    user_errors,
+    write_report,
+)
 from mtmetrology.io.files import InputFileError, read_csv_table, write_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 
 
+def _add_compensation(report, machine: Machine, xyz: np.ndarray, nominal: np.ndarray) -> None:
+    """The correction each point receives from the error model: statistics and vectors."""
+    from mtmetrology.report import figures
+    from mtmetrology.units import from_internal
+
+    correction = from_internal(xyz - nominal, "µm")  # (n, 3)
+    size = np.linalg.norm(correction, axis=1)
+    report.section(
+        "Compensation",
+        f"{machine.name}, model {machine.model_name or 'custom'}: x, y, z are the stylus-centre "
+        "positions in the workpiece frame with the parameter set's errors, the correction is "
+        "their difference from the nominal (error-free) kinematics.",
+    )
+    report.table(
+        ["quantity", "value", "unit"],
+        [
+            ["points", len(size), ""],
+            ["largest correction", float(size.max()), "µm"],
+            ["rms correction", float(np.sqrt(np.mean(size**2))), "µm"],
+        ],
+    )
+    report.figure(
+        figures.residual_vectors(xyz, correction, title="Corrections"),
+        caption="Correction of each point (compensated minus nominal position).",
+    )
+
+
 @user_errors
 def predict(
+    ctx: typer.Context,
     readings: Annotated[Path, typer.Argument(help="Probing records CSV: X,Y,Z,B,C[,S] ...")],
     machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
     params: Annotated[
@@ -25,6 +60,7 @@ def predict(
     output: Annotated[
         Path | None, typer.Option("-o", "--output", help="Output CSV (standard output if omitted).")
     ] = None,
+    report_path: ReportOption = None,
 ) -> None:
     """Compensated stylus-centre coordinates x, y, z (mm) in the workpiece frame.
 
@@ -51,6 +87,20 @@ def predict(
             f"add the sense-of-motion column(s) {columns} (+1 or -1)"
         )
     xyz = m.forward(q, theta, senses=senses)
+    if report_path is not None:
+        from mtmetrology.report import Report
+        from mtmetrology.report.results import add_result
+
+        nominal = m.forward(q, None, senses=senses)
+        report = Report(
+            f"Compensated coordinates: {readings.name}",
+            command=command_line(ctx),
+            provenance={"inputs": [readings, *([] if params is None else [params])]},
+        )
+        _add_compensation(report, m, np.atleast_2d(xyz), np.atleast_2d(nominal))
+        if params is not None:
+            add_result(report, pset)
+        write_report(report, report_path)
     header = [*table.header, "x", "y", "z"]
     rows = (
         [*row, *(f"{v:.6f}" for v in p)]

@@ -27,6 +27,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from mtmetrology.cli._common import ReportOption, command_line, write_report
 from mtmetrology.uncertainty.guf import GUFResult, guf
 from mtmetrology.uncertainty.modelfile import MeasurementModel, ModelFileError, load_model
 
@@ -174,8 +175,31 @@ def _validate(g: GUFResult, r, digits: int, names):
     )
 
 
+def _write_report(
+    path: Path, loaded: MeasurementModel, model_file: Path, g, r, validation, command, *, seed
+):
+    """The HTML report: GUF budget, Monte Carlo histograms against the GUF, validation."""
+    from mtmetrology.report import Report
+    from mtmetrology.report.results import add_result
+
+    provenance = {"inputs": [model_file], "seed": "none (fresh entropy)" if seed is None else seed}
+    rep = Report(
+        f"Measurement uncertainty: {loaded.name or model_file.name}",
+        command=command,
+        provenance=provenance,
+    )
+    if validation is not None:
+        add_result(rep, validation)
+    if g is not None:
+        add_result(rep, g)
+    if r is not None:
+        add_result(rep, r, names=loaded.output_names, units=loaded.output_units, guf=g)
+    write_report(rep, path)
+
+
 @app.command("run")
 def run(
+    ctx: typer.Context,
     model_file: Annotated[Path, typer.Argument(help="Measurement-model YAML file.")],
     method: Annotated[Method, typer.Option(help="guf, mcm or both.")] = Method.guf,
     trials: Annotated[int | None, typer.Option(help="Fixed number of MCM trials.")] = None,
@@ -190,6 +214,7 @@ def run(
     as_json: Annotated[
         bool, typer.Option("--json", help="Print the result document as JSON.")
     ] = False,
+    report_path: ReportOption = None,
 ) -> None:
     """Evaluate a measurement model by GUF, Monte Carlo, or both (with validation)."""
     if not 0.0 < p < 1.0:
@@ -234,6 +259,8 @@ def run(
         _fail(f"{model_file}: {exc}")
     document["outputs"] = document["mcm" if r is not None else "guf"]["outputs"]
 
+    if report_path is not None:
+        _write_report(report_path, loaded, model_file, g, r, report, command_line(ctx), seed=seed)
     if as_json:
         typer.echo(json.dumps(document, indent=2, allow_nan=False))
         return

@@ -18,6 +18,7 @@ import scipy.linalg
 from mtmetrology.errors import InputError
 from mtmetrology.fitting.elements import Element
 from mtmetrology.optimize import LeastSquaresResult, Status, least_squares
+from mtmetrology.report.notebook import NotebookRepr
 
 # A singular value below this fraction of the largest marks a degenerate point set.
 _DEGENERATE = 1e-10
@@ -35,7 +36,7 @@ class FitError(InputError):
 
 
 @dataclass(frozen=True, eq=False)
-class FitResult:
+class FitResult(NotebookRepr):
     """Result of an orthogonal-distance least-squares fit.
 
     Attributes

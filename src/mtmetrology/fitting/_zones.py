@@ -13,6 +13,7 @@ import numpy as np
 
 from mtmetrology.fitting.elements import Circle, Cylinder, Line, Plane, Sphere
 from mtmetrology.fitting.least_squares import FitError
+from mtmetrology.report.notebook import NotebookRepr
 
 Kind = Literal["zone", "outer", "inner"]
 
@@ -23,7 +24,7 @@ _MAX_ITERATIONS = 200
 
 
 @dataclass(frozen=True)
-class ZoneResult:
+class ZoneResult(NotebookRepr):
     """A Chebyshev-type reference element and the zone it defines.
 
     Attributes

@@ -32,6 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mtmetrology.report.notebook import NotebookRepr
+
 __all__ = ["IdentifiabilityReport", "NullDirection", "analyse_identifiability"]
 
 
@@ -67,7 +69,7 @@ class NullDirection:
 
 
 @dataclass(frozen=True)
-class IdentifiabilityReport:
+class IdentifiabilityReport(NotebookRepr):
     """Rank and conditioning of an identification Jacobian.
 
     Attributes

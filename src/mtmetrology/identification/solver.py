@@ -37,6 +37,7 @@ from mtmetrology.identification.diagnostics import IdentifiabilityReport, analys
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.optimize import STATUS_MESSAGES, Status, least_squares
+from mtmetrology.report.notebook import NotebookRepr
 
 __all__ = ["IdentificationError", "IdentificationResult", "gauss_newton"]
 
@@ -45,7 +46,7 @@ IdentificationError = RankDeficientError
 
 
 @dataclass(frozen=True, eq=False)
-class IdentificationResult:
+class IdentificationResult(NotebookRepr):
     """Result of :func:`gauss_newton`.
 
     Attributes

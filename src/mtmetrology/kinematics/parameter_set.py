@@ -32,6 +32,7 @@ from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError, atomic_write
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameters import ParameterNameError, parse_parameter
+from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.units import UnitError, parse_unit
 
 __all__ = ["KIND", "RESULT_KINDS", "ParameterSet"]
@@ -56,7 +57,7 @@ def _number(value: object, where: str) -> float:
 
 
 @dataclass(frozen=True)
-class ParameterSet:
+class ParameterSet(NotebookRepr):
     """Error-parameter values of a machine, never a bare vector.
 
     Attributes

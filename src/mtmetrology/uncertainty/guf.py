@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.uncertainty.regions import (
     normal_ellipsoidal_coverage_factor,
     normal_rectangular_coverage_factor,
@@ -47,7 +48,7 @@ class BudgetRow:
 
 
 @dataclass(frozen=True)
-class GUFResult:
+class GUFResult(NotebookRepr):
     """Result of :func:`guf`.
 
     Attributes

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from mtmetrology.errors import InputError
+from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.rng import SeedLike, chunk_generators
 from mtmetrology.uncertainty.executors import resolve_executor
 from mtmetrology.uncertainty.regions import (
@@ -186,7 +187,7 @@ class ScalarSummary:
 
 
 @dataclass(frozen=True, eq=False)
-class MCMResult:
+class MCMResult(NotebookRepr):
     """Results of :func:`monte_carlo` for m outputs (m = 1 for a scalar model).
 
     Attributes

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.uncertainty.mcm import MCMResult, Tolerance, check_tolerance, numerical_tolerance
 from mtmetrology.uncertainty.regions import normal_ellipsoidal_coverage_factor
 
@@ -61,7 +62,7 @@ class ValidationRow:
 
 
 @dataclass(frozen=True)
-class ValidationReport:
+class ValidationReport(NotebookRepr):
     """The rows of a GUF-by-MCM validation, the verdict and a one-line message."""
 
     rows: tuple[ValidationRow, ...]

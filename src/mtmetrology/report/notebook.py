@@ -1,0 +1,34 @@
+"""Result objects that show themselves in Jupyter with the tables and figures of a report.
+
+A result class gains ``_repr_html_`` by inheriting :class:`NotebookRepr`; what is shown
+is what :func:`mtmetrology.report.results.add_result` puts in a report for that class, so
+a notebook and an HTML report never disagree::
+
+    @dataclass(frozen=True)
+    class CalibrationResult(NotebookRepr):
+        ...
+
+and, in the application's module (or in :mod:`mtmetrology.report.results`)::
+
+    @renders("mtmetrology.samba.calibration.CalibrationResult")
+    def _calibration(rep, result, **context): ...
+
+This module imports nothing at load time, so that the lower layers (uncertainty,
+identification, fitting, kinematics) can inherit the mixin without importing Jinja2 or
+matplotlib; the renderer is loaded when a notebook first displays a result.
+"""
+
+from __future__ import annotations
+
+__all__ = ["NotebookRepr"]
+
+
+class NotebookRepr:
+    """Mixin: ``_repr_html_`` renders the object as its report fragment (scoped style)."""
+
+    __slots__ = ()
+
+    def _repr_html_(self) -> str:
+        from mtmetrology.report.results import result_report
+
+        return result_report(self).fragment()

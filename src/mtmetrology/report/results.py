@@ -1,0 +1,376 @@
+"""What a report shows for each result object of the engines.
+
+One renderer per result class, registered by the class's import path (so that this
+module needs to import no engine): ``add_result(rep, result)`` appends its sections to a
+:class:`~mtmetrology.report.Report`, ``result_report(result)`` makes a report of one
+result (what Jupyter shows through :class:`~mtmetrology.report.notebook.NotebookRepr`).
+Applications register theirs with :func:`renders`.
+
+Values are shown in the units of the result: customary units (µm, µrad, µm/m) for
+parameter sets and documents, the model's units for uncertainty results, and the internal
+units (mm, rad) for the unknowns of an identification, which carry no unit labels.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from mtmetrology.report import figures
+from mtmetrology.report.document import Report
+from mtmetrology.report.format import format_uncertainty, format_value
+from mtmetrology.units import from_internal
+
+__all__ = ["add_fit_document", "add_result", "renders", "result_report"]
+
+Renderer = Callable[..., None]
+_RENDERERS: dict[str, Renderer] = {}
+_TITLES: dict[str, str] = {}
+
+#: Correlation maps and coverage ellipses are drawn up to this many quantities.
+MAX_MAPPED = 40
+
+
+def renders(path: str, title: str | None = None) -> Callable[[Renderer], Renderer]:
+    """Register ``func(rep, result, **context)`` as the renderer of the class at ``path``.
+
+    Parameters
+    ----------
+    path : str
+        ``module.ClassName`` of the result class (its ``__module__`` and
+        ``__qualname__``).
+    title : str, optional
+        The title of a report made of that result alone.
+    """
+
+    def register(func: Renderer) -> Renderer:
+        _RENDERERS[path] = func
+        _TITLES[path] = title or path.rsplit(".", 1)[-1]
+        return func
+
+    return register
+
+
+def _path(cls: type) -> str:
+    return f"{cls.__module__}.{cls.__qualname__}"
+
+
+def _lookup(result: object) -> str:
+    for cls in type(result).__mro__:
+        if _path(cls) in _RENDERERS:
+            return _path(cls)
+    raise TypeError(f"no report renderer for {_path(type(result))}")
+
+
+def add_result(rep: Report, result: object, **context) -> Report:
+    """Append the sections that show ``result`` to ``rep`` (renderer's keyword context).
+
+    Raises
+    ------
+    TypeError
+        If no renderer is registered for the result's class or its bases.
+    """
+    _RENDERERS[_lookup(result)](rep, result, **context)
+    return rep
+
+
+def result_report(result: object, title: str | None = None, **context) -> Report:
+    """A report of one result (no command line, versions and date in its provenance)."""
+    rep = Report(title or _TITLES[_lookup(result)])
+    return add_result(rep, result, **context)
+
+
+def _dof(v: float) -> str:
+    return "inf" if not math.isfinite(v) else f"{v:.1f}"
+
+
+def _interval(low: float, high: float, u: float) -> str:
+    return f"[{format_value(low, u)}, {format_value(high, u)}]"
+
+
+# -- uncertainty ---------------------------------------------------------------------------
+@renders("mtmetrology.uncertainty.guf.GUFResult", "GUF uncertainty evaluation")
+def _guf(rep: Report, g, **_) -> None:
+    rep.section(f"GUF results, p = {g.p:g}", g.message)
+    rows = []
+    for j, name in enumerate(g.names):
+        u = float(g.standard_uncertainty[j])
+        rows.append(
+            [
+                name,
+                format_value(float(g.estimate[j]), u),
+                format_uncertainty(u),
+                format_uncertainty(float(g.expanded_uncertainty[j])),
+                f"{float(g.coverage_factor[j]):.3f}",
+                _interval(*g.interval[j], u),
+                _dof(float(g.dof_effective[j])),
+                g.units[j],
+            ]
+        )
+    rep.table(["output", "value", "u", "U", "k", "interval", "ν_eff", "unit"], rows)
+    for j, name in enumerate(g.names):
+        budget = g.budget(j)
+        unit = g.units[j]
+        rep.section(f"Uncertainty budget of {name}")
+        rep.table(
+            ["input", "estimate", "u(x_i)", "unit", "c_i", f"u_i({name})", "ν_i", "share"],
+            [
+                [
+                    b.input,
+                    b.estimate,
+                    format_uncertainty(b.u),
+                    b.unit,
+                    f"{b.sensitivity + 0.0:.4g}",  # + 0.0 turns -0 into 0
+                    format_uncertainty(b.contribution),
+                    _dof(b.dof),
+                    f"{100 * b.share:.1f} %",
+                ]
+                for b in budget
+            ],
+            caption=f"contributions in {unit}" if unit else None,
+        )
+        rep.figure(
+            figures.budget_bars(
+                [b.input for b in budget],
+                [b.contribution for b in budget],
+                unit=unit,
+                title=f"Uncertainty budget of {name}",
+            ),
+            caption=f"Contributions |c_i| u(x_i) to u({name}) and their shares of u²({name}).",
+        )
+    if 1 < len(g.names) <= MAX_MAPPED:
+        rep.section("Correlation of the outputs")
+        rep.figure(figures.correlation_heatmap(g.names, g.correlation))
+        rep.figure(
+            figures.coverage_ellipses(g.names, g.estimate, g.covariance, p=g.p, units=g.units),
+            caption="Bivariate marginal coverage regions of the GUF (χ²₂ quantile).",
+        )
+
+
+@renders("mtmetrology.uncertainty.mcm.MCMResult", "Monte Carlo uncertainty evaluation")
+def _mcm(rep: Report, r, *, names=None, units=None, guf=None, **_) -> None:
+    """``names``, ``units``: of the outputs; ``guf``: a GUFResult drawn over the histograms."""
+    names = list(names or (guf.names if guf is not None else [f"y{j}" for j in range(r.m)]))
+    units = list(units or (guf.units if guf is not None else [""] * r.m))
+    rep.section(f"Monte Carlo results, p = {r.p:g} ({r.trials} trials)", r.message)
+    rows = []
+    for j in range(r.m):
+        u = float(r.standard_uncertainty[j])
+        rows.append(
+            [
+                names[j],
+                format_value(float(r.estimate[j]), u),
+                format_uncertainty(u),
+                _interval(*r.interval_symmetric[j], u),
+                _interval(*r.interval_shortest[j], u),
+                units[j],
+            ]
+        )
+    rep.table(["output", "value", "u", "symmetric interval", "shortest interval", "unit"], rows)
+    for j in range(r.m):
+        mean, u, dof, g_interval = (
+            float(r.estimate[j]),
+            float(r.standard_uncertainty[j]),
+            None,
+            None,
+        )
+        if guf is not None:
+            mean, u = float(guf.estimate[j]), float(guf.standard_uncertainty[j])
+            dof, g_interval = float(guf.dof_effective[j]), guf.interval[j]
+        rep.figure(
+            figures.histogram_vs_normal(
+                r.histogram(j),
+                mean,
+                u,
+                names[j],
+                units[j],
+                dof=dof,
+                interval=r.interval_symmetric[j],
+                guf_interval=g_interval,
+            ),
+            caption=f"Monte Carlo distribution of {names[j]} against the "
+            + ("GUF distribution." if guf is not None else "normal of its mean and u."),
+        )
+    if 1 < r.m <= MAX_MAPPED:
+        rep.figure(
+            figures.correlation_heatmap(names, r.correlation, title="Correlation (Monte Carlo)")
+        )
+        if guf is not None:
+            rep.figure(
+                figures.coverage_ellipses(
+                    names,
+                    guf.estimate,
+                    guf.covariance,
+                    p=r.p,
+                    units=units,
+                    samples=r.samples,
+                    mcm_mean=r.estimate,
+                    mcm_covariance=r.covariance,
+                ),
+                caption="Bivariate marginal coverage regions: GUF and Monte Carlo.",
+            )
+
+
+@renders("mtmetrology.uncertainty.validation.ValidationReport", "Validation of the GUF")
+def _validation(rep: Report, v, **_) -> None:
+    verdict = "validated" if v.passed else "NOT validated"
+    rep.section(f"Validation of the GUF by Monte Carlo: {verdict}", v.message)
+    rep.table(
+        ["output", "quantity", "GUF", "MCM", "|difference|", "tolerance", "ratio", "passed"],
+        [
+            [
+                w.name,
+                w.quantity,
+                w.guf,
+                w.mcm,
+                w.difference,
+                w.tolerance,
+                f"{100 * w.ratio:.0f} %",
+                w.passed,
+            ]
+            for w in v.rows
+        ],
+        caption=f"procedure: {v.procedure}, p = {v.p:g}",
+    )
+
+
+# -- identification ------------------------------------------------------------------------
+@renders("mtmetrology.identification.diagnostics.IdentifiabilityReport", "Identifiability")
+def _identifiability(rep: Report, d, **_) -> None:
+    rep.section("Identifiability", d.message)
+    rows = [
+        ["unknowns", d.n_unknowns],
+        ["rank", d.rank],
+        ["condition number (columns scaled)", f"{d.condition_scaled:.4g}"],
+        ["condition number (internal units)", f"{d.condition_raw:.4g}"],
+    ]
+    rows += [[f"observability {k}", f"{v:.4g}"] for k, v in d.observability.items()]
+    rep.table(["quantity", "value"], rows)
+    if d.null_directions:
+        rep.table(
+            ["unidentifiable combination", "coefficients (columns scaled)"],
+            [[str(n), n.combination()] for n in d.null_directions],
+        )
+    rep.figure(
+        figures.singular_values(d.singular_values),
+        caption="A gap of decades before the last values marks what the set-up cannot separate.",
+    )
+
+
+@renders("mtmetrology.identification.solver.IdentificationResult", "Identification")
+def _identification(rep: Report, result, **_) -> None:
+    rep.section("Identification", result.message)
+    vf = result.variance_factor
+    rep.table(
+        ["quantity", "value"],
+        [
+            ["status", result.status],
+            ["iterations", result.nit],
+            ["cost ½‖r‖²", result.cost],
+            ["redundancy m − rank", result.dof],
+            ["variance factor", "— (no redundancy)" if vf is None else vf],
+            ["residuals", result.residuals.size],
+            ["rms weighted residual", float(np.sqrt(np.mean(result.residuals**2)))],
+        ],
+    )
+    u = result.standard_uncertainty
+    rep.table(
+        ["unknown", "estimate", "u"],
+        [
+            [n, format_value(float(x), float(s)), format_uncertainty(float(s))]
+            for n, x, s in zip(result.names, result.estimate, u, strict=True)
+        ],
+        caption="internal units: mm, rad, dimensionless",
+    )
+    if len(result.names) <= MAX_MAPPED:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = result.covariance / np.outer(u, u)
+        rep.figure(figures.correlation_heatmap(result.names, np.nan_to_num(corr)))
+    _identifiability(rep, result.diagnostics)
+
+
+# -- fitting and parameter sets --------------------------------------------------------------
+def add_fit_document(rep: Report, document: dict, residuals, points=None) -> Report:
+    """Append a ``fit-result`` document (what ``mtm fit --json`` prints) to a report.
+
+    Parameters
+    ----------
+    rep : Report
+    document : dict
+        From :func:`mtmetrology.fitting.documents.fit_document`.
+    residuals : (n,) array_like, mm
+        Signed deviations of the points from the element.
+    points : (n, 3) array_like, mm, optional
+        The points, to draw their deviations in three projections.
+    """
+    form = document["form_error"]
+    rep.section(f"{document['element']} ({document['method']})", document.get("message"))
+    rep.table(
+        ["parameter", "value", "unit"],
+        [[p["name"], p["value"], p["unit"]] for p in document["parameters"]],
+    )
+    stats = document["residuals"]
+    rep.table(
+        ["quantity", "value", "unit"],
+        [
+            [form["name"], form["value"], form["unit"]],
+            ["points", stats["n"], ""],
+            ["rms of the residuals", stats["rms"], stats["unit"]],
+            ["smallest residual", stats["min"], stats["unit"]],
+            ["largest residual", stats["max"], stats["unit"]],
+        ],
+    )
+    for note in document.get("notes", []):
+        rep.text(f"Note: {note}")
+    res = from_internal(np.asarray(residuals, dtype=float), "µm")
+    if points is not None and np.shape(points)[-1] == 3:
+        rep.figure(
+            figures.point_deviations(points, res, unit="µm"),
+            caption="Signed deviations of the points from the fitted element.",
+        )
+    rep.figure(
+        figures.residual_profile(res, unit="µm"), caption="Deviation of each point, in file order."
+    )
+    return rep
+
+
+@renders("mtmetrology.fitting._odr.FitResult", "Least-squares fit")
+@renders("mtmetrology.fitting._zones.ZoneResult", "Chebyshev fit")
+def _fit(rep: Report, result, *, points=None, source: str = "points", **_) -> None:
+    """``points``: the fitted (n, 3) points, to draw their deviations."""
+    from mtmetrology.fitting.documents import fit_document
+
+    element = type(result.element).__name__.lower()
+    method = getattr(result, "method", "ls")
+    document = fit_document(
+        element,
+        method,
+        source,
+        result.element,
+        result.residuals,
+        result.form_error,
+        {"message": result.message},
+    )
+    add_fit_document(rep, document, result.residuals, points)
+
+
+@renders("mtmetrology.kinematics.parameter_set.ParameterSet", "Parameter set")
+def _parameter_set(rep: Report, pset, *, coverage_factor: float = 2.0, **_) -> None:
+    where = ", ".join(
+        f"{k} {v}" for k, v in (("machine", pset.machine), ("model", pset.model)) if v
+    )
+    rep.section("Parameters", f"{len(pset.names)} parameters" + (f" of {where}" if where else ""))
+    rep.table(
+        figures.parameter_table_columns(coverage_factor),
+        figures.parameter_table_rows(pset, coverage_factor=coverage_factor),
+    )
+    if pset.covariance is not None and 1 < len(pset.names) <= MAX_MAPPED:
+        u = np.sqrt(np.diag(pset.covariance))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = np.nan_to_num(pset.covariance / np.outer(u, u))
+        rep.figure(
+            figures.correlation_heatmap(pset.names, corr),
+            caption="Correlation of the identified parameters.",
+        )

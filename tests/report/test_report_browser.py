@@ -1,0 +1,84 @@
+"""Reports checked in a real browser (headless Chromium over the DevTools protocol).
+
+Each page must load without any request other than its own file (and ``data:`` URIs),
+without console errors or uncaught exceptions; every figure must be present, sized,
+hold drawn elements and put ink on the screen; the page must print to PDF. A full-page
+screenshot of each is kept under the artefacts folder.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from chromium import decode_png, ink_fraction
+from typer.testing import CliRunner
+
+from mtmetrology.cli import app
+from mtmetrology.report import Report, figures
+
+#: Figures each command's report holds (see test_report_cli.py).
+COMMAND_FIGURES = {"uncertainty": 2, "fit": 2, "identifiability": 1, "predict": 1}
+
+
+def check_page(browser, page, expected_figures: int, artefacts, name: str) -> None:
+    load = browser.load(page)
+    foreign = [u for u in load.requests if u != load.url and not u.startswith("data:")]
+    assert foreign == [], f"{name}: the page requested {foreign}"
+    assert load.console_errors == [], f"{name}: console errors {load.console_errors}"
+    assert len(load.figures) == expected_figures, name
+    image = decode_png(browser.screenshot(artefacts / f"{name}.png"))
+    for fig in load.figures:
+        assert fig["width"] > 100 and fig["height"] > 60, (name, fig)
+        assert fig["drawn"] > 5, (name, fig)
+        assert ink_fraction(image, fig) > 0.01, (name, fig)  # not a blank box
+    pdf = browser.print_pdf()
+    (artefacts / f"{name}.pdf").write_bytes(pdf)
+    assert pdf.startswith(b"%PDF") and len(pdf) > 10_000
+
+
+def test_every_figure_kind_renders(browser, artefacts, tmp_path):
+    rng = np.random.default_rng(11)
+    cov = np.array([[1.0, 0.6, 0.0], [0.6, 2.0, -0.4], [0.0, -0.4, 0.5]])
+    samples = rng.multivariate_normal(np.zeros(3), cov, 1000)
+    grid_x, grid_y = np.linspace(-200, 200, 21), np.linspace(-150, 150, 16)
+    points = rng.uniform(-150, 150, (8, 3))
+    rep = Report("Every figure", command="pytest", provenance={"seed": 11})
+    rep.section("Uncertainty").table(
+        figures.parameter_table_columns(),
+        figures.parameter_table_rows(
+            {"parameters": [{"name": "E_X0C", "value": -104.59, "unit": "µm", "u": 0.73}]}
+        ),
+    )
+    rep.figure(
+        figures.correlation_heatmap(
+            ["a", "b", "c"], cov / np.sqrt(np.outer(np.diag(cov), np.diag(cov)))
+        )
+    )
+    rep.figure(figures.histogram_vs_normal(samples[:, 0], 0.0, 1.0, "a", "µm", dof=30))
+    rep.figure(figures.coverage_ellipses(["a", "b", "c"], np.zeros(3), cov, samples=samples))
+    rep.figure(figures.budget_bars(["l_s", "d", "θ"], [25.0, 9.7, 16.6], unit="nm"))
+    rep.figure(figures.conformity_zones(10.008, 0.003, 9.99, 10.01, name="L", unit="mm"))
+    rep.section("Machine")
+    rep.figure(figures.residual_vectors(points, rng.normal(0, 2, (8, 3)), labels=list("abcdefgh")))
+    rep.figure(figures.point_deviations(points, rng.normal(0, 2, 8)))
+    rep.figure(figures.residual_profile(rng.normal(0, 2, 25)))
+    rep.figure(figures.error_map(grid_x, grid_y, np.hypot.outer(grid_y, grid_x) / 10))
+    rep.figure(figures.singular_values([3.0, 1.2, 0.4, 0.05]))
+    rep.figure(figures.convergence([[1.0, 1.8, 2.1, 2.2], [0.7, 1.9, 2.2]]))
+    check_page(browser, rep.write(tmp_path / "all.html"), 11, artefacts, "every-figure")
+
+
+@pytest.mark.parametrize("command", sorted(COMMAND_FIGURES))
+def test_command_report_in_the_browser(browser, artefacts, report_commands, tmp_path, command):
+    result = CliRunner().invoke(app, report_commands(tmp_path)[command])
+    assert result.exit_code == 0, result.output
+    page = tmp_path / f"{command}.html"
+    check_page(browser, page, COMMAND_FIGURES[command], artefacts, f"mtm-{command}")
+
+
+def test_a_page_with_an_error_is_caught(browser, tmp_path):
+    """The check can fail: a page loading a missing image logs a console error."""
+    page = tmp_path / "broken.html"
+    page.write_text('<!DOCTYPE html><html><body><img src="missing.png"></body></html>')
+    load = browser.load(page)
+    assert load.console_errors and any(u.endswith("missing.png") for u in load.requests)

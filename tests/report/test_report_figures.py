@@ -1,0 +1,119 @@
+"""Tests for mtmetrology.report.figures: what each figure draws."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.report import figures
+from mtmetrology.report.figures import _ellipse
+
+
+def test_ellipse_points_lie_on_the_mahalanobis_contour():
+    """(x − c)ᵀ Σ⁻¹ (x − c) = k² on every drawn point (exact for any covariance)."""
+    cov = np.array([[4.0, 1.5], [1.5, 1.0]])
+    k = float(np.sqrt(stats.chi2.ppf(0.95, 2)))
+    pts = _ellipse([3.0, -1.0], cov, k) - [3.0, -1.0]
+    q = np.einsum("ni,ij,nj->n", pts, np.linalg.inv(cov), pts)
+    np.testing.assert_allclose(q, k**2, rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("value", "decision"),
+    [
+        (10.000, "conformity proven"),
+        (10.009, "neither conformity nor nonconformity proven"),
+        (10.014, "nonconformity proven"),
+        (9.988, "neither conformity nor nonconformity proven"),
+    ],
+)
+def test_conformity_zones_iso_14253_1_decision(value, decision):
+    """Spec [9.990, 10.010] mm, U = 0.003 mm: conformance zone [9.993, 10.007]."""
+    title = figures.conformity_zones(value, 0.003, 9.990, 10.010, unit="mm").axes[0].get_title()
+    assert title.endswith(f": {decision}")
+
+
+def test_conformity_zones_one_sided_and_bad_limits():
+    fig = figures.conformity_zones(2.0, 0.5, None, 3.0, name="flatness", unit="µm")
+    assert fig.axes[0].get_title().endswith("conformity proven")
+    with pytest.raises(ValueError):
+        figures.conformity_zones(1.0, 0.1, None, None)
+    with pytest.raises(ValueError):
+        figures.conformity_zones(1.0, 0.1, 2.0, 1.0)
+
+
+def test_parameter_rows_follow_the_parameter_set_document():
+    m = Machine.load("five-axis-wcbxfzyst")
+    n = m.n_params
+    values = np.linspace(-1e-4, 1e-4, n)
+    cov = np.diag(np.full(n, 1e-12))
+    pset = ParameterSet(m.parameter_names, values, m.parameter_units, cov)
+    rows = figures.parameter_table_rows(pset, coverage_factor=2.0)
+    doc = pset.to_document()["parameters"]
+    assert [r[0] for r in rows] == list(m.parameter_names)
+    assert [r[2] for r in rows] == list(m.parameter_units)
+    for row, entry in zip(rows, doc, strict=True):
+        assert float(row[1]) == pytest.approx(entry["value"], abs=float(row[3]))
+        assert float(row[4]) == pytest.approx(2 * float(row[3]), rel=0.05)
+
+
+def test_parameter_rows_without_covariance_show_dashes():
+    m = Machine.load("five-axis-wcbxfzyst")
+    rows = figures.parameter_table_rows(ParameterSet.zeros(m))
+    assert {r[3] for r in rows} == {"—"} and {r[4] for r in rows} == {"—"}
+
+
+def test_histogram_vs_normal_takes_a_histogram_and_draws_the_t_law():
+    from mtmetrology.uncertainty.regions import histogram
+
+    h = histogram(np.random.default_rng(3).normal(5.0, 2.0, 4000), 50)
+    ax = figures.histogram_vs_normal(h, 5.0, 2.0, "y", "mm", dof=4.0).axes[0]
+    x, pdf = ax.lines[0].get_data()
+    np.testing.assert_allclose(pdf, stats.t.pdf((x - 5.0) / 2.0, 4.0) / 2.0)
+
+
+def test_budget_bars_sorted_with_shares():
+    ax = figures.budget_bars(["a", "b", "c"], [3.0, 4.0, 0.0]).axes[0]
+    assert [t.get_text() for t in ax.get_yticklabels()] == ["c", "a", "b"]
+    shares = sorted(t.get_text().strip() for t in ax.texts)
+    assert shares == ["0.0 %", "36.0 %", "64.0 %"]
+
+
+def test_residual_vectors_default_magnification_is_a_tenth_of_the_extent():
+    pts = np.array([[0.0, 0, 0], [200.0, 0, 0], [0, 100.0, 50.0]])
+    res = np.array([[2.0, 0, 0], [0, 1.0, 0], [0, 0, 0.5]])
+    fig = figures.residual_vectors(pts, res)
+    quiver = fig.axes[0].collections[-1]
+    assert np.max(np.hypot(quiver.U, quiver.V)) == pytest.approx(20.0)
+    with pytest.raises(ValueError):
+        figures.residual_vectors(pts, res[:2])
+
+
+def test_error_map_grid_and_scattered_forms():
+    gx, gy = np.linspace(0, 1, 4), np.linspace(0, 1, 3)
+    assert len(figures.error_map(gx, gy, np.zeros((3, 4))).axes) == 2
+    rng = np.random.default_rng(0)
+    x, y = rng.random(20), rng.random(20)
+    assert len(figures.error_map(x, y, x + y).axes) == 2
+    with pytest.raises(ValueError):
+        figures.error_map(gx, gy, np.zeros((4, 3)))
+
+
+def test_coverage_ellipses_pairs_and_shape_checks():
+    fig = figures.coverage_ellipses(list("abcd"), np.zeros(4), np.eye(4), max_pairs=6)
+    assert len(fig.axes) == 6
+    with pytest.raises(ValueError):
+        figures.coverage_ellipses(["a"], [0.0], [[1.0]])
+
+
+def test_correlation_heatmap_refuses_a_wrong_shape():
+    with pytest.raises(ValueError):
+        figures.correlation_heatmap(["a", "b"], np.eye(3))
+
+
+def test_convergence_one_curve_or_several():
+    assert len(figures.convergence([1.0, 2.0]).axes[0].lines) == 1
+    assert len(figures.convergence([[1.0, 2.0], np.array([0.5, 1.5, 2.0])]).axes[0].lines) == 2
