@@ -27,9 +27,9 @@ def test_estimates_uncertainties_units_and_dof():
     assert s.units == ["mm", "µm", "°C", "µm/m"]
     np.testing.assert_allclose(s.estimate, [1.0, -2.0, 0.5, 3.0])
     np.testing.assert_allclose(
-        s.standard_uncertainties, [0.2, 0.5, 1 / math.sqrt(12), 0.1 * math.sqrt(9 / 7)]
+        s.standard_uncertainty, [0.2, 0.5, 1 / math.sqrt(12), 0.1 * math.sqrt(9 / 7)]
     )
-    np.testing.assert_allclose(s.covariance, np.diag(s.standard_uncertainties**2))
+    np.testing.assert_allclose(s.covariance, np.diag(s.standard_uncertainty**2))
     # dof: inf when not given; a Student-t input carries its own ν.
     np.testing.assert_array_equal(s.dof, [math.inf, 12.0, math.inf, 9.0])
 
@@ -47,7 +47,7 @@ def test_correlated_normals_are_sampled_jointly_with_the_stated_covariance():
     assert abs(np.corrcoef(x[:, 0], x[:, 2])[0, 1]) < 0.01
     # Means within 5 standard errors u/√n.
     assert np.all(
-        np.abs(x.mean(axis=0) - s.estimate) < 5 * s.standard_uncertainties / math.sqrt(2e5)
+        np.abs(x.mean(axis=0) - s.estimate) < 5 * s.standard_uncertainty / math.sqrt(2e5)
     )
 
 

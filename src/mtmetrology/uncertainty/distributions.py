@@ -381,7 +381,8 @@ def psd_factor(covariance, name: str = "covariance", rtol: float = 1e-9) -> np.n
     -----
     A Cholesky factor (JCGM 101:2008, 6.4.8.4) fails for singular covariances,
     e.g. zero-variance axes or a sample covariance of K replicates (rank K − 1);
-    the eigen factor does not (digest 000 §3.5).
+    the eigen factor does not (a sample covariance of K < N replicates is singular, as in Sepahi
+    Boroujeni 2021, Ch. 5).
     """
     c = np.asarray(covariance, dtype=float)
     if c.ndim != 2 or c.shape[0] != c.shape[1]:
@@ -464,7 +465,7 @@ class MultivariateNormal(_VectorDistribution):
         """The normal with the mean and sample covariance of K replicates (K, N).
 
         Draws are x̄ + Σ_k z_k (x_k − x̄)/√(K − 1) with z ~ N(0, I_K), whose
-        covariance is exactly the sample covariance (rank <= K − 1); digest 000 §3.5.
+        covariance is exactly the sample covariance (rank <= K − 1; Sepahi Boroujeni 2021, Ch. 5).
         """
         x = np.asarray(samples, dtype=float)
         if x.ndim != 2 or x.shape[0] < 2:

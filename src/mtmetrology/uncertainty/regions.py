@@ -8,7 +8,7 @@ on the whole run.
 Besides the sample-based quantities, the module gives the normal-theory coverage factors
 that the GUM uncertainty framework uses (``sqrt(χ²_m(p))`` for a hyper-ellipsoid, the
 Bonferroni or independent-output factor for a hyper-rectangle) and the pairwise 2-D areas
-of seed 000 (digest 000 §3.7), so that GUF and MCM regions are compared with one formula.
+of Sepahi Boroujeni (2021), Ch. 5 and 7, so that GUF and MCM regions are compared with one formula.
 """
 
 from __future__ import annotations
@@ -253,7 +253,7 @@ def rectangular_coverage_factor(
 
     Notes
     -----
-    JCGM 102:2011, 7.7.3 (sample-based form, digest 000 §3.7): k_q is the ⌈pM⌉-th
+    JCGM 102:2011, 7.7.3 (sample-based form): k_q is the ⌈pM⌉-th
     smallest of max_j |y_(j,r) − y_j| / u(y_j). For independent normal outputs it tends to
     Φ⁻¹((1 + p^(1/m))/2) (2.2365 for m = 2, p = 0.95).
     """
@@ -279,7 +279,7 @@ def normal_ellipsoidal_coverage_factor(m: int, p: float = 0.95) -> float:
 
     Notes
     -----
-    JCGM 102:2011, 6.5.2.3; digest 000 §3.6: 1.96, 2.4477, 3.5485, 4.7289 for
+    JCGM 102:2011, 6.5.2.3; Sepahi Boroujeni (2021), Table 5-3 and Ch. 7: 1.96, 2.4477, 3.5485, 4.7289 for
     m = 1, 2, 6, 13 and p = 0.95.
     """
     if int(m) < 1:
@@ -302,7 +302,7 @@ def normal_rectangular_coverage_factor(m: int, p: float = 0.95, *, independent: 
 
     Notes
     -----
-    JCGM 102:2011, 6.5.4; digest 000 §3.7: 2.2365 (independent) and 2.2414
+    JCGM 102:2011, 6.5.4; the pairwise rectangles of Sepahi Boroujeni (2021), Ch. 5: 2.2365 (independent) and 2.2414
     (Bonferroni) for m = 2, p = 0.95.
     """
     if int(m) < 1:
@@ -314,14 +314,14 @@ def normal_rectangular_coverage_factor(m: int, p: float = 0.95, *, independent: 
 
 
 def ellipse_area(coverage_factor: float, u1: float, u2: float, correlation: float) -> float:
-    """Area π k_p² u1 u2 sqrt(1 − ρ²) of a 2-D coverage ellipse (digest 000 §3.7)."""
+    """Area π k_p² u1 u2 sqrt(1 − ρ²) of a 2-D coverage ellipse (Sepahi Boroujeni 2021, Ch. 5)."""
     if not -1.0 <= correlation <= 1.0:
         raise ValueError(f"correlation must lie in [-1, 1], got {correlation}")
     return float(np.pi * coverage_factor**2 * u1 * u2 * np.sqrt(1.0 - correlation**2))
 
 
 def rectangle_area(coverage_factor: float, u1: float, u2: float) -> float:
-    """Area (2 k_q u1)(2 k_q u2) of a 2-D coverage rectangle (digest 000 §3.7)."""
+    """Area (2 k_q u1)(2 k_q u2) of a 2-D coverage rectangle (Sepahi Boroujeni 2021, Ch. 5)."""
     return float(4.0 * coverage_factor**2 * u1 * u2)
 
 
@@ -357,7 +357,7 @@ def smallest_region(samples, p: float = 0.95, *, bins: int | None = None) -> Sma
     Parameters
     ----------
     samples : (M, m) array
-        Model values, one row per trial (m = 2 for the pairwise areas of seed 000).
+        Model values, one row per trial (m = 2 for the pairwise areas of Sepahi Boroujeni 2021).
     p : float
         Coverage probability.
     bins : int, optional
@@ -376,7 +376,7 @@ def smallest_region(samples, p: float = 0.95, *, bins: int | None = None) -> Sma
 
     Notes
     -----
-    JCGM 102:2011, 7.7.4 (smallest coverage region); digest 000 §3.7: the output space is
+    JCGM 102:2011, 7.7.4 (smallest coverage region); Sepahi Boroujeni (2021), Ch. 7: the output space is
     meshed into equal cells, cells are taken in order of decreasing count (highest density
     first) until their probability reaches p, and their volumes are summed. The last cell
     contributes the fraction of its volume needed to reach exactly p, which removes most of
@@ -418,7 +418,7 @@ def smallest_region(samples, p: float = 0.95, *, bins: int | None = None) -> Sma
 
 @dataclass(frozen=True)
 class PairwiseAreas:
-    """2-D coverage areas of a pair of outputs (digest 000 §3.7), in output-unit products."""
+    """2-D coverage areas of a pair of outputs (Sepahi Boroujeni 2021, Ch. 5 and 7), in output-unit products."""
 
     ellipse: float
     rectangle: float
