@@ -228,7 +228,9 @@ def main() -> None:
     print("         r(R,X) -0.588, r(R,Z) -0.485, r(X,Z) 0.993)")
     for o, nu in zip(h2.outputs, h2.dof_effective, strict=True):
         print(f"  {o.name} = {o.value:.3f} Ω, u = {o.u:.4f} Ω, ν_eff = {nu:.1f}")
-    print(f"  r = {h2.correlation[0, 1]:.3f}, {h2.correlation[0, 2]:.3f}, {h2.correlation[1, 2]:.3f}")
+    print(
+        f"  r = {h2.correlation[0, 1]:.3f}, {h2.correlation[0, 2]:.3f}, {h2.correlation[1, 2]:.3f}"
+    )
     estimate, covariance, s, dof = gum_h3_fit()
     h3 = case_gum_h3().guf()
     print("\nGUM H.3 (y1 -0.1712 °C, y2 0.00218, s 0.0035 °C, r -0.930; b(30 °C) -0.1494 u 0.0041)")

@@ -120,12 +120,11 @@ def test_gum_h1_second_order_terms_give_34_nm():
 
 
 def test_sum_of_normals_is_exact():
+    """u² = 0.3² + 0.4² + 1.2² = 1.69 exactly; ν_eff is checked against GTC in test_gtc."""
     s = normals([1.0, 2.0, 3.0], [0.3, 0.4, 1.2], dof=[None, 8, 20])
     r = guf(lambda x: x[..., 0] + x[..., 1] + x[..., 2], s)
     assert r.scalar_model and r.estimate[0] == pytest.approx(6.0)
-    assert r.standard_uncertainty[0] == pytest.approx(1.3)
-    # Welch–Satterthwaite: 1.3⁴ / (0.4⁴/8 + 1.2⁴/20)
-    assert r.dof_effective[0] == pytest.approx(1.3**4 / (0.4**4 / 8 + 1.2**4 / 20))
+    assert r.standard_uncertainty[0] == pytest.approx(1.3, rel=1e-15)
     assert r.names == ("y",)
 
 
@@ -332,5 +331,13 @@ def test_infinite_variance_and_nan_model_and_missing_y0():
 
 
 def test_welch_satterthwaite_helper():
-    assert welch_satterthwaite([1.0, 1.0], [math.inf, math.inf]) == math.inf
-    assert welch_satterthwaite([1.0, 1.0], [4.0, math.inf]) == pytest.approx(16.0)
+    """Designed cases with exact answers: all ν infinite -> inf; two equal unit
+    contributions, one of ν = 4: ν_eff = 2²/(1/4) = 16; an ensemble of two perfectly
+    correlated inputs of ν = 5 is one component: ν_eff = 5 whatever else is infinite."""
+    eye = np.eye(2)
+    assert welch_satterthwaite([1.0, 1.0], eye, [math.inf, math.inf]) == math.inf
+    assert welch_satterthwaite([1.0, 1.0], eye, [4.0, math.inf]) == pytest.approx(16.0)
+    ones = np.ones((2, 2))
+    assert welch_satterthwaite([1.0, 1.0], ones, [5.0, 5.0], [0, 0]) == pytest.approx(5.0)
+    with pytest.raises(InputError, match="'a' and 'b' are correlated"):
+        welch_satterthwaite([1.0, 1.0], ones, [5.0, 5.0], names=["a", "b"])

@@ -46,9 +46,7 @@ def test_correlated_normals_are_sampled_jointly_with_the_stated_covariance():
     assert np.corrcoef(x[:, 0], x[:, 1])[0, 1] == pytest.approx(-0.8, abs=0.005)
     assert abs(np.corrcoef(x[:, 0], x[:, 2])[0, 1]) < 0.01
     # Means within 5 standard errors u/√n.
-    assert np.all(
-        np.abs(x.mean(axis=0) - s.estimate) < 5 * s.standard_uncertainty / math.sqrt(2e5)
-    )
+    assert np.all(np.abs(x.mean(axis=0) - s.estimate) < 5 * s.standard_uncertainty / math.sqrt(2e5))
 
 
 def test_from_covariance_handles_zero_variance_inputs():

@@ -119,8 +119,8 @@ def test_adaptive_procedure_stops_and_meets_its_tolerances():
 
 
 def test_strict_criterion_stops_later():
-    """s ≤ δ (Sepahi Boroujeni 2021, Ch. 5, starting at h₀ = 10) against 2·s/√h ≤ δ (JCGM): with n_dig = 1
-    (δ = 0.05) JCGM stops at the first test, h = 2; the strict rule needs h ≥ 10."""
+    """s ≤ δ (Sepahi Boroujeni 2021, Ch. 5, starting at h₀ = 10) against 2·s/√h ≤ δ (JCGM):
+    with n_dig = 1 (δ = 0.05) JCGM stops at the first test, h = 2; the strict rule needs h ≥ 10."""
     jcgm = monte_carlo(total, SUM_INPUTS, adaptive=True, digits=1, seed=22)
     strict = monte_carlo(total, SUM_INPUTS, adaptive=True, digits=1, seed=22, criterion="strict")
     assert jcgm.converged and strict.converged

@@ -74,9 +74,7 @@ def test_gum_h2_approach_2_type_a_of_the_computed_values():
     rxz = cases._impedance(cases.H2_OBSERVATIONS)  # (5, 3)
     inputs = cases.InputSet.from_observations(["R", "X", "Z"], rxz)
     np.testing.assert_allclose(inputs.estimate, [127.732, 219.847, 254.260], atol=half_ulp(3))
-    np.testing.assert_allclose(
-        inputs.standard_uncertainty, [0.071, 0.295, 0.236], atol=half_ulp(3)
-    )
+    np.testing.assert_allclose(inputs.standard_uncertainty, [0.071, 0.295, 0.236], atol=half_ulp(3))
     r = inputs.correlation
     np.testing.assert_allclose([r[0, 1], r[0, 2], r[1, 2]], [-0.588, -0.485, 0.993], atol=5e-4)
 
@@ -88,7 +86,7 @@ def test_gum_h2_without_an_ensemble_is_refused():
     loose = cases.InputSet.from_covariance(
         h2.inputs.names, h2.inputs.estimate, h2.inputs.covariance, dof=[4, 4, 4]
     )
-    with pytest.raises(InputError, match="inputs 'V' and 'I' are correlated .* ensemble"):
+    with pytest.raises(InputError, match=r"inputs 'V' and 'I' are correlated .* ensemble"):
         cases.guf(h2.model, loose)
 
 

@@ -94,8 +94,8 @@ def test_polar_coordinates_of_jcgm102_9_3_are_not_validated():
 
 
 def test_row_ratio_reproduces_sepahi_boroujeni_table_7_1():
-    """Sepahi Boroujeni (2021), Table 7-1, X of point 1: d_y = 2.89e-5 mm against δ = 0.05 µm = 5e-5 mm -> 58 %;
-    u of Z of point 2: d_u = 1.91e-2 µm against 0.05 µm -> 38 %."""
+    """Sepahi Boroujeni (2021), Table 7-1, X of point 1: d_y = 2.89e-5 mm against
+    δ = 0.05 µm = 5e-5 mm -> 58 %; u of Z of point 2: d_u = 1.91e-2 µm against 0.05 µm -> 38 %."""
     row = ValidationRow("X1", "estimate", -178.6462, -178.6462 + 2.89e-5, 2.89e-5, 5e-5)
     assert round(100 * row.ratio) == 58 and row.passed
     row = ValidationRow("Z2", "standard uncertainty", 7.7, 7.7191, 1.91e-2, 0.05)

@@ -115,8 +115,8 @@ class Tolerance:
 
     Notes
     -----
-    Sepahi Boroujeni (2021), Ch. 7 (Tables 7-1, 7-2): δ = 0.05 µm, ρ = κ_p = 0.05. A field left as None
-    is derived from the significant digits (JCGM 101:2008, 7.9.2).
+    Sepahi Boroujeni (2021), Ch. 7 (Tables 7-1, 7-2): δ = 0.05 µm, ρ = κ_p = 0.05. A field
+    left as None is derived from the significant digits (JCGM 101:2008, 7.9.2).
     """
 
     output: Any
@@ -544,7 +544,8 @@ _QUANTITIES = ("estimate", "standard uncertainty", "interval low", "interval hig
 
 
 def _stability_checks(per_sequence, moments, m, tolerance, digits, criterion):
-    """The stopping tests of JCGM 101, 7.9.4 / JCGM 102, 7.8 (or the strict s ≤ δ of Sepahi Boroujeni 2021, Ch. 5)."""
+    """The stopping tests of JCGM 101, 7.9.4 / JCGM 102, 7.8 (or the strict s ≤ δ of
+    Sepahi Boroujeni 2021, Ch. 5)."""
     table = np.asarray(per_sequence)  # (h, 4m [+ 2])
     h = table.shape[0]
     spread = table.std(axis=0, ddof=1)
@@ -781,9 +782,7 @@ def monte_carlo(
             executor.close()
 
 
-def _fixed(
-    model, inputs, trials, p, root, executor, chunk_size, keep_samples, labels
-) -> MCMResult:
+def _fixed(model, inputs, trials, p, root, executor, chunk_size, keep_samples, labels) -> MCMResult:
     (values,), scalar = _run_sequences(executor, model, inputs, root, 0, 1, trials, chunk_size)
     moments = _Moments()
     for start in range(0, trials, chunk_size):

@@ -279,8 +279,8 @@ def normal_ellipsoidal_coverage_factor(m: int, p: float = 0.95) -> float:
 
     Notes
     -----
-    JCGM 102:2011, 6.5.2.3; Sepahi Boroujeni (2021), Table 5-3 and Ch. 7: 1.96, 2.4477, 3.5485, 4.7289 for
-    m = 1, 2, 6, 13 and p = 0.95.
+    JCGM 102:2011, 6.5.2.3; Sepahi Boroujeni (2021), Table 5-3 and Ch. 7: 1.96, 2.4477,
+    3.5485, 4.7289 for m = 1, 2, 6, 13 and p = 0.95.
     """
     if int(m) < 1:
         raise ValueError(f"m must be a positive number of outputs, got {m}")
@@ -302,8 +302,8 @@ def normal_rectangular_coverage_factor(m: int, p: float = 0.95, *, independent: 
 
     Notes
     -----
-    JCGM 102:2011, 6.5.4; the pairwise rectangles of Sepahi Boroujeni (2021), Ch. 5: 2.2365 (independent) and 2.2414
-    (Bonferroni) for m = 2, p = 0.95.
+    JCGM 102:2011, 6.5.4; the pairwise rectangles of Sepahi Boroujeni (2021), Ch. 5: 2.2365
+    (independent) and 2.2414 (Bonferroni) for m = 2, p = 0.95.
     """
     if int(m) < 1:
         raise ValueError(f"m must be a positive number of outputs, got {m}")
@@ -376,8 +376,8 @@ def smallest_region(samples, p: float = 0.95, *, bins: int | None = None) -> Sma
 
     Notes
     -----
-    JCGM 102:2011, 7.7.4 (smallest coverage region); Sepahi Boroujeni (2021), Ch. 7: the output space is
-    meshed into equal cells, cells are taken in order of decreasing count (highest density
+    JCGM 102:2011, 7.7.4 (smallest coverage region); Sepahi Boroujeni (2021), Ch. 7: the
+    output space is meshed into equal cells, cells are taken in order of decreasing count (highest density
     first) until their probability reaches p, and their volumes are summed. The last cell
     contributes the fraction of its volume needed to reach exactly p, which removes most of
     the discretisation bias. The mesh spans the central 1 − (1 − p)/10 of each marginal, so
@@ -418,7 +418,8 @@ def smallest_region(samples, p: float = 0.95, *, bins: int | None = None) -> Sma
 
 @dataclass(frozen=True)
 class PairwiseAreas:
-    """2-D coverage areas of a pair of outputs (Sepahi Boroujeni 2021, Ch. 5 and 7), in output-unit products."""
+    """2-D coverage areas of a pair of outputs (Sepahi Boroujeni 2021, Ch. 5 and 7), in
+    output-unit products."""
 
     ellipse: float
     rectangle: float

@@ -215,8 +215,8 @@ def validate_guf(
     Notes
     -----
     JCGM 101:2008, 8.2 (one output): d_low = |y − U(y) − y_low|, d_high = |y + U(y) −
-    y_high|, validated if both ≤ δ. JCGM 102:2011, 8 and Sepahi Boroujeni (2021), eqs. 7-3/7-4 (m > 1):
-    d_y, d_u ≤ δ element-wise, d_λ ≤ ρ, d_k ≤ κ_p.
+    y_high|, validated if both ≤ δ. JCGM 102:2011, 8 and Sepahi Boroujeni (2021), eqs.
+    7-3/7-4 (m > 1): d_y, d_u ≤ δ element-wise, d_λ ≤ ρ, d_k ≤ κ_p.
     """
     m = mcm.m
     p = float(p)
