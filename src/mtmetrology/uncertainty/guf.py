@@ -284,8 +284,8 @@ def welch_satterthwaite(sensitivities, covariance, dof, ensemble=None, names=Non
         if (finite[a] or finite[b]) and not (group[a] >= 0 and group[a] == group[b]):
             raise InputError(
                 f"inputs {names[a]!r} and {names[b]!r} are correlated and one has finite "
-                f"degrees of freedom ({nu[a]:g}, {nu[b]:g}) outside a common ensemble; Welch–Satterthwaite "
-                "(JCGM 100 G.4.1) then does not apply: declare them an ensemble (estimated "
+                f"degrees of freedom ({nu[a]:g}, {nu[b]:g}) outside a common ensemble; "
+                "Welch–Satterthwaite (JCGM 100 G.4.1) then does not apply: declare them an ensemble (estimated "
                 "from the same observations), give them infinite dof, or use Monte Carlo"
             )
     denominator = 0.0
