@@ -285,8 +285,9 @@ def welch_satterthwaite(sensitivities, covariance, dof, ensemble=None, names=Non
             raise InputError(
                 f"inputs {names[a]!r} and {names[b]!r} are correlated and one has finite "
                 f"degrees of freedom ({nu[a]:g}, {nu[b]:g}) outside a common ensemble; "
-                "Welch–Satterthwaite (JCGM 100 G.4.1) then does not apply: declare them an ensemble (estimated "
-                "from the same observations), give them infinite dof, or use Monte Carlo"
+                "Welch–Satterthwaite (JCGM 100 G.4.1) then does not apply: declare them an "
+                "ensemble (estimated from the same observations), give them infinite dof, "
+                "or use Monte Carlo"
             )
     denominator = 0.0
     for i in np.flatnonzero(live & finite & (group < 0)):

@@ -378,8 +378,9 @@ def smallest_region(samples, p: float = 0.95, *, bins: int | None = None) -> Sma
     -----
     JCGM 102:2011, 7.7.4 (smallest coverage region); Sepahi Boroujeni (2021), Ch. 7: the
     output space is meshed into equal cells, cells are taken in order of decreasing count
-    (highest density first) until their probability reaches p, and their volumes are summed. The last cell
-    contributes the fraction of its volume needed to reach exactly p, which removes most of
+    (highest density first) until their probability reaches p, and their volumes are
+    summed. The last cell contributes the fraction of its volume needed to reach exactly p,
+    which removes most of
     the discretisation bias. The mesh spans the central 1 − (1 − p)/10 of each marginal, so
     a few extreme trials do not stretch the cells; trials outside still count in M.
     """
