@@ -85,6 +85,14 @@ class Distribution:
     def sample(self, rng: np.random.Generator, size: Size) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError
 
+    def sample_into(self, rng: np.random.Generator, out: np.ndarray) -> None:
+        """Draw ``out.shape[0]`` values into the contiguous 1-D array ``out``.
+
+        The same values as ``sample(rng, out.size)``; distributions that can draw in place
+        override it to spare the temporaries (Monte Carlo draws millions of values).
+        """
+        out[...] = self.sample(rng, out.shape[0])
+
 
 @dataclass(frozen=True)
 class Normal(Distribution):
@@ -115,6 +123,11 @@ class Normal(Distribution):
 
     def sample(self, rng, size):
         return self.x + self.u * rng.standard_normal(size)
+
+    def sample_into(self, rng, out):
+        rng.standard_normal(out=out)
+        out *= self.u
+        out += self.x
 
 
 @dataclass(frozen=True)
@@ -149,6 +162,11 @@ class Rectangular(_SymmetricInterval):
 
     def sample(self, rng, size):
         return self.low + (self.high - self.low) * rng.random(size)
+
+    def sample_into(self, rng, out):
+        rng.random(out=out)
+        out *= self.high - self.low
+        out += self.low
 
 
 @dataclass(frozen=True)
@@ -316,6 +334,10 @@ class StudentT(Distribution):
 
     def sample(self, rng, size):
         return self.x + self.s * rng.standard_t(self.dof, size)
+
+    def sample_into(self, rng, out):
+        np.multiply(rng.standard_t(self.dof, out.shape[0]), self.s, out=out)
+        out += self.x
 
 
 @dataclass(frozen=True)

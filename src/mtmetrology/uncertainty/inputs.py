@@ -368,9 +368,10 @@ class InputSet:
         (size, N) ndarray
         """
         rng = as_generator(rng)
-        out = np.empty((size, len(self._quantities)))
+        # Column-major, so each input's draws are written to contiguous memory.
+        out = np.empty((len(self._quantities), size)).T
         for i in self._single_index:
-            out[:, i] = self._quantities[i].distribution.sample(rng, size)
+            self._quantities[i].distribution.sample_into(rng, out[:, i])
         if self._joint is not None:
             out[:, self._joint_index] = self._joint.sample(rng, size)
         return out

@@ -37,8 +37,10 @@ from mtmetrology.uncertainty.regions import (
     coverage_intervals,
     ellipsoidal_coverage_factor,
     histogram,
+    intervals_and_histograms,
     pairwise_areas,
     rectangular_coverage_factor,
+    scatter,
 )
 
 __all__ = [
@@ -403,11 +405,15 @@ def _evaluate_chunk(task: _ChunkTask) -> _ChunkOutput:
             f"model returned shape {values.shape} for inputs of shape {inputs.shape}; "
             f"expected ({task.size}, m) or ({task.size},), one row per trial"
         )
-    finite = np.isfinite(values)  # (size, m)
-    bad_trials = (~finite).sum(axis=0)
+    bad_trials = np.zeros(values.shape[1], dtype=int)
     first_bad = None
-    if bad_trials.any():
-        first_bad = inputs[np.argmin(finite.all(axis=1))]
+    # One reduction decides (a sum is finite only if every value is, bar an overflow, which
+    # the detailed count below then clears).
+    if not np.isfinite(values.sum()):
+        finite = np.isfinite(values)  # (size, m)
+        bad_trials = (~finite).sum(axis=0)
+        if bad_trials.any():
+            first_bad = inputs[np.argmin(finite.all(axis=1))]
     return _ChunkOutput(values, scalar, bad_trials, first_bad)
 
 
@@ -475,15 +481,15 @@ class _Moments:
         count = values.shape[0]
         mean = values.mean(axis=0)  # (m,)
         deviations = values - mean  # (count, m)
-        scatter = deviations.T @ deviations  # (m, m)
+        scatter_matrix = scatter(deviations)  # (m, m)
         if self.count == 0:
-            self.count, self.mean, self.scatter = count, mean, scatter
+            self.count, self.mean, self.scatter = count, mean, scatter_matrix
             return
         total = self.count + count
         delta = mean - self.mean
         self.mean = self.mean + delta * (count / total)
         self.scatter = (
-            self.scatter + scatter + np.outer(delta, delta) * (self.count * count / total)
+            self.scatter + scatter_matrix + np.outer(delta, delta) * (self.count * count / total)
         )
         self.count = total
 
@@ -530,7 +536,7 @@ def _sequence_statistics(values: np.ndarray, p: float) -> np.ndarray:
     m = values.shape[1]
     estimate = values.mean(axis=0)
     deviations = values - estimate
-    covariance = deviations.T @ deviations / (values.shape[0] - 1)
+    covariance = scatter(deviations) / (values.shape[0] - 1)
     symmetric, _ = coverage_intervals(values, p)  # (m, 2)
     parts = [estimate, np.sqrt(np.diag(covariance)), symmetric[:, 0], symmetric[:, 1]]
     if m > 1:
@@ -586,7 +592,7 @@ def _summarise(values, moments, p, labels, **run) -> MCMResult:
     covariance = moments.covariance
     u = np.sqrt(np.diag(covariance))
     correlation = _correlation(covariance)
-    symmetric, shortest = coverage_intervals(values, p)
+    symmetric, shortest, histograms = intervals_and_histograms(values, p, HISTOGRAM_BINS)
     k_p, k_q = _joint_factors(values, estimate, covariance, p)
     m = u.size
     return MCMResult(
@@ -602,7 +608,7 @@ def _summarise(values, moments, p, labels, **run) -> MCMResult:
         p=p,
         interval=_freeze(symmetric),
         interval_shortest=_freeze(shortest),
-        histograms=tuple(histogram(values[:, j], HISTOGRAM_BINS) for j in range(m)),
+        histograms=histograms,
         **run,
     )
 
