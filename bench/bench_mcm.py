@@ -38,12 +38,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from harness import Benchmark, Timing  # noqa: E402
-
-from mtmetrology.uncertainty.distributions import Normal, Rectangular, StudentT  # noqa: E402
-from mtmetrology.uncertainty.executors import ProcessPoolExecutor  # noqa: E402
-from mtmetrology.uncertainty.inputs import InputQuantity, InputSet  # noqa: E402
-from mtmetrology.uncertainty.mcm import monte_carlo  # noqa: E402
+from harness import Benchmark, Timing
+from mtmetrology.uncertainty.distributions import Normal, Rectangular, StudentT
+from mtmetrology.uncertainty.executors import ProcessPoolExecutor
+from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
+from mtmetrology.uncertainty.mcm import monte_carlo
 
 TRIALS = 1_000_000
 LOOP_TRIALS = 10_000
