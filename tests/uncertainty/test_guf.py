@@ -14,6 +14,7 @@ from mtmetrology.errors import InputError
 from mtmetrology.uncertainty.distributions import Normal, Rectangular, StudentT
 from mtmetrology.uncertainty.guf import guf, welch_satterthwaite
 from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
+from mtmetrology.uncertainty.mcm import monte_carlo
 from mtmetrology.uncertainty.modelfile import load_model
 from mtmetrology.uncertainty.regions import (
     ellipse_area,
@@ -60,6 +61,16 @@ def normals(estimates, uncertainties, dof=None, correlation=None) -> InputSet:
         for i, (x, u, d) in enumerate(zip(estimates, uncertainties, dof, strict=True))
     ]
     return InputSet(qs, correlation)
+
+
+def _random_linear_problem(m: int, n: int, seed: int):
+    """A (m, N), x (N,), a positive definite U_x (N, N) and the normal InputSet."""
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(m, n))
+    factor = rng.normal(size=(n, n))
+    covariance = factor @ factor.T + 0.1 * np.eye(n)
+    x = rng.normal(size=n)
+    return a, x, covariance, InputSet.from_covariance([f"x{i}" for i in range(n)], x, covariance)
 
 
 # --------------------------------------------------------------------------- GUM H.1
@@ -132,12 +143,7 @@ def test_sum_of_normals_is_exact():
 @given(st.integers(1, 4), st.integers(1, 5), st.integers(0, 2**32 - 1))
 def test_linear_model_gives_exact_covariance(m, n, seed):
     """Y = A X: U_y = A U_x Aᵀ exactly, for correlated inputs and numerical sensitivities."""
-    rng = np.random.default_rng(seed)
-    a = rng.normal(size=(m, n))
-    b = rng.normal(size=(n, n))
-    cov = b @ b.T + 0.1 * np.eye(n)
-    x = rng.normal(size=n)
-    s = InputSet.from_covariance([f"x{i}" for i in range(n)], x, cov)
+    a, x, cov, s = _random_linear_problem(m, n, seed)
     r = guf(lambda xx: xx @ a.T, s)
     np.testing.assert_allclose(r.estimate, a @ x, atol=1e-12)
     np.testing.assert_allclose(r.covariance, a @ cov @ a.T, rtol=1e-8, atol=1e-10)
@@ -341,3 +347,20 @@ def test_welch_satterthwaite_helper():
     assert welch_satterthwaite([1.0, 1.0], ones, [5.0, 5.0], [0, 0]) == pytest.approx(5.0)
     with pytest.raises(InputError, match="'a' and 'b' are correlated"):
         welch_satterthwaite([1.0, 1.0], ones, [5.0, 5.0], names=["a", "b"])
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(1, 3), st.integers(1, 4), st.integers(0, 2**32 - 1))
+def test_linear_model_guf_equals_monte_carlo(m, n, seed):
+    """For Y = A X with X multivariate normal the GUF is exact: the Monte Carlo estimate and
+    u(y) agree with it within 5 standard errors (u/√M and u/√(2M)), the probabilistically
+    symmetric interval ends within 5σ of the quantile, at M = 2·10⁴."""
+    a, _, _, inputs = _random_linear_problem(m, n, seed)
+    trials = 20_000
+    g = guf(lambda v: v @ a.T, inputs)
+    r = monte_carlo(lambda v: v @ a.T, inputs, trials=trials, seed=seed)
+    u = g.standard_uncertainty
+    np.testing.assert_allclose(r.estimate, g.estimate, atol=5 * u.max() / math.sqrt(trials))
+    np.testing.assert_allclose(r.standard_uncertainty, u, rtol=5 / math.sqrt(2 * trials))
+    # σ of the 2.5 % quantile of a normal: sqrt(0.025·0.975/M)/φ(1.96) · u = 2.67 u/√M.
+    np.testing.assert_allclose(r.interval, g.interval, atol=5 * 2.67 * u.max() / math.sqrt(trials))

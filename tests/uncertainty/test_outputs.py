@@ -4,7 +4,6 @@ result document; and the laws that tie the methods together (property tests)."""
 from __future__ import annotations
 
 import json
-import math
 
 import numpy as np
 import pytest
@@ -152,25 +151,3 @@ def test_results_do_not_depend_on_workers_or_completion_order(workers, order_see
     for name in ("estimate", "covariance", "interval", "interval_shortest"):
         np.testing.assert_array_equal(getattr(shuffled, name), getattr(reference, name))
     assert shuffled.region_coverage_factor == reference.region_coverage_factor
-
-
-@settings(max_examples=15, deadline=None)
-@given(st.integers(1, 3), st.integers(1, 4), st.integers(0, 2**32 - 1))
-def test_linear_model_guf_equals_monte_carlo(m, n, seed):
-    """For Y = A X with X multivariate normal the GUF is exact: the Monte Carlo estimate and
-    u(y) agree with it within 5 standard errors (u/√M and u/√(2M)), the probabilistically
-    symmetric interval ends within 5σ of the quantile, at M = 2·10⁴."""
-    rng = np.random.default_rng(seed)
-    a = rng.normal(size=(m, n))
-    factor = rng.normal(size=(n, n))
-    covariance = factor @ factor.T + 0.1 * np.eye(n)
-    x = rng.normal(size=n)
-    inputs = InputSet.from_covariance([f"x{i}" for i in range(n)], x, covariance)
-    trials = 20_000
-    g = guf(lambda v: v @ a.T, inputs)
-    r = monte_carlo(lambda v: v @ a.T, inputs, trials=trials, seed=seed)
-    u = g.standard_uncertainty
-    np.testing.assert_allclose(r.estimate, g.estimate, atol=5 * u.max() / math.sqrt(trials))
-    np.testing.assert_allclose(r.standard_uncertainty, u, rtol=5 / math.sqrt(2 * trials))
-    # σ of the 2.5 % quantile of a normal: sqrt(0.025·0.975/M)/φ(1.96) · u = 2.67 u/√M.
-    np.testing.assert_allclose(r.interval, g.interval, atol=5 * 2.67 * u.max() / math.sqrt(trials))

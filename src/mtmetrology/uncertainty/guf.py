@@ -20,7 +20,7 @@ import numpy as np
 from scipy import stats
 
 from mtmetrology.errors import ConvergenceError, InputError
-from mtmetrology.uncertainty.outputs import Output, json_dof, output_labels
+from mtmetrology.uncertainty.outputs import Output, json_dof, output_labels, output_records
 from mtmetrology.uncertainty.regions import (
     normal_ellipsoidal_coverage_factor,
     normal_rectangular_coverage_factor,
@@ -126,19 +126,7 @@ class GUFResult:
     @property
     def outputs(self) -> tuple[Output, ...]:
         """One :class:`.Output` per output quantity."""
-        return tuple(
-            Output(
-                name=self.names[j],
-                value=float(self.estimate[j]),
-                unit=self.units[j],
-                u=float(self.standard_uncertainty[j]),
-                U=float(self.expanded_uncertainty[j]),
-                k=float(self.coverage_factor[j]),
-                p=self.p,
-                interval=(float(self.interval[j, 0]), float(self.interval[j, 1])),
-            )
-            for j in range(len(self.names))
-        )
+        return output_records(self, self.expanded_uncertainty, self.coverage_factor)
 
     def output(self, key: int | str = 0) -> Output:
         """The :class:`.Output` of one output quantity, by index or name."""

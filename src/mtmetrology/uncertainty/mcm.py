@@ -29,7 +29,7 @@ import numpy as np
 from mtmetrology.errors import InputError
 from mtmetrology.rng import SeedLike, chunk_generators
 from mtmetrology.uncertainty.executors import resolve_executor
-from mtmetrology.uncertainty.outputs import Output, output_labels
+from mtmetrology.uncertainty.outputs import Output, output_labels, output_records
 from mtmetrology.uncertainty.regions import (
     Histogram,
     PairwiseAreas,
@@ -272,20 +272,7 @@ class MCMResult:
     @property
     def outputs(self) -> tuple[Output, ...]:
         """One :class:`.Output` per output quantity (interval: probabilistically symmetric)."""
-        expanded, k = self.expanded_uncertainty, self.coverage_factor
-        return tuple(
-            Output(
-                name=self.names[j],
-                value=float(self.estimate[j]),
-                unit=self.units[j],
-                u=float(self.standard_uncertainty[j]),
-                U=float(expanded[j]),
-                k=None if np.isnan(k[j]) else float(k[j]),
-                p=self.p,
-                interval=(float(self.interval[j, 0]), float(self.interval[j, 1])),
-            )
-            for j in range(self.m)
-        )
+        return output_records(self, self.expanded_uncertainty, self.coverage_factor)
 
     def output(self, key: int | str = 0) -> Output:
         """The :class:`.Output` of one output quantity, by index or name."""

@@ -80,6 +80,27 @@ class Output:
         }
 
 
+def output_records(result, expanded, coverage_factor) -> tuple[Output, ...]:
+    """The :class:`Output` of each output of a GUF or Monte Carlo ``result``.
+
+    ``result`` provides names, units, estimate, standard_uncertainty, p and interval
+    ((m, 2)); ``expanded`` and ``coverage_factor`` are (m,) arrays (NaN k becomes None).
+    """
+    return tuple(
+        Output(
+            name=result.names[j],
+            value=float(result.estimate[j]),
+            unit=result.units[j],
+            u=float(result.standard_uncertainty[j]),
+            U=float(expanded[j]),
+            k=None if math.isnan(coverage_factor[j]) else float(coverage_factor[j]),
+            p=result.p,
+            interval=(float(result.interval[j, 0]), float(result.interval[j, 1])),
+        )
+        for j in range(len(result.names))
+    )
+
+
 def output_labels(given, from_model, m: int, stem: str) -> list[str]:
     """Output names or units: as given, else the model's attribute, else y1..ym / "".
 

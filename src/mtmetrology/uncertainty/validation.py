@@ -372,11 +372,8 @@ def validate_results(guf_result, mcm_result: MCMResult, *, tolerance=None, digit
 
     References
     ----------
-    JCGM 101:2008, *Evaluation of measurement data — Supplement 1 to the GUM — Propagation
-    of distributions using a Monte Carlo method*, clause 8.
-
-    JCGM 102:2011, *Evaluation of measurement data — Supplement 2 to the GUM — Extension
-    to any number of output quantities*, clause 8.
+    JCGM 101:2008, clause 8, and JCGM 102:2011, clause 8 (full entries under
+    :func:`validate_guf`).
 
     Examples
     --------
