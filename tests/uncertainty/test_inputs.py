@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from mtmetrology.errors import InputError
 from mtmetrology.uncertainty.distributions import Normal, Rectangular, StudentT
 from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
 
@@ -115,3 +116,46 @@ def test_duplicate_names_and_bad_dof():
         InputQuantity("a", Normal(0, 1), dof=-2)
     with pytest.raises(ValueError, match="univariate Distribution"):
         InputQuantity("a", 3.0)
+
+
+def test_from_observations_is_jcgm100_type_a_with_one_ensemble():
+    """JCGM 100:2008, 4.2 and 5.2.3 (eq. 17) written out term by term: means, covariances
+    of the means s(q̄_i, q̄_j) = Σ_k (q_ik − q̄_i)(q_jk − q̄_j)/(n(n − 1)), ν = n − 1, and
+    all inputs in ensemble 0 (GUM H.2 data, Table H.2)."""
+    obs = [[5.007, 19.663, 1.0456], [4.994, 19.639, 1.0438], [5.005, 19.640, 1.0468],
+           [4.990, 19.685, 1.0428], [4.999, 19.678, 1.0433]]  # fmt: skip
+    s = InputSet.from_observations(["V", "I", "phi"], obs, ["", "", "rad"])
+    n = len(obs)
+    means = [sum(row[i] for row in obs) / n for i in range(3)]
+    for i in range(3):
+        for j in range(3):
+            expected = sum((row[i] - means[i]) * (row[j] - means[j]) for row in obs) / (n * (n - 1))
+            assert s.covariance[i, j] == pytest.approx(expected, rel=1e-12)
+    np.testing.assert_allclose(s.estimate, means, rtol=1e-15)
+    # Published (JCGM 100:2008, Table H.3): s(V̄) = 0.0032 V, s(Ī) = 0.0095 mA, s(φ̄) = 0.00075 rad.
+    np.testing.assert_allclose(s.standard_uncertainty, [0.0032, 0.0095, 0.00075], atol=5e-5)
+    assert s.dof.tolist() == [4.0, 4.0, 4.0] and s.ensemble.tolist() == [0, 0, 0]
+
+
+@pytest.mark.parametrize(
+    ("build", "match"),
+    [
+        (lambda: InputSet.from_observations(["a", "b"], [[1.0, 2.0]]), r"shape \(n >= 2, 2\)"),
+        (lambda: InputSet.from_observations(["a"], [[1.0], [2.0], [3.0], [np.nan]]), "NaN"),
+        (lambda: _pair(ensembles=[["a", "zz"]]), "unknown inputs"),
+        (lambda: _pair(ensembles=[["a"], ["a", "b"]]), "more than one ensemble"),
+        (lambda: _pair(dof=(4, 5), ensembles=[["a", "b"]]), "share one finite"),
+        (lambda: _pair(dof=(None, None), ensembles=[["a", "b"]]), "share one finite"),
+    ],
+)
+def test_bad_observations_and_ensembles_are_refused(build, match):
+    with pytest.raises(InputError, match=match):
+        build()
+
+
+def _pair(dof=(4, 4), ensembles=()):
+    return InputSet(
+        [InputQuantity("a", Normal(0.0, 1.0), dof=dof[0]),
+         InputQuantity("b", Normal(0.0, 1.0), dof=dof[1])],
+        ensembles=ensembles,
+    )  # fmt: skip

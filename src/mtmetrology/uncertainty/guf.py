@@ -58,7 +58,7 @@ class GUFResult:
     names, units : tuple of str, length m
         Output names and unit labels.
     input_names, input_units : tuple of str, length N
-    input_estimate, input_uncertainty, input_dof : (N,) ndarray
+    input_estimate, input_standard_uncertainty, input_dof : (N,) ndarray
     input_covariance : (N, N) ndarray
     input_ensemble : (N,) ndarray of int
         Ensemble number of each input (−1: none), see :class:`.InputSet`.
@@ -102,7 +102,7 @@ class GUFResult:
     input_names: tuple[str, ...]
     input_units: tuple[str, ...]
     input_estimate: np.ndarray
-    input_uncertainty: np.ndarray
+    input_standard_uncertainty: np.ndarray
     input_dof: np.ndarray
     input_covariance: np.ndarray
     input_ensemble: np.ndarray
@@ -146,7 +146,7 @@ class GUFResult:
         j = self._index(output)
         c = self.sensitivities[j]  # (N,)
         var = self.covariance[j, j]
-        contrib = np.abs(c) * self.input_uncertainty
+        contrib = np.abs(c) * self.input_standard_uncertainty
         full = c * (self.input_covariance @ c)
         share = contrib**2 / var if var > 0 else np.zeros_like(c)
         share_full = full / var if var > 0 else np.zeros_like(c)
@@ -155,7 +155,7 @@ class GUFResult:
                 self.input_names[i],
                 self.input_units[i],
                 float(self.input_estimate[i]),
-                float(self.input_uncertainty[i]),
+                float(self.input_standard_uncertainty[i]),
                 float(c[i]),
                 float(contrib[i]),
                 float(self.input_dof[i]),
@@ -525,7 +525,7 @@ def guf(
         input_names=tuple(names_in),
         input_units=tuple(inputs.units),
         input_estimate=x,
-        input_uncertainty=u_x,
+        input_standard_uncertainty=u_x,
         input_dof=dof_in,
         input_covariance=ux_cov,
         input_ensemble=ensemble,
