@@ -230,7 +230,7 @@ _ROUNDING_BITS = np.array(_ROUNDING_SHIFT).view(np.int64)
 
 
 def _bin_index(values: np.ndarray, low: float, scale: float, bins: int) -> np.ndarray:
-    """⌊(v − low)·scale⌋ clipped to [0, bins − 1], as int64, for 0 ≤ (v − low)·scale ≤ bins.
+    """min(⌊(v − low)·scale⌋, bins − 1) as int64, for 0 ≤ (v − low)·scale ≤ bins.
 
     After ``floor``, adding 1.5·2⁵² is exact and gives a double whose bit pattern is the
     integer plus a constant, so the conversion is an in-place add and an integer subtract
@@ -243,7 +243,7 @@ def _bin_index(values: np.ndarray, low: float, scale: float, bins: int) -> np.nd
     shifted += _ROUNDING_SHIFT
     index = shifted.view(np.int64)
     index -= _ROUNDING_BITS
-    np.clip(index, 0, bins - 1, out=index)
+    np.minimum(index, bins - 1, out=index)  # v = max lands on bins; v >= low, so >= 0
     return index
 
 
