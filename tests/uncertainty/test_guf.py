@@ -26,7 +26,8 @@ from mtmetrology.units import to_internal
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "gum-h1-end-gauge.yaml"
 
-# Upper triangle of the correlation matrix of seed 000 Table 5-4 (13 geometric errors,
+# Upper triangle of the correlation matrix of Sepahi Boroujeni (2021), Table 5-4 (13 geometric
+# errors,
 # order E_A0B E_C0B E_X0C E_A0C E_B0C E_B0Z E_A0Y E_C0Y E_XX1 E_YY1 E_ZZ1 E_Y0S E_X0S).
 TABLE_5_4_UPPER = [
     [0.189, -0.035, 0.058, -0.089, 0.365, 0.509, 0.415, 0.037, 0.008, 0.255, -0.641, -0.297],
@@ -220,20 +221,21 @@ def test_implicit_linear_system_with_analytic_jacobian():
     np.testing.assert_allclose(r.covariance, ainv @ np.diag([0.01, 0.09]) @ ainv.T)
 
 
-# --------------------------------------------------------------------------- seed 000 numbers
+# ------------------------------------------------- Sepahi Boroujeni (2021) numbers
 
 
 @pytest.mark.parametrize(("m", "k_p"), [(1, 1.96), (6, 3.55), (13, 4.73)])
-def test_seed000_hyperellipsoid_coverage_factors(m, k_p):
-    """Seed 000 §3.6 / Table 5-3: k_p = sqrt(χ²_m(0.95)) = 1.96, 3.55, 4.73."""
+def test_sepahi_boroujeni_hyperellipsoid_coverage_factors(m, k_p):
+    """Sepahi Boroujeni (2021), Table 5-3: k_p = sqrt(χ²_m(0.95)) = 1.96, 3.55, 4.73."""
     s = normals(np.zeros(m), np.ones(m))
     r = guf(lambda x: x, s)
     assert r.region_coverage_factor == pytest.approx(k_p, abs=0.005)
     assert normal_ellipsoidal_coverage_factor(m) == pytest.approx(k_p, abs=0.005)
 
 
-def test_seed000_table_5_4_largest_eigenvalue_4_47():
-    """Seed 000 Table 5-3: λ_max of the Table 5-4 correlation matrix is 4.47 (4.4685), PD."""
+def test_sepahi_boroujeni_table_5_4_largest_eigenvalue_4_47():
+    """Sepahi Boroujeni (2021), Table 5-3: λ_max of the Table 5-4 correlation matrix is 4.47
+    (4.4685), PD."""
     r_in = table_5_4_correlation()
     s = normals(np.zeros(13), TABLE_5_2_U_MCM, correlation=r_in)
     r = guf(lambda x: x, s)  # identity model: outputs carry the input correlation
@@ -244,8 +246,8 @@ def test_seed000_table_5_4_largest_eigenvalue_4_47():
     assert r.rectangular_coverage_factor == pytest.approx(normal_rectangular_coverage_factor(13))
 
 
-def test_seed000_pairwise_areas():
-    """Digest 000 §3.7: E_XX1–E_YY1 ellipse 162.6, Bonferroni rectangle 662 (µm/m)²;
+def test_sepahi_boroujeni_pairwise_areas():
+    """Sepahi Boroujeni (2021), Ch. 5: E_XX1–E_YY1 ellipse 162.6, Bonferroni rectangle 662 (µm/m)²;
     E_Y0S–E_X0S ellipse 17.25, rectangle 18.42 (GUF, u = 0.89, 1.03 µm), 18.13 with the
     independent-outputs factor and MCM u = 0.88 µm.  Inputs have 2-3 significant figures,
     so the published areas are matched to 0.1 %."""
@@ -264,8 +266,8 @@ def test_seed000_pairwise_areas():
     ) == pytest.approx(18.13, rel=1e-3)
 
 
-def test_seed000_one_dimensional_covariance_example_gives_1_um_not_2_2():
-    """Digest 000 §3.10 (seed eqs 6-8…6-12): ψ = γ(1 + δ) with [γ; δ] = [100 mm; −50 µm/m],
+def test_sepahi_boroujeni_one_dimensional_covariance_example_gives_1_um_not_2_2():
+    """Sepahi Boroujeni (2021), Ch. 6, eqs. 6-8…6-12: ψ = γ(1 + δ) with [γ; δ] = [100 mm; −50 µm/m],
     var(γ) = 2.0 µm², cov(γ, δ) = −1.0e-2 mm·µm/m, var(δ) = 100 (µm/m)².
 
     First order: u²(ψ) = c_γ² u²(γ) + c_δ² u²(δ) + 2 c_γ c_δ cov(γ, δ) with c_γ ≈ 1 and

@@ -51,7 +51,7 @@ def test_correlated_normals_are_sampled_jointly_with_the_stated_covariance():
 
 
 def test_from_covariance_handles_zero_variance_inputs():
-    """The 1-D example of digest 000 §3.10 plus a constant input."""
+    """The 1-D example of Sepahi Boroujeni (2021), Ch. 6 plus a constant input."""
     cov = np.array([[2.0e-6, -1.0e-8, 0.0], [-1.0e-8, 1.0e-10, 0.0], [0.0, 0.0, 0.0]])
     s = InputSet.from_covariance(
         ["gamma", "delta", "B"], [100.0, -50e-6, 30.0], cov, ["mm", "1", "deg"]

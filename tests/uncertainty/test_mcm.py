@@ -37,7 +37,8 @@ def test_numerical_tolerance_of_jcgm101_7_9_2():
     assert numerical_tolerance(0.0123, 2) == pytest.approx(0.0005)
     assert numerical_tolerance(0.0123, 1) == pytest.approx(0.005)
     np.testing.assert_allclose(numerical_tolerance([31.7, 1.2e-6, 0.0], 2), [0.5, 5e-8, 0.0])
-    # JCGM 101 7.9.2 example: u(y) = 1.0 (2 digits) -> δ = 0.05; seed 000 k_p = 3.55 -> 0.05.
+    # JCGM 101 7.9.2 example: u(y) = 1.0 (2 digits) -> δ = 0.05; Sepahi Boroujeni (2021) k_p =
+    # 3.55 -> 0.05.
     assert numerical_tolerance(1.0, 2) == pytest.approx(0.05)
     assert numerical_tolerance(3.55, 2) == pytest.approx(0.05)
     with pytest.raises(ValueError, match="digits"):

@@ -1,4 +1,5 @@
-"""Coverage intervals and regions from samples (JCGM 101 §7.7, JCGM 102 §7.7, digest 000 §3.7)."""
+"""Coverage intervals and regions from samples (JCGM 101 §7.7, JCGM 102 §7.7;
+the pairwise areas of Sepahi Boroujeni 2021, Ch. 5 and 7)."""
 
 import numpy as np
 import pytest
@@ -85,8 +86,9 @@ def test_intervals_are_equivariant_and_shortest_is_never_longer(seed, trials, p,
     )
 
 
-def test_normal_coverage_factors_reproduce_seed_000():
-    """Digest 000 §3.6/§3.7: k_p = 1.96, 2.4477, 3.55, 4.73 for m = 1, 2, 6, 13 (p = 0.95);
+def test_normal_coverage_factors_reproduce_sepahi_boroujeni():
+    """Sepahi Boroujeni (2021), Table 5-3 and Ch. 7: k_p = 1.96, 2.4477, 3.55, 4.73 for m = 1, 2,
+    6, 13 (p = 0.95);
     k_q = 2.2365 (independent) and 2.2414 (Bonferroni) for m = 2."""
     values = [normal_ellipsoidal_coverage_factor(m) for m in (1, 2, 6, 13)]
     np.testing.assert_allclose(values, [1.96, 2.4477, 3.5485, 4.7289], atol=5e-4)
@@ -98,7 +100,8 @@ def test_normal_coverage_factors_reproduce_seed_000():
 
 
 def test_pairwise_area_formulas_reproduce_digest_000_table():
-    """Digest 000 §3.7: E_XX1–E_YY1 (u 6.1, 5.4 µm/m, ρ 0.965) ellipse 162.6, Bonferroni
+    """Sepahi Boroujeni (2021), Ch. 5: E_XX1–E_YY1 (u 6.1, 5.4 µm/m, ρ 0.965) ellipse 162.6,
+    Bonferroni
     rectangle 662 (thesis 657.3); Ch. 7 point 1 X–Y (u 6.7, 8.2 µm, ρ = −1.7/√(4.5·6.6))
     ellipse 982.5 µm² (thesis smallest region 982.8 µm²)."""
     k2 = normal_ellipsoidal_coverage_factor(2)
@@ -140,7 +143,7 @@ def test_ellipsoidal_factor_is_invariant_under_linear_maps(seed, entries):
 
 
 def test_sample_regions_of_bivariate_normal_agree_with_theory():
-    """Digest 000 §3.7 on N(0, diag(u1², u2²)) with u = (6.7, 8.2), M = 4·10⁵:
+    """Sepahi Boroujeni (2021), Ch. 7 areas on N(0, diag(u1², u2²)) with u = (6.7, 8.2), M = 4·10⁵:
     ellipse π k_p² u1 u2 (k_p² = 5.9915), rectangle 4 k_q² u1 u2 with k_q → 2.2365
     (independent outputs), and the meshed smallest region not larger than the ellipse
     (it is the ellipse for a normal PDF) within the mesh and count noise of about 1 %."""
@@ -159,7 +162,8 @@ def test_sample_regions_of_bivariate_normal_agree_with_theory():
 
 
 def test_correlated_pair_ellipse_area_matches_formula_and_smallest_region():
-    """ρ = −0.31 (the seed 000 point-1 X–Y pair): the sample ellipse area matches
+    """ρ = −0.31 (the point-1 X–Y pair of Sepahi Boroujeni 2021, Ch. 7): the sample ellipse area
+    matches
     π k_p² u1 u2 sqrt(1 − ρ²) = 982.5 µm² within 1.5 %; the smallest region within 3 %."""
     rho = -1.7 / np.sqrt(4.5 * 6.6)
     covariance = np.array([[6.7**2, rho * 6.7 * 8.2], [rho * 6.7 * 8.2, 8.2**2]])

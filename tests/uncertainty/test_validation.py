@@ -1,4 +1,5 @@
-"""Validation of the GUF by Monte Carlo (JCGM 101 §8, JCGM 102 §8, seed 000 eqs. 7-3/7-4)."""
+"""Validation of the GUF by Monte Carlo (JCGM 101 §8, JCGM 102 §8,
+Sepahi Boroujeni 2021, eqs. 7-3/7-4)."""
 
 import json
 

@@ -567,9 +567,9 @@ def pairwise_areas(samples, i: int, j: int, p: float = 0.95, *, bins=None) -> Pa
 
     Notes
     -----
-    Digest 000 §3.7: A_e = π k_p² u1 u2 sqrt(1 − ρ²) with k_p from the 2-D sample
-    (JCGM 102, 7.7.2), A_r = 4 k_q² u1 u2 with the sample k_q, and the smallest region by
-    a cell mesh.
+    Sepahi Boroujeni (2021), Ch. 5 and 7: A_e = π k_p² u1 u2 sqrt(1 − ρ²) with k_p from
+    the 2-D sample (JCGM 102, 7.7.2), A_r = 4 k_q² u1 u2 with the sample k_q, and the
+    smallest region by a cell mesh.
     """
     array, _ = _as_sample(samples)
     m = array.shape[1]
