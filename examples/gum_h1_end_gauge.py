@@ -55,7 +55,7 @@ def main() -> None:
 
     # H.1.7: the products δα·θ and α_s·δθ have zero expectation but non-zero variance.
     ls = loaded.inputs.estimate[0]
-    u = dict(zip(loaded.inputs.names, loaded.inputs.standard_uncertainties, strict=True))
+    u = dict(zip(loaded.inputs.names, loaded.inputs.standard_uncertainty, strict=True))
     second = (ls * u["dalpha"] * u["theta"], ls * u["alpha_s"] * u["dtheta"])
     u2 = math.sqrt(u_nm**2 + sum(s**2 for s in second))
     print("\nSecond-order terms (JCGM 100:2008, H.1.7)")

@@ -34,7 +34,7 @@ def _json(args):
 def test_guf_json_document_reproduces_gum_h1():
     """GUM H.1.6 at p = 0.99: u = 31.7 nm, ν_eff 16.7, k = 2.92, U = 93 nm."""
     doc = _json([str(EXAMPLE), "--p", "0.99"])
-    assert doc["kind"] == "uncertainty-result" and doc["version"] == 1 and doc["method"] == "guf"
+    assert doc["kind"] == "uncertainty-result" and doc["version"] == 2 and doc["method"] == "guf"
     (out,) = doc["outputs"]
     assert out["name"] == "l" and out["unit"] == "nm" and out["p"] == 0.99
     assert out["value"] == pytest.approx(50_000_838.6)
@@ -55,8 +55,10 @@ def test_both_methods_include_mcm_and_validation(tmp_path):
         [str(model), "--method", "both", "--trials", "200000", "--seed", "7", "--digits", "1"]
     )
     assert doc["method"] == "both"
-    assert [o["method"] for o in doc["outputs"]] == ["mcm", "mcm"]
+    assert doc["outputs"] == doc["mcm"]["outputs"]
     assert [o["name"] for o in doc["guf"]["outputs"]] == ["s", "d"]
+    assert [o["name"] for o in doc["outputs"]] == ["s", "d"]
+    assert [o["unit"] for o in doc["outputs"]] == ["µm", "µm"]
     # u(s) = u(d) = 0.5 µm exactly; MCM with 2e5 trials within 1 % (s.e. 0.16 %).
     for o in doc["outputs"]:
         assert o["u"] == pytest.approx(0.5, rel=0.01)
@@ -72,30 +74,21 @@ def test_seeded_mcm_is_reproducible(tmp_path):
 
 
 def test_rich_output_prints_budget_results_and_verdict():
-    result = runner.invoke(
-        app,
-        [
-            "uncertainty",
-            "run",
-            str(EXAMPLE),
-            "--method",
-            "both",
-            "--trials",
-            "100000",
-            "--seed",
-            "1",
-        ],
-        env={"COLUMNS": "140"},
-    )
+    """The printed verdict follows the structured one: GUM H.1 at 10⁵ trials, p = 0.95,
+    δ from two digits of u = 32 nm (δ = 0.5 nm) — the JSON says whether it passed, and the
+    text prints exactly the matching verdict line (never a substring of the other)."""
+    args = [str(EXAMPLE), "--method", "both", "--trials", "100000", "--seed", "1"]
+    passed = _json(args)["validation"]["passed"]
+    result = runner.invoke(app, ["uncertainty", "run", *args], env={"COLUMNS": "140"})
     assert result.exit_code == 0, result.output
-    for text in (
-        "Uncertainty budget of l in nm",
-        "dtheta",
-        "GUF results",
-        "Monte Carlo results",
-        "validated",
-    ):
+    for text in ("Uncertainty budget of l in nm", "dtheta", "GUF results", "Monte Carlo results"):
         assert text in result.output
+    verdicts = {
+        line.split(" by Monte Carlo")[0].strip()
+        for line in result.output.splitlines()
+        if "by Monte Carlo (JCGM" in line
+    }
+    assert verdicts == {"GUF validated" if passed else "GUF NOT validated"}
 
 
 @pytest.mark.parametrize(

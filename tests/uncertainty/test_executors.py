@@ -34,9 +34,9 @@ INPUTS = normal_inputs([2.0, 3.0], [0.2, 0.1])
 def assert_identical(first, second):
     """Bit-identical statistics, not merely close."""
     assert first.trials == second.trials and first.sequences == second.sequences
-    for name in ("estimate", "covariance", "interval_symmetric", "interval_shortest"):
+    for name in ("estimate", "covariance", "interval", "interval_shortest"):
         np.testing.assert_array_equal(getattr(first, name), getattr(second, name))
-    assert first.coverage_factor == second.coverage_factor
+    assert first.region_coverage_factor == second.region_coverage_factor
     assert first.largest_eigenvalue == second.largest_eigenvalue
 
 

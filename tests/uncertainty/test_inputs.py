@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from mtmetrology.errors import InputError
 from mtmetrology.uncertainty.distributions import Normal, Rectangular, StudentT
 from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
 
@@ -27,9 +28,9 @@ def test_estimates_uncertainties_units_and_dof():
     assert s.units == ["mm", "µm", "°C", "µm/m"]
     np.testing.assert_allclose(s.estimate, [1.0, -2.0, 0.5, 3.0])
     np.testing.assert_allclose(
-        s.standard_uncertainties, [0.2, 0.5, 1 / math.sqrt(12), 0.1 * math.sqrt(9 / 7)]
+        s.standard_uncertainty, [0.2, 0.5, 1 / math.sqrt(12), 0.1 * math.sqrt(9 / 7)]
     )
-    np.testing.assert_allclose(s.covariance, np.diag(s.standard_uncertainties**2))
+    np.testing.assert_allclose(s.covariance, np.diag(s.standard_uncertainty**2))
     # dof: inf when not given; a Student-t input carries its own ν.
     np.testing.assert_array_equal(s.dof, [math.inf, 12.0, math.inf, 9.0])
 
@@ -46,13 +47,11 @@ def test_correlated_normals_are_sampled_jointly_with_the_stated_covariance():
     assert np.corrcoef(x[:, 0], x[:, 1])[0, 1] == pytest.approx(-0.8, abs=0.005)
     assert abs(np.corrcoef(x[:, 0], x[:, 2])[0, 1]) < 0.01
     # Means within 5 standard errors u/√n.
-    assert np.all(
-        np.abs(x.mean(axis=0) - s.estimate) < 5 * s.standard_uncertainties / math.sqrt(2e5)
-    )
+    assert np.all(np.abs(x.mean(axis=0) - s.estimate) < 5 * s.standard_uncertainty / math.sqrt(2e5))
 
 
 def test_from_covariance_handles_zero_variance_inputs():
-    """The 1-D example of digest 000 §3.10 plus a constant input."""
+    """The 1-D example of Sepahi Boroujeni (2021), Ch. 6 plus a constant input."""
     cov = np.array([[2.0e-6, -1.0e-8, 0.0], [-1.0e-8, 1.0e-10, 0.0], [0.0, 0.0, 0.0]])
     s = InputSet.from_covariance(
         ["gamma", "delta", "B"], [100.0, -50e-6, 30.0], cov, ["mm", "1", "deg"]
@@ -117,3 +116,46 @@ def test_duplicate_names_and_bad_dof():
         InputQuantity("a", Normal(0, 1), dof=-2)
     with pytest.raises(ValueError, match="univariate Distribution"):
         InputQuantity("a", 3.0)
+
+
+def test_from_observations_is_jcgm100_type_a_with_one_ensemble():
+    """JCGM 100:2008, 4.2 and 5.2.3 (eq. 17) written out term by term: means, covariances
+    of the means s(q̄_i, q̄_j) = Σ_k (q_ik − q̄_i)(q_jk − q̄_j)/(n(n − 1)), ν = n − 1, and
+    all inputs in ensemble 0 (GUM H.2 data, Table H.2)."""
+    obs = [[5.007, 19.663, 1.0456], [4.994, 19.639, 1.0438], [5.005, 19.640, 1.0468],
+           [4.990, 19.685, 1.0428], [4.999, 19.678, 1.0433]]  # fmt: skip
+    s = InputSet.from_observations(["V", "I", "phi"], obs, ["", "", "rad"])
+    n = len(obs)
+    means = [sum(row[i] for row in obs) / n for i in range(3)]
+    for i in range(3):
+        for j in range(3):
+            expected = sum((row[i] - means[i]) * (row[j] - means[j]) for row in obs) / (n * (n - 1))
+            assert s.covariance[i, j] == pytest.approx(expected, rel=1e-12)
+    np.testing.assert_allclose(s.estimate, means, rtol=1e-15)
+    # Published (JCGM 100:2008, Table H.3): s(V̄) = 0.0032 V, s(Ī) = 0.0095 mA, s(φ̄) = 0.00075 rad.
+    np.testing.assert_allclose(s.standard_uncertainty, [0.0032, 0.0095, 0.00075], atol=5e-5)
+    assert s.dof.tolist() == [4.0, 4.0, 4.0] and s.ensemble.tolist() == [0, 0, 0]
+
+
+@pytest.mark.parametrize(
+    ("build", "match"),
+    [
+        (lambda: InputSet.from_observations(["a", "b"], [[1.0, 2.0]]), r"shape \(n >= 2, 2\)"),
+        (lambda: InputSet.from_observations(["a"], [[1.0], [2.0], [3.0], [np.nan]]), "NaN"),
+        (lambda: _pair(ensembles=[["a", "zz"]]), "unknown inputs"),
+        (lambda: _pair(ensembles=[["a"], ["a", "b"]]), "more than one ensemble"),
+        (lambda: _pair(dof=(4, 5), ensembles=[["a", "b"]]), "share one finite"),
+        (lambda: _pair(dof=(None, None), ensembles=[["a", "b"]]), "share one finite"),
+    ],
+)
+def test_bad_observations_and_ensembles_are_refused(build, match):
+    with pytest.raises(InputError, match=match):
+        build()
+
+
+def _pair(dof=(4, 4), ensembles=()):
+    return InputSet(
+        [InputQuantity("a", Normal(0.0, 1.0), dof=dof[0]),
+         InputQuantity("b", Normal(0.0, 1.0), dof=dof[1])],
+        ensembles=ensembles,
+    )  # fmt: skip

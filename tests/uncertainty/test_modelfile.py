@@ -282,7 +282,7 @@ def test_every_scalar_distribution_kind_from_a_file():
     doc["outputs"] = [{"name": "y", "expression": "t1 + t2 + t3 + t4 + t5 + t6"}]
     m = parse_model(doc)
     np.testing.assert_allclose(m.inputs.estimate, [5 / 3, 2.0, 0.0, 5.0, 3.0, 1.0])
-    assert m.inputs.standard_uncertainties[5] == pytest.approx(0.2)
+    assert m.inputs.standard_uncertainty[5] == pytest.approx(0.2)
     x = m.inputs.sample(np.random.default_rng(0), 1000)
     assert x.shape == (1000, 6) and set(np.unique(x[:, 4])) <= {1.0, 2.0, 3.0, 6.0}
     with pytest.raises(ModelFileError, match="inputs are scalar"):

@@ -1,4 +1,5 @@
-"""Coverage intervals and regions from samples (JCGM 101 §7.7, JCGM 102 §7.7, digest 000 §3.7)."""
+"""Coverage intervals and regions from samples (JCGM 101 §7.7, JCGM 102 §7.7;
+the pairwise areas of Sepahi Boroujeni 2021, Ch. 5 and 7)."""
 
 import numpy as np
 import pytest
@@ -12,6 +13,7 @@ from mtmetrology.uncertainty.regions import (
     ellipse_area,
     ellipsoidal_coverage_factor,
     histogram,
+    intervals_and_histograms,
     normal_ellipsoidal_coverage_factor,
     normal_rectangular_coverage_factor,
     pairwise_areas,
@@ -84,8 +86,9 @@ def test_intervals_are_equivariant_and_shortest_is_never_longer(seed, trials, p,
     )
 
 
-def test_normal_coverage_factors_reproduce_seed_000():
-    """Digest 000 §3.6/§3.7: k_p = 1.96, 2.4477, 3.55, 4.73 for m = 1, 2, 6, 13 (p = 0.95);
+def test_normal_coverage_factors_reproduce_sepahi_boroujeni():
+    """Sepahi Boroujeni (2021), Table 5-3 and Ch. 7: k_p = 1.96, 2.4477, 3.55, 4.73 for m = 1, 2,
+    6, 13 (p = 0.95);
     k_q = 2.2365 (independent) and 2.2414 (Bonferroni) for m = 2."""
     values = [normal_ellipsoidal_coverage_factor(m) for m in (1, 2, 6, 13)]
     np.testing.assert_allclose(values, [1.96, 2.4477, 3.5485, 4.7289], atol=5e-4)
@@ -97,7 +100,8 @@ def test_normal_coverage_factors_reproduce_seed_000():
 
 
 def test_pairwise_area_formulas_reproduce_digest_000_table():
-    """Digest 000 §3.7: E_XX1–E_YY1 (u 6.1, 5.4 µm/m, ρ 0.965) ellipse 162.6, Bonferroni
+    """Sepahi Boroujeni (2021), Ch. 5: E_XX1–E_YY1 (u 6.1, 5.4 µm/m, ρ 0.965) ellipse 162.6,
+    Bonferroni
     rectangle 662 (thesis 657.3); Ch. 7 point 1 X–Y (u 6.7, 8.2 µm, ρ = −1.7/√(4.5·6.6))
     ellipse 982.5 µm² (thesis smallest region 982.8 µm²)."""
     k2 = normal_ellipsoidal_coverage_factor(2)
@@ -139,7 +143,7 @@ def test_ellipsoidal_factor_is_invariant_under_linear_maps(seed, entries):
 
 
 def test_sample_regions_of_bivariate_normal_agree_with_theory():
-    """Digest 000 §3.7 on N(0, diag(u1², u2²)) with u = (6.7, 8.2), M = 4·10⁵:
+    """Sepahi Boroujeni (2021), Ch. 7 areas on N(0, diag(u1², u2²)) with u = (6.7, 8.2), M = 4·10⁵:
     ellipse π k_p² u1 u2 (k_p² = 5.9915), rectangle 4 k_q² u1 u2 with k_q → 2.2365
     (independent outputs), and the meshed smallest region not larger than the ellipse
     (it is the ellipse for a normal PDF) within the mesh and count noise of about 1 %."""
@@ -158,7 +162,8 @@ def test_sample_regions_of_bivariate_normal_agree_with_theory():
 
 
 def test_correlated_pair_ellipse_area_matches_formula_and_smallest_region():
-    """ρ = −0.31 (the seed 000 point-1 X–Y pair): the sample ellipse area matches
+    """ρ = −0.31 (the point-1 X–Y pair of Sepahi Boroujeni 2021, Ch. 7): the sample ellipse area
+    matches
     π k_p² u1 u2 sqrt(1 − ρ²) = 982.5 µm² within 1.5 %; the smallest region within 3 %."""
     rho = -1.7 / np.sqrt(4.5 * 6.6)
     covariance = np.array([[6.7**2, rho * 6.7 * 8.2], [rho * 6.7 * 8.2, 8.2**2]])
@@ -216,3 +221,49 @@ def test_histogram_density_integrates_to_one():
 def test_bad_input_is_refused_with_a_named_reason(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+def _full_sort_intervals(y: np.ndarray, p: float):
+    """JCGM 101:2008, 7.7 literally: sort everything, r and q as in the clause."""
+    ordered = np.sort(y, axis=0)
+    trials, m = y.shape
+    q = coverage_index(trials, p)
+    r = (trials - q) // 2 if (trials - q) % 2 == 0 else (trials - q + 1) // 2
+    symmetric = np.stack([ordered[r - 1], ordered[r - 1 + q]], axis=-1)
+    start = np.argmin(ordered[q:] - ordered[:-q], axis=0)
+    columns = np.arange(m)
+    shortest = np.stack([ordered[start, columns], ordered[start + q, columns]], axis=-1)
+    return symmetric, shortest
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.integers(200, 20_000),
+    st.integers(1, 3),
+    st.sampled_from(["t", "discrete", "constant", "narrow"]),
+    st.sampled_from([0.3, 0.5, 0.9, 0.95, 0.99]),
+    st.integers(0, 2**32 - 1),
+)
+def test_tail_selection_equals_the_full_sort(trials, m, kind, p, seed):
+    """The binned tail selection gives the very order statistics of a full sort, for heavy
+    tails, ties (discrete values), constants and spreads of a few ulps; the histogram from
+    the same binning matches numpy's for continuous and discrete samples."""
+    rng = np.random.default_rng(seed)
+    y = {
+        "t": lambda: rng.standard_t(3, size=(trials, m)),
+        "discrete": lambda: rng.integers(0, 5, size=(trials, m)).astype(float),
+        "constant": lambda: np.full((trials, m), 2.5),
+        "narrow": lambda: 5e7 + 1e-8 * rng.standard_normal((trials, m)),
+    }[kind]()
+    symmetric, shortest, histograms = intervals_and_histograms(y, p, 100)
+    exact_symmetric, exact_shortest = _full_sort_intervals(y, p)
+    np.testing.assert_array_equal(symmetric, exact_symmetric)
+    np.testing.assert_array_equal(shortest, exact_shortest)
+    for j, h in enumerate(histograms):
+        assert np.all(np.isfinite(h.values))
+        assert np.sum(h.values * np.diff(h.edges)) == pytest.approx(1.0)
+        if kind in ("t", "discrete"):
+            values, edges = np.histogram(y[:, j], 100, density=True)
+            np.testing.assert_allclose(h.edges, edges)
+            # Values within rounding of an inner edge may change bin: at most a few trials.
+            assert np.abs(h.values - values).sum() * np.diff(edges)[0] <= 5 / trials

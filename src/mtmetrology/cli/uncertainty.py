@@ -3,15 +3,15 @@
 ``mtm uncertainty run MODEL.yaml --method guf|mcm|both`` prints the uncertainty
 budget, the estimates with u, U, k and coverage intervals and, when both methods
 ran, the validation of the GUF by Monte Carlo (JCGM 101 §8, JCGM 102 §8).
-``--json`` prints the result document instead::
+``--json`` prints the result document of
+:func:`mtmetrology.uncertainty.outputs.result_document` instead::
 
-    {"kind": "uncertainty-result", "version": 1, "method": "both",
-     "outputs": [{name, value, unit, u, U, k, p, interval, method, ...}],
+    {"kind": "uncertainty-result", "version": 2, "method": "both",
+     "outputs": [{name, value, unit, u, U, k, p, interval}],
      "guf": {...}, "mcm": {...}, "validation": {...}}
 
-``outputs`` holds the GUF results for ``--method guf`` and the Monte Carlo results
-otherwise (Monte Carlo is the reference against which the GUF is validated); the
-full results of each method are under ``guf`` and ``mcm``.
+This module only parses options and prints: the results, their ``outputs`` and the
+document come from the library.
 """
 
 from __future__ import annotations
@@ -28,11 +28,12 @@ from rich.console import Console
 from rich.table import Table
 
 from mtmetrology.cli._common import ReportOption, command_line, write_report
+from mtmetrology.errors import MtmetrologyError
 from mtmetrology.uncertainty.guf import GUFResult, guf
-from mtmetrology.uncertainty.modelfile import MeasurementModel, ModelFileError, load_model
-
-RESULT_KIND = "uncertainty-result"
-RESULT_VERSION = 1
+from mtmetrology.uncertainty.mcm import monte_carlo
+from mtmetrology.uncertainty.modelfile import ModelFileError, load_model
+from mtmetrology.uncertainty.outputs import Output, result_document
+from mtmetrology.uncertainty.validation import validate_results
 
 app = typer.Typer(help="Evaluate measurement uncertainty (GUF, Monte Carlo).", no_args_is_help=True)
 
@@ -64,33 +65,6 @@ def _fmt(value: float, u: float) -> str:
     return f"{value:.{_decimals(u)}f}"
 
 
-def _guf_outputs(r: GUFResult) -> list[dict]:
-    return [{**o, "method": "guf"} for o in r.to_dict()["outputs"]]
-
-
-def _mcm_outputs(r, names, units) -> list[dict]:
-    outputs = []
-    for j, name in enumerate(names):
-        low, high = (float(v) for v in r.interval_symmetric[j])
-        u = float(r.standard_uncertainty[j])
-        half = 0.5 * (high - low)
-        outputs.append(
-            {
-                "name": name,
-                "value": float(r.estimate[j]),
-                "unit": units[j],
-                "u": u,
-                "U": half,
-                "k": half / u if u > 0 else None,
-                "p": r.p,
-                "interval": [low, high],
-                "interval_shortest": [float(v) for v in r.interval_shortest[j]],
-                "method": "mcm",
-            }
-        )
-    return outputs
-
-
 def _budget_table(r: GUFResult, j: int) -> Table:
     correlated = not np.allclose(r.input_covariance, np.diag(np.diag(r.input_covariance)))
     unit = f" in {r.units[j]}" if r.units[j] else ""
@@ -116,68 +90,27 @@ def _budget_table(r: GUFResult, j: int) -> Table:
     return table
 
 
-def _results_table(title: str, outputs: list[dict], extra: str | None = None) -> Table:
+def _results_table(title: str, outputs: tuple[Output, ...], extra: dict | None = None) -> Table:
+    """One row per output; ``extra`` = {column: [cell per output]}."""
     table = Table(title=title)
-    for col in ("output", "value", "u", "U", "k", "interval", "unit"):
+    for col in ("output", "value", "u", "U", "k", "interval", "unit", *(extra or {})):
         table.add_column(col, justify="left" if col in ("output", "unit") else "right")
-    if extra:
-        table.add_column(extra, justify="right")
-    for o in outputs:
-        u = o["u"]
+    for j, o in enumerate(outputs):
         cells = [
-            o["name"],
-            _fmt(o["value"], u),
-            f"{u:.2g}",
-            f"{o['U']:.2g}",
-            "-" if o["k"] is None else f"{o['k']:.3f}",
-            f"[{_fmt(o['interval'][0], u)}, {_fmt(o['interval'][1], u)}]",
-            o["unit"],
+            o.name,
+            _fmt(o.value, o.u),
+            f"{o.u:.2g}",
+            f"{o.U:.2g}",
+            "-" if o.k is None else f"{o.k:.3f}",
+            f"[{_fmt(o.interval[0], o.u)}, {_fmt(o.interval[1], o.u)}]",
+            o.unit,
+            *(column[j] for column in (extra or {}).values()),
         ]
-        if extra == "dof":
-            cells.append("inf" if o["dof"] is None else f"{o['dof']:.1f}")
-        elif extra == "shortest interval":
-            lo, hi = o["interval_shortest"]
-            cells.append(f"[{_fmt(lo, u)}, {_fmt(hi, u)}]")
         table.add_row(*cells)
     return table
 
 
-def _run_mcm(loaded: MeasurementModel, *, trials, adaptive, digits, seed, p, executor):
-    from mtmetrology.uncertainty.mcm import monte_carlo
-
-    return monte_carlo(
-        loaded.model,
-        loaded.inputs,
-        trials=trials,
-        adaptive=adaptive,
-        digits=digits,
-        p=p,
-        seed=seed,
-        executor=executor,
-    )
-
-
-def _validate(g: GUFResult, r, digits: int, names):
-    from mtmetrology.uncertainty.mcm import Tolerance, numerical_tolerance
-    from mtmetrology.uncertainty.validation import validate_guf
-
-    tolerance = r.tolerance or Tolerance(numerical_tolerance(r.standard_uncertainty, digits))
-    scalar = len(names) == 1
-    return validate_guf(
-        g.estimate,
-        g.covariance,
-        r,
-        tolerance=tolerance,
-        p=g.p,
-        guf_coverage_factor=None if scalar else g.region_coverage_factor,
-        guf_interval=g.interval[0] if scalar else None,
-        names=names,
-    )
-
-
-def _write_report(
-    path: Path, loaded: MeasurementModel, model_file: Path, g, r, validation, command, *, seed
-):
+def _write_report(path: Path, loaded, model_file: Path, g, r, validation, command, *, seed):
     """The HTML report: GUF budget, Monte Carlo histograms against the GUF, validation."""
     from mtmetrology.report import Report
     from mtmetrology.report.results import add_result
@@ -227,37 +160,26 @@ def run(
         loaded = load_model(model_file)
     except ModelFileError as exc:
         _fail(str(exc))
-    names, units = loaded.output_names, loaded.output_units
-    document: dict = {
-        "kind": RESULT_KIND,
-        "version": RESULT_VERSION,
-        "model": loaded.name,
-        "source": str(model_file),
-        "method": method.value,
-        "p": p,
-    }
     g = r = report = None
     try:
         if method in (Method.guf, Method.both):
             g = guf(loaded.model, loaded.inputs, p=p)
-            document["guf"] = {**g.to_dict(), "outputs": _guf_outputs(g)}
         if method in (Method.mcm, Method.both):
-            r = _run_mcm(
-                loaded,
+            r = monte_carlo(
+                loaded.model,
+                loaded.inputs,
                 trials=trials,
                 adaptive=adaptive,
                 digits=digits,
-                seed=seed,
                 p=p,
+                seed=seed,
                 executor=executor,
             )
-            document["mcm"] = {**r.to_dict(), "outputs": _mcm_outputs(r, names, units)}
         if g is not None and r is not None:
-            report = _validate(g, r, digits, names)
-            document["validation"] = report.to_dict()
-    except (ValueError, TypeError) as exc:
+            report = validate_results(g, r, digits=digits)
+    except (MtmetrologyError, ValueError, TypeError) as exc:
         _fail(f"{model_file}: {exc}")
-    document["outputs"] = document["mcm" if r is not None else "guf"]["outputs"]
+    document = result_document(g, r, report, model=loaded.name, source=str(model_file))
 
     if report_path is not None:
         _write_report(report_path, loaded, model_file, g, r, report, command_line(ctx), seed=seed)
@@ -268,22 +190,25 @@ def run(
     title = loaded.name or str(model_file)
     console.print(f"[bold]{title}[/bold]  ({model_file})")
     if g is not None:
-        for j in range(len(names)):
+        for j in range(len(g.names)):
             console.print(_budget_table(g, j))
-        console.print(
-            _results_table(f"GUF results, p = {p}", document["guf"]["outputs"], extra="dof")
-        )
-        if len(names) > 1:
+        dof = ["inf" if math.isinf(v) else f"{v:.1f}" for v in g.dof_effective]
+        console.print(_results_table(f"GUF results, p = {p}", g.outputs, {"dof": dof}))
+        if len(g.names) > 1:
             console.print(
                 f"hyper-ellipsoid k_p = {g.region_coverage_factor:.3f}, "
                 f"λ_max = {g.largest_eigenvalue:.3f}"
             )
     if r is not None:
+        shortest = [
+            f"[{_fmt(low, o.u)}, {_fmt(high, o.u)}]"
+            for (low, high), o in zip(r.interval_shortest, r.outputs, strict=True)
+        ]
         console.print(
             _results_table(
                 f"Monte Carlo results, p = {p} ({r.trials} trials)",
-                document["mcm"]["outputs"],
-                extra="shortest interval",
+                r.outputs,
+                {"shortest interval": shortest},
             )
         )
         console.print(r.message)

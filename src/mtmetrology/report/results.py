@@ -93,7 +93,10 @@ def _interval(low: float, high: float, u: float) -> str:
 # -- uncertainty ---------------------------------------------------------------------------
 @renders("mtmetrology.uncertainty.guf.GUFResult", "GUF uncertainty evaluation")
 def _guf(rep: Report, g, **_) -> None:
-    rep.section(f"GUF results, p = {g.p:g}", g.message)
+    how = f"sensitivities: {g.sensitivity_method}"
+    if g.newton_iterations:
+        how += f"; implicit model solved in {g.newton_iterations} Newton iterations"
+    rep.section(f"GUF results, p = {g.p:g}", how)
     rows = []
     for j, name in enumerate(g.names):
         u = float(g.standard_uncertainty[j])
@@ -152,8 +155,8 @@ def _guf(rep: Report, g, **_) -> None:
 @renders("mtmetrology.uncertainty.mcm.MCMResult", "Monte Carlo uncertainty evaluation")
 def _mcm(rep: Report, r, *, names=None, units=None, guf=None, **_) -> None:
     """``names``, ``units``: of the outputs; ``guf``: a GUFResult drawn over the histograms."""
-    names = list(names or (guf.names if guf is not None else [f"y{j}" for j in range(r.m)]))
-    units = list(units or (guf.units if guf is not None else [""] * r.m))
+    names = list(names or r.names)
+    units = list(units or r.units)
     rep.section(f"Monte Carlo results, p = {r.p:g} ({r.trials} trials)", r.message)
     rows = []
     for j in range(r.m):
@@ -163,7 +166,7 @@ def _mcm(rep: Report, r, *, names=None, units=None, guf=None, **_) -> None:
                 names[j],
                 format_value(float(r.estimate[j]), u),
                 format_uncertainty(u),
-                _interval(*r.interval_symmetric[j], u),
+                _interval(*r.interval[j], u),
                 _interval(*r.interval_shortest[j], u),
                 units[j],
             ]
@@ -187,7 +190,7 @@ def _mcm(rep: Report, r, *, names=None, units=None, guf=None, **_) -> None:
                 names[j],
                 units[j],
                 dof=dof,
-                interval=r.interval_symmetric[j],
+                interval=r.interval[j],
                 guf_interval=g_interval,
             ),
             caption=f"Monte Carlo distribution of {names[j]} against the "

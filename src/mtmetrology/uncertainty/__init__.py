@@ -2,8 +2,10 @@
 (JCGM 101/102), coverage regions, GUF validation, executors and model files.
 
 - :mod:`~mtmetrology.uncertainty.distributions` — input distributions, PSD factors;
-- :mod:`~mtmetrology.uncertainty.inputs` — input quantities with units and correlations;
-- :mod:`~mtmetrology.uncertainty.typeab` — Type A and Type B helpers;
+- :mod:`~mtmetrology.uncertainty.inputs` — input quantities with units, correlations,
+  ensembles and Type A inputs from simultaneous observations;
+- :mod:`~mtmetrology.uncertainty.outputs` — the output record shared by every method and
+  the result document;
 - :mod:`~mtmetrology.uncertainty.guf` — law of propagation, budgets, Welch–Satterthwaite;
 - :mod:`~mtmetrology.uncertainty.mcm` — fixed and adaptive Monte Carlo;
 - :mod:`~mtmetrology.uncertainty.regions` — coverage intervals and regions;
@@ -35,7 +37,8 @@ from mtmetrology.uncertainty.guf import GUFResult, guf
 from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
 from mtmetrology.uncertainty.mcm import MCMResult, monte_carlo
 from mtmetrology.uncertainty.modelfile import MeasurementModel, load_model
-from mtmetrology.uncertainty.validation import ValidationReport, validate_guf
+from mtmetrology.uncertainty.outputs import Output, result_document
+from mtmetrology.uncertainty.validation import ValidationReport, validate_guf, validate_results
 
 __all__ = [
     "Arcsine",
@@ -50,6 +53,7 @@ __all__ = [
     "MultivariateNormal",
     "MultivariateT",
     "Normal",
+    "Output",
     "ProcessPoolExecutor",
     "Rectangular",
     "Samples",
@@ -62,5 +66,7 @@ __all__ = [
     "make_distribution",
     "monte_carlo",
     "resolve_executor",
+    "result_document",
     "validate_guf",
+    "validate_results",
 ]

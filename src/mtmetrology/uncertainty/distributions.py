@@ -85,6 +85,14 @@ class Distribution:
     def sample(self, rng: np.random.Generator, size: Size) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError
 
+    def sample_into(self, rng: np.random.Generator, out: np.ndarray) -> None:
+        """Draw ``out.shape[0]`` values into the contiguous 1-D array ``out``.
+
+        The same values as ``sample(rng, out.size)``; distributions that can draw in place
+        override it to spare the temporaries (Monte Carlo draws millions of values).
+        """
+        out[...] = self.sample(rng, out.shape[0])
+
 
 @dataclass(frozen=True)
 class Normal(Distribution):
@@ -114,7 +122,13 @@ class Normal(Distribution):
         return self.u
 
     def sample(self, rng, size):
-        return self.x + self.u * rng.standard_normal(size)
+        return rng.normal(self.x, self.u, size)
+
+    def sample_into(self, rng, out):
+        # The same numbers as sample(): numpy's normal is loc + scale·z of the same z.
+        rng.standard_normal(out=out)
+        out *= self.u
+        out += self.x
 
 
 @dataclass(frozen=True)
@@ -148,7 +162,13 @@ class Rectangular(_SymmetricInterval):
         return (self.high - self.low) / math.sqrt(12.0)
 
     def sample(self, rng, size):
-        return self.low + (self.high - self.low) * rng.random(size)
+        return rng.uniform(self.low, self.high, size)
+
+    def sample_into(self, rng, out):
+        # The same numbers as sample(): numpy's uniform is low + (high − low)·U.
+        rng.random(out=out)
+        out *= self.high - self.low
+        out += self.low
 
 
 @dataclass(frozen=True)
@@ -317,6 +337,10 @@ class StudentT(Distribution):
     def sample(self, rng, size):
         return self.x + self.s * rng.standard_t(self.dof, size)
 
+    def sample_into(self, rng, out):
+        np.multiply(rng.standard_t(self.dof, out.shape[0]), self.s, out=out)
+        out += self.x
+
 
 @dataclass(frozen=True)
 class Samples(Distribution):
@@ -381,7 +405,8 @@ def psd_factor(covariance, name: str = "covariance", rtol: float = 1e-9) -> np.n
     -----
     A Cholesky factor (JCGM 101:2008, 6.4.8.4) fails for singular covariances,
     e.g. zero-variance axes or a sample covariance of K replicates (rank K − 1);
-    the eigen factor does not (digest 000 §3.5).
+    the eigen factor does not (a sample covariance of K < N replicates is singular, as in Sepahi
+    Boroujeni 2021, Ch. 5).
     """
     c = np.asarray(covariance, dtype=float)
     if c.ndim != 2 or c.shape[0] != c.shape[1]:
@@ -464,7 +489,7 @@ class MultivariateNormal(_VectorDistribution):
         """The normal with the mean and sample covariance of K replicates (K, N).
 
         Draws are x̄ + Σ_k z_k (x_k − x̄)/√(K − 1) with z ~ N(0, I_K), whose
-        covariance is exactly the sample covariance (rank <= K − 1); digest 000 §3.5.
+        covariance is exactly the sample covariance (rank <= K − 1; Sepahi Boroujeni 2021, Ch. 5).
         """
         x = np.asarray(samples, dtype=float)
         if x.ndim != 2 or x.shape[0] < 2:

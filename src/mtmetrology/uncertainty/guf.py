@@ -14,11 +14,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from scipy import stats
 
+from mtmetrology.errors import ConvergenceError, InputError
 from mtmetrology.report.notebook import NotebookRepr
+from mtmetrology.uncertainty.outputs import Output, json_dof, output_labels, output_records
 from mtmetrology.uncertainty.regions import (
     normal_ellipsoidal_coverage_factor,
     normal_rectangular_coverage_factor,
@@ -49,49 +52,61 @@ class BudgetRow:
 
 @dataclass(frozen=True)
 class GUFResult(NotebookRepr):
-    """Result of :func:`guf`.
+    """Result of :func:`guf`, in the vocabulary shared with Monte Carlo (:mod:`.outputs`).
 
     Attributes
     ----------
     names, units : tuple of str, length m
         Output names and unit labels.
     input_names, input_units : tuple of str, length N
-    input_estimate, input_uncertainty, input_dof : (N,) ndarray
+    input_estimate, input_standard_uncertainty, input_dof : (N,) ndarray
     input_covariance : (N, N) ndarray
+    input_ensemble : (N,) ndarray of int
+        Ensemble number of each input (−1: none), see :class:`.InputSet`.
     estimate : (m,) ndarray
+        y = f(x).
     covariance : (m, m) ndarray
         U_y = C U_x Cᵀ.
     sensitivities : (m, N) ndarray
         C (zero for inputs of zero variance when differentiated numerically).
     standard_uncertainty : (m,) ndarray
+        u(y_j).
     correlation : (m, m) ndarray
     largest_eigenvalue : float
         λ_max of ``correlation`` (JCGM 102 validation quantity).
     dof_effective : (m,) ndarray
-        Welch–Satterthwaite ν_eff of each output (inf when all ν_i are).
+        ν_eff of each output by Welch–Satterthwaite, ensembles counted as one component
+        (inf when every contributing ν_i is).
     coverage_factor : (m,) ndarray
         Per-output k from t_ν_eff (normal when ν_eff = inf) for probability p.
     expanded_uncertainty : (m,) ndarray
+        U = k u(y).
     interval : (m, 2) ndarray
         y ± U.
     region_coverage_factor : float
-        Hyper-ellipsoid k_p = sqrt(χ²_m(p)).
+        Hyper-ellipsoid k_p = sqrt(χ²_m(p)) (JCGM 102:2011, 6.5.2.3).
     rectangular_coverage_factor : float
         Bonferroni hyper-rectangle k_q.
     p : float
-    scalar : bool
-        The model returned a scalar per trial.
-    message : str
+    scalar_model : bool
+        The model returned a scalar per evaluation.
+    sensitivity_method : {"analytic", "central differences"}
+        How C was obtained.
+    newton_iterations : int
+        Newton iterations that solved an implicit model (0 for an explicit one).
     """
+
+    method: ClassVar[str] = "guf"
 
     names: tuple[str, ...]
     units: tuple[str, ...]
     input_names: tuple[str, ...]
     input_units: tuple[str, ...]
     input_estimate: np.ndarray
-    input_uncertainty: np.ndarray
+    input_standard_uncertainty: np.ndarray
     input_dof: np.ndarray
     input_covariance: np.ndarray
+    input_ensemble: np.ndarray
     estimate: np.ndarray
     covariance: np.ndarray
     sensitivities: np.ndarray
@@ -105,15 +120,34 @@ class GUFResult(NotebookRepr):
     region_coverage_factor: float
     rectangular_coverage_factor: float
     p: float
-    scalar: bool
-    message: str
+    scalar_model: bool
+    sensitivity_method: str
+    newton_iterations: int
+
+    @property
+    def outputs(self) -> tuple[Output, ...]:
+        """One :class:`.Output` per output quantity."""
+        return output_records(self, self.expanded_uncertainty, self.coverage_factor)
+
+    def output(self, key: int | str = 0) -> Output:
+        """The :class:`.Output` of one output quantity, by index or name."""
+        return self.outputs[self._index(key)]
+
+    def _index(self, key: int | str) -> int:
+        if isinstance(key, str):
+            if key not in self.names:
+                raise InputError(f"no output named {key!r}; outputs are {list(self.names)}")
+            return self.names.index(key)
+        if not -len(self.names) <= int(key) < len(self.names):
+            raise InputError(f"output index {key} out of range for {len(self.names)} outputs")
+        return int(key)
 
     def budget(self, output: int | str = 0) -> tuple[BudgetRow, ...]:
         """The uncertainty budget of one output (index or name), one row per input."""
-        j = self.names.index(output) if isinstance(output, str) else int(output)
+        j = self._index(output)
         c = self.sensitivities[j]  # (N,)
         var = self.covariance[j, j]
-        contrib = np.abs(c) * self.input_uncertainty
+        contrib = np.abs(c) * self.input_standard_uncertainty
         full = c * (self.input_covariance @ c)
         share = contrib**2 / var if var > 0 else np.zeros_like(c)
         share_full = full / var if var > 0 else np.zeros_like(c)
@@ -122,7 +156,7 @@ class GUFResult(NotebookRepr):
                 self.input_names[i],
                 self.input_units[i],
                 float(self.input_estimate[i]),
-                float(self.input_uncertainty[i]),
+                float(self.input_standard_uncertainty[i]),
                 float(c[i]),
                 float(contrib[i]),
                 float(self.input_dof[i]),
@@ -133,27 +167,26 @@ class GUFResult(NotebookRepr):
         )
 
     def to_dict(self) -> dict:
-        """Outputs as ``[{name, value, unit, u, U, k, p, interval, dof}]`` plus region data."""
+        """JSON-ready result: ``method``, ``outputs`` (:class:`.Output` layout), joint data.
+
+        ``dof_effective`` lists ν_eff per output (None for infinity); ``budget`` maps each
+        output name to its rows.
+        """
         return {
-            "method": "guf",
-            "outputs": [
-                {
-                    "name": self.names[j],
-                    "value": float(self.estimate[j]),
-                    "unit": self.units[j],
-                    "u": float(self.standard_uncertainty[j]),
-                    "U": float(self.expanded_uncertainty[j]),
-                    "k": float(self.coverage_factor[j]),
-                    "p": self.p,
-                    "interval": [float(v) for v in self.interval[j]],
-                    "dof": _json_dof(self.dof_effective[j]),
-                }
-                for j in range(len(self.names))
-            ],
-            "covariance": {"names": list(self.names), "matrix": self.covariance.tolist()},
+            "method": self.method,
+            "outputs": [o.to_dict() for o in self.outputs],
+            "dof_effective": [json_dof(v) for v in self.dof_effective],
+            "covariance": {
+                "names": list(self.names),
+                "units": list(self.units),
+                "matrix": self.covariance.tolist(),
+            },
+            "correlation": self.correlation.tolist(),
             "largest_eigenvalue": self.largest_eigenvalue,
             "region_coverage_factor": self.region_coverage_factor,
             "rectangular_coverage_factor": self.rectangular_coverage_factor,
+            "sensitivity_method": self.sensitivity_method,
+            "newton_iterations": self.newton_iterations,
             "budget": {
                 self.names[j]: [
                     {
@@ -163,7 +196,7 @@ class GUFResult(NotebookRepr):
                         "u": r.u,
                         "sensitivity": r.sensitivity,
                         "contribution": r.contribution,
-                        "dof": _json_dof(r.dof),
+                        "dof": json_dof(r.dof),
                         "share": r.share,
                         "share_full": r.share_full,
                     }
@@ -171,35 +204,88 @@ class GUFResult(NotebookRepr):
                 ]
                 for j in range(len(self.names))
             },
-            "message": self.message,
         }
 
 
-def _json_dof(v: float) -> float | None:
-    return None if math.isinf(v) else float(v)
-
-
-def welch_satterthwaite(contributions, dof) -> float:
-    """Effective degrees of freedom ν_eff = u_c⁴ / Σ u_i⁴/ν_i (JCGM 100:2008, G.4.1, G.4.2).
+def welch_satterthwaite(sensitivities, covariance, dof, ensemble=None, names=None) -> float:
+    """Effective degrees of freedom of one output, correlated ensembles allowed.
 
     Parameters
     ----------
-    contributions : (N,) array_like
-        u_i(y) = |c_i| u(x_i) of uncorrelated inputs.
+    sensitivities : (N,) array_like
+        c_i = ∂f/∂x_i.
+    covariance : (N, N) array_like
+        U_x.
     dof : (N,) array_like
         ν_i (inf allowed).
+    ensemble : (N,) array_like of int, optional
+        Ensemble number of each input, −1 for none (see :class:`.InputSet`).
+    names : sequence of str, optional
+        Input names for the error message.
 
     Returns
     -------
     float
-        ν_eff (inf when every contributing ν_i is infinite).
+        ν_eff = u_c⁴(y) / Σ_g v_g² / ν_g, inf when no finite-ν component contributes.
+
+    Raises
+    ------
+    InputError
+        Two contributing inputs are correlated, at least one of them has finite ν, and
+        they are not in one ensemble (Welch–Satterthwaite does not apply).
+
+    Notes
+    -----
+    u_c²(y) = c U_x cᵀ.  The components g are the single inputs outside ensembles,
+    v_g = c_i² u²(x_i), and the ensembles, v_g = Σ_{a,b ∈ g} c_a c_b u(x_a, x_b) with ν_g
+    the common ν of the members (Willink 2007, Result 2 and section 4.1.1).  Without
+    ensembles and correlations this is JCGM 100:2008, G.4.1 (eq. G.2b).
+
+    References
+    ----------
+    JCGM 100:2008, *Evaluation of measurement data — Guide to the expression of
+    uncertainty in measurement*, annex G.4.
+
+    Willink, R. (2007). A generalization of the Welch–Satterthwaite formula for use with
+    correlated uncertainty components. *Metrologia* 44(5), 340–349.
+
+    Examples
+    --------
+    GUM H.1.6: contributions 25 nm (ν = 18), 9.7 nm (ν = 25.6), 2.9 nm (ν = 50) and
+    575 nm/°C × 0.029 °C (ν = 2) give ν_eff = 16.7, truncated to 16.
+
+    >>> import numpy as np
+    >>> u = np.array([25.0, 9.7, 2.9, 575 * 0.029])
+    >>> round(float(welch_satterthwaite(np.ones(4), np.diag(u**2), [18, 25.6, 50, 2])), 1)
+    16.7
     """
-    u = np.asarray(contributions, dtype=float)
+    c = np.asarray(sensitivities, dtype=float)
+    cov = np.asarray(covariance, dtype=float)
     nu = np.asarray(dof, dtype=float)
-    uc4 = float(np.sum(u**2)) ** 2
-    finite = np.isfinite(nu) & (u > 0)
-    denom = float(np.sum(u[finite] ** 4 / nu[finite]))
-    return math.inf if denom == 0.0 else uc4 / denom
+    group = np.full(c.size, -1) if ensemble is None else np.asarray(ensemble, dtype=int)
+    variance = float(c @ cov @ c)
+    live = c != 0
+    terms = cov * np.outer(c, c)  # c_a c_b u(x_a, x_b)
+    coupled = (terms != 0) & ~np.eye(c.size, dtype=bool)
+    finite = np.isfinite(nu)
+    names = [f"x{i + 1}" for i in range(c.size)] if names is None else list(names)
+    for a, b in zip(*np.nonzero(np.triu(coupled)), strict=True):
+        if (finite[a] or finite[b]) and not (group[a] >= 0 and group[a] == group[b]):
+            raise InputError(
+                f"inputs {names[a]!r} and {names[b]!r} are correlated and one has finite "
+                f"degrees of freedom ({nu[a]:g}, {nu[b]:g}) outside a common ensemble; "
+                "Welch–Satterthwaite (JCGM 100 G.4.1) then does not apply: declare them an "
+                "ensemble (estimated from the same observations), give them infinite dof, "
+                "or use Monte Carlo"
+            )
+    denominator = 0.0
+    for i in np.flatnonzero(live & finite & (group < 0)):
+        denominator += terms[i, i] ** 2 / nu[i]
+    for g in np.unique(group[live & finite & (group >= 0)]):
+        members = np.flatnonzero(group == g)
+        v_g = float(terms[np.ix_(members, members)].sum())
+        denominator += v_g**2 / nu[members[0]]
+    return math.inf if denominator == 0.0 else variance**2 / denominator
 
 
 def _as_outputs(y) -> tuple[np.ndarray, bool]:
@@ -207,7 +293,7 @@ def _as_outputs(y) -> tuple[np.ndarray, bool]:
     if y.ndim == 0:
         return y.reshape(1), True
     if y.ndim != 1:
-        raise ValueError(
+        raise InputError(
             f"model(x) for x of shape (N,) must return a scalar or (m,), got {y.shape}"
         )
     return y, False
@@ -242,7 +328,7 @@ def _solve_implicit(h, x, y0, jacobian, tol, max_iter):
     y = np.atleast_1d(np.asarray(y0, dtype=float)).copy()
     m = y.size
     if not np.all(np.isfinite(y)):
-        raise ValueError("y0 contains NaN or inf")
+        raise InputError("y0 contains NaN or inf")
 
     def c_y(yy):
         # Step relative to |y| (cube root of machine epsilon balances truncation and rounding).
@@ -255,7 +341,7 @@ def _solve_implicit(h, x, y0, jacobian, tol, max_iter):
     converged = False
     while not converged:
         if iterations == max_iter:
-            raise ValueError(
+            raise ConvergenceError(
                 f"implicit model: Newton did not converge in {max_iter} iterations; "
                 "give a better y0"
             )
@@ -295,13 +381,13 @@ def guf(
         Implicit (``implicit=True``): ``model(Y, X)`` -> h of shape (..., m).
     inputs : InputSet
         Or any object with ``names``, ``units``, ``estimate`` (N,), ``covariance``
-        (N, N), ``dof`` (N,) and ``correlation`` (N, N).
+        (N, N) and ``dof`` (N,) (and optionally ``ensemble`` (N,)).
     jacobian : callable, optional
         Explicit: ``jacobian(x) -> (m, N)`` (or (N,) for a scalar output).
         Implicit: ``jacobian(y, x) -> (C_y (m, m), C_x (m, N))``.  Defaults to
         ``model.jacobian`` if present, else central differences.
     p : float
-        Coverage probability.
+        Coverage probability, 0 < p < 1.
     implicit : bool
         Whether ``model`` is h(Y, X) = 0.
     y0 : array_like, optional
@@ -320,33 +406,73 @@ def guf(
 
     Raises
     ------
-    ValueError
+    InputError
         Invalid p, NaN estimates, an input of infinite variance, a model that
-        returns NaN, an implicit model without y0 or not converging, or
-        finite-dof inputs that are correlated (Welch–Satterthwaite does not apply).
+        returns NaN, an implicit model without y0, or correlated inputs with finite
+        degrees of freedom outside a common ensemble (Welch–Satterthwaite does not apply).
+    ConvergenceError
+        Newton's method did not solve an implicit model in ``max_iter`` iterations.
 
     Notes
     -----
     U_y = C U_x Cᵀ (JCGM 102:2011, 6.2.1.3; JCGM 100:2008, 5.2.2 for m = 1).
     Explicit: C = ∂f/∂x at x.  Implicit: C = −C_y⁻¹ C_x with C_y = ∂h/∂Y, C_x = ∂h/∂X
     (JCGM 102:2011, 6.2.2).  Numerical sensitivities use central differences with
-    step u(x_j) (JCGM 100:2008, 5.1.3 note 2; seed 000 Ch. 7); inputs with zero
-    variance are skipped (sensitivity 0: they contribute nothing).
-    Scalar outputs: ν_eff by Welch–Satterthwaite (G.4.1), k = t_{(1+p)/2, ν_eff}.
-    The hyper-ellipsoid factor is k_p = sqrt(χ²_m(p)) (JCGM 102:2011, 6.5.2.3).
+    step u(x_j) (JCGM 100:2008, 5.1.3 note 2); inputs with zero variance are skipped
+    (sensitivity 0: they contribute nothing).
+    ν_eff by Welch–Satterthwaite (JCGM 100:2008, G.4.1), an ensemble of correlated inputs
+    counted as one component (Willink 2007), see :func:`welch_satterthwaite`;
+    k = t_{(1+p)/2, ν_eff}.  The hyper-ellipsoid factor is k_p = sqrt(χ²_m(p)) (JCGM
+    102:2011, 6.5.2.3).
+
+    References
+    ----------
+    JCGM 100:2008, *Evaluation of measurement data — Guide to the expression of
+    uncertainty in measurement* (GUM), clauses 5 and 6, annexes G and H.
+
+    JCGM 102:2011, *Evaluation of measurement data — Supplement 2 to the GUM — Extension
+    to any number of output quantities*, clause 6.
+
+    Willink, R. (2007). A generalization of the Welch–Satterthwaite formula for use with
+    correlated uncertainty components. *Metrologia* 44(5), 340–349.
+
+    Examples
+    --------
+    GUM H.2 (JCGM 100:2008, Table H.4): resistance, reactance and impedance from five
+    simultaneous observations of V, I and φ; the inputs form one ensemble of ν = 4.
+
+    >>> import numpy as np
+    >>> from mtmetrology.uncertainty.inputs import InputSet
+    >>> obs = [[5.007, 19.663e-3, 1.0456], [4.994, 19.639e-3, 1.0438],
+    ...        [5.005, 19.640e-3, 1.0468], [4.990, 19.685e-3, 1.0428],
+    ...        [4.999, 19.678e-3, 1.0433]]
+    >>> inputs = InputSet.from_observations(["V", "I", "phi"], obs, ["", "", "rad"])
+    >>> def rxz(x):
+    ...     z = x[..., 0] / x[..., 1]
+    ...     return np.stack([z * np.cos(x[..., 2]), z * np.sin(x[..., 2]), z], axis=-1)
+    >>> r = guf(rxz, inputs, output_names=["R", "X", "Z"], output_units=["ohm"] * 3)
+    >>> for o in r.outputs:
+    ...     print(f"{o.name} = {o.value:.3f} {o.unit}, u = {o.u:.2f}")
+    R = 127.732 ohm, u = 0.07
+    X = 219.847 ohm, u = 0.30
+    Z = 254.260 ohm, u = 0.24
+    >>> [round(float(v), 3) for v in r.correlation[[0, 0, 1], [1, 2, 2]]]
+    [-0.588, -0.485, 0.993]
+    >>> [round(float(v), 9) for v in r.dof_effective]
+    [4.0, 4.0, 4.0]
     """
     if not 0.0 < p < 1.0:
-        raise ValueError(f"p must lie in (0, 1), got {p}")
+        raise InputError(f"p must lie in (0, 1), got {p}")
     x = np.asarray(inputs.estimate, dtype=float)
     ux_cov = np.asarray(inputs.covariance, dtype=float)
     names_in = list(inputs.names)
     if not np.all(np.isfinite(x)):
         bad = [names_in[i] for i in np.flatnonzero(~np.isfinite(x))]
-        raise ValueError(f"input estimates must be finite; NaN/inf for {bad}")
+        raise InputError(f"input estimates must be finite; NaN/inf for {bad}")
     u_x = np.sqrt(np.diag(ux_cov))
     if not np.all(np.isfinite(u_x)):
         bad = [names_in[i] for i in np.flatnonzero(~np.isfinite(u_x))]
-        raise ValueError(
+        raise InputError(
             f"inputs {bad} have infinite variance (e.g. Student t with dof <= 2); "
             "the GUF cannot propagate them, use Monte Carlo"
         )
@@ -356,7 +482,7 @@ def guf(
     iterations = 0
     if implicit:
         if y0 is None:
-            raise ValueError("an implicit model needs a starting point y0")
+            raise InputError("an implicit model needs a starting point y0")
         y, c_y, c_x, iterations = _solve_implicit(model, x, y0, jacobian, tol, max_iter)
         m = y.size
         scalar = np.ndim(y0) == 0
@@ -373,9 +499,9 @@ def guf(
         else:
             sens = _central_differences(model, x, u_x, m)
     if not np.all(np.isfinite(y)):
-        raise ValueError(f"the model returned a non-finite estimate {y} at the input estimates")
+        raise InputError(f"the model returned a non-finite estimate {y} at the input estimates")
     if not np.all(np.isfinite(sens)):
-        raise ValueError("non-finite sensitivity coefficients; check the model near the estimates")
+        raise InputError("non-finite sensitivity coefficients; check the model near the estimates")
 
     cov = sens @ ux_cov @ sens.T  # (m, m)
     cov = 0.5 * (cov + cov.T)
@@ -386,28 +512,24 @@ def guf(
     lam_max = float(np.linalg.eigvalsh(corr)[-1])
 
     dof_in = np.asarray(inputs.dof, dtype=float)
-    _check_ws_applicable(inputs, dof_in, sens)
-    contributions = np.abs(sens) * u_x  # (m, N)
-    nu_eff = np.array([welch_satterthwaite(contributions[j], dof_in) for j in range(m)])
+    ensemble = np.asarray(getattr(inputs, "ensemble", np.full(x.size, -1)), dtype=int)
+    nu_eff = np.array(
+        [welch_satterthwaite(sens[j], ux_cov, dof_in, ensemble, names_in) for j in range(m)]
+    )
     k = np.array([_t_factor(p, nu, truncate_dof) for nu in nu_eff])
     expanded = k * u_y
     interval = np.stack([y - expanded, y + expanded], axis=-1)  # (m, 2)
 
-    out_names = _labels(output_names, getattr(model, "output_names", None), m, "y")
-    out_units = _labels(output_units, getattr(model, "output_units", None), m, "")
-    how = "analytic Jacobian" if jacobian is not None else "central differences (step u(x_j))"
-    message = f"{m} output(s), {x.size} inputs, sensitivities by {how}"
-    if implicit:
-        message += f"; implicit model solved by Newton in {iterations} iteration(s)"
     return GUFResult(
-        names=tuple(out_names),
-        units=tuple(out_units),
+        names=tuple(output_labels(output_names, getattr(model, "output_names", None), m, "y")),
+        units=tuple(output_labels(output_units, getattr(model, "output_units", None), m, "")),
         input_names=tuple(names_in),
         input_units=tuple(inputs.units),
         input_estimate=x,
-        input_uncertainty=u_x,
+        input_standard_uncertainty=u_x,
         input_dof=dof_in,
         input_covariance=ux_cov,
+        input_ensemble=ensemble,
         estimate=y,
         covariance=cov,
         sensitivities=sens,
@@ -421,8 +543,9 @@ def guf(
         region_coverage_factor=normal_ellipsoidal_coverage_factor(m, p),
         rectangular_coverage_factor=normal_rectangular_coverage_factor(m, p),
         p=p,
-        scalar=bool(scalar),
-        message=message,
+        scalar_model=bool(scalar),
+        sensitivity_method="analytic" if jacobian is not None else "central differences",
+        newton_iterations=iterations,
     )
 
 
@@ -431,31 +554,6 @@ def _t_factor(p: float, nu: float, truncate: bool) -> float:
     if math.isinf(nu):
         return float(stats.norm.ppf(q))
     if truncate and nu >= 1.0:
-        nu = math.floor(nu)
+        # Rounding noise must not drop an integer ν (an ensemble of ν = 4 gives 3.9999…).
+        nu = math.floor(nu * (1.0 + 1e-9))
     return float(stats.t.ppf(q, nu))
-
-
-def _check_ws_applicable(inputs, dof: np.ndarray, sens: np.ndarray) -> None:
-    """Welch–Satterthwaite assumes independent inputs; refuse finite-dof correlated ones."""
-    corr = np.asarray(getattr(inputs, "correlation", np.eye(dof.size)), dtype=float)
-    off = (corr != 0) & ~np.eye(dof.size, dtype=bool)
-    relevant = np.any(sens != 0, axis=0)
-    for i in np.flatnonzero(np.isfinite(dof) & relevant):
-        partners = np.flatnonzero(off[i] & relevant)
-        if partners.size:
-            names = list(inputs.names)
-            raise ValueError(
-                f"input {names[i]!r} has finite dof ({dof[i]:g}) and is correlated with "
-                f"{names[partners[0]]!r}; the Welch–Satterthwaite formula (JCGM 100 G.4.1) "
-                "needs uncorrelated inputs. Give correlated inputs infinite dof or use Monte Carlo"
-            )
-
-
-def _labels(given, from_model, m: int, stem: str) -> list[str]:
-    labels = given if given is not None else from_model
-    if labels is None:
-        return [stem] if m == 1 and stem else [f"{stem}{j + 1}" if stem else "" for j in range(m)]
-    labels = [str(v) for v in labels]
-    if len(labels) != m:
-        raise ValueError(f"expected {m} output labels, got {len(labels)}")
-    return labels

@@ -14,6 +14,14 @@ differs from the copula parameter), so the GUF and the MCM would propagate
 different covariances.  Describe such inputs by their joint samples
 (:meth:`InputSet.from_covariance` for normal vectors) instead.
 
+Correlated inputs with finite degrees of freedom
+------------------------------------------------
+Welch–Satterthwaite (JCGM 100:2008, G.4.1) assumes independent inputs.  Inputs estimated
+together from the same n sets of simultaneous observations (JCGM 100:2008, 5.2.3 and H.2)
+are correlated *and* carry ν = n − 1; declare them an *ensemble* (``ensembles=`` or
+:meth:`InputSet.from_observations`) and the GUF treats the ensemble as one component of
+ν = n − 1 (Willink 2007, section 4.1.1; GTC's ``real_ensemble``).
+
 Units are labels: they are checked with :func:`mtmetrology.units.parse_unit` so a
 typo is caught, but values are used in the units the user declares.
 """
@@ -26,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mtmetrology.errors import InputError
 from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.uncertainty.distributions import (
     Distribution,
@@ -100,15 +109,32 @@ class InputSet:
         Correlation coefficients; symmetric, unit diagonal, entries in [−1, 1],
         positive semidefinite.  Non-zero off-diagonal entries are allowed only
         between :class:`Normal` inputs (see the module notes).
+    ensembles : sequence of sequences of str, optional
+        Groups of input names estimated together from the same observations (JCGM
+        100:2008, 5.2.3): their members may be correlated while having finite degrees
+        of freedom, which must be equal within a group.
 
     Raises
     ------
     ValueError
         Duplicate names, a malformed or non-PSD correlation matrix, or a
         correlation involving a non-normal input.
+    InputError
+        An ensemble naming an unknown input, an input in two ensembles, or members
+        with different or infinite degrees of freedom.
+
+    References
+    ----------
+    Willink, R. (2007). A generalization of the Welch–Satterthwaite formula for use with
+    correlated uncertainty components. *Metrologia* 44(5), 340–349.
     """
 
-    def __init__(self, quantities: Sequence[InputQuantity], correlation=None):
+    def __init__(
+        self,
+        quantities: Sequence[InputQuantity],
+        correlation=None,
+        ensembles: Sequence[Sequence[str]] = (),
+    ):
         quantities = tuple(quantities)
         if not quantities:
             raise ValueError("an InputSet needs at least one input quantity")
@@ -129,10 +155,13 @@ class InputSet:
         cov = r * np.outer(finite_u, finite_u)
         cov[np.diag_indices(n)] = u**2
         self._covariance = cov
+        self._ensemble = self._check_ensembles(ensembles, quantities)
         self._build_sampler()
 
     @classmethod
-    def from_covariance(cls, names, estimate, covariance, units=None, dof=None) -> InputSet:
+    def from_covariance(
+        cls, names, estimate, covariance, units=None, dof=None, ensembles=()
+    ) -> InputSet:
         """Normal inputs with a joint (possibly singular) covariance.
 
         Parameters
@@ -143,6 +172,8 @@ class InputSet:
             Positive semidefinite; zero-variance inputs are constants.
         units : sequence of str, optional
         dof : sequence of float or None, optional
+        ensembles : sequence of sequences of str, optional
+            See :class:`InputSet`.
         """
         x = np.asarray(estimate, dtype=float).ravel()
         cov = np.asarray(covariance, dtype=float)
@@ -163,7 +194,80 @@ class InputSet:
         r = np.eye(n)
         r[np.ix_(live, live)] = cov[np.ix_(live, live)] / np.outer(u[live], u[live])
         np.fill_diagonal(r, 1.0)
-        return cls(qs, correlation=r)
+        return cls(qs, correlation=r, ensembles=ensembles)
+
+    @classmethod
+    def from_observations(cls, names, observations, units=None) -> InputSet:
+        """Type A inputs from n simultaneous observations of N quantities, as one ensemble.
+
+        Parameters
+        ----------
+        names : sequence of str, length N
+        observations : (n, N) array_like
+            Row k holds the k-th set of simultaneous indications, n >= 2.
+        units : sequence of str, optional
+
+        Returns
+        -------
+        InputSet
+            Normal inputs with estimates the arithmetic means (JCGM 100:2008, 4.2.1),
+            covariance of the means s(q̄_i, q̄_j) = Σ_k (q_ik − q̄_i)(q_jk − q̄_j) / (n(n − 1))
+            (5.2.3, eq. 17), ν = n − 1 each, declared one ensemble.
+
+        Raises
+        ------
+        InputError
+            Fewer than two observations, a shape that disagrees with ``names``, or a
+            non-finite value.
+
+        Examples
+        --------
+        GUM H.2: five simultaneous observations of V, I and φ give r(V, I) = −0.36.
+
+        >>> obs = [[5.007, 19.663e-3, 1.0456], [4.994, 19.639e-3, 1.0438],
+        ...        [5.005, 19.640e-3, 1.0468], [4.990, 19.685e-3, 1.0428],
+        ...        [4.999, 19.678e-3, 1.0433]]
+        >>> s = InputSet.from_observations(["V", "I", "phi"], obs, ["", "", "rad"])
+        >>> round(float(s.correlation[0, 1]), 2), s.dof.tolist()
+        (-0.36, [4.0, 4.0, 4.0])
+        """
+        q = np.asarray(observations, dtype=float)
+        names = list(names)
+        if q.ndim != 2 or q.shape[1] != len(names) or q.shape[0] < 2:
+            raise InputError(
+                f"observations must have shape (n >= 2, {len(names)}) for inputs {names}, "
+                f"got {q.shape}"
+            )
+        if not np.all(np.isfinite(q)):
+            raise InputError("observations contain NaN or inf; remove or repair those rows")
+        n = q.shape[0]
+        covariance = np.cov(q, rowvar=False, ddof=1).reshape(len(names), len(names)) / n
+        return cls.from_covariance(
+            names, q.mean(axis=0), covariance, units, dof=[n - 1] * len(names), ensembles=[names]
+        )
+
+    @staticmethod
+    def _check_ensembles(ensembles, quantities) -> np.ndarray:
+        """(N,) ensemble number of each input, −1 outside any ensemble."""
+        names = [q.name for q in quantities]
+        index = np.full(len(names), -1)
+        for number, group in enumerate(ensembles):
+            group = list(group)
+            unknown = [name for name in group if name not in names]
+            if unknown:
+                raise InputError(f"ensemble {group}: unknown inputs {unknown}; inputs are {names}")
+            members = [names.index(name) for name in group]
+            taken = [names[i] for i in members if index[i] >= 0]
+            if taken:
+                raise InputError(f"inputs {taken} are in more than one ensemble")
+            dof = {quantities[i].effective_dof for i in members}
+            if len(dof) != 1 or math.isinf(next(iter(dof))):
+                raise InputError(
+                    f"ensemble {group}: members must share one finite number of degrees of "
+                    f"freedom (Willink 2007, 4.1.1), got {sorted(dof)}"
+                )
+            index[members] = number
+        return index
 
     @staticmethod
     def _check_correlation(r: np.ndarray, quantities) -> np.ndarray:
@@ -225,7 +329,7 @@ class InputSet:
         return np.array([q.distribution.mean for q in self._quantities], dtype=float)
 
     @property
-    def standard_uncertainties(self) -> np.ndarray:
+    def standard_uncertainty(self) -> np.ndarray:
         """(N,) u(x_i) (inf for a t input with ν <= 2)."""
         return np.sqrt(np.diag(self._covariance))
 
@@ -238,6 +342,11 @@ class InputSet:
     def correlation(self) -> np.ndarray:
         """(N, N) correlation matrix as given (identity when none)."""
         return self._correlation.copy()
+
+    @property
+    def ensemble(self) -> np.ndarray:
+        """(N,) ensemble number of each input (−1: in no ensemble)."""
+        return self._ensemble.copy()
 
     @property
     def dof(self) -> np.ndarray:
@@ -259,9 +368,10 @@ class InputSet:
         (size, N) ndarray
         """
         rng = as_generator(rng)
-        out = np.empty((size, len(self._quantities)))
+        # Column-major, so each input's draws are written to contiguous memory.
+        out = np.empty((len(self._quantities), size)).T
         for i in self._single_index:
-            out[:, i] = self._quantities[i].distribution.sample(rng, size)
+            self._quantities[i].distribution.sample_into(rng, out[:, i])
         if self._joint is not None:
             out[:, self._joint_index] = self._joint.sample(rng, size)
         return out

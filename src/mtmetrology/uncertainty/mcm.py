@@ -13,7 +13,7 @@ the number of workers.
 ...     def sample(self, rng, size):
 ...         return rng.normal([1.0, 2.0], [0.1, 0.2], size=(size, 2))
 >>> result = monte_carlo(lambda x: x.sum(axis=1), Normal(), trials=100_000, seed=1)
->>> round(float(result.scalar.estimate), 2), round(float(result.scalar.standard_uncertainty), 2)
+>>> round(result.output(0).value, 2), round(result.output(0).u, 2)
 (3.0, 0.22)
 """
 
@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -30,6 +30,7 @@ from mtmetrology.errors import InputError
 from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.rng import SeedLike, chunk_generators
 from mtmetrology.uncertainty.executors import resolve_executor
+from mtmetrology.uncertainty.outputs import Output, output_labels, output_records
 from mtmetrology.uncertainty.regions import (
     Histogram,
     PairwiseAreas,
@@ -37,15 +38,16 @@ from mtmetrology.uncertainty.regions import (
     coverage_intervals,
     ellipsoidal_coverage_factor,
     histogram,
+    intervals_and_histograms,
     pairwise_areas,
     rectangular_coverage_factor,
+    scatter,
 )
 
 __all__ = [
     "ConvergenceCheck",
     "MCMResult",
     "ModelEvaluationError",
-    "ScalarSummary",
     "Tolerance",
     "check_tolerance",
     "monte_carlo",
@@ -116,8 +118,8 @@ class Tolerance:
 
     Notes
     -----
-    Seed 000, Ch. 7 (digest 000 §4.5): δ = 0.05 µm, ρ = κ_p = 0.05. A field left as None
-    is derived from the significant digits (JCGM 101:2008, 7.9.2).
+    Sepahi Boroujeni (2021), Ch. 7 (Tables 7-1, 7-2): δ = 0.05 µm, ρ = κ_p = 0.05. A field
+    left as None is derived from the significant digits (JCGM 101:2008, 7.9.2).
     """
 
     output: Any
@@ -175,23 +177,14 @@ class ConvergenceCheck:
         return bool(self.spread <= self.tolerance)
 
 
-@dataclass(frozen=True)
-class ScalarSummary:
-    """Results of a one-output model as plain floats."""
-
-    estimate: float
-    standard_uncertainty: float
-    interval_symmetric: tuple[float, float]
-    interval_shortest: tuple[float, float]
-    p: float
-
-
 @dataclass(frozen=True, eq=False)
 class MCMResult(NotebookRepr):
-    """Results of :func:`monte_carlo` for m outputs (m = 1 for a scalar model).
+    """Results of :func:`monte_carlo` for m outputs, in the vocabulary shared with the GUF.
 
     Attributes
     ----------
+    names, units : tuple of str, length m
+        Output names and unit labels.
     estimate : (m,) array
         y, the mean of the model values (JCGM 101, 7.6).
     covariance : (m, m) array
@@ -202,14 +195,17 @@ class MCMResult(NotebookRepr):
         R_y = D⁻¹ U_y D⁻¹ (rows of zero-variance outputs are 0 with a unit diagonal).
     largest_eigenvalue : float
         λ_max of R_y (1 for m = 1).
-    coverage_factor : float
-        k_p of the hyper-ellipsoidal region from the sample (JCGM 102, 7.7.2).
-    rectangular_coverage_factor : float
-        k_q of the hyper-rectangular region from the sample (JCGM 102, 7.7.3).
+    region_coverage_factor : float or None
+        k_p of the hyper-ellipsoidal region from the sample (JCGM 102, 7.7.2); None for
+        one output, whose region is its coverage interval.
+    rectangular_coverage_factor : float or None
+        k_q of the hyper-rectangular region from the sample (JCGM 102, 7.7.3); None for
+        one output.
     p : float
         Coverage probability.
-    interval_symmetric, interval_shortest : (m, 2) arrays
+    interval, interval_shortest : (m, 2) arrays
         Probabilistically symmetric and shortest coverage intervals (JCGM 101, 7.7).
+        ``interval`` is the one JCGM 101, 8.2 compares with the GUF.
     trials : int
         Number of model evaluations used.
     sequences : int
@@ -222,23 +218,29 @@ class MCMResult(NotebookRepr):
         "jcgm" or "strict" for an adaptive run.
     checks : tuple of ConvergenceCheck
         The final stability tests of an adaptive run.
+    scalar_model : bool
+        The model returned one value per trial.
     histograms : tuple of Histogram
         A 100-bin density histogram of each output.
     message : str
-        What happened, in words.
+        What happened, in words (for people; programs read the fields above).
     samples : (trials, m) array or None
         The model values, when ``keep_samples`` was asked for.
     """
 
+    method: ClassVar[str] = "mcm"
+
+    names: tuple[str, ...]
+    units: tuple[str, ...]
     estimate: np.ndarray
     covariance: np.ndarray
     standard_uncertainty: np.ndarray
     correlation: np.ndarray
     largest_eigenvalue: float
-    coverage_factor: float
-    rectangular_coverage_factor: float
+    region_coverage_factor: float | None
+    rectangular_coverage_factor: float | None
     p: float
-    interval_symmetric: np.ndarray
+    interval: np.ndarray
     interval_shortest: np.ndarray
     trials: int
     sequences: int
@@ -246,6 +248,7 @@ class MCMResult(NotebookRepr):
     tolerance: Tolerance | None
     criterion: str | None
     checks: tuple[ConvergenceCheck, ...]
+    scalar_model: bool
     histograms: tuple[Histogram, ...] = field(repr=False)
     message: str
     samples: np.ndarray | None = field(default=None, repr=False)
@@ -256,23 +259,31 @@ class MCMResult(NotebookRepr):
         return int(self.estimate.shape[0])
 
     @property
-    def scalar(self) -> ScalarSummary:
-        """The results of a one-output model as floats; ValueError for m > 1."""
-        if self.m != 1:
-            raise ValueError(f"the model has {self.m} outputs; .scalar needs exactly one")
-        return ScalarSummary(
-            estimate=float(self.estimate[0]),
-            standard_uncertainty=float(self.standard_uncertainty[0]),
-            interval_symmetric=(
-                float(self.interval_symmetric[0, 0]),
-                float(self.interval_symmetric[0, 1]),
-            ),
-            interval_shortest=(
-                float(self.interval_shortest[0, 0]),
-                float(self.interval_shortest[0, 1]),
-            ),
-            p=self.p,
-        )
+    def expanded_uncertainty(self) -> np.ndarray:
+        """(m,) U_j, half the width of the probabilistically symmetric interval."""
+        return 0.5 * (self.interval[:, 1] - self.interval[:, 0])
+
+    @property
+    def coverage_factor(self) -> np.ndarray:
+        """(m,) k_j = U_j / u(y_j) (NaN for an output of zero variance)."""
+        u = self.standard_uncertainty
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(u > 0, self.expanded_uncertainty / np.where(u > 0, u, 1.0), np.nan)
+
+    @property
+    def outputs(self) -> tuple[Output, ...]:
+        """One :class:`.Output` per output quantity (interval: probabilistically symmetric)."""
+        return output_records(self, self.expanded_uncertainty, self.coverage_factor)
+
+    def output(self, key: int | str = 0) -> Output:
+        """The :class:`.Output` of one output quantity, by index or name."""
+        if isinstance(key, str):
+            if key not in self.names:
+                raise InputError(f"no output named {key!r}; outputs are {list(self.names)}")
+            key = self.names.index(key)
+        if not -self.m <= int(key) < self.m:
+            raise InputError(f"output index {key} out of range for {self.m} outputs")
+        return self.outputs[int(key)]
 
     def histogram(self, output: int = 0, bins: int | str | None = None, density: bool = True):
         """Histogram of one output: the stored 100-bin one, or recomputed from the samples.
@@ -300,7 +311,11 @@ class MCMResult(NotebookRepr):
         return pairwise_areas(self.samples, i, j, self.p, bins=bins)
 
     def to_dict(self) -> dict:
-        """JSON-ready summary (no samples, no histograms), arrays as lists."""
+        """JSON-ready result: ``method``, ``outputs`` (:class:`.Output` layout), joint data.
+
+        No samples and no histograms; ``interval_shortest`` lists the shortest intervals
+        in the order of ``outputs``.
+        """
         tolerance = None
         if self.tolerance is not None:
             tolerance = {
@@ -309,22 +324,33 @@ class MCMResult(NotebookRepr):
                 "coverage_factor": self.tolerance.coverage_factor,
             }
         return {
-            "method": "mcm",
-            "estimate": self.estimate.tolist(),
-            "standard_uncertainty": self.standard_uncertainty.tolist(),
-            "covariance": self.covariance.tolist(),
+            "method": self.method,
+            "outputs": [o.to_dict() for o in self.outputs],
+            "interval_shortest": self.interval_shortest.tolist(),
+            "covariance": {
+                "names": list(self.names),
+                "units": list(self.units),
+                "matrix": self.covariance.tolist(),
+            },
             "correlation": self.correlation.tolist(),
             "largest_eigenvalue": self.largest_eigenvalue,
-            "coverage_factor": self.coverage_factor,
+            "region_coverage_factor": self.region_coverage_factor,
             "rectangular_coverage_factor": self.rectangular_coverage_factor,
-            "p": self.p,
-            "interval_symmetric": self.interval_symmetric.tolist(),
-            "interval_shortest": self.interval_shortest.tolist(),
             "trials": self.trials,
             "sequences": self.sequences,
             "converged": self.converged,
             "criterion": self.criterion,
             "tolerance": tolerance,
+            "checks": [
+                {
+                    "quantity": c.quantity,
+                    "output": c.output,
+                    "spread": c.spread,
+                    "tolerance": c.tolerance,
+                    "passed": c.passed,
+                }
+                for c in self.checks
+            ],
             "message": self.message,
         }
 
@@ -367,11 +393,15 @@ def _evaluate_chunk(task: _ChunkTask) -> _ChunkOutput:
             f"model returned shape {values.shape} for inputs of shape {inputs.shape}; "
             f"expected ({task.size}, m) or ({task.size},), one row per trial"
         )
-    finite = np.isfinite(values)  # (size, m)
-    bad_trials = (~finite).sum(axis=0)
+    bad_trials = np.zeros(values.shape[1], dtype=int)
     first_bad = None
-    if bad_trials.any():
-        first_bad = inputs[np.argmin(finite.all(axis=1))]
+    # One reduction decides (a sum is finite only if every value is, bar an overflow, which
+    # the detailed count below then clears).
+    if not np.isfinite(values.sum()):
+        finite = np.isfinite(values)  # (size, m)
+        bad_trials = (~finite).sum(axis=0)
+        if bad_trials.any():
+            first_bad = inputs[np.argmin(finite.all(axis=1))]
     return _ChunkOutput(values, scalar, bad_trials, first_bad)
 
 
@@ -439,15 +469,15 @@ class _Moments:
         count = values.shape[0]
         mean = values.mean(axis=0)  # (m,)
         deviations = values - mean  # (count, m)
-        scatter = deviations.T @ deviations  # (m, m)
+        scatter_matrix = scatter(deviations)  # (m, m)
         if self.count == 0:
-            self.count, self.mean, self.scatter = count, mean, scatter
+            self.count, self.mean, self.scatter = count, mean, scatter_matrix
             return
         total = self.count + count
         delta = mean - self.mean
         self.mean = self.mean + delta * (count / total)
         self.scatter = (
-            self.scatter + scatter + np.outer(delta, delta) * (self.count * count / total)
+            self.scatter + scatter_matrix + np.outer(delta, delta) * (self.count * count / total)
         )
         self.count = total
 
@@ -467,8 +497,14 @@ def _correlation(covariance: np.ndarray) -> np.ndarray:
     return correlation
 
 
-def _joint_factors(values, estimate, covariance, p) -> tuple[float, float]:
-    """k_p and k_q over the outputs that vary (a constant output adds no dimension)."""
+def _joint_factors(values, estimate, covariance, p) -> tuple[float | None, float | None]:
+    """k_p and k_q over the outputs that vary (a constant output adds no dimension).
+
+    None for one output: its coverage region is its coverage interval, and skipping the
+    sample distances saves a pass over the values.
+    """
+    if values.shape[1] == 1:
+        return None, None
     u = np.sqrt(np.diag(covariance))
     varying = np.flatnonzero(u > 0)
     if varying.size == 0:
@@ -488,7 +524,7 @@ def _sequence_statistics(values: np.ndarray, p: float) -> np.ndarray:
     m = values.shape[1]
     estimate = values.mean(axis=0)
     deviations = values - estimate
-    covariance = deviations.T @ deviations / (values.shape[0] - 1)
+    covariance = scatter(deviations) / (values.shape[0] - 1)
     symmetric, _ = coverage_intervals(values, p)  # (m, 2)
     parts = [estimate, np.sqrt(np.diag(covariance)), symmetric[:, 0], symmetric[:, 1]]
     if m > 1:
@@ -502,7 +538,8 @@ _QUANTITIES = ("estimate", "standard uncertainty", "interval low", "interval hig
 
 
 def _stability_checks(per_sequence, moments, m, tolerance, digits, criterion):
-    """The stopping tests of JCGM 101, 7.9.4 / JCGM 102, 7.8 (or seed 000's s ≤ δ)."""
+    """The stopping tests of JCGM 101, 7.9.4 / JCGM 102, 7.8 (or the strict s ≤ δ of
+    Sepahi Boroujeni 2021, Ch. 5)."""
     table = np.asarray(per_sequence)  # (h, 4m [+ 2])
     h = table.shape[0]
     spread = table.std(axis=0, ddof=1)
@@ -538,25 +575,28 @@ def _freeze(array: np.ndarray) -> np.ndarray:
     return array
 
 
-def _summarise(values, moments, p, **run) -> MCMResult:
+def _summarise(values, moments, p, labels, **run) -> MCMResult:
     estimate = moments.mean
     covariance = moments.covariance
     u = np.sqrt(np.diag(covariance))
     correlation = _correlation(covariance)
-    symmetric, shortest = coverage_intervals(values, p)
+    symmetric, shortest, histograms = intervals_and_histograms(values, p, HISTOGRAM_BINS)
     k_p, k_q = _joint_factors(values, estimate, covariance, p)
+    m = u.size
     return MCMResult(
+        names=tuple(output_labels(labels[0], labels[2], m, "y")),
+        units=tuple(output_labels(labels[1], labels[3], m, "")),
         estimate=_freeze(estimate),
         covariance=_freeze(covariance),
         standard_uncertainty=_freeze(u),
         correlation=_freeze(correlation),
-        largest_eigenvalue=float(np.linalg.eigvalsh(correlation)[-1]),
-        coverage_factor=k_p,
+        largest_eigenvalue=1.0 if m == 1 else float(np.linalg.eigvalsh(correlation)[-1]),
+        region_coverage_factor=k_p,
         rectangular_coverage_factor=k_q,
         p=p,
-        interval_symmetric=_freeze(symmetric),
+        interval=_freeze(symmetric),
         interval_shortest=_freeze(shortest),
-        histograms=tuple(histogram(values[:, j], HISTOGRAM_BINS) for j in range(u.size)),
+        histograms=histograms,
         **run,
     )
 
@@ -588,6 +628,8 @@ def monte_carlo(
     max_trials: int = 10_000_000,
     keep_samples: bool = False,
     min_sequences: int | None = None,
+    output_names=None,
+    output_units=None,
 ) -> MCMResult:
     """Propagate distributions through a model by Monte Carlo (JCGM 101, JCGM 102).
 
@@ -610,7 +652,7 @@ def monte_carlo(
         Explicit δ (output units) per output, or a :class:`Tolerance` with ρ and κ_p too.
     criterion : {"jcgm", "strict"}
         "jcgm": 2·s/√h ≤ δ, s the standard deviation of the h sequence values (JCGM 101,
-        7.9.4; JCGM 102, 7.8). "strict": s ≤ δ (seed 000, digest 000 §3.5), which needs
+        7.9.4; JCGM 102, 7.8). "strict": s ≤ δ (Sepahi Boroujeni 2021, Ch. 5, eq. 5-12), which needs
         about h/4 times more sequences.
     p : float
         Coverage probability, 0 < p < 1.
@@ -631,7 +673,10 @@ def monte_carlo(
         Keep the (trials, m) model values in the result.
     min_sequences : int, optional
         Sequences run before the stopping rule is first tested: 2 for "jcgm" (the least
-        that gives a standard deviation), 10 for "strict" (seed 000, h₀ = 10).
+        that gives a standard deviation), 10 for "strict" (Sepahi Boroujeni 2021, h₀ = 10).
+    output_names, output_units : sequence of str, optional
+        Default to ``model.output_names`` / ``model.output_units`` or y1..ym (as
+        :func:`~mtmetrology.uncertainty.guf.guf`).
 
     Returns
     -------
@@ -647,7 +692,7 @@ def monte_carlo(
 
     Notes
     -----
-    Output statistics (JCGM 102, 7.6; digest 000 eqs. 5-9, 5-10): y = mean of the model
+    Output statistics (JCGM 102, 7.6; Sepahi Boroujeni 2021, eqs. 5-9, 5-10): y = mean of the model
     values, U_y = 1/(M − 1) Σ (y_r − y)(y_r − y)ᵀ accumulated chunk by chunk; intervals by
     JCGM 101, 7.7; k_p by JCGM 102, 7.7.2.
 
@@ -665,6 +710,36 @@ def monte_carlo(
 
     All h·M model values are kept in memory for the coverage intervals (m floats per
     trial); ``chunk_size`` bounds the memory of the inputs and of the model's work arrays.
+    The intervals come from the two tails only (located by one binning pass, then sorted),
+    which gives the order statistics of a full sort at a fraction of its cost; for one
+    output the multivariate coverage factors are not computed (None).
+
+    References
+    ----------
+    JCGM 101:2008, *Evaluation of measurement data — Supplement 1 to the "Guide to the
+    expression of uncertainty in measurement" — Propagation of distributions using a Monte
+    Carlo method*, clauses 6, 7 and 9.
+
+    JCGM 102:2011, *Evaluation of measurement data — Supplement 2 to the "Guide to the
+    expression of uncertainty in measurement" — Extension to any number of output
+    quantities*, clauses 7 and 8.
+
+    Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine
+    Tool Metrology*. PhD thesis, Polytechnique Montréal (the strict stopping rule, Ch. 5).
+
+    Examples
+    --------
+    JCGM 101:2008, 9.2.3 (Table 3): Y = X₁ + X₂ + X₃ + X₄ with rectangular inputs of
+    u = 1; Monte Carlo with M = 10⁶ gives u(y) = 2.00 and the 95 % interval [−3.88, 3.88].
+
+    >>> import numpy as np
+    >>> from mtmetrology.uncertainty import InputQuantity, InputSet, Rectangular
+    >>> a = np.sqrt(3.0)
+    >>> inputs = InputSet([InputQuantity(f"X{i}", Rectangular(-a, a)) for i in range(1, 5)])
+    >>> r = monte_carlo(lambda x: x.sum(axis=1), inputs, trials=10**6, seed=9)
+    >>> o = r.output()
+    >>> print(f"u = {o.u:.2f}, [{o.interval[0]:.2f}, {o.interval[1]:.2f}]")
+    u = 2.00, [-3.88, 3.88]
     """
     p = float(p)
     if not 0.0 < p < 1.0:
@@ -698,10 +773,18 @@ def monte_carlo(
         trials = 1_000_000 if trials is None else _check_int("trials", trials, 2)
         coverage_index(trials, p)  # raises if M is too small for p
     root = _root_sequence(seed)
+    labels = (
+        output_names,
+        output_units,
+        getattr(model, "output_names", None),
+        getattr(model, "output_units", None),
+    )
     executor, owned = resolve_executor(executor)
     try:
         if not adaptive:
-            return _fixed(model, inputs, trials, p, root, executor, chunk_size, keep_samples)
+            return _fixed(
+                model, inputs, trials, p, root, executor, chunk_size, keep_samples, labels
+            )
         return _adaptive(
             model,
             inputs,
@@ -710,6 +793,7 @@ def monte_carlo(
             executor,
             min(chunk_size, sequence_size),
             keep_samples,
+            labels,
             sequence_size=sequence_size,
             digits=digits,
             tolerance=tolerance,
@@ -722,7 +806,7 @@ def monte_carlo(
             executor.close()
 
 
-def _fixed(model, inputs, trials, p, root, executor, chunk_size, keep_samples) -> MCMResult:
+def _fixed(model, inputs, trials, p, root, executor, chunk_size, keep_samples, labels) -> MCMResult:
     (values,), scalar = _run_sequences(executor, model, inputs, root, 0, 1, trials, chunk_size)
     moments = _Moments()
     for start in range(0, trials, chunk_size):
@@ -732,6 +816,8 @@ def _fixed(model, inputs, trials, p, root, executor, chunk_size, keep_samples) -
         values,
         moments,
         p,
+        labels,
+        scalar_model=scalar,
         trials=trials,
         sequences=1,
         converged=None,
@@ -752,6 +838,7 @@ def _adaptive(
     executor,
     chunk_size,
     keep_samples,
+    labels,
     *,
     sequence_size,
     digits,
@@ -771,7 +858,7 @@ def _adaptive(
         h = len(kept)
         batch = min_sequences - h if h < min_sequences else executor.workers
         batch = min(batch, budget - h)
-        sequences, _ = _run_sequences(
+        sequences, scalar = _run_sequences(
             executor, model, inputs, root, h, batch, sequence_size, chunk_size
         )
         for values in sequences:
@@ -788,7 +875,7 @@ def _adaptive(
                 break
     values = np.concatenate(kept)  # (h·M, m)
     h = len(kept)
-    rule = "2·s/√h ≤ δ (JCGM 101 7.9.4)" if criterion == "jcgm" else "s ≤ δ (seed 000)"
+    rule = "2·s/√h ≤ δ (JCGM 101 7.9.4)" if criterion == "jcgm" else "s ≤ δ (strict)"
     if converged:
         message = f"converged after {h} sequences of {sequence_size} trials ({rule})"
     else:
@@ -806,6 +893,8 @@ def _adaptive(
         values,
         moments,
         p,
+        labels,
+        scalar_model=scalar,
         trials=values.shape[0],
         sequences=h,
         converged=converged,
