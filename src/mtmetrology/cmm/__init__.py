@@ -1,0 +1,1 @@
+"""CMM calibration from ball-plate measurements: kinematic and Gaussian-process error models."""
