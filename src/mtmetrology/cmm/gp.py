@@ -9,8 +9,9 @@ Model (Salacheep 2016, §5.2, eqs 5.1–5.10, with the GPML mean of §5.3)::
 identified by :func:`~mtmetrology.cmm.calibrate.calibrate_ballplate`), or the nominal
 kinematics for a zero-mean GP; ``ρ`` is the squared exponential (``rbf``) or Matérn ν = 5/2
 (``matern``) correlation of the axis readings X, Y, Z (mm) with one length-scale (the source's
-``covSEiso``); the stylus enters through the kinematic mean; ``σ_c²`` the noise.  The hyper-parameters ``s_c, ℓ_c, σ_c`` maximise the
-marginal likelihood (type-II ML, L-BFGS-B in scikit-learn).
+``covSEiso``); the stylus enters through the kinematic mean; ``σ_c²`` the noise.  The
+hyper-parameters ``s_c, ℓ_c, σ_c`` maximise the marginal likelihood (type-II ML, L-BFGS-B
+in scikit-learn).
 
 Training through the observation model, alternating: the plate poses cannot be
 estimated jointly with a non-parametric f (a rigid motion of every position is absorbed by
