@@ -30,6 +30,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from mtmetrology.cmm.files import BallPlate, BallPlateRecords, ProbeSet
 from mtmetrology.cmm.models import (
@@ -41,6 +42,7 @@ from mtmetrology.cmm.models import (
 )
 from mtmetrology.cmm.problem import BallPlateProblem, kabsch
 from mtmetrology.errors import RankDeficientError
+from mtmetrology.identification.diagnostics import analyse_identifiability
 from mtmetrology.identification.solver import IdentificationResult, gauss_newton
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -50,19 +52,25 @@ from mtmetrology.units import from_internal
 __all__ = [
     "BallPlateCalibration",
     "calibrate_ballplate",
+    "check_design",
     "cross_validate",
     "error_covariance",
     "model_machine",
 ]
 
 KIND = "ballplate-calibration"
+#: Datum per (machine definition, model, basis): it depends on nothing else (fixed design).
+_DATUMS: dict = {}
 
 
 def model_machine(base: Machine, model: ModelChoice | str, basis: str | None = None):
     """The machine with the kept terms of a model, and the datum that chose them."""
     choice = parse_model(model) if isinstance(model, str) else model
     candidates = machine_for_model(base, choice, basis)
-    datum = choose_datum(candidates)
+    key = (candidates.spec.model_dump_json(), choice.name, basis)
+    datum = _DATUMS.get(key)
+    if datum is None:
+        datum = _DATUMS[key] = choose_datum(candidates)
     if choice.is_seed and not datum.dropped:
         return candidates, datum
     machine = candidates.with_parameters(datum.kept)
@@ -235,12 +243,54 @@ def calibrate_ballplate(
     choice = parse_model(model) if isinstance(model, str) else model
     machine, datum = model_machine(base, choice, basis)
     problem = BallPlateProblem(machine, records, plate, probes, sigma=sigma)
-    res = gauss_newton(problem, report_names=machine.parameter_names)
+    check_design(problem, plate, probes)
+    # ~10³ x 10² matrices: one BLAS thread is fastest and does not oversubscribe shared cores
+    with threadpool_limits(1):
+        res = gauss_newton(problem, report_names=machine.parameter_names)
     pset = res.parameter_set(machine, {"method": "ball-plate calibration", "model": choice.name})
     summary = _summary(
         machine, pset.values, pset.covariance, res, problem, probes, as_generator(seed)
     )
     return BallPlateCalibration(machine, pset, res, problem, datum, choice.name, summary)
+
+
+def check_design(problem: BallPlateProblem, plate: BallPlate, probes: ProbeSet):
+    """Refuse a set-up whose *design* cannot separate the model's terms.
+
+    Rank is judged on noise-free design readings (the calibrated plate in the start poses,
+    read by the nominal machine): on the measured readings, reading noise turns an exact
+    confounding (e.g. a Z scale error when every ball is at one height) into a tiny but
+    non-zero singular value, which a relative tolerance would pass.
+
+    Raises
+    ------
+    RankDeficientError
+        Naming the unobservable combinations of error parameters.
+    """
+    m = problem.machine
+    x0 = problem.initial()
+    _, poses, balls = problem.split(x0)
+    target = problem.plate_points(poses, balls)
+    design = m.inverse(target, target - problem.tools, None, tool=problem.tools)
+    rec = problem.records
+    ideal = type(rec)(rec.positions, rec.balls, rec.probes, design, rec.lines)
+    dp = BallPlateProblem(m, ideal, plate, probes, sigma=problem.sigma)
+    _, jac = dp.evaluate(dp.initial())
+    norms = np.linalg.norm(jac, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    with threadpool_limits(1):
+        _, sv, vt = np.linalg.svd(jac / norms, full_matrices=False)
+    report = analyse_identifiability(
+        jac, dp.names, report_names=m.parameter_names, svd=(norms, sv, vt)
+    )
+    if not report.full_rank:
+        raise RankDeficientError(
+            f"this set-up cannot identify the {m.model_name or 'chosen'} model ({report.message}); "
+            "add plate positions that separate them (vertical or tilted plates, other heights, "
+            "styli in other directions) or choose a smaller model",
+            confounded=report.confounded(),
+        )
+    return report
 
 
 def _held_out_rms(cal: BallPlateCalibration, records: BallPlateRecords, plate, probes) -> float:
