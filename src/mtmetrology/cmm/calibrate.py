@@ -63,14 +63,14 @@ KIND = "ballplate-calibration"
 _DATUMS: dict = {}
 
 
-def model_machine(base: Machine, model: ModelChoice | str, basis: str | None = None):
+def model_machine(base: Machine, model: ModelChoice | str, basis: str | None = None, prefer=()):
     """The machine with the kept terms of a model, and the datum that chose them."""
     choice = parse_model(model) if isinstance(model, str) else model
     candidates = machine_for_model(base, choice, basis)
-    key = (candidates.spec.model_dump_json(), choice.name, basis)
+    key = (candidates.spec.model_dump_json(), choice.name, basis, tuple(prefer))
     datum = _DATUMS.get(key)
     if datum is None:
-        datum = _DATUMS[key] = choose_datum(candidates)
+        datum = _DATUMS[key] = choose_datum(candidates, prefer=prefer)
     if choice.is_seed and not datum.dropped:
         return candidates, datum
     machine = candidates.with_parameters(datum.kept)
@@ -210,6 +210,7 @@ def calibrate_ballplate(
     model: ModelChoice | str = "seed",
     sigma: float,
     basis: str | None = None,
+    prefer=(),
     seed=0,
 ) -> BallPlateCalibration:
     """Identify the CMM's error parameters, plate poses and ball centres.
@@ -228,6 +229,8 @@ def calibrate_ballplate(
         Standard uncertainty of one indication coordinate, mm.
     basis : {"monomial", "legendre", "chebyshev"}, optional
         Basis of the error motions; the machine definition's when omitted.
+    prefer : sequence of str
+        Terms the datum keeps first (:func:`~mtmetrology.cmm.models.choose_datum`).
     seed : int or Generator
         For the random points of U2 and U3.
 
@@ -241,7 +244,7 @@ def calibrate_ballplate(
         If the set-up cannot separate the model's terms; ``confounded`` names them.
     """
     choice = parse_model(model) if isinstance(model, str) else model
-    machine, datum = model_machine(base, choice, basis)
+    machine, datum = model_machine(base, choice, basis, prefer)
     problem = BallPlateProblem(machine, records, plate, probes, sigma=sigma)
     check_design(problem, plate, probes)
     # ~10³ x 10² matrices: one BLAS thread is fastest and does not oversubscribe shared cores

@@ -220,7 +220,7 @@ def _reference_jacobian(machine: Machine) -> np.ndarray:
     return np.vstack(blocks)
 
 
-def choose_datum(machine: Machine, rtol: float = 1e-7) -> Datum:
+def choose_datum(machine: Machine, rtol: float = 1e-7, prefer=()) -> Datum:
     """Keep the candidate terms that are independent of the kept ones and of the poses.
 
     Parameters
@@ -230,6 +230,9 @@ def choose_datum(machine: Machine, rtol: float = 1e-7) -> Datum:
     rtol : float
         A column whose component orthogonal to the kept columns has a norm below ``rtol``
         (columns scaled to unit norm) is dependent.
+    prefer : sequence of str
+        Terms taken before all others (an equivalent datum, e.g. straightness slopes
+        instead of squareness errors).
 
     Returns
     -------
@@ -242,7 +245,8 @@ def choose_datum(machine: Machine, rtol: float = 1e-7) -> Datum:
     basis = [q]
     kept: list[int] = []
     dropped_idx: list[int] = []
-    order = sorted(range(n), key=lambda j: _priority(machine.parameter_names[j]))
+    names = machine.parameter_names
+    order = sorted(range(n), key=lambda j: (names[j] not in prefer, _priority(names[j])))
     for j in order:
         c = jac[:, j].copy()
         for _ in range(2):  # twice is enough (Gram–Schmidt re-orthogonalisation)
