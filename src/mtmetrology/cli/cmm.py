@@ -120,6 +120,10 @@ def calibrate_ballplate_cmd(
         str | None,
         typer.Option("--degrees", help="Per-function degrees of a full model: E_YX=3,E_AZ=1."),
     ] = None,
+    candidates: Annotated[
+        str,
+        typer.Option("--candidates", help="Models compared by --model auto, comma-separated."),
+    ] = ",".join(AUTO_CANDIDATES),
     sigma_um: SigmaOpt = 0.5,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the U2/U3 sample points.")] = 0,
     json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
@@ -139,7 +143,10 @@ def calibrate_ballplate_cmd(
     if model == "auto":
         if degrees:
             raise InputFileError("--degrees applies to a full-<d> model, not to --model auto")
-        selection = cross_validate(m, rec, pl, pr, AUTO_CANDIDATES, sigma=sigma)
+        names = [c.strip() for c in candidates.split(",") if c.strip()]
+        for c in names:
+            parse_model(c)
+        selection = cross_validate(m, rec, pl, pr, names, sigma=sigma)
         choice = parse_model(selection["chosen"])
     else:
         choice = parse_model(model, degrees)
