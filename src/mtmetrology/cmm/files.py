@@ -54,6 +54,7 @@ __all__ = [
     "load_probes",
     "read_records",
     "rotation_matrix",
+    "validate_records",
 ]
 
 #: Fewest balls per position: three non-collinear points fix a plate pose.
