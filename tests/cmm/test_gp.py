@@ -75,5 +75,6 @@ def test_comparison_table_and_plot(base, truth, plate3, probes):
     assert rows["GP (rbf)"]["rms_error_um"] < rows["uncompensated"]["rms_error_um"]
     for r in c.table:
         assert 0.0 <= r["coverage"] <= 1.0 and r["n_lengths"] == 5 * 36
+        assert np.isfinite(r["mean_u_um"]) and r["mean_u_um"] > 0
         assert len(c.plot[r["model"]]["error_um"]) == r["n_lengths"]
     assert c.to_dict()["kind"] == "cmm-model-comparison"

@@ -141,6 +141,8 @@ class GPErrorModel:
         for c, gpr in enumerate(self.regressors):
             with threadpool_limits(1):
                 m, k = gpr.predict(x, return_cov=True)
+            # targets are not normalised, so the white-noise term on the diagonal of the
+            # predictive covariance is noise_level itself (µm²): removing it leaves var f
             noise = gpr.kernel_.k2.noise_level
             mean[:, c] = m
             cov[c] = to_internal(to_internal(k - noise * np.eye(n), "µm"), "µm")
@@ -214,7 +216,7 @@ class GPErrorModel:
         regs = []
         for c, th in enumerate(thetas):
             k = _kernel(kernel).clone_with_theta(th)
-            gpr = GaussianProcessRegressor(k, optimizer=None, normalize_y=True)
+            gpr = GaussianProcessRegressor(k, optimizer=None, normalize_y=False)
             regs.append(_fit(gpr, x, y[:, c]))
         return cls(machine, mean, kernel, tuple(regs), x, y, dict(doc.get("provenance") or {}))
 
@@ -289,7 +291,7 @@ def fit_gp(
         pts, d = _targets(machine, theta, q, tools, rot, trans, pos_idx, balls[ball_idx])
         y = from_internal(d, "µm")
         for c in range(3):
-            gpr = GaussianProcessRegressor(kern[c], normalize_y=True, random_state=seed)
+            gpr = GaussianProcessRegressor(kern[c], normalize_y=False, random_state=seed)
             regs[c] = _fit(gpr, x, y[:, c])
             kern[c] = regs[c].kernel_  # warm start of the next round
         if it == n_alternations:
