@@ -65,6 +65,12 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
+def _unique_ids(ids: list[str], what: str) -> None:
+    dup = sorted({i for i in ids if ids.count(i) > 1})
+    if dup:
+        raise ValueError(f"{what} id(s) listed twice: {', '.join(dup)}")
+
+
 class BallSpec(_Strict):
     id: str = Field(min_length=1)
     x_mm: float
@@ -88,10 +94,7 @@ class BallPlate(_Strict):
 
     @model_validator(mode="after")
     def _check(self):
-        ids = [b.id for b in self.balls]
-        dup = sorted({i for i in ids if ids.count(i) > 1})
-        if dup:
-            raise ValueError(f"ball id(s) listed twice: {', '.join(dup)}")
+        _unique_ids([b.id for b in self.balls], "ball")
         if (self.u_mm is None) == (self.covariance_mm2 is None):
             raise ValueError("give exactly one of u_mm and covariance_mm2")
         if self.covariance_mm2 is not None:
@@ -135,10 +138,7 @@ class ProbeSet(_Strict):
 
     @model_validator(mode="after")
     def _unique(self):
-        ids = [p.id for p in self.probes]
-        dup = sorted({i for i in ids if ids.count(i) > 1})
-        if dup:
-            raise ValueError(f"probe id(s) listed twice: {', '.join(dup)}")
+        _unique_ids([p.id for p in self.probes], "probe")
         return self
 
     @property
@@ -166,10 +166,7 @@ class PositionSet(_Strict):
 
     @model_validator(mode="after")
     def _unique(self):
-        ids = [p.id for p in self.positions]
-        dup = sorted({i for i in ids if ids.count(i) > 1})
-        if dup:
-            raise ValueError(f"position id(s) listed twice: {', '.join(dup)}")
+        _unique_ids([p.id for p in self.positions], "position")
         return self
 
 
