@@ -163,3 +163,17 @@ def test_auto_model_selection_prefers_adequate_model(base, truth, probes):
     scores = {s["model"]: s["mean_rms_um"] for s in sel["scores"]}
     assert sel["chosen"] == "full-3"
     assert scores["full-3"] < scores["seed"]
+
+
+def test_chi_square_flags_an_inadequate_model(base, campaign, plate3, probes):
+    """Degree-3 truth: the seed model leaves structure in the residuals (χ² p < 1e-6); the
+    degree-3 model does not (p > 0.01, a 1 % level test at this fixed seed)."""
+    train = campaign.records.subset(np.array([p != "D" for p in campaign.records.positions]))
+    p = {
+        m: calibrate_ballplate(base, train, plate3, probes, model=m, sigma=SIGMA).to_document()[
+            "fit"
+        ]["chi2_p_value"]
+        for m in ("seed", "full-3")
+    }
+    assert p["seed"] < 1e-6
+    assert p["full-3"] > 0.01

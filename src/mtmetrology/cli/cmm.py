@@ -156,6 +156,14 @@ def calibrate_ballplate_cmd(
     if json_out:
         print_json(doc)
     u = cal.summary
+    p_chi2 = doc["fit"]["chi2_p_value"]
+    if p_chi2 is not None and p_chi2 < 0.01:
+        typer.echo(
+            f"warning: variance factor {doc['fit']['variance_factor']:.3g} (chi-square p = "
+            f"{p_chi2:.2g}): the model or --sigma-um does not explain the residuals, so the "
+            "uncertainties are optimistic; try --model auto or a larger --sigma-um",
+            err=True,
+        )
     typer.echo(
         f"{cal.model}: {cal.machine.n_params} parameters, rms residual "
         f"{doc['fit']['rms_residual_um']:.3g} µm; U1 {np.round(u['U1_um'], 3).tolist()} "

@@ -30,6 +30,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import stats
 from threadpoolctl import threadpool_limits
 
 from mtmetrology.cmm.files import BallPlate, BallPlateRecords, ProbeSet
@@ -155,6 +156,9 @@ class BallPlateCalibration:
             "iterations": res.nit,
             "sigma_um": from_internal(prob.sigma, "µm"),
             "variance_factor": res.variance_factor,
+            # χ² test of ‖r‖² against its dof: a small p says the model (or σ) does not explain
+            # the residuals and the covariance, hence U1–U3, is optimistic
+            "chi2_p_value": float(stats.chi2.sf(2.0 * res.cost, res.dof)) if res.dof > 0 else None,
             "rms_residual_um": from_internal(
                 prob.sigma * float(np.sqrt(np.mean(res.residuals[: 3 * len(prob.readings)] ** 2))),
                 "µm",
