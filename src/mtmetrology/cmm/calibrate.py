@@ -17,6 +17,36 @@ uncertainty a poor set-up has (digest of Salacheep 2016, §2.12, T16).
   measured region (the bounding box of the indications), per axis;
 - U3: the same over the whole working volume (the axis travels).
 
+Examples
+--------
+A virtual CMM with a 20 µrad squareness error (X to Y), a 3 x 3 plate in three positions
+probed with three styli:
+
+>>> import numpy as np
+>>> from mtmetrology.kinematics import Machine
+>>> from mtmetrology.cmm import BallPlate, PositionSet, ProbeSet, simulate_ballplate
+>>> cmm = Machine.load("cmm-moving-bridge")
+>>> plate = BallPlate(kind="ball-plate", u_mm=0.0005, balls=[
+...     {"id": f"{i}{j}", "x_mm": 250.0 * i, "y_mm": 250.0 * j}
+...     for i in range(3) for j in range(3)])
+>>> probes = ProbeSet(kind="probe-set", probes=[
+...     {"id": "A", "offset_mm": [0, 0, -150]}, {"id": "B", "offset_mm": [60, 60, -150]},
+...     {"id": "C", "offset_mm": [-60, 60, -100]}])
+>>> styli = ["A", "B", "C"]
+>>> positions = PositionSet(kind="ballplate-positions", positions=[
+...     {"id": "H", "origin_mm": [300, 200, 150], "probes": styli},
+...     {"id": "V", "origin_mm": [300, 500, 80], "rotation_deg": [90, 0, 0], "probes": styli},
+...     {"id": "W", "origin_mm": [650, 200, 80], "rotation_deg": [90, 0, 90], "probes": styli}])
+>>> from mtmetrology.units import from_internal, to_internal
+>>> theta = np.zeros(cmm.n_params)
+>>> theta[cmm.parameter_names.index("E_C0X")] = to_internal(20.0, "µrad")
+>>> sim = simulate_ballplate(cmm, theta, plate, positions, probes, sigma=0.0005, seed=1)
+>>> cal = calibrate_ballplate(cmm, sim.records, plate, probes, model="seed", sigma=0.0005)
+>>> i = cal.machine.parameter_names.index("E_C0X")
+>>> value, u = cal.theta[i], cal.parameters.standard_uncertainty[i]
+>>> [round(float(from_internal(v, "µrad")), 1) for v in (value, u)]
+[19.7, 1.3]
+
 References
 ----------
 Salacheep, P. (2016). *Error Compensation and Uncertainty Evaluation of CMMs Based on
