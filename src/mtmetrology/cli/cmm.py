@@ -156,6 +156,8 @@ def calibrate_ballplate_cmd(
     if json_out:
         print_json(doc)
     u = cal.summary
+    if not cal.identification.success:
+        typer.echo(f"warning: {cal.identification.message}", err=True)
     p_chi2 = doc["fit"]["chi2_p_value"]
     if p_chi2 is not None and p_chi2 < 0.01:
         typer.echo(
