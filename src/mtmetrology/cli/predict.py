@@ -17,9 +17,10 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
+from mtmetrology.cli.cmm import probe_tools, read_error_model
+from mtmetrology.cmm.files import load_probes
 from mtmetrology.io.files import InputFileError, read_csv_table, write_csv_table
 from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
 
 
 def _add_compensation(report, machine: Machine, xyz: np.ndarray, nominal: np.ndarray) -> None:
@@ -55,7 +56,15 @@ def predict(
     readings: Annotated[Path, typer.Argument(help="Probing records CSV: X,Y,Z,B,C[,S] ...")],
     machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
     params: Annotated[
-        Path | None, typer.Option("--params", help="Parameter set (JSON/YAML); zero if omitted.")
+        Path | None,
+        typer.Option(
+            "--params",
+            help="Parameter set (JSON/YAML) or GP model file (mtm gp fit); zero if omitted.",
+        ),
+    ] = None,
+    probes: Annotated[
+        Path | None,
+        typer.Option("--probes", help="Probe set: tool vector of each row's 'probe' column."),
     ] = None,
     output: Annotated[
         Path | None, typer.Option("-o", "--output", help="Output CSV (standard output if omitted).")
@@ -66,15 +75,14 @@ def predict(
 
     Readings are stylus-centre readings (mm, degrees); input columns are copied and
     x, y, z appended. Sense-of-motion columns sense_<axis> (+1/-1) feed reversal terms.
+    With --probes, each row's 'probe' column selects the stylus (tool vector).
     """
     m = Machine.load(machine)
+    theta, gp, pset = None, None, None
     if params is not None:
-        pset = ParameterSet.load(params, m)
-        m = pset.machine_for(m)
-        theta = pset.vector_for(m)
-    else:
-        theta = None
+        m, theta, gp, pset = read_error_model(params, m)
     table = read_csv_table(readings)
+    tools = probe_tools(load_probes(probes), table) if probes is not None else None
     q = readings_from_table(m, table)
     senses = senses_from_table(m, table)
     reversal = [p.name for p in m.parameters if p.kind == "reversal"]
@@ -86,19 +94,22 @@ def predict(
             f"{readings}: the parameter set has reversal terms ({', '.join(reversal)}); "
             f"add the sense-of-motion column(s) {columns} (+1 or -1)"
         )
-    xyz = m.forward(q, theta, senses=senses)
+    if gp is not None:
+        xyz = gp.predict(q, m.tool if tools is None else tools)[0]
+    else:
+        xyz = m.forward(q, theta, senses=senses, tool=tools)
     if report_path is not None:
         from mtmetrology.report import Report
         from mtmetrology.report.results import add_result
 
-        nominal = m.forward(q, None, senses=senses)
+        nominal = m.forward(q, None, senses=senses, tool=tools)
         report = Report(
             f"Compensated coordinates: {readings.name}",
             command=command_line(ctx),
             provenance={"inputs": [readings, *([] if params is None else [params])]},
         )
         _add_compensation(report, m, np.atleast_2d(xyz), np.atleast_2d(nominal))
-        if params is not None:
+        if pset is not None:
             add_result(report, pset)
         write_report(report, report_path)
     header = [*table.header, "x", "y", "z"]

@@ -1,0 +1,321 @@
+"""CMM commands: ``mtm calibrate ballplate``, ``mtm calibrate ballplate-budget``,
+``mtm simulate ballplate``, ``mtm gp fit``, ``mtm gp predict``.
+
+The calibrate and simulate commands are plain functions attached to the ``calibrate`` and
+``simulate`` groups by :func:`register`, so the groups can be shared with other
+applications (SAMBA); ``gp`` is this module's own group, :data:`gp_app`.
+"""
+
+from __future__ import annotations
+
+import inspect
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from mtmetrology.cli._common import print_json, user_errors
+from mtmetrology.cmm.budget import ballplate_budget, load_budget
+from mtmetrology.cmm.calibrate import calibrate_ballplate, cross_validate
+from mtmetrology.cmm.files import load_plate, load_positions, load_probes, read_records
+from mtmetrology.cmm.gp import KIND as GP_KIND
+from mtmetrology.cmm.gp import GPErrorModel, fit_gp
+from mtmetrology.cmm.models import parse_model
+from mtmetrology.cmm.simulate import simulate_ballplate
+from mtmetrology.io.documents import load_document
+from mtmetrology.io.files import InputFileError, Table, read_csv_table, write_csv_table, write_json
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.units import from_internal, to_internal
+
+__all__ = ["gp_app", "probe_tools", "read_error_model", "register"]
+
+AUTO_CANDIDATES = ("seed", "full-1", "full-2", "full-3")
+
+FILES_HELP = (
+    "Files: PLATE (kind: ball-plate; balls: list of id, x_mm, y_mm, z_mm; u_mm or "
+    "covariance_mm2). PROBES (kind: probe-set; probes: list of id, offset_mm: the stylus tip "
+    "centre from the machine's reference point). RECORDS CSV position,ball,probe,X,Y,Z (mm): "
+    "the readings that put the stylus tip centre at the ball centre. POSITIONS (kind: "
+    "ballplate-positions; positions: list of id, origin_mm, rotation_deg, probes)."
+)
+
+
+def _help(func) -> str:
+    return inspect.cleandoc(func.__doc__ or "") + "\n\n" + FILES_HELP
+
+
+gp_app = typer.Typer(
+    help="Gaussian-process error model of a CMM (fit on ball-plate records, predict).",
+    no_args_is_help=True,
+)
+
+MachineOpt = Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")]
+PlateOpt = Annotated[Path, typer.Option("--plate", help="Ball-plate file (kind: ball-plate).")]
+ProbesOpt = Annotated[Path, typer.Option("--probes", help="Probe-set file (kind: probe-set).")]
+SigmaOpt = Annotated[
+    float,
+    typer.Option("--sigma-um", help="Standard uncertainty of one reading coordinate, µm."),
+]
+OutOpt = Annotated[Path, typer.Option("-o", "--output", help="Output file.")]
+
+
+def _positive(value: float, name: str) -> float:
+    if not (np.isfinite(value) and value > 0):
+        raise InputFileError(f"{name}: must be a positive number, got {value}")
+    return value
+
+
+def _inputs(records: Path, plate: Path, probes: Path):
+    pl, pr = load_plate(plate), load_probes(probes)
+    return read_records(records, pl, pr), pl, pr
+
+
+def probe_tools(probes, table: Table) -> np.ndarray:
+    """Tool vectors (n, 3), mm, from a ``probe`` column and a probe set.
+
+    Raises
+    ------
+    InputFileError
+        Missing ``probe`` column or a probe id not in the set (file and line named).
+    """
+    ids = table.strings("probe")
+    for i, pid in enumerate(ids):
+        if pid not in probes.ids:
+            raise InputFileError(
+                f"{table.path}, line {table.lines[i]}: probe {pid!r} is not in the probe set "
+                f"({', '.join(probes.ids)})"
+            )
+    return probes.offsets(ids)
+
+
+def read_error_model(path: Path, machine: Machine):
+    """A parameter set or a GP model file: ``(machine, theta, gp, parameter_set)``.
+
+    Exactly one of ``gp`` (a GP model file) and ``parameter_set`` is not None.
+    """
+    doc = load_document(path, "error model")
+    if isinstance(doc, dict) and doc.get("kind") == GP_KIND:
+        gp = GPErrorModel.from_document(doc, machine, str(path))
+        return gp.machine, None, gp, None
+    pset = ParameterSet.from_document(doc, machine, str(path))
+    m = pset.machine_for(machine)
+    return m, pset.vector_for(m), None, pset
+
+
+@user_errors
+def calibrate_ballplate_cmd(
+    records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
+    machine: MachineOpt,
+    plate: PlateOpt,
+    probes: ProbesOpt,
+    output: OutOpt,
+    model: Annotated[
+        str,
+        typer.Option(
+            "--model",
+            help="seed (the source's Chebyshev model), full-<d> (21 functions, degree <= d), "
+            "or auto (leave-one-position-out cross-validation over seed, full-1..3).",
+        ),
+    ] = "seed",
+    degrees: Annotated[
+        str | None,
+        typer.Option("--degrees", help="Per-function degrees of a full model: E_YX=3,E_AZ=1."),
+    ] = None,
+    candidates: Annotated[
+        str,
+        typer.Option("--candidates", help="Models compared by --model auto, comma-separated."),
+    ] = ",".join(AUTO_CANDIDATES),
+    sigma_um: SigmaOpt = 0.5,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the U2/U3 sample points.")] = 0,
+    json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+) -> None:
+    """Identify a CMM's error functions from ball-plate records (kinematic model).
+
+    Unknowns: the error parameters, 6 pose parameters per plate position and the ball
+    centres (the certificate enters with its uncertainty). The datum (terms left out) is
+    chosen by rank and reported; a set-up that cannot see the model is refused with the
+    unobservable combinations named. Writes a ballplate-calibration result (a parameter set
+    for `mtm predict --params`) with U1/U2/U3 from the full covariance.
+    """
+    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    m = Machine.load(machine)
+    rec, pl, pr = _inputs(records, plate, probes)
+    selection = None
+    if model == "auto":
+        if degrees:
+            raise InputFileError("--degrees applies to a full-<d> model, not to --model auto")
+        names = [c.strip() for c in candidates.split(",") if c.strip()]
+        for c in names:
+            parse_model(c)
+        selection = cross_validate(m, rec, pl, pr, names, sigma=sigma)
+        choice = parse_model(selection["chosen"])
+    else:
+        choice = parse_model(model, degrees)
+    cal = calibrate_ballplate(m, rec, pl, pr, model=choice, sigma=sigma, seed=seed)
+    doc = cal.to_document(selection)
+    write_json(output, doc)
+    if json_out:
+        print_json(doc)
+    u = cal.summary
+    if not cal.identification.success:
+        typer.echo(f"warning: {cal.identification.message}", err=True)
+    p_chi2 = doc["fit"]["chi2_p_value"]
+    if p_chi2 is not None and p_chi2 < 0.01:
+        typer.echo(
+            f"warning: variance factor {doc['fit']['variance_factor']:.3g} (chi-square p = "
+            f"{p_chi2:.2g}): the model or --sigma-um does not explain the residuals, so the "
+            "uncertainties are optimistic; try --model auto or a larger --sigma-um",
+            err=True,
+        )
+    typer.echo(
+        f"{cal.model}: {cal.machine.n_params} parameters, rms residual "
+        f"{doc['fit']['rms_residual_um']:.3g} µm; U1 {np.round(u['U1_um'], 3).tolist()} "
+        f"U2 {np.round(u['U2_um'], 3).tolist()} U3 {np.round(u['U3_um'], 3).tolist()} µm; "
+        f"wrote {output}",
+        err=True,
+    )
+
+
+@user_errors
+def budget_cmd(
+    budget: Annotated[Path, typer.Argument(help="Budget inputs (kind: ballplate-budget).")],
+    output: OutOpt,
+    json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+) -> None:
+    """Uncertainty budget of a ball-plate length (15 items, Edlén refractive index, GUF)."""
+    res = ballplate_budget(load_budget(budget))
+    doc = {"kind": "ballplate-budget-result", "version": 1, **res.to_dict()}
+    write_json(output, doc)
+    if json_out:
+        print_json(doc)
+    o = doc["outputs"][0]
+    typer.echo(
+        f"l_x = {o['value']:.6f} mm, u = {from_internal(o['u'], 'µm'):.3g} µm, "
+        f"U = {from_internal(o['U'], 'µm'):.3g} µm (k = {o['k']:.2f}); wrote {output}",
+        err=True,
+    )
+
+
+@user_errors
+def simulate_ballplate_cmd(
+    machine: MachineOpt,
+    plate: PlateOpt,
+    probes: ProbesOpt,
+    positions: Annotated[
+        Path, typer.Option("--positions", help="Plate positions (kind: ballplate-positions).")
+    ],
+    output: OutOpt,
+    params: Annotated[
+        Path | None, typer.Option("--params", help="True errors (parameter set); zero if omitted.")
+    ] = None,
+    sigma_um: Annotated[float, typer.Option("--sigma-um", help="Reading noise, µm.")] = 0.5,
+    seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
+    exact_plate: Annotated[
+        bool, typer.Option("--exact-plate", help="True plate = certificate (no draw).")
+    ] = False,
+) -> None:
+    """Simulate ball-plate records (position,ball,probe,X,Y,Z) of a virtual CMM."""
+    if not (np.isfinite(sigma_um) and sigma_um >= 0):
+        raise InputFileError(f"--sigma-um: must be >= 0, got {sigma_um}")
+    m = Machine.load(machine)
+    theta = None
+    if params is not None:
+        pset = ParameterSet.load(params, m)
+        m = pset.machine_for(m)
+        theta = pset.vector_for(m)
+    pl, pr = load_plate(plate), load_probes(probes)
+    pos = load_positions(positions, pr)
+    camp = simulate_ballplate(
+        m,
+        np.zeros(m.n_params) if theta is None else theta,
+        pl,
+        pos,
+        pr,
+        sigma=to_internal(sigma_um, "µm"),
+        seed=seed,
+        perturb_plate=not exact_plate,
+    )
+    r = camp.records
+    rows = (
+        [p, b, s, *(f"{v:.6f}" for v in q)]
+        for p, b, s, q in zip(r.positions, r.balls, r.probes, r.readings, strict=True)
+    )
+    write_csv_table(output, ["position", "ball", "probe", "X", "Y", "Z"], rows)
+    typer.echo(f"wrote {len(r)} records to {output}", err=True)
+
+
+@gp_app.command("fit")
+@user_errors
+def gp_fit(
+    records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
+    machine: MachineOpt,
+    plate: PlateOpt,
+    probes: ProbesOpt,
+    output: OutOpt,
+    mean: Annotated[
+        str, typer.Option("--mean", help="Kinematic mean: seed, full-<d>, or none (zero mean).")
+    ] = "seed",
+    kernel: Annotated[str, typer.Option("--kernel", help="rbf (squared exp.) or matern.")] = "rbf",
+    sigma_um: SigmaOpt = 0.5,
+    seed: Annotated[int, typer.Option("--seed", help="Optimiser random state.")] = 0,
+) -> None:
+    """Fit a GP per error component (ML hyper-parameters), alternating with plate poses."""
+    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    m = Machine.load(machine)
+    rec, pl, pr = _inputs(records, plate, probes)
+    if mean != "none":
+        parse_model(mean)
+    if kernel not in ("rbf", "matern"):
+        raise InputFileError(f"--kernel {kernel!r}: use rbf or matern")
+    gp = fit_gp(
+        m,
+        rec,
+        pl,
+        pr,
+        sigma=sigma,
+        mean=None if mean == "none" else mean,
+        kernel=kernel,
+        seed=seed,
+    )
+    doc = gp.to_document()
+    write_json(output, doc)
+    parts = ", ".join(
+        f"{c['component']}: ℓ {c['length_scale_mm']:.0f} mm, s {c['amplitude_um']:.2g} µm, "
+        f"noise {c['noise_um']:.2g} µm"
+        for c in doc["components"]
+    )
+    typer.echo(f"{parts}; wrote {output}", err=True)
+
+
+@gp_app.command("predict")
+@user_errors
+def gp_predict(
+    readings: Annotated[Path, typer.Argument(help="CSV with X,Y,Z (mm) and probe columns.")],
+    machine: MachineOpt,
+    model: Annotated[Path, typer.Option("--model", help="GP model file (mtm gp fit).")],
+    probes: ProbesOpt,
+    output: OutOpt,
+) -> None:
+    """Compensated x,y,z (mm) with standard uncertainties u_x,u_y,u_z (µm)."""
+    m = Machine.load(machine)
+    gp = GPErrorModel.from_document(load_document(model, "GP model"), m, str(model))
+    table = read_csv_table(readings, required=["X", "Y", "Z", "probe"])
+    q = np.column_stack([table.floats(a) for a in "XYZ"])
+    tools = probe_tools(load_probes(probes), table)
+    pts, u = gp.predict(q, tools)
+    u_um = from_internal(u, "µm")
+    rows = (
+        [*row, *(f"{v:.6f}" for v in p), *(f"{v:.4f}" for v in uu)]
+        for row, p, uu in zip(table.rows, pts, u_um, strict=True)
+    )
+    write_csv_table(output, [*table.header, "x", "y", "z", "u_x", "u_y", "u_z"], rows)
+    typer.echo(f"wrote {len(table)} rows to {output}", err=True)
+
+
+def register(calibrate_app: typer.Typer, simulate_app: typer.Typer) -> None:
+    """Attach ``ballplate`` (and ``ballplate-budget``) to the calibrate and simulate groups."""
+    calibrate_app.command("ballplate", help=_help(calibrate_ballplate_cmd))(calibrate_ballplate_cmd)
+    calibrate_app.command("ballplate-budget")(budget_cmd)
+    simulate_app.command("ballplate", help=_help(simulate_ballplate_cmd))(simulate_ballplate_cmd)
