@@ -17,7 +17,7 @@ $(STAMP): $(BIN)/python pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/python examples/demo.py
+	$(BIN)/mtm demo --out mtm-demo
 
 test: $(STAMP)
 	$(BIN)/ruff check .

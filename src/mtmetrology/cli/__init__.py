@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import typer
 
-from mtmetrology.cli import fit, machine, predict, uncertainty
+from mtmetrology.cli import demo, fit, machine, predict, uncertainty
 
 app = typer.Typer(
     name="mtm",
@@ -16,5 +16,6 @@ app.add_typer(machine.app, name="machine")
 app.add_typer(uncertainty.app, name="uncertainty")
 app.command("fit")(fit.fit)
 app.command("predict")(predict.predict)
+app.command("demo")(demo.demo)
 
 __all__ = ["app"]

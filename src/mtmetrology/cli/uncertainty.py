@@ -197,6 +197,63 @@ def _write_report(
     write_report(rep, path)
 
 
+def evaluate_model(
+    loaded: MeasurementModel,
+    model_file: Path,
+    method: Method,
+    *,
+    trials: int | None = None,
+    adaptive: bool = False,
+    digits: int = 2,
+    seed=None,
+    p: float = 0.95,
+    executor=None,
+):
+    """The ``uncertainty-result`` document of a loaded model and the results behind it.
+
+    Returns
+    -------
+    (dict, GUFResult or None, MCMResult or None, ValidationReport or None)
+        The document (``outputs`` holds the Monte Carlo results when Monte Carlo ran,
+        else the GUF's), the results of each method that ran, and the validation when
+        both did.
+
+    Raises
+    ------
+    ValueError, TypeError
+        When the model cannot be evaluated (the message says why).
+    """
+    names, units = loaded.output_names, loaded.output_units
+    document: dict = {
+        "kind": RESULT_KIND,
+        "version": RESULT_VERSION,
+        "model": loaded.name,
+        "source": str(model_file),
+        "method": method.value,
+        "p": p,
+    }
+    g = r = report = None
+    if method in (Method.guf, Method.both):
+        g = guf(loaded.model, loaded.inputs, p=p)
+        document["guf"] = {**g.to_dict(), "outputs": _guf_outputs(g)}
+    if method in (Method.mcm, Method.both):
+        r = _run_mcm(
+            loaded,
+            trials=trials,
+            adaptive=adaptive,
+            digits=digits,
+            seed=seed,
+            p=p,
+            executor=executor,
+        )
+        document["mcm"] = {**r.to_dict(), "outputs": _mcm_outputs(r, names, units)}
+    if g is not None and r is not None:
+        report = _validate(g, r, digits, names)
+        document["validation"] = report.to_dict()
+    document["outputs"] = document["mcm" if r is not None else "guf"]["outputs"]
+    return document, g, r, report
+
+
 @app.command("run")
 def run(
     ctx: typer.Context,
@@ -227,37 +284,21 @@ def run(
         loaded = load_model(model_file)
     except ModelFileError as exc:
         _fail(str(exc))
-    names, units = loaded.output_names, loaded.output_units
-    document: dict = {
-        "kind": RESULT_KIND,
-        "version": RESULT_VERSION,
-        "model": loaded.name,
-        "source": str(model_file),
-        "method": method.value,
-        "p": p,
-    }
-    g = r = report = None
+    names = loaded.output_names
     try:
-        if method in (Method.guf, Method.both):
-            g = guf(loaded.model, loaded.inputs, p=p)
-            document["guf"] = {**g.to_dict(), "outputs": _guf_outputs(g)}
-        if method in (Method.mcm, Method.both):
-            r = _run_mcm(
-                loaded,
-                trials=trials,
-                adaptive=adaptive,
-                digits=digits,
-                seed=seed,
-                p=p,
-                executor=executor,
-            )
-            document["mcm"] = {**r.to_dict(), "outputs": _mcm_outputs(r, names, units)}
-        if g is not None and r is not None:
-            report = _validate(g, r, digits, names)
-            document["validation"] = report.to_dict()
+        document, g, r, report = evaluate_model(
+            loaded,
+            model_file,
+            method,
+            trials=trials,
+            adaptive=adaptive,
+            digits=digits,
+            seed=seed,
+            p=p,
+            executor=executor,
+        )
     except (ValueError, TypeError) as exc:
         _fail(f"{model_file}: {exc}")
-    document["outputs"] = document["mcm" if r is not None else "guf"]["outputs"]
 
     if report_path is not None:
         _write_report(report_path, loaded, model_file, g, r, report, command_line(ctx), seed=seed)
