@@ -187,26 +187,9 @@ def identifiability_section(ctx: DemoContext) -> None:
     )
     add_result(ctx.report, reports["13 parameters"])
     plan, artefact = ctx.shown("samba", "plan.csv"), ctx.shown("samba", "samba.yaml")
-    ctx.command(
-        "identifiability of the plan",
-        "machine",
-        "identifiability",
-        PRESET,
-        plan,
-        "--artefact",
-        artefact,
-    )
-    ctx.command(
-        "the confound E_Y0C ~ E_Y0S (exits with code 2)",
-        "machine",
-        "identifiability",
-        PRESET,
-        plan,
-        "--artefact",
-        artefact,
-        "--add",
-        "E_Y0C",
-    )
+    check = ("machine", "identifiability", PRESET, plan, "--artefact", artefact)
+    ctx.command("identifiability of the plan", *check)
+    ctx.command("the confound E_Y0C ~ E_Y0S (exits with code 2)", *check, "--add", "E_Y0C")
     deficient = reports["13 + E_Y0C"]
     ctx.summary.append(
         f"SAMBA plan: rank {reports['13 parameters'].rank}/{reports['13 parameters'].n_unknowns}"

@@ -142,21 +142,6 @@ def _results_table(title: str, outputs: list[dict], extra: str | None = None) ->
     return table
 
 
-def _run_mcm(loaded: MeasurementModel, *, trials, adaptive, digits, seed, p, executor):
-    from mtmetrology.uncertainty.mcm import monte_carlo
-
-    return monte_carlo(
-        loaded.model,
-        loaded.inputs,
-        trials=trials,
-        adaptive=adaptive,
-        digits=digits,
-        p=p,
-        seed=seed,
-        executor=executor,
-    )
-
-
 def _validate(g: GUFResult, r, digits: int, names):
     from mtmetrology.uncertainty.mcm import Tolerance, numerical_tolerance
     from mtmetrology.uncertainty.validation import validate_guf
@@ -202,14 +187,14 @@ def evaluate_model(
     model_file: Path,
     method: Method,
     *,
-    trials: int | None = None,
-    adaptive: bool = False,
     digits: int = 2,
-    seed=None,
     p: float = 0.95,
-    executor=None,
+    **mcm_options,
 ):
     """The ``uncertainty-result`` document of a loaded model and the results behind it.
+
+    ``mcm_options`` go to :func:`mtmetrology.uncertainty.mcm.monte_carlo` (``trials``,
+    ``adaptive``, ``seed``, ``executor``).
 
     Returns
     -------
@@ -237,15 +222,9 @@ def evaluate_model(
         g = guf(loaded.model, loaded.inputs, p=p)
         document["guf"] = {**g.to_dict(), "outputs": _guf_outputs(g)}
     if method in (Method.mcm, Method.both):
-        r = _run_mcm(
-            loaded,
-            trials=trials,
-            adaptive=adaptive,
-            digits=digits,
-            seed=seed,
-            p=p,
-            executor=executor,
-        )
+        from mtmetrology.uncertainty.mcm import monte_carlo
+
+        r = monte_carlo(loaded.model, loaded.inputs, digits=digits, p=p, **mcm_options)
         document["mcm"] = {**r.to_dict(), "outputs": _mcm_outputs(r, names, units)}
     if g is not None and r is not None:
         report = _validate(g, r, digits, names)
@@ -286,16 +265,9 @@ def run(
         _fail(str(exc))
     names = loaded.output_names
     try:
+        mcm_options = {"trials": trials, "adaptive": adaptive, "seed": seed, "executor": executor}
         document, g, r, report = evaluate_model(
-            loaded,
-            model_file,
-            method,
-            trials=trials,
-            adaptive=adaptive,
-            digits=digits,
-            seed=seed,
-            p=p,
-            executor=executor,
+            loaded, model_file, method, digits=digits, p=p, **mcm_options
         )
     except (ValueError, TypeError) as exc:
         _fail(f"{model_file}: {exc}")
