@@ -123,3 +123,17 @@ def test_unregistered_result_is_a_type_error_and_registration_works():
         rep.section("custom", "drawn")
 
     assert result_report(Custom()).title == "Custom result"
+
+
+def test_engines_do_not_load_the_report_machinery():
+    """The mixin imports nothing: importing the engines loads neither matplotlib nor Jinja2."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, mtmetrology.uncertainty, mtmetrology.fitting, mtmetrology.identification, "
+        "mtmetrology.kinematics; print(sorted(m for m in ('matplotlib', 'jinja2') if m in "
+        "sys.modules))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "[]"

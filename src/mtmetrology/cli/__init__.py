@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import typer
 
-from mtmetrology.cli import cmm, fit, machine, predict, uncertainty
+from mtmetrology.cli import cmm, demo, fit, machine, predict, uncertainty
 
 app = typer.Typer(
     name="mtm",
@@ -34,5 +34,6 @@ app.add_typer(simulate_app, name="simulate")
 app.add_typer(cmm.gp_app, name="gp")
 app.command("fit")(fit.fit)
 app.command("predict")(predict.predict)
+app.command("demo")(demo.demo)
 
 __all__ = ["app"]

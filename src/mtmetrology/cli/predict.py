@@ -23,7 +23,7 @@ from mtmetrology.io.files import InputFileError, read_csv_table, write_csv_table
 from mtmetrology.kinematics.machine import Machine
 
 
-def _add_compensation(report, machine: Machine, xyz: np.ndarray, nominal: np.ndarray) -> None:
+def add_compensation(report, machine: Machine, xyz: np.ndarray, nominal: np.ndarray) -> None:
     """The correction each point receives from the error model: statistics and vectors."""
     from mtmetrology.report import figures
     from mtmetrology.units import from_internal
@@ -40,8 +40,8 @@ def _add_compensation(report, machine: Machine, xyz: np.ndarray, nominal: np.nda
         ["quantity", "value", "unit"],
         [
             ["points", len(size), ""],
-            ["largest correction", float(size.max()), "µm"],
-            ["rms correction", float(np.sqrt(np.mean(size**2))), "µm"],
+            ["largest correction", f"{size.max():.4g}", "µm"],
+            ["rms correction", f"{np.sqrt(np.mean(size**2)):.4g}", "µm"],
         ],
     )
     report.figure(
@@ -108,7 +108,7 @@ def predict(
             command=command_line(ctx),
             provenance={"inputs": [readings, *([] if params is None else [params])]},
         )
-        _add_compensation(report, m, np.atleast_2d(xyz), np.atleast_2d(nominal))
+        add_compensation(report, m, np.atleast_2d(xyz), np.atleast_2d(nominal))
         if pset is not None:
             add_result(report, pset)
         write_report(report, report_path)

@@ -130,6 +130,29 @@ def _write_report(path: Path, loaded, model_file: Path, g, r, validation, comman
     write_report(rep, path)
 
 
+def evaluate_model(loaded, model_file: Path, method: Method, *, digits=2, p=0.95, **mcm_options):
+    """The ``uncertainty-result`` document of a loaded model and the results behind it.
+
+    ``mcm_options`` go to :func:`mtmetrology.uncertainty.mcm.monte_carlo` (``trials``,
+    ``adaptive``, ``seed``, ``executor``).
+
+    Returns
+    -------
+    (dict, GUFResult or None, MCMResult or None, ValidationReport or None)
+        The document of :func:`mtmetrology.uncertainty.outputs.result_document`, the
+        results of each method that ran, and the validation when both did.
+    """
+    g = r = report = None
+    if method in (Method.guf, Method.both):
+        g = guf(loaded.model, loaded.inputs, p=p)
+    if method in (Method.mcm, Method.both):
+        r = monte_carlo(loaded.model, loaded.inputs, digits=digits, p=p, **mcm_options)
+    if g is not None and r is not None:
+        report = validate_results(g, r, digits=digits)
+    document = result_document(g, r, report, model=loaded.name, source=str(model_file))
+    return document, g, r, report
+
+
 @app.command("run")
 def run(
     ctx: typer.Context,
@@ -160,26 +183,13 @@ def run(
         loaded = load_model(model_file)
     except ModelFileError as exc:
         _fail(str(exc))
-    g = r = report = None
     try:
-        if method in (Method.guf, Method.both):
-            g = guf(loaded.model, loaded.inputs, p=p)
-        if method in (Method.mcm, Method.both):
-            r = monte_carlo(
-                loaded.model,
-                loaded.inputs,
-                trials=trials,
-                adaptive=adaptive,
-                digits=digits,
-                p=p,
-                seed=seed,
-                executor=executor,
-            )
-        if g is not None and r is not None:
-            report = validate_results(g, r, digits=digits)
+        mcm_options = {"trials": trials, "adaptive": adaptive, "seed": seed, "executor": executor}
+        document, g, r, report = evaluate_model(
+            loaded, model_file, method, digits=digits, p=p, **mcm_options
+        )
     except (MtmetrologyError, ValueError, TypeError) as exc:
         _fail(f"{model_file}: {exc}")
-    document = result_document(g, r, report, model=loaded.name, source=str(model_file))
 
     if report_path is not None:
         _write_report(report_path, loaded, model_file, g, r, report, command_line(ctx), seed=seed)

@@ -7,8 +7,8 @@ flatness, roundness and cylindricity filters of the Chebyshev reference). The le
 peak-to-valley is an upper bound of the minimum-zone value; the minimum zone is what a
 tolerance is checked against.
 
-Methods
--------
+Algorithms
+----------
 Flatness and straightness are solved *exactly* with the convex hull, since a zone of two
 parallel planes (lines) contains the points if and only if it contains their hull:
 

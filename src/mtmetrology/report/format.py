@@ -34,11 +34,17 @@ def format_uncertainty(u: float | None) -> str:
     --------
     >>> format_uncertainty(31.72), format_uncertainty(0.001234), format_uncertainty(None)
     ('32', '0.0012', '—')
+    >>> format_uncertainty(1.2e-6), format_uncertainty(0.0)
+    ('1.2e-06', '0')
     """
     if u is None:
         return "—"
     if not math.isfinite(u):
         return str(u)
+    if u == 0:
+        return "0"
+    if not 1e-4 <= abs(u) < 1e7:  # fixed-point would print many zeros
+        return f"{u:.2g}"
     return f"{u:.{decimals_for(u)}f}"
 
 

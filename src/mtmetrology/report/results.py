@@ -228,8 +228,8 @@ def _validation(rep: Report, v, **_) -> None:
                 w.quantity,
                 w.guf,
                 w.mcm,
-                w.difference,
-                w.tolerance,
+                f"{w.difference:.3g}",
+                f"{w.tolerance:.3g}",
                 f"{100 * w.ratio:.0f} %",
                 w.passed,
             ]

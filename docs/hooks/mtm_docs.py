@@ -1,0 +1,51 @@
+"""MkDocs hook: pages generated from the code, so they cannot drift from it.
+
+- ``<!-- mtm:cli-reference -->`` becomes the reference of every ``mtm`` command, from the
+  Typer application itself (help texts, arguments, options and defaults);
+- ``<!-- mtm:conventions PRESET MODEL -->`` becomes the table of that error model's
+  parameters with their unit, what a positive value does and where it is referred to
+  (:func:`mtmetrology.kinematics.conventions.describe_parameters`, the text that
+  ``mtm machine show`` prints).
+"""
+
+from __future__ import annotations
+
+import re
+
+# Markers stand alone on their line (a marker quoted in a sentence is left alone).
+CLI_MARKER = re.compile(r"^<!-- mtm:cli-reference -->$", re.MULTILINE)
+CONVENTIONS = re.compile(r"^<!-- mtm:conventions (\S+) (\S+) -->$", re.MULTILINE)
+
+
+def _cli_reference() -> str:
+    import typer
+    from typer.cli import get_docs_for_click
+    from typer.main import get_command
+
+    from mtmetrology.cli import app
+
+    command = get_command(app)
+    text = get_docs_for_click(obj=command, ctx=typer.Context(command), name="mtm")
+    # the page has its own title: every generated heading goes one level down
+    return re.sub(r"^(#+) ", r"#\1 ", text, flags=re.MULTILINE)
+
+
+def _conventions(match: re.Match) -> str:
+    from mtmetrology.kinematics.conventions import describe_parameters
+    from mtmetrology.kinematics.machine import Machine
+
+    machine = Machine.load(match.group(1), match.group(2))
+    rows = [
+        "| parameter | unit | a positive value | referred to |",
+        "|---|---|---|---|",
+    ]
+    for c in describe_parameters(machine):
+        cells = (f"`{c.name}`", c.unit, c.positive, c.reference)
+        rows.append("| " + " | ".join(s.replace("|", "\\|") for s in cells) + " |")
+    return "\n".join(rows)
+
+
+def on_page_markdown(markdown: str, page, config, files) -> str:
+    if CLI_MARKER.search(markdown):
+        markdown = CLI_MARKER.sub(lambda _: _cli_reference(), markdown)
+    return CONVENTIONS.sub(_conventions, markdown)

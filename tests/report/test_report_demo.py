@@ -1,0 +1,100 @@
+"""``mtm demo``: the folder it writes, the commands it prints, its report in a browser."""
+
+from __future__ import annotations
+
+import json
+import re
+import shlex
+
+import pytest
+from test_report_browser import check_page
+from typer.testing import CliRunner
+
+from mtmetrology.cli import app, demo_sections
+from mtmetrology.cli.demo import MARKER, DemoSection
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def demo_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("demo") / "mtm-demo"
+    result = runner.invoke(app, ["demo", "--out", str(out)], env={"COLUMNS": "400"})
+    assert result.exit_code == 0, result.output
+    return out, result.stdout
+
+
+def test_demo_writes_inputs_results_and_report(demo_run):
+    out, _ = demo_run
+    for name in (
+        "samba/plan.csv",
+        "samba/samba.yaml",
+        "samba/indications.csv",
+        "samba/params.json",
+        "prediction/gauge.csv",
+        "prediction/gauge-xyz.csv",
+        "uncertainty/gum-h1.yaml",
+        "fitting/sphere.csv",
+        "report.html",
+        MARKER,
+    ):
+        assert (out / name).is_file(), name
+    params = json.loads((out / "samba" / "params.json").read_text(encoding="utf-8"))
+    assert params["kind"] == "parameter-set" and len(params["parameters"]) == 13
+    assert "covariance" in params
+    result = json.loads((out / "uncertainty" / "gum-h1-result.json").read_text(encoding="utf-8"))
+    assert result["kind"] == "uncertainty-result" and "validation" in result
+    (guf_out,) = result["guf"]["outputs"]
+    assert round(guf_out["u"]) == 32  # GUM H.1.6: u_c(l) = 32 nm
+    assert not [p for p in out.parent.iterdir() if p.name.startswith(".")]  # no work folder
+
+
+def test_demo_ends_with_the_report_path(demo_run):
+    out, stdout = demo_run
+    last = [line for line in stdout.splitlines() if line.strip()][-1]
+    assert last == f"report: {out / 'report.html'}"
+
+
+def test_printed_commands_rerun_and_rewrite_the_same_files(demo_run):
+    """Every ``$ mtm ...`` the demo prints runs on the demo's files (one is meant to fail);
+    a command that writes a file (``mtm predict -o``) rewrites the demo's file unchanged."""
+    out, stdout = demo_run
+    before = {p: p.read_bytes() for p in out.rglob("*.csv")}
+    lines = [line for line in stdout.splitlines() if "$ mtm " in line]
+    assert len(lines) >= 6 and any(" predict " in line for line in lines)
+    for line in lines:
+        argv = shlex.split(line.split("$ mtm ", 1)[1])
+        result = runner.invoke(app, argv)
+        expected = 2 if "exits with code 2" in line else 0
+        assert result.exit_code == expected, f"{line}\n{result.output}"
+    assert {p: p.read_bytes() for p in out.rglob("*.csv")} == before
+
+
+def test_demo_report_in_the_browser(demo_run, browser, artefacts):
+    out, _ = demo_run
+    page = out / "report.html"
+    n = len(re.findall(r'<figure class="mtm-figure"', page.read_text(encoding="utf-8")))
+    assert n >= 8
+    check_page(browser, page, n, artefacts, "mtm-demo")
+
+
+def test_demo_refuses_a_folder_it_did_not_write(tmp_path):
+    keep = tmp_path / "data"
+    keep.mkdir()
+    (keep / "precious.csv").write_text("x\n")
+    result = runner.invoke(app, ["demo", "--out", str(keep)])
+    assert result.exit_code == 2 and result.stderr.startswith("error: ")
+    assert [p.name for p in keep.iterdir()] == ["precious.csv"]
+
+
+def test_interrupted_demo_leaves_nothing(tmp_path, monkeypatch):
+    def interrupt(ctx):
+        ctx.write_text("half", "partial.txt")
+        raise KeyboardInterrupt
+
+    sections = [demo_sections.DEMO_SECTIONS[0], DemoSection("stop", "Ctrl-C", interrupt)]
+    monkeypatch.setattr(demo_sections, "DEMO_SECTIONS", sections)
+    out = tmp_path / "mtm-demo"
+    result = runner.invoke(app, ["demo", "--out", str(out)])
+    assert result.exit_code == 130 and result.stderr.strip() == "interrupted: nothing written"
+    assert list(tmp_path.iterdir()) == []
