@@ -23,7 +23,7 @@ from mtmetrology.identification import (
     analyse_identifiability,
     senses_from_sequence,
 )
-from mtmetrology.io.files import read_csv_table
+from mtmetrology.io import read_csv_table
 from mtmetrology.kinematics.conventions import machine_description
 from mtmetrology.kinematics.machine import Machine, list_presets
 from mtmetrology.samba.artefact import load_artefact

@@ -10,9 +10,19 @@ import numpy as np
 import typer
 
 from mtmetrology.cli._common import readings_from_table, senses_from_table, user_errors
-from mtmetrology.io.files import InputFileError, read_csv_table, write_csv_table
+from mtmetrology.io import (
+    InputFileError,
+    atomic_write,
+    check_output,
+    format_decimal,
+    read_csv_table,
+    write_columns,
+)
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
+
+#: Rows evaluated at once: bounds the memory of the kinematic chain on large records.
+CHUNK_ROWS = 1 << 16
 
 
 @user_errors
@@ -31,6 +41,11 @@ def predict(
     Readings are stylus-centre readings (mm, degrees); input columns are copied and
     x, y, z appended. Sense-of-motion columns sense_<axis> (+1/-1) feed reversal terms.
     """
+    inputs = [readings, *([params] if params is not None else [])]
+    if Path(machine).suffix.lower() in (".yaml", ".yml", ".json"):
+        inputs.append(Path(machine))
+    if output is not None:
+        check_output(output, inputs)
     m = Machine.load(machine)
     if params is not None:
         pset = ParameterSet.load(params, m)
@@ -39,6 +54,11 @@ def predict(
     else:
         theta = None
     table = read_csv_table(readings)
+    clash = sorted(set(table.header) & {"x", "y", "z"})
+    if clash:
+        raise InputFileError(
+            f"{readings}: column(s) {', '.join(clash)} already present; predict appends x, y, z"
+        )
     q = readings_from_table(m, table)
     senses = senses_from_table(m, table)
     reversal = [p.name for p in m.parameters if p.kind == "reversal"]
@@ -50,16 +70,16 @@ def predict(
             f"{readings}: the parameter set has reversal terms ({', '.join(reversal)}); "
             f"add the sense-of-motion column(s) {columns} (+1 or -1)"
         )
-    xyz = m.forward(q, theta, senses=senses)
-    header = [*table.header, "x", "y", "z"]
-    rows = (
-        [*row, *(f"{v:.6f}" for v in p)]
-        for row, p in zip(table.rows, np.atleast_2d(xyz), strict=True)
-    )
+    xyz = np.empty((len(table), 3))
+    for start in range(0, len(table), CHUNK_ROWS):
+        rows = slice(start, start + CHUNK_ROWS)
+        xyz[rows] = m.forward(q[rows], theta, senses=None if senses is None else senses[rows])
+    columns = {c: table.text.column(c) for c in table.header}
+    columns.update({c: format_decimal(xyz[:, k], 6) for k, c in enumerate("xyz")})
     if output is None:
-        sys.stdout.write(",".join(header) + "\n")
-        for r in rows:
-            sys.stdout.write(",".join(r) + "\n")
-    else:
-        write_csv_table(output, header, rows)
-        typer.echo(f"wrote {len(table)} rows to {output}", err=True)
+        write_columns(sys.stdout.buffer, columns)
+        sys.stdout.flush()
+        return
+    with atomic_write(output, "wb") as fh:
+        write_columns(fh, columns)
+    typer.echo(f"wrote {len(table)} rows to {output}", err=True)

@@ -15,7 +15,9 @@ not created silently).
 
 from __future__ import annotations
 
+import ctypes
 import errno
+import json
 import os
 import re
 from collections.abc import Iterable, Iterator
@@ -25,7 +27,13 @@ from typing import IO
 
 from mtmetrology.errors import EnvironmentFailure, InputError
 
-__all__ = ["InputFileError", "atomic_write", "check_output", "sweep_temporaries"]
+__all__ = [
+    "InputFileError",
+    "atomic_write",
+    "check_output",
+    "sweep_temporaries",
+    "write_json",
+]
 
 
 class InputFileError(InputError):
@@ -101,17 +109,56 @@ def check_output(path: str | os.PathLike, inputs: Iterable[str | os.PathLike] = 
     return p
 
 
+_AT_FDCWD = -100
+_AT_EMPTY_PATH = 0x1000
+_LINKABLE: dict[int, bool] = {}  # st_dev -> whether an anonymous file can be named there
+
+
+def _link(fd: int, destination: Path) -> None:
+    """Give the anonymous file ``fd`` the name ``destination``.
+
+    ``linkat`` through ``/proc/self/fd`` is the unprivileged way (open(2), O_TMPFILE);
+    where /proc is not that of this process's mount namespace it fails with EXDEV, and
+    ``linkat(fd, "", ..., AT_EMPTY_PATH)`` (which needs CAP_DAC_READ_SEARCH) is tried.
+    """
+    try:
+        os.link(f"/proc/self/fd/{fd}", destination, follow_symlinks=True)
+        return
+    except OSError as err:
+        first = err
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.linkat(fd, b"", _AT_FDCWD, os.fsencode(destination), _AT_EMPTY_PATH) != 0:
+        raise first
+
+
 def _anonymous(directory: Path) -> int | None:
-    """An O_TMPFILE descriptor in ``directory``, or None where unsupported."""
+    """An O_TMPFILE descriptor in ``directory`` that :func:`_link` can name, or None."""
     flag = getattr(os, "O_TMPFILE", None)
     if flag is None:
         return None
     try:
-        return os.open(directory, flag | os.O_WRONLY, 0o666)
+        device = directory.stat().st_dev
+        fd = os.open(directory, flag | os.O_WRONLY, 0o666)
     except OSError as err:
         if err.errno in (errno.EOPNOTSUPP, errno.EISDIR, errno.EINVAL, errno.ENOENT):
             return None
         raise
+    if device not in _LINKABLE:  # probe once per file system
+        probe = directory / f".mtm-probe.{os.getpid()}.{os.urandom(4).hex()}.tmp"
+        try:
+            _link(fd, probe)
+            probe.unlink()
+            _LINKABLE[device] = True
+        except OSError:
+            _LINKABLE[device] = False
+            os.close(fd)
+            return None
+        os.close(fd)
+        fd = os.open(directory, flag | os.O_WRONLY, 0o666)
+    if not _LINKABLE[device]:
+        os.close(fd)
+        return None
+    return fd
 
 
 @contextmanager
@@ -148,7 +195,7 @@ def atomic_write(
             fh.flush()
             os.fsync(fh.fileno())
             if anonymous:
-                os.link(f"/proc/self/fd/{fh.fileno()}", named, follow_symlinks=True)
+                _link(fh.fileno(), named)
         os.replace(named, target)
     except BaseException as err:
         with suppress(OSError):
@@ -156,3 +203,10 @@ def atomic_write(
         if isinstance(err, OSError) and not isinstance(err, InputError):
             raise EnvironmentFailure(f"{target}: cannot write: {err.strerror or err}") from None
         raise
+
+
+def write_json(path: str | os.PathLike, document: dict) -> None:
+    """Write a JSON document atomically (NaN is refused: it is never a result)."""
+    text = json.dumps(document, indent=2, ensure_ascii=False, allow_nan=False)
+    with atomic_write(path) as fh:
+        fh.write(text + "\n")

@@ -5,19 +5,34 @@ worse than no number, so the reader is both a C parser (Apache Arrow) and strict
 
 - the header is the first line that is neither blank nor a ``#`` comment; column names
   are stripped (padded headers are fine) and must be unique and non-empty;
-- blank lines and ``#`` comment lines are skipped anywhere; a UTF-8 byte-order mark and
-  CRLF line ends are accepted; extra columns are kept and ignored by the commands;
+- blank lines (only spaces, tabs or commas) and ``#`` comment lines are skipped anywhere;
+  a UTF-8 byte-order mark and CRLF line ends are accepted; extra columns are kept;
 - every row must have as many fields as the header (the error names the line);
-- numbers follow the C grammar ``[+-]digits[.digits][e[+-]digits]`` (or ``nan``/``inf``,
-  refused unless asked for): ``1_000``, ``1,5``, ``0x10``, Arabic-Indic or full-width
-  digits, which Python's ``float()`` accepts, are refused with the line and column.
-  Surrounding spaces are allowed.
+- numbers follow the C grammar ``[+-]digits[.digits][e[+-]digits]`` of Arrow's parser:
+  ``1_000``, ``1,5``, ``0x10``, Arabic-Indic or full-width digits, which Python's
+  ``float()`` accepts, are refused with the line and column; NaN, infinities, and
+  magnitudes beyond :data:`MAX_MAGNITUDE` are refused unless asked for.  Spaces around a
+  cell are allowed.
 
 Columns stay as compact Arrow string arrays until a command asks for them as numbers
 (:meth:`Table.floats`) or text (:meth:`Table.strings`), so identifiers such as ``00``
-keep their form.  Writing joins columns with Arrow's vectorised kernels
-(:func:`format_decimal`, :func:`write_rows`); a million rows read, computed and written
-takes about a second.
+keep their form.  :func:`write_columns` writes columns in chunks with Arrow's vectorised
+string kernels, quoting only the cells that need it.
+
+Examples
+--------
+>>> import tempfile, pathlib
+>>> d = pathlib.Path(tempfile.mkdtemp())
+>>> _ = (d / "points.csv").write_text("# probe run 3\\n x , y ,id\\n1.5,2,00\\n\\n-3e-1,4,07\\n")
+>>> t = read_csv_table(d / "points.csv", required=["x", "y"])
+>>> t.floats("x"), t.strings("id"), t.lines
+(array([ 1.5, -0.3]), ['00', '07'], array([3, 5]))
+>>> _ = (d / "bad.csv").write_text("x\\n1\\n1_000\\n")
+>>> try:
+...     read_csv_table(d / "bad.csv").floats("x")
+... except InputFileError as err:
+...     print(str(err).replace(str(d), "DIR"))
+DIR/bad.csv, line 3: column 'x' holds '1_000', not a number
 """
 
 from __future__ import annotations
@@ -25,8 +40,9 @@ from __future__ import annotations
 import csv
 import io
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import IO
 
 import numpy as np
 import pyarrow as pa
@@ -35,13 +51,30 @@ import pyarrow.csv as pacsv
 
 from mtmetrology.io.files import InputFileError, atomic_write
 
-__all__ = ["Table", "format_decimal", "read_csv_table", "write_csv_table", "write_rows"]
+__all__ = [
+    "MAX_MAGNITUDE",
+    "Table",
+    "format_decimal",
+    "read_csv_table",
+    "write_columns",
+    "write_csv_table",
+]
 
-_NUMBER = (
-    r"^[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$"
-    r"|^[+-]?(?i:nan|inf|infinity)$"
-)
-_SPACE = np.frombuffer(b" \t\r", dtype=np.uint8)
+#: Largest magnitude :meth:`Table.floats` accepts by default.  No length in mm, angle in
+#: degrees or coordinate of a metrology file comes near it, while squares and products of
+#: larger values (1e308 ...) overflow or swamp every result computed from them.
+MAX_MAGNITUDE = 1e9
+
+_BOM = b"\xef\xbb\xbf"
+# First bytes of a line that may be blank or a comment: tab, LF, CR, space, '#', ','.
+_MAYBE_SKIPPED = np.array([0x09, 0x0A, 0x0D, 0x20, 0x23, 0x2C], dtype=np.uint8)
+_NEEDS_QUOTES = r'[,"\r\n]'
+_CHUNK_ROWS = 1 << 17
+
+
+def _skipped(line: bytes) -> bool:
+    """A blank line (spaces, tabs, commas only) or a ``#`` comment."""
+    return not line.strip(b" \t\r,") or line.lstrip(b" \t").startswith(b"#")
 
 
 class Table:
@@ -55,31 +88,32 @@ class Table:
         Column names in file order (stripped).
     lines : (n,) ndarray of int
         The 1-based file line of each data row.
+    text : pyarrow.Table
+        The cells as written (string columns named by ``header``).
     """
 
-    def __init__(self, path: str, header: Sequence[str], columns: dict, lines: np.ndarray, raw):
+    def __init__(self, path: str, header: Sequence[str], text: pa.Table, lines: np.ndarray):
         self.path = path
         self.header = tuple(header)
-        self._columns = columns
+        self.text = text
         self.lines = lines
-        self._raw = raw
 
     def __len__(self) -> int:
         return int(self.lines.size)
 
     def has(self, name: str) -> bool:
-        return name in self._columns
+        """Whether the file has a column ``name``."""
+        return name in self.header
 
     def _column(self, name: str) -> pa.Array:
-        try:
-            return self._columns[name]
-        except KeyError:
+        if name not in self.header:
             raise InputFileError(
                 f"{self.path}: missing column {name!r} (columns present: {', '.join(self.header)})"
-            ) from None
+            )
+        return self.text.column(name).combine_chunks()
 
     def strings(self, name: str) -> list[str]:
-        """A column as stripped strings."""
+        """A column as stripped strings (raises :class:`InputFileError` if missing)."""
         return pc.utf8_trim_whitespace(self._column(name)).to_pylist()
 
     def floats(
@@ -90,17 +124,23 @@ class Table:
         bounds: tuple[float, float] | None = None,
         unit: str = "",
     ) -> np.ndarray:
-        """A column as float64, refusing any cell that is not a finite C-grammar number.
+        """A column as float64, refusing any cell that is not a number it may hold.
 
         Parameters
         ----------
         name : str
+            The column.
         allow_nan : bool
-            Accept NaN and infinities.
+            Accept NaN and infinities (and any magnitude).
         bounds : (low, high), optional
-            Inclusive range every value must lie in (e.g. an axis travel).
+            Inclusive range every value must lie in (e.g. an axis travel), in the file's
+            unit; by default ``[-MAX_MAGNITUDE, MAX_MAGNITUDE]``.
         unit : str
             Unit shown with the bounds in the error.
+
+        Returns
+        -------
+        (n,) ndarray of float
 
         Raises
         ------
@@ -111,72 +151,116 @@ class Table:
         try:
             values = pc.cast(col, pa.float64()).to_numpy(zero_copy_only=False)
         except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
-            ok = pc.match_substring_regex(col, _NUMBER).to_numpy(zero_copy_only=False)
-            i = int(np.argmin(ok))
+            i = _first_unparsable(col)
             cell = col[i].as_py()
-            what = "an empty cell" if cell == "" else f"{cell!r}"
+            what = "an empty cell" if cell == "" else repr(cell)
             raise InputFileError(
                 f"{self.path}, line {self.lines[i]}: column {name!r} holds {what}, not a number"
             ) from None
-        if not allow_nan:
-            bad = ~np.isfinite(values)
-            if bad.any():
-                i = int(np.argmax(bad))
-                raise InputFileError(
-                    f"{self.path}, line {self.lines[i]}: column {name!r} is {col[i].as_py()!r}; "
-                    "NaN and infinite values are not accepted"
-                )
-        if bounds is not None:
-            low, high = bounds
-            out = (values < low) | (values > high)
-            if out.any():
-                i = int(np.argmax(out))
-                u = f" {unit}" if unit else ""
-                raise InputFileError(
-                    f"{self.path}, line {self.lines[i]}: column {name!r} = {values[i]:g}{u} lies "
-                    f"outside [{low:g}, {high:g}]{u}"
-                )
+        if allow_nan:
+            return values
+        bad = ~np.isfinite(values)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise InputFileError(
+                f"{self.path}, line {self.lines[i]}: column {name!r} is {col[i].as_py()!r}; "
+                "NaN, infinite and out-of-range values are not accepted"
+            )
+        low, high = (-MAX_MAGNITUDE, MAX_MAGNITUDE) if bounds is None else bounds
+        out = (values < low) | (values > high)
+        if out.any():
+            i = int(np.argmax(out))
+            u = f" {unit}" if unit else ""
+            raise InputFileError(
+                f"{self.path}, line {self.lines[i]}: column {name!r} = {col[i].as_py()}{u} lies "
+                f"outside [{low:g}, {high:g}]{u}"
+            )
         return values
 
-    def raw_rows(self) -> pa.Array:
-        """The text of every data row as written in the file (without line end)."""
-        return self._raw
+
+def _first_unparsable(col: pa.Array) -> int:
+    """Index of the first cell Arrow cannot cast to float64 (bisection; error path only)."""
+    lo, hi = 0, len(col)  # invariant: col[lo:hi] holds the first bad cell
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        try:
+            pc.cast(col.slice(lo, mid - lo), pa.float64())
+            lo = mid
+        except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+            hi = mid
+    return lo
 
 
-def _line_layout(buf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Start and end (exclusive, line end removed) of every line of a byte buffer."""
+def _read_bytes(p: Path) -> bytes:
+    if p.is_dir():
+        raise InputFileError(f"{p}: is a directory, not a CSV file")
+    try:
+        data = p.read_bytes()
+    except FileNotFoundError:
+        raise InputFileError(f"{p}: file not found") from None
+    except OSError as err:
+        raise InputFileError(f"{p}: cannot read the file ({err.strerror})") from None
+    return data[3:] if data.startswith(_BOM) else data
+
+
+def _header(p: Path, data: bytes) -> tuple[int, list[str], int]:
+    """(1-based line of the header, stripped names, offset of the next line)."""
+    pos, lineno = 0, 0
+    while pos < len(data):
+        end = data.find(b"\n", pos)
+        end = len(data) if end < 0 else end
+        line, lineno, pos = data[pos:end], lineno + 1, end + 1
+        if _skipped(line):
+            continue
+        try:
+            text = line.decode("utf-8")
+        except UnicodeDecodeError:
+            raise InputFileError(f"{p}, line {lineno}: not UTF-8 text") from None
+        header = [c.strip() for c in next(csv.reader([text]))]
+        if any(not c for c in header):
+            raise InputFileError(f"{p}, line {lineno}: an empty column name in the header")
+        dup = next((c for c in header if header.count(c) > 1), None)
+        if dup is not None:
+            raise InputFileError(f"{p}, line {lineno}: column {dup!r} appears twice in the header")
+        return lineno, header, min(pos, len(data))
+    raise InputFileError(f"{p}: empty file (no header line)")
+
+
+def _body(data: bytes, offset: int) -> tuple[pa.Buffer, np.ndarray, np.ndarray]:
+    """The data rows without blank and comment lines, their 0-based line index after the
+    header, and the byte range (start, end) of every body line in ``data[offset:]``."""
+    buf = np.frombuffer(data, dtype=np.uint8, offset=offset)
     newlines = np.flatnonzero(buf == 0x0A)
     starts = np.concatenate([[0], newlines + 1])
-    ends = np.concatenate([newlines, [buf.size]])
-    if starts[-1] == buf.size:  # the file ends with a newline
-        starts, ends = starts[:-1], ends[:-1]
-    cr = (ends > starts) & (buf[np.maximum(ends - 1, 0)] == 0x0D)
-    ends = ends - cr
-    return starts, ends
+    if starts[-1] == buf.size:  # a final line end does not start a line
+        starts = starts[:-1]
+    stops = np.append(starts[1:], buf.size)  # line ends included
+    maybe = np.flatnonzero(np.isin(buf[starts], _MAYBE_SKIPPED)) if starts.size else starts
+    drop = [int(i) for i in maybe if _skipped(bytes(buf[starts[i] : stops[i]]))]
+    if not drop:
+        return pa.py_buffer(buf), np.arange(starts.size), starts
+    keep = np.ones(buf.size, dtype=bool)
+    for i in drop:
+        keep[starts[i] : stops[i]] = False
+    rows = np.delete(np.arange(starts.size), drop)
+    return pa.py_buffer(buf[keep]), rows, starts
 
 
-def _classify(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
-    """(blank, comment) masks: blank lines hold only spaces, tabs and commas; comment lines
-    start with '#' after optional spaces."""
-    content = np.flatnonzero(~np.isin(buf, np.concatenate([_SPACE, [0x2C]])))
-    first = np.searchsorted(content, starts)
-    has = first < content.size
-    first_pos = np.where(has, content[np.minimum(first, max(content.size - 1, 0))], buf.size)
-    blank = ~has | (first_pos >= ends)
-    visible = np.flatnonzero(~np.isin(buf, _SPACE))
-    first_v = np.searchsorted(visible, starts)
-    has_v = first_v < visible.size
-    pos_v = np.where(has_v, visible[np.minimum(first_v, max(visible.size - 1, 0))], buf.size)
-    comment = ~blank & (pos_v < ends) & (buf[np.minimum(pos_v, buf.size - 1)] == 0x23)
-    return blank, comment
-
-
-def _ragged_line(path: Path, text: str, line_numbers: np.ndarray, width: int) -> str:
-    """Find the first data row whose field count differs from the header (error path)."""
-    for k, row in enumerate(csv.reader(io.StringIO(text))):
-        if len(row) != width:
-            return f"{path}, line {line_numbers[k]}: {len(row)} fields where the header has {width}"
-    return f"{path}: a row does not match the header ({width} fields)"
+def _ragged(p: Path, data: bytes, offset: int, starts, rows, lines, width: int) -> str:
+    """The first data row whose field count differs from the header (error path)."""
+    body = data[offset:]
+    stops = [*starts[1:], len(body)]
+    for i, lineno in zip(rows, lines, strict=True):
+        raw = body[starts[i] : stops[i]]
+        try:
+            fields = next(csv.reader([raw.decode("utf-8").rstrip("\r\n")]), [])
+        except UnicodeDecodeError:
+            return f"{p}, line {lineno}: not UTF-8 text"
+        except csv.Error as err:
+            return f"{p}, line {lineno}: {err}"
+        if len(fields) != width:
+            return f"{p}, line {lineno}: {len(fields)} fields where the header has {width}"
+    return f"{p}: a quoted field spans lines or a row does not match the {width}-column header"
 
 
 def read_csv_table(
@@ -193,69 +277,35 @@ def read_csv_table(
     min_rows : int
         Fewest data rows accepted.
 
+    Returns
+    -------
+    Table
+
     Raises
     ------
     InputFileError
         Missing file, bad header, ragged row, invalid text, missing column, too few rows.
     """
     p = Path(path)
-    if p.is_dir():
-        raise InputFileError(f"{p}: is a directory, not a CSV file")
-    if not p.is_file():
-        raise InputFileError(f"{p}: file not found")
-    data = p.read_bytes()
-    if data.startswith(b"\xef\xbb\xbf"):
-        data = data[3:]
-    buf = np.frombuffer(data, dtype=np.uint8)
-    starts, ends = _line_layout(buf)
-    blank, comment = _classify(buf, starts, ends)
-    keep = np.flatnonzero(~blank & ~comment)
-    if keep.size == 0:
-        raise InputFileError(f"{p}: empty file (no header line)")
-    h = keep[0]
-    try:
-        header_text = data[starts[h] : ends[h]].decode("utf-8")
-    except UnicodeDecodeError:
-        raise InputFileError(f"{p}, line {h + 1}: not UTF-8 text") from None
-    header = [c.strip() for c in next(csv.reader([header_text]))]
-    if any(not c for c in header):
-        raise InputFileError(f"{p}, line {h + 1}: an empty column name in the header")
-    dup = sorted({c for c in header if header.count(c) > 1})
-    if dup:
-        raise InputFileError(f"{p}, line {h + 1}: column {dup[0]!r} appears twice in the header")
-    rows = keep[1:]
-    line_numbers = rows + 1
-    if rows.size < min_rows:
-        raise InputFileError(f"{p}: {rows.size} data rows, at least {min_rows} needed")
+    data = _read_bytes(p)
+    header_line, header, offset = _header(p, data)
     for name in required:
         if name not in header:
             raise InputFileError(
                 f"{p}: missing column {name!r} (columns present: {', '.join(header)})"
             )
-    # The data rows as one '\n'-separated buffer (comment and blank lines dropped).
-    lengths = ends[rows] - starts[rows]
-    take = np.zeros(buf.size + 1, dtype=np.int32)
-    np.add.at(take, starts[rows], 1)
-    np.add.at(take, ends[rows], -1)
-    mask = np.cumsum(take[:-1]) > 0
-    body = buf[mask]
-    offsets = np.zeros(rows.size + 1, dtype=np.int64)
-    np.cumsum(lengths, out=offsets[1:])
+    body, rows, starts = _body(data, offset)
+    lines = rows + header_line + 1
+    if rows.size < min_rows:
+        raise InputFileError(f"{p}: {rows.size} data rows, at least {min_rows} needed")
+    if rows.size == 0:
+        text = pa.table({c: pa.array([], pa.string()) for c in header})
+        return Table(str(p), header, text, lines)
     try:
-        raw = pa.StringArray.from_buffers(
-            rows.size, pa.py_buffer(offsets.astype(np.int32)), pa.py_buffer(body.tobytes())
-        )
-        raw.validate(full=True)
-    except pa.ArrowInvalid:
-        bad = next(i for i in range(rows.size) if not _utf8(data[starts[rows[i]] : ends[rows[i]]]))
-        raise InputFileError(f"{p}, line {line_numbers[bad]}: not UTF-8 text") from None
-    joined = pc.binary_join_element_wise(raw, pa.scalar(""), "\n")
-    text_bytes = pa.py_buffer(b"".join([b for b in [_concatenated(joined)]]))
-    try:
-        arrow = pacsv.read_csv(
-            pa.BufferReader(text_bytes),
+        text = pacsv.read_csv(
+            pa.BufferReader(body),
             read_options=pacsv.ReadOptions(column_names=header, block_size=1 << 24),
-            parse_options=pacsv.ParseOptions(newlines_in_values=False),
+            parse_options=pacsv.ParseOptions(newlines_in_values=False, ignore_empty_lines=False),
             convert_options=pacsv.ConvertOptions(
                 column_types={c: pa.string() for c in header},
                 strings_can_be_null=False,
@@ -263,76 +313,80 @@ def read_csv_table(
             ),
         )
     except pa.ArrowInvalid:
-        text = text_bytes.to_pybytes().decode("utf-8")
-        raise InputFileError(_ragged_line(p, text, line_numbers, len(header))) from None
-    if arrow.num_rows != rows.size:
-        raise InputFileError(
-            f"{p}: {arrow.num_rows} rows parsed for {rows.size} lines (a quoted field spans "
-            "lines?)"
-        )
-    columns = {c: arrow.column(c).combine_chunks() for c in header}
-    return Table(str(p), header, columns, line_numbers, raw)
-
-
-def _utf8(b: bytes) -> bool:
-    try:
-        b.decode("utf-8")
-    except UnicodeDecodeError:
-        return False
-    return True
-
-
-def _concatenated(strings: pa.Array) -> bytes:
-    """The values of a string array back to back, as one bytes object."""
-    if len(strings) == 0:
-        return b""
-    offsets = strings.buffers()[1]
-    data = strings.buffers()[2]
-    width = 8 if pa.types.is_large_string(strings.type) else 4
-    first = int(np.frombuffer(offsets, dtype=f"<i{width}")[strings.offset])
-    last = int(np.frombuffer(offsets, dtype=f"<i{width}")[strings.offset + len(strings)])
-    return data.to_pybytes()[first:last]
+        raise InputFileError(_ragged(p, data, offset, starts, rows, lines, len(header))) from None
+    if text.num_rows != rows.size:
+        raise InputFileError(_ragged(p, data, offset, starts, rows, lines, len(header)))
+    return Table(str(p), header, text, lines)
 
 
 def format_decimal(values: np.ndarray, decimals: int) -> pa.Array:
-    """Numbers rounded to ``decimals`` and written in their shortest form (``200.02``)."""
+    """Numbers rounded to ``decimals`` and written in their shortest form.
+
+    Examples
+    --------
+    >>> format_decimal(np.array([200.0200001, -1e-9, 3.0]), 6).to_pylist()
+    ['200.02', '0', '3']
+    """
     v = np.round(np.asarray(values, dtype=float), decimals) + 0.0  # + 0.0: no "-0"
     return pc.cast(pa.array(v), pa.string())
 
 
-def write_rows(fh, header: Sequence[str], columns: Sequence) -> int:
-    """Write a header and rows made of string columns joined by commas.
+def _quoted(column: pa.Array) -> pa.Array:
+    """Cells holding a comma, quote or line end quoted as CSV requires."""
+    column = column if pa.types.is_string(column.type) else pc.cast(column, pa.string())
+    needs = pc.match_substring_regex(column, _NEEDS_QUOTES)
+    if not pc.any(needs).as_py():
+        return column
+    escaped = pc.replace_substring(column, '"', '""')
+    wrapped = pc.binary_join_element_wise('"', escaped, '"', "")
+    return pc.if_else(needs, wrapped, column)
+
+
+def write_columns(fh: IO[bytes], columns: Mapping[str, pa.Array | pa.ChunkedArray]) -> int:
+    """Write a header and the rows of equally long string columns to a binary file.
 
     Parameters
     ----------
     fh : binary file
-    header : sequence of str
-    columns : sequence of pyarrow string arrays (or lists of str), one per output column
-        (a column may itself hold several comma-joined fields, e.g. raw input rows).
+        Usually the handle of :func:`mtmetrology.io.files.atomic_write` opened ``"wb"``.
+    columns : mapping of str to pyarrow string arrays, length n each
+        Output columns in order (e.g. ``table.text`` columns and :func:`format_decimal`
+        results).
 
     Returns
     -------
     int
         Number of rows written.
     """
+    names = list(columns)
     out = io.StringIO()
-    csv.writer(out, lineterminator="\n").writerow(list(header))
+    csv.writer(out, lineterminator="\n").writerow(names)
     fh.write(out.getvalue().encode("utf-8"))
-    arrays = [c if isinstance(c, pa.Array) else pa.array(c, type=pa.string()) for c in columns]
-    if not arrays or len(arrays[0]) == 0:
-        return 0
-    rows = pc.binary_join_element_wise(*arrays, pa.scalar(""), ",")
-    # binary_join_element_wise left a trailing ',' from the empty last element: replace
-    # the separator with the line end by joining again on '\n' per row.
-    lines = pc.binary_join_element_wise(
-        pc.utf8_slice_codeunits(rows, 0, -1), pa.scalar(""), "\n"
-    )
-    fh.write(_concatenated(lines))
-    return len(lines)
+    arrays = [_flat(columns[c]) for c in names]
+    n = len(arrays[0]) if arrays else 0
+    for start in range(0, n, _CHUNK_ROWS):
+        rows = pc.binary_join_element_wise(
+            *(_quoted(a.slice(start, _CHUNK_ROWS)) for a in arrays), ","
+        )
+        fh.write(_data(pc.binary_join_element_wise(rows, "", "\n")))  # "row" + "\n" + ""
+    return n
 
 
-def write_csv_table(path: str | os.PathLike, header: Sequence[str], rows) -> None:
-    """Write a small CSV file atomically from Python rows (a list of sequences)."""
+def _flat(column: pa.Array | pa.ChunkedArray) -> pa.Array:
+    return column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
+
+
+def _data(strings: pa.Array) -> memoryview:
+    """The bytes of a string array's values back to back."""
+    offsets = np.frombuffer(strings.buffers()[1], dtype=np.int32)
+    first, last = offsets[strings.offset], offsets[strings.offset + len(strings)]
+    return memoryview(strings.buffers()[2])[first:last]
+
+
+def write_csv_table(
+    path: str | os.PathLike, header: Sequence[str], rows: Sequence[Sequence[object]]
+) -> None:
+    """Write a small CSV file atomically from Python rows (a sequence of sequences)."""
     with atomic_write(path) as fh:
         w = csv.writer(fh, lineterminator="\n")
         w.writerow(list(header))

@@ -1,0 +1,48 @@
+"""``mtm`` / ``python -m mtmetrology``: the command line, interrupt-safe from the first
+instruction.
+
+This module imports nothing heavy before it can answer Ctrl-C: a SIGINT during start-up
+(importing numpy, scipy, pyarrow ... takes about a second) or during a run prints one
+line, ``interrupted; nothing written``, and exits with code 130; outputs are written
+atomically, so that line is true.
+"""
+
+from __future__ import annotations
+
+import signal
+import sys
+
+INTERRUPTED = "interrupted; nothing written"
+EXIT_INTERRUPTED = 130
+
+
+def _interrupted() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not add a traceback
+    sys.stderr.write(INTERRUPTED + "\n")
+    sys.stderr.flush()
+    raise SystemExit(EXIT_INTERRUPTED)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run ``mtm`` with ``args`` (default: the process arguments) and exit."""
+    try:
+        import typer
+
+        from mtmetrology.cli import _common, app
+
+        try:
+            code = app(args=args, prog_name="mtm", standalone_mode=False)
+        except typer.Abort:
+            raise KeyboardInterrupt from None
+        except _common.CLICK_EXCEPTION as err:
+            err.show()
+            raise SystemExit(err.exit_code) from None
+        if code == EXIT_INTERRUPTED and not _common.interrupt_reported():
+            raise KeyboardInterrupt  # typer turned a Ctrl-C outside the command into 130
+    except KeyboardInterrupt:
+        _interrupted()
+    raise SystemExit(code if isinstance(code, int) else 0)
+
+
+if __name__ == "__main__":
+    main()
