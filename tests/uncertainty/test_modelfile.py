@@ -254,11 +254,11 @@ def test_correlated_normal_inputs_from_file():
 
 
 def test_load_model_file_errors(tmp_path):
-    with pytest.raises(ModelFileError, match="missing.yaml: file not found"):
+    with pytest.raises(ModelFileError, match=r"missing\.yaml: file not found"):
         load_model(tmp_path / "missing.yaml")
     p = tmp_path / "bad.yaml"
     p.write_text("inputs: [unclosed\n", encoding="utf-8")
-    with pytest.raises(ModelFileError, match=r"bad.yaml, line 2: not valid YAML"):
+    with pytest.raises(ModelFileError, match=r"bad\.yaml, line 2: not valid YAML"):
         load_model(p)
     p.write_text("- just\n- a list\n", encoding="utf-8")
     with pytest.raises(ModelFileError, match="must be a YAML mapping"):
