@@ -35,6 +35,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from mtmetrology.io import InputFileError
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.schema import Number, Text, Version, describe_validation_error
+from mtmetrology.uncertainty.dimensions import check_output_units
 from mtmetrology.uncertainty.distributions import make_distribution
 from mtmetrology.uncertainty.expressions import (
     CONSTANTS,
@@ -109,7 +110,7 @@ class CorrelationSpec(_Strict):
 class OutputSpec(_Strict):
     name: Text
     expression: Text
-    unit: Text = ""
+    unit: Text | None = None  # when given, checked against the expression's dimension
 
 
 class ModelSpec(_Strict):
@@ -217,15 +218,16 @@ def parse_model(document: Any, source: str = "<model>") -> MeasurementModel:
         raise ModelFileError(f"{source}: correlations: {exc}") from None
     for k, o in enumerate(spec.outputs):
         try:
-            parse_unit(o.unit)
+            parse_unit(o.unit or "")
         except UnitError as exc:
             raise ModelFileError(f"{source}: outputs.{k} ({o.name!r}): {exc}") from None
     model = CompiledModel(
         names,
         [(o.name, o.expression) for o in spec.outputs],
-        [o.unit for o in spec.outputs],
+        [o.unit or "" for o in spec.outputs],
         source,
     )
+    check_output_units(model, [s.unit for s in spec.inputs], [o.unit for o in spec.outputs], source)
     return MeasurementModel(spec.name, spec.description, inputs, model, source)
 
 
