@@ -27,11 +27,18 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from mtmetrology.cli._common import fail
+from mtmetrology.errors import ConvergenceError, ResourceLimitError
 from mtmetrology.uncertainty.guf import GUFResult, guf
 from mtmetrology.uncertainty.modelfile import MeasurementModel, ModelFileError, load_model
 
 RESULT_KIND = "uncertainty-result"
 RESULT_VERSION = 1
+#: Most Monte Carlo values kept for the coverage intervals (trials x outputs): 400 MB.
+MAX_VALUES = 50_000_000
+#: Most significant digits an adaptive run may be asked for (JCGM 101:2008, 7.9.2 uses
+#: 1 or 2; each further digit costs 100 times the trials).
+MAX_DIGITS = 3
 
 app = typer.Typer(help="Evaluate measurement uncertainty (GUF, Monte Carlo).", no_args_is_help=True)
 
@@ -48,8 +55,7 @@ def _group() -> None:
 
 
 def _fail(message: str) -> None:
-    typer.echo(f"error: {message}", err=True)
-    raise typer.Exit(code=2)
+    fail(message)
 
 
 def _decimals(u: float) -> int:
@@ -153,6 +159,7 @@ def _run_mcm(loaded: MeasurementModel, *, trials, adaptive, digits, seed, p, exe
         p=p,
         seed=seed,
         executor=executor,
+        max_trials=min(10_000_000, MAX_VALUES // len(loaded.output_names)),
     )
 
 
@@ -198,11 +205,18 @@ def run(
         _fail("--trials and --adaptive apply to --method mcm or both")
     if trials is not None and adaptive:
         _fail("give either --trials N or --adaptive, not both")
+    if not 1 <= digits <= MAX_DIGITS:
+        _fail(f"--digits must be 1 to {MAX_DIGITS} significant digits, got {digits}")
     try:
         loaded = load_model(model_file)
     except ModelFileError as exc:
         _fail(str(exc))
     names, units = loaded.output_names, loaded.output_units
+    if trials is not None and not 2 <= trials <= MAX_VALUES // len(names):
+        raise ResourceLimitError(
+            f"--trials {trials}: give 2 to {MAX_VALUES // len(names)} trials for "
+            f"{len(names)} output(s) (every value is kept for the coverage intervals)"
+        )
     document: dict = {
         "kind": RESULT_KIND,
         "version": RESULT_VERSION,
@@ -226,6 +240,12 @@ def run(
                 p=p,
                 executor=executor,
             )
+            if r.converged is False:
+                raise ConvergenceError(
+                    f"{model_file}: adaptive Monte Carlo did not reach the tolerance of "
+                    f"{digits} significant digit(s) within {r.trials} trials; ask for fewer "
+                    "--digits or run a fixed number of --trials"
+                )
             document["mcm"] = {**r.to_dict(), "outputs": _mcm_outputs(r, names, units)}
         if g is not None and r is not None:
             report = _validate(g, r, digits, names)

@@ -74,7 +74,7 @@ _CHUNK_ROWS = 1 << 17
 
 def _skipped(line: bytes) -> bool:
     """A blank line (spaces, tabs, commas only) or a ``#`` comment."""
-    return not line.strip(b" \t\r,") or line.lstrip(b" \t").startswith(b"#")
+    return not line.strip(b" \t\r\n,") or line.lstrip(b" \t").startswith(b"#")
 
 
 class Table:

@@ -44,6 +44,7 @@ from mtmetrology.io.schema import (
     Version,
     describe_validation_error,
 )
+from mtmetrology.kinematics.parameters import MAX_DEGREE
 
 __all__ = [
     "AxisSpec",
@@ -53,11 +54,6 @@ __all__ = [
     "load_machine_spec",
     "parse_machine_spec",
 ]
-
-
-#: Highest degree of an error-motion polynomial in a machine file (the sources use <= 3;
-#: a few more leave room, and the bound keeps the catalogue and the fit bounded).
-MAX_DEGREE = 12
 
 
 class MachineFileError(InputError):
