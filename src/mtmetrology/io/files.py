@@ -102,8 +102,10 @@ def check_output(path: str | os.PathLike, inputs: Iterable[str | os.PathLike] = 
         s = Path(source)
         if s.exists() and p.exists() and os.path.samefile(s, p):
             raise InputError(f"{p}: the output would overwrite the input {s}")
-    if p.exists() and not os.access(p, os.W_OK):
-        raise InputError(f"{p}: the file is read-only")
+    # A file without any write permission bit is read-only, even for root (who may
+    # write it): the mark says it is not to be replaced.
+    if p.exists() and (not os.access(p, os.W_OK) or not p.stat().st_mode & 0o222):
+        raise InputError(f"{p}: the file is read-only; choose another output")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise InputError(f"{p}: the directory {parent} is not writable")
     return p
