@@ -40,6 +40,7 @@ from mtmetrology.fitting.least_squares import (
     fit_sphere,
 )
 from mtmetrology.fitting.probe import compensate
+from mtmetrology.errors import InputError
 from mtmetrology.io import read_csv_table
 from mtmetrology.units import from_internal
 
@@ -248,8 +249,10 @@ def fit(
         if notes:
             extra["notes"] = notes
     except ValueError as exc:  # InputFileError, FitError, _UsageError, element checks
-        typer.echo(f"error: {exc}", err=True)
-        raise typer.Exit(code=2) from None
+        message = str(exc)
+        if not isinstance(exc, _UsageError) and str(points_csv) not in message:
+            message = f"{points_csv}: {message}"  # name the file the points came from
+        raise InputError(message) from None
     document = fit_document(
         element.value, method.value, str(points_csv), fitted, residuals, form_error, extra
     )

@@ -74,6 +74,12 @@ def predict(
     for start in range(0, len(table), CHUNK_ROWS):
         rows = slice(start, start + CHUNK_ROWS)
         xyz[rows] = m.forward(q[rows], theta, senses=None if senses is None else senses[rows])
+    bad = ~np.isfinite(xyz).all(axis=1)
+    if bad.any():
+        raise InputFileError(
+            f"{readings}, line {table.lines[np.argmax(bad)]}: the compensated position is not "
+            "finite; check the readings and the parameter set"
+        )
     columns = {c: table.text.column(c) for c in table.header}
     columns.update({c: format_decimal(xyz[:, k], 6) for k, c in enumerate("xyz")})
     if output is None:
