@@ -28,10 +28,12 @@ def main(args: list[str] | None = None) -> None:
     try:
         import typer
 
-        from mtmetrology.cli import _common, app
+        argv = sys.argv[1:] if args is None else list(args)
+        from mtmetrology.cli import COMMANDS, _common, build_app
 
+        app = build_app(argv[0] if argv and argv[0] in COMMANDS else None)
         try:
-            code = app(args=args, prog_name="mtm", standalone_mode=False)
+            code = app(args=argv, prog_name="mtm", standalone_mode=False)
         except typer.Abort:
             raise KeyboardInterrupt from None
         except _common.CLICK_EXCEPTION as err:

@@ -93,7 +93,10 @@ MACHINE_CASES = [
     ("travel-reversed", _replace("machine", "travel_mm: [-220, 230]", "travel_mm: [230, -220]")),
     ("travel-string", _replace("machine", "travel_mm: [-220, 230]", 'travel_mm: ["-220", 230]')),
     ("travel-deg-on-linear", _replace("machine", "travel_mm: [-220, 230]", "travel_deg: [-1, 1]")),
-    ("sign-true", _replace("machine", "sign: -1, travel_mm: [-220", "sign: true, travel_mm: [-220")),
+    (
+        "sign-true",
+        _replace("machine", "sign: -1, travel_mm: [-220", "sign: true, travel_mm: [-220"),
+    ),
     ("sign-two", _replace("machine", "sign: -1, travel_mm: [-220", "sign: 2, travel_mm: [-220")),
     ("version-99", _replace("machine", "version: 1", "version: 99")),
     ("version-true", _replace("machine", "version: 1", "version: true")),
@@ -143,17 +146,35 @@ PARAMS_CASES = [
     ("nan-literal", _replace("params", '"value": ', '"value": NaN, "x": ')),
     ("duplicate-key", _replace("params", '"version": 1,', '"version": 1,\n  "version": 1,')),
     ("not-json", _set("params", "{ this is not json")),
-    ("covariance-asymmetric", _json("params", lambda d: d.update(
-        covariance={"names": [p["name"] for p in d["parameters"]],
-                    "matrix": [[1.0 if i == j else (0.5 if i < j else 0.0)
-                                for j in range(len(d["parameters"]))]
-                               for i in range(len(d["parameters"]))]}))),
+    (
+        "covariance-asymmetric",
+        _json(
+            "params",
+            lambda d: d.update(
+                covariance={
+                    "names": [p["name"] for p in d["parameters"]],
+                    "matrix": [
+                        [
+                            1.0 if i == j else (0.5 if i < j else 0.0)
+                            for j in range(len(d["parameters"]))
+                        ]
+                        for i in range(len(d["parameters"]))
+                    ],
+                }
+            ),
+        ),
+    ),
 ]
 
 _RECORD_ROW = 5  # data row 5 is file line 6
 RECORDS_CASES = [
-    ("duplicate-header", _csv_lines("records", lambda ls: ["X,Y,Z,B,C,X", *[
-        line + ",0" if line else line for line in ls[1:]]])),
+    (
+        "duplicate-header",
+        _csv_lines(
+            "records",
+            lambda ls: ["X,Y,Z,B,C,X", *[line + ",0" if line else line for line in ls[1:]]],
+        ),
+    ),
     ("underscore-digits", _csv_cell("records", _RECORD_ROW, 0, "1_000")),
     ("arabic-indic-digits", _csv_cell("records", _RECORD_ROW, 1, "\u0661\u0662")),
     ("full-width-digits", _csv_cell("records", _RECORD_ROW, 2, "\uff11\uff12")),
@@ -168,16 +189,25 @@ RECORDS_CASES = [
     ("word", _csv_cell("records", _RECORD_ROW, 2, "twelve")),
     ("extra-field", _csv_cell("records", _RECORD_ROW, 4, "1,2")),
     ("missing-field", _csv_lines("records", lambda ls: [*ls[:6], "1,2,3", *ls[7:]])),
-    ("missing-column", _csv_lines("records", lambda ls: [
-        ",".join(line.split(",")[:4]) for line in ls])),
+    (
+        "missing-column",
+        _csv_lines("records", lambda ls: [",".join(line.split(",")[:4]) for line in ls]),
+    ),
     ("header-only", _set("records", "X,Y,Z,B,C\n")),
     ("empty", _set("records", "")),
     ("comments-only", _set("records", "# nothing\n\n")),
     ("not-utf8", lambda f: {**f, "records": f["records"].encode().replace(b"\n", b"\n\xff", 1)}),
     ("quoted-newline", _csv_cell("records", _RECORD_ROW, 4, '"1\n2"')),
-    ("sense-half", _csv_lines("records", lambda ls: [
-        (line + (",sense_B" if i == 0 else ",0.5")) if line else line
-        for i, line in enumerate(ls)])),
+    (
+        "sense-half",
+        _csv_lines(
+            "records",
+            lambda ls: [
+                (line + (",sense_B" if i == 0 else ",0.5")) if line else line
+                for i, line in enumerate(ls)
+            ],
+        ),
+    ),
 ]
 
 POINTS_CASES = [
@@ -190,7 +220,10 @@ POINTS_CASES = [
 ]
 
 POSES_CASES = [
-    ("missing-ball", _csv_lines("poses", lambda ls: [",".join(line.split(",")[1:]) for line in ls])),
+    (
+        "missing-ball",
+        _csv_lines("poses", lambda ls: [",".join(line.split(",")[1:]) for line in ls]),
+    ),
     ("outside-travel", _csv_cell("poses", 4, 3, "-500")),
     ("underscore-digits", _csv_cell("poses", 4, 1, "1_0")),
 ]
@@ -215,8 +248,14 @@ def _chain(n: int) -> str:
 
 
 MODEL_CASES = [
-    ("unit-rad-for-length", _replace("model", 'expression: "a + b", unit: µm', 'expression: "a + b", unit: rad')),
-    ("sum-of-length-and-temperature", _replace("model", "unit: µm}\n  - {name: b", "unit: °C}\n  - {name: b")),
+    (
+        "unit-rad-for-length",
+        _replace("model", 'expression: "a + b", unit: µm', 'expression: "a + b", unit: rad'),
+    ),
+    (
+        "sum-of-length-and-temperature",
+        _replace("model", "unit: µm}\n  - {name: b", "unit: °C}\n  - {name: b"),
+    ),
     ("duplicate-key", _replace("model", "name: sum and difference", "name: x\nname: y")),
     ("u-true", _replace("model", "u: 0.3", "u: true")),
     ("value-string", _replace("model", "value: 10.0", 'value: "10.0"')),
@@ -224,8 +263,16 @@ MODEL_CASES = [
     ("version-99", _replace("model", "version: 1", "version: 99")),
     ("unknown-key", _replace("model", "version: 1", "version: 1\noutput: []")),
     ("dof-true", _replace("model", "u: 0.3,", "u: 0.3, dof: true,")),
-    ("correlation-two", lambda f: {**f, "model": f["model"] + "correlations:\n  - {inputs: [a, b], r: 2}\n"}),
-    ("distribution-string", _replace("model", "value: 5.0, u: 0.4", 'distribution: {kind: rectangular, x: 5, a: "0.4"}')),
+    (
+        "correlation-two",
+        lambda f: {**f, "model": f["model"] + "correlations:\n  - {inputs: [a, b], r: 2}\n"},
+    ),
+    (
+        "distribution-string",
+        _replace(
+            "model", "value: 5.0, u: 0.4", 'distribution: {kind: rectangular, x: 5, a: "0.4"}'
+        ),
+    ),
     ("import", _replace("model", '"a + b"', "\"__import__('os').getcwd()\"")),
     ("attribute", _replace("model", '"a + b"', '"a.real + b"')),
     ("huge-expression", _replace("model", '"a + b"', '"' + "+".join(["a"] * 50_000) + '"')),
@@ -237,17 +284,29 @@ MODEL_CASES = [
 ]
 
 OPTION_CASES = [
-    ("trials-huge", UNC[:3] + ["--method", "mcm", "--trials", "10000000000000"], None),
-    ("trials-one", UNC[:3] + ["--method", "mcm", "--trials", "1"], None),
-    ("adaptive-digits-12", ["uncertainty", "run", "{model}", "--method", "mcm", "--adaptive", "--digits", "12"], None),
+    ("trials-huge", [*UNC[:3], "--method", "mcm", "--trials", "10000000000000"], None),
+    ("trials-one", [*UNC[:3], "--method", "mcm", "--trials", "1"], None),
+    (
+        "adaptive-digits-12",
+        ["uncertainty", "run", "{model}", "--method", "mcm", "--adaptive", "--digits", "12"],
+        None,
+    ),
     ("p-above-one", ["uncertainty", "run", "{model}", "--p", "1.5"], None),
-    ("show-degree-huge", ["machine", "show", "{machine}", "--catalogue", "--degree", "100000"], None),
-    ("show-degree-negative", ["machine", "show", "{machine}", "--catalogue", "--degree", "-1"], None),
-    ("sigma-nan", IDENT + ["--sigma-um", "nan"], None),
-    ("tip-radius-negative", FIT + ["--tip-radius", "-1"], None),
-    ("output-onto-input", PREDICT[:-1] + ["{records}"], "records"),
-    ("output-missing-directory", PREDICT[:-1] + ["{dir}/missing/out.csv"], "out.csv"),
-    ("output-is-directory", PREDICT[:-1] + ["{dir}"], "dir"),
+    (
+        "show-degree-huge",
+        ["machine", "show", "{machine}", "--catalogue", "--degree", "100000"],
+        None,
+    ),
+    (
+        "show-degree-negative",
+        ["machine", "show", "{machine}", "--catalogue", "--degree", "-1"],
+        None,
+    ),
+    ("sigma-nan", [*IDENT, "--sigma-um", "nan"], None),
+    ("tip-radius-negative", [*FIT, "--tip-radius", "-1"], None),
+    ("output-onto-input", [*PREDICT[:-1], "{records}"], "records"),
+    ("output-missing-directory", [*PREDICT[:-1], "{dir}/missing/out.csv"], "out.csv"),
+    ("output-is-directory", [*PREDICT[:-1], "{dir}"], "dir"),
     ("records-is-directory", ["predict", "--machine", "{machine}", "{dir}"], "dir"),
     ("records-missing", ["predict", "--machine", "{machine}", "{dir}/none.csv"], "none.csv"),
 ]

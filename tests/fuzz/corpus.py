@@ -74,9 +74,7 @@ def _records() -> str:
         "B": rng.uniform(-90, 90, n),
         "C": rng.uniform(0, 360, n),
     }
-    lines = ["X,Y,Z,B,C"] + [
-        ",".join(f"{cols[c][i]:.4f}" for c in cols) for i in range(n)
-    ]
+    lines = ["X,Y,Z,B,C"] + [",".join(f"{cols[c][i]:.4f}" for c in cols) for i in range(n)]
     return "\n".join(lines) + "\n"
 
 

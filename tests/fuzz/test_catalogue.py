@@ -4,7 +4,6 @@ nothing written), valid-but-unusual ones succeed."""
 from __future__ import annotations
 
 import pytest
-
 from tests.fuzz.catalogue import base_files, cases
 from tests.fuzz.conftest import sampled
 from tests.fuzz.corpus import materialise, run
@@ -19,8 +18,10 @@ def test_catalogue_case(case, tmp_path, census):
     paths = materialise(tmp_path, case.mutate(dict(base_files())))
     args = [a.format(**paths) for a in case.args]
     outcome = run(args, tmp_path, None if case.names is None else paths.get(case.names, case.names))
-    label = outcome.label if case.expect == "refused" else (
-        "accepted" if outcome.exit_code == 0 and outcome.label != "slow" else "refused-valid"
+    label = (
+        outcome.label
+        if case.expect == "refused"
+        else ("accepted" if outcome.exit_code == 0 and outcome.label != "slow" else "refused-valid")
     )
     census[label] += 1
     if case.expect == "accepted":

@@ -16,7 +16,6 @@ from pathlib import Path
 import yaml
 from hypothesis import given
 from hypothesis import strategies as st
-
 from tests.fuzz.catalogue import CHECK, PREDICT, base_files
 from tests.fuzz.conftest import CENSUS, fuzz_settings
 from tests.fuzz.corpus import materialise, run
@@ -119,9 +118,9 @@ EXPRESSION = st.recursive(
         st.tuples(inner, st.sampled_from(["+", "-", "*", "/", "**", "%", "<", "and"]), inner).map(
             lambda t: f"({t[0]} {t[1]} {t[2]})"
         ),
-        st.tuples(st.sampled_from(["sqrt", "exp", "log", "sin", "hypot", "open", "abs"]), inner).map(
-            lambda t: f"{t[0]}({t[1]})"
-        ),
+        st.tuples(
+            st.sampled_from(["sqrt", "exp", "log", "sin", "hypot", "open", "abs"]), inner
+        ).map(lambda t: f"{t[0]}({t[1]})"),
     ),
     max_leaves=12,
 )

@@ -27,6 +27,7 @@ import typer
 from rich.console import Console
 from rich.table import Table as RichTable
 
+from mtmetrology.errors import InputError
 from mtmetrology.fitting import minimum_zone
 from mtmetrology.fitting.documents import fit_document
 from mtmetrology.fitting.elements import Circle, Cone, Cylinder, Line, Sphere
@@ -40,7 +41,6 @@ from mtmetrology.fitting.least_squares import (
     fit_sphere,
 )
 from mtmetrology.fitting.probe import compensate
-from mtmetrology.errors import InputError
 from mtmetrology.io import read_csv_table
 from mtmetrology.units import from_internal
 

@@ -14,7 +14,6 @@ from mtmetrology.io import (
     InputFileError,
     atomic_write,
     check_output,
-    format_decimal,
     read_csv_table,
     write_columns,
 )
@@ -81,11 +80,12 @@ def predict(
             "finite; check the readings and the parameter set"
         )
     columns = {c: table.text.column(c) for c in table.header}
-    columns.update({c: format_decimal(xyz[:, k], 6) for k, c in enumerate("xyz")})
+    columns.update({c: xyz[:, k] for k, c in enumerate("xyz")})
+    plain = () if table.quoted else table.header
     if output is None:
-        write_columns(sys.stdout.buffer, columns)
+        write_columns(sys.stdout.buffer, columns, decimals=6, plain=plain)
         sys.stdout.flush()
         return
     with atomic_write(output, "wb") as fh:
-        write_columns(fh, columns)
+        write_columns(fh, columns, decimals=6, plain=plain)
     typer.echo(f"wrote {len(table)} rows to {output}", err=True)

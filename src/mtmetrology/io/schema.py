@@ -26,7 +26,14 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Strict, ValidationError
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Strict,
+    ValidationError,
+    model_validator,
+)
 
 __all__ = [
     "Integer",
@@ -64,9 +71,19 @@ Version = Annotated[int, Strict(), AfterValidator(_version_one)]
 
 
 class StrictModel(BaseModel):
-    """Base of file schemas: unknown keys refused, non-finite floats refused, frozen."""
+    """Base of file schemas: unknown keys, empty values (``key:`` or ``key: null``, which
+    would silently mean "the default") and non-finite floats refused; frozen."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_empty_values(cls, data):
+        if isinstance(data, dict):
+            empty = next((k for k, v in data.items() if v is None), None)
+            if empty is not None:
+                raise ValueError(f"{empty}: empty value; give a value or leave the key out")
+        return data
 
 
 def describe_validation_error(source: str, what: str, err: ValidationError) -> str:

@@ -70,6 +70,7 @@ _BOM = b"\xef\xbb\xbf"
 _MAYBE_SKIPPED = np.array([0x09, 0x0A, 0x0D, 0x20, 0x23, 0x2C], dtype=np.uint8)
 _NEEDS_QUOTES = r'[,"\r\n]'
 _CHUNK_ROWS = 1 << 17
+_SCAN_BYTES = 1 << 22
 
 
 def _skipped(line: bytes) -> bool:
@@ -90,13 +91,24 @@ class Table:
         The 1-based file line of each data row.
     text : pyarrow.Table
         The cells as written (string columns named by ``header``).
+    quoted : bool
+        Whether the file holds a double quote at all; without one no cell can hold a
+        comma or a line end, and :func:`write_columns` need not look for them.
     """
 
-    def __init__(self, path: str, header: Sequence[str], text: pa.Table, lines: np.ndarray):
+    def __init__(
+        self,
+        path: str,
+        header: Sequence[str],
+        text: pa.Table,
+        lines: np.ndarray,
+        quoted: bool = True,
+    ):
         self.path = path
         self.header = tuple(header)
         self.text = text
         self.lines = lines
+        self.quoted = quoted
 
     def __len__(self) -> int:
         return int(self.lines.size)
@@ -105,12 +117,12 @@ class Table:
         """Whether the file has a column ``name``."""
         return name in self.header
 
-    def _column(self, name: str) -> pa.Array:
+    def _column(self, name: str) -> pa.ChunkedArray:
         if name not in self.header:
             raise InputFileError(
                 f"{self.path}: missing column {name!r} (columns present: {', '.join(self.header)})"
             )
-        return self.text.column(name).combine_chunks()
+        return self.text.column(name)
 
     def strings(self, name: str) -> list[str]:
         """A column as stripped strings (raises :class:`InputFileError` if missing)."""
@@ -147,10 +159,18 @@ class Table:
         InputFileError
             Naming the file, the line, the column and the cell.
         """
-        col = pc.utf8_trim_whitespace(self._column(name))
+        col = self._column(name)
         try:
             values = pc.cast(col, pa.float64()).to_numpy(zero_copy_only=False)
         except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+            values = None  # padded cells (" 1.5 ") or not numbers at all: look closer
+        if values is None:
+            col = pc.utf8_trim_whitespace(col)
+            try:
+                values = pc.cast(col, pa.float64()).to_numpy(zero_copy_only=False)
+            except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+                values = None
+        if values is None:
             i = _first_unparsable(col)
             cell = col[i].as_py()
             what = "an empty cell" if cell == "" else repr(cell)
@@ -230,8 +250,16 @@ def _body(data: bytes, offset: int) -> tuple[pa.Buffer, np.ndarray, np.ndarray]:
     """The data rows without blank and comment lines, their 0-based line index after the
     header, and the byte range (start, end) of every body line in ``data[offset:]``."""
     buf = np.frombuffer(data, dtype=np.uint8, offset=offset)
-    newlines = np.flatnonzero(buf == 0x0A)
+    # Line ends found a block at a time: no byte-sized mask of the whole file in memory.
+    newlines = np.concatenate(
+        [np.zeros(0, dtype=np.int64)]
+        + [
+            np.flatnonzero(buf[k : k + _SCAN_BYTES] == 0x0A) + k
+            for k in range(0, buf.size, _SCAN_BYTES)
+        ]
+    )
     starts = np.concatenate([[0], newlines + 1])
+    del newlines
     if starts[-1] == buf.size:  # a final line end does not start a line
         starts = starts[:-1]
     stops = np.append(starts[1:], buf.size)  # line ends included
@@ -300,11 +328,13 @@ def read_csv_table(
         raise InputFileError(f"{p}: {rows.size} data rows, at least {min_rows} needed")
     if rows.size == 0:
         text = pa.table({c: pa.array([], pa.string()) for c in header})
-        return Table(str(p), header, text, lines)
+        return Table(str(p), header, text, lines, quoted=False)
     try:
         text = pacsv.read_csv(
             pa.BufferReader(body),
-            read_options=pacsv.ReadOptions(column_names=header, block_size=1 << 24),
+            read_options=pacsv.ReadOptions(
+                column_names=header, use_threads=False, block_size=1 << 22
+            ),
             parse_options=pacsv.ParseOptions(newlines_in_values=False, ignore_empty_lines=False),
             convert_options=pacsv.ConvertOptions(
                 column_types={c: pa.string() for c in header},
@@ -316,7 +346,7 @@ def read_csv_table(
         raise InputFileError(_ragged(p, data, offset, starts, rows, lines, len(header))) from None
     if text.num_rows != rows.size:
         raise InputFileError(_ragged(p, data, offset, starts, rows, lines, len(header)))
-    return Table(str(p), header, text, lines)
+    return Table(str(p), header, text, lines, quoted=data.find(b'"', offset) >= 0)
 
 
 def format_decimal(values: np.ndarray, decimals: int) -> pa.Array:
@@ -342,16 +372,27 @@ def _quoted(column: pa.Array) -> pa.Array:
     return pc.if_else(needs, wrapped, column)
 
 
-def write_columns(fh: IO[bytes], columns: Mapping[str, pa.Array | pa.ChunkedArray]) -> int:
-    """Write a header and the rows of equally long string columns to a binary file.
+def write_columns(
+    fh: IO[bytes],
+    columns: Mapping[str, pa.Array | pa.ChunkedArray | np.ndarray],
+    *,
+    decimals: int = 6,
+    plain: Sequence[str] = (),
+) -> int:
+    """Write a header and the rows of equally long columns to a binary file, in chunks.
 
     Parameters
     ----------
     fh : binary file
         Usually the handle of :func:`mtmetrology.io.files.atomic_write` opened ``"wb"``.
-    columns : mapping of str to pyarrow string arrays, length n each
-        Output columns in order (e.g. ``table.text`` columns and :func:`format_decimal`
-        results).
+    columns : mapping of str to pyarrow string arrays or float ndarrays, length n each
+        Output columns in order: text (e.g. ``table.text`` columns) or numbers, written
+        by :func:`format_decimal` with ``decimals`` one chunk at a time.
+    decimals : int
+        Decimals of the number columns.
+    plain : sequence of str
+        Text columns known to hold no comma, quote or line end (not searched for them;
+        see :attr:`Table.quoted`).
 
     Returns
     -------
@@ -362,17 +403,23 @@ def write_columns(fh: IO[bytes], columns: Mapping[str, pa.Array | pa.ChunkedArra
     out = io.StringIO()
     csv.writer(out, lineterminator="\n").writerow(names)
     fh.write(out.getvalue().encode("utf-8"))
-    arrays = [_flat(columns[c]) for c in names]
+    arrays = [columns[c] for c in names]
     n = len(arrays[0]) if arrays else 0
     for start in range(0, n, _CHUNK_ROWS):
-        rows = pc.binary_join_element_wise(
-            *(_quoted(a.slice(start, _CHUNK_ROWS)) for a in arrays), ","
-        )
+        parts = []
+        for name, a in zip(names, arrays, strict=True):
+            if isinstance(a, np.ndarray):
+                parts.append(format_decimal(a[start : start + _CHUNK_ROWS], decimals))
+            elif name in plain:
+                parts.append(_flat(a.slice(start, _CHUNK_ROWS)))
+            else:
+                parts.append(_quoted(_flat(a.slice(start, _CHUNK_ROWS))))
+        rows = pc.binary_join_element_wise(*parts, ",")
         fh.write(_data(pc.binary_join_element_wise(rows, "", "\n")))  # "row" + "\n" + ""
     return n
 
 
-def _flat(column: pa.Array | pa.ChunkedArray) -> pa.Array:
+def _flat(column):
     return column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
 
 

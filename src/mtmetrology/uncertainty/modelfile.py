@@ -34,7 +34,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from mtmetrology.io import InputFileError
 from mtmetrology.io.documents import load_document
-from mtmetrology.io.schema import Number, Text, Version, describe_validation_error
+from mtmetrology.io.schema import Number, StrictModel, Text, Version, describe_validation_error
 from mtmetrology.uncertainty.dimensions import check_output_units
 from mtmetrology.uncertainty.distributions import make_distribution
 from mtmetrology.uncertainty.expressions import (
@@ -65,8 +65,7 @@ __all__ = [
 # --------------------------------------------------------------------------- file schema
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+_Strict = StrictModel  # unknown keys, empty values, non-finite numbers refused
 
 
 class DistributionSpec(BaseModel):
@@ -119,7 +118,7 @@ class ModelSpec(_Strict):
     name: Text = ""
     description: Text = ""
     inputs: list[InputSpec] = Field(min_length=1)
-    correlations: list[CorrelationSpec] = []
+    correlations: list[CorrelationSpec] = Field(default_factory=list)
     outputs: list[OutputSpec] = Field(min_length=1)
 
 
