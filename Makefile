@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint format bench clean
+.PHONY: demo test lint format bench fuzz clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -29,6 +29,11 @@ lint: $(STAMP)
 format: $(STAMP)
 	$(BIN)/ruff format .
 	$(BIN)/ruff check --fix .
+
+# The whole fuzz corpus (CI runs a sample of it with `make test`): every catalogue case,
+# many hypothesis examples per strategy, 20 SIGINT and 20 SIGKILL runs; prints the census.
+fuzz: $(STAMP)
+	MTM_FUZZ=all $(BIN)/python -m pytest tests/fuzz -q -p no:xdist
 
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e ".[test,bench]"
