@@ -4,7 +4,9 @@ instruction.
 This module imports nothing heavy before it can answer Ctrl-C: a SIGINT during start-up
 (importing numpy, scipy, pyarrow ... takes about a second) or during a run prints one
 line, ``interrupted; nothing written``, and exits with code 130; outputs are written
-atomically, so that line is true.
+atomically, so that line is true (in the last instant of a run, after its output was
+completed, the line names the output instead).  Once the command has returned, SIGINT is
+ignored: the exit of the interpreter has nothing left to stop.
 """
 
 from __future__ import annotations
@@ -18,7 +20,10 @@ EXIT_INTERRUPTED = 130
 
 def _interrupted() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not add a traceback
-    sys.stderr.write(INTERRUPTED + "\n")
+    message = INTERRUPTED
+    if "mtmetrology.cli._common" in sys.modules:  # start-up is over: an output may be done
+        message = sys.modules["mtmetrology.cli._common"].interrupted_message()
+    sys.stderr.write(message + "\n")
     sys.stderr.flush()
     raise SystemExit(EXIT_INTERRUPTED)
 
@@ -33,7 +38,12 @@ def main(args: list[str] | None = None) -> None:
 
         app = build_app(argv[0] if argv and argv[0] in COMMANDS else None)
         try:
-            code = app(args=argv, prog_name="mtm", standalone_mode=False)
+            try:
+                code = app(args=argv, prog_name="mtm", standalone_mode=False)
+            finally:
+                # The run is over (done, refused or interrupted): a later Ctrl-C, during
+                # the exit of the interpreter, has nothing left to stop.
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
         except typer.Abort:
             raise KeyboardInterrupt from None
         except _common.CLICK_EXCEPTION as err:

@@ -16,6 +16,9 @@ from typer.testing import CliRunner
 from mtmetrology.cli._common import MtmGroup
 from mtmetrology.errors import EnvironmentFailure, InputError, ResourceLimitError
 
+#: ``mtm`` as its console script runs it.
+MTM = [sys.executable, "-c", "from mtmetrology.__main__ import main; main()"]
+
 FAILURES = {
     "input": InputError("records.csv, line 3: column 'X' holds 'x', not a number"),
     "limit": ResourceLimitError("--trials 10000000000000: give 2 to 50000000 trials"),
@@ -71,14 +74,14 @@ def test_a_bug_is_an_internal_error_and_debug_shows_the_traceback():
 def test_sigint_during_start_up_is_one_line_and_130(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2] / "src")}
     process = subprocess.Popen(
-        [sys.executable, "-m", "mtmetrology", "machine", "list"],
+        [*MTM, "machine", "list"],
         env=env,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
     )
     time.sleep(0.15)  # Python is up; the command line is still being imported
     process.send_signal(signal.SIGINT)
-    stdout, stderr = process.communicate(timeout=60)
+    _, stderr = process.communicate(timeout=60)
     if process.returncode == 0:  # pragma: no cover - a very fast machine finished first
         pytest.skip("the command finished before the signal")
     assert process.returncode == 130, stderr

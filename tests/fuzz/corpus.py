@@ -16,11 +16,14 @@ from __future__ import annotations
 import json
 import os
 import time
+import zlib
+from collections import Counter
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
+from hypothesis import HealthCheck, settings
 from typer.testing import CliRunner
 
 from mtmetrology.cli import app
@@ -29,6 +32,29 @@ from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.samba import SambaSetup, probing_sequence
 
 SLOW_SECONDS = 20.0
+#: ``MTM_FUZZ=all`` (``make fuzz``) runs the whole corpus; CI runs a sample.
+FULL = os.environ.get("MTM_FUZZ", "") == "all"
+#: Classes of every run of this session (printed by the conftest at the end).
+CENSUS: Counter = Counter()
+
+settings.register_profile(
+    "fuzz-ci", max_examples=4, deadline=None, suppress_health_check=list(HealthCheck)
+)
+settings.register_profile(
+    "fuzz-all", max_examples=150, deadline=None, suppress_health_check=list(HealthCheck)
+)
+
+
+def sampled(case_id: str, every: int = 6) -> bool:
+    """Whether a case runs in the CI sample (a fixed, spread subset of the catalogue)."""
+    return FULL or zlib.crc32(case_id.encode()) % every == 0
+
+
+def fuzz_settings():
+    """The hypothesis settings of the current mode."""
+    return settings.get_profile("fuzz-all" if FULL else "fuzz-ci")
+
+
 MACHINE = (
     resources.files("mtmetrology.kinematics")
     .joinpath("presets/five-axis-wcbxfzyst.yaml")

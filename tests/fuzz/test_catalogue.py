@@ -5,8 +5,7 @@ from __future__ import annotations
 
 import pytest
 from tests.fuzz.catalogue import base_files, cases
-from tests.fuzz.conftest import sampled
-from tests.fuzz.corpus import materialise, run
+from tests.fuzz.corpus import materialise, run, sampled
 
 CASES = cases()
 

@@ -17,8 +17,7 @@ import yaml
 from hypothesis import given
 from hypothesis import strategies as st
 from tests.fuzz.catalogue import CHECK, PREDICT, base_files
-from tests.fuzz.conftest import CENSUS, fuzz_settings
-from tests.fuzz.corpus import materialise, run
+from tests.fuzz.corpus import CENSUS, fuzz_settings, materialise, run
 
 #: Values that are never a valid number in a file: non-finite, booleans, numbers as text,
 #: nothing, containers.

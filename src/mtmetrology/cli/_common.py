@@ -35,6 +35,7 @@ from mtmetrology.errors import (
     MtmetrologyError,
 )
 from mtmetrology.io import InputFileError, Table
+from mtmetrology.io.files import committed
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.units import from_internal
 
@@ -45,6 +46,7 @@ __all__ = [
     "describe_failure",
     "fail",
     "interrupt_reported",
+    "interrupted_message",
     "print_json",
     "readings_from_table",
     "senses_from_table",
@@ -55,6 +57,15 @@ INTERRUPTED = "interrupted; nothing written"
 #: Typer's usage errors (its own or click's, depending on the Typer version).
 CLICK_EXCEPTION = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
 _REPORTED: list[bool] = []  # set when the interruption line has been printed
+
+
+def interrupted_message() -> str:
+    """:data:`INTERRUPTED`, or, if the interruption came after an output was completed
+    (the last instant of a run), which output is complete."""
+    done = committed()
+    if not done:
+        return INTERRUPTED
+    return f"interrupted; {', '.join(str(p) for p in done)} written completely"
 
 
 def interrupt_reported() -> bool:
@@ -77,7 +88,7 @@ def describe_failure(err: BaseException) -> tuple[str, int]:
     ('error: out.csv: Permission denied', 3)
     """
     if isinstance(err, KeyboardInterrupt):
-        return INTERRUPTED, EXIT_INTERRUPTED
+        return interrupted_message(), EXIT_INTERRUPTED
     if isinstance(err, MtmetrologyError):
         return f"error: {_one_line(err)}", err.exit_code
     if isinstance(err, RecursionError):

@@ -31,9 +31,18 @@ __all__ = [
     "InputFileError",
     "atomic_write",
     "check_output",
+    "committed",
     "sweep_temporaries",
     "write_json",
 ]
+
+_COMMITTED: list[Path] = []
+
+
+def committed() -> tuple[Path, ...]:
+    """The targets :func:`atomic_write` completed in this process (for an interrupted
+    command to say truthfully whether something was written)."""
+    return tuple(_COMMITTED)
 
 
 class InputFileError(InputError):
@@ -199,6 +208,7 @@ def atomic_write(
             if anonymous:
                 _link(fh.fileno(), named)
         os.replace(named, target)
+        _COMMITTED.append(target)
     except BaseException as err:
         with suppress(OSError):
             named.unlink()
