@@ -247,8 +247,8 @@ def _header(p: Path, data: bytes) -> tuple[int, list[str], int]:
 
 
 def _body(data: bytes, offset: int) -> tuple[pa.Buffer, np.ndarray, np.ndarray]:
-    """The data rows without blank and comment lines, their 0-based line index after the
-    header, and the byte range (start, end) of every body line in ``data[offset:]``."""
+    """The data rows without blank and comment lines (one buffer), their 0-based line
+    index after the header, and the byte offset in ``data[offset:]`` of every body line."""
     buf = np.frombuffer(data, dtype=np.uint8, offset=offset)
     # Line ends found a block at a time: no byte-sized mask of the whole file in memory.
     newlines = np.concatenate(
