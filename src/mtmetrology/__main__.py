@@ -11,7 +11,6 @@ ignored: the exit of the interpreter has nothing left to stop.
 
 from __future__ import annotations
 
-import signal
 import sys
 
 INTERRUPTED = "interrupted; nothing written"
@@ -19,6 +18,8 @@ EXIT_INTERRUPTED = 130
 
 
 def _interrupted() -> None:
+    import signal
+
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not add a traceback
     message = INTERRUPTED
     if "mtmetrology.cli._common" in sys.modules:  # start-up is over: an output may be done
@@ -31,6 +32,8 @@ def _interrupted() -> None:
 def main(args: list[str] | None = None) -> None:
     """Run ``mtm`` with ``args`` (default: the process arguments) and exit."""
     try:
+        import signal  # here, not above: importing it is already a moment to answer
+
         import typer
 
         argv = sys.argv[1:] if args is None else list(args)

@@ -11,6 +11,7 @@ CI runs 2 of each signal; ``MTM_FUZZ=all`` runs 20 of each.
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -70,13 +71,23 @@ def reference(tmp_path_factory):
 
 
 def _before_any_project_code(returncode: int, stderr: bytes) -> bool:
-    """A SIGINT in the first milliseconds stops Python itself (before its SIGINT handler is
-    installed: killed by the signal; or while ``site`` imports: a fatal start-up error),
-    before one line of mtmetrology runs; it can be neither caught nor worded by it."""
+    """A SIGINT in the first milliseconds stops Python itself: before its SIGINT handler is
+    installed (killed by the signal), while ``site`` imports, or while the entry point
+    ``from mtmetrology.__main__ import main`` is being imported (two files of a few lines
+    that import nothing else), before the ``try`` of :func:`mtmetrology.__main__.main`
+    can catch it."""
     text = stderr.decode()
-    return (returncode == -signal.SIGINT and not text) or (
-        "init_import_site" in text and "mtmetrology" not in text
+    if returncode == -signal.SIGINT and not text:
+        return True
+    frames = re.findall(r'File "([^"]+)"', text)
+    entry = ("<string>", "mtmetrology/__init__.py", "mtmetrology/__main__.py")
+    return text.rstrip().endswith("KeyboardInterrupt") and all(
+        f.startswith("<frozen ") or f.endswith(entry) or _stdlib(f) for f in frames
     )
+
+
+def _stdlib(frame_file: str) -> bool:
+    return "/lib/python3" in frame_file and "site-packages" not in frame_file
 
 
 def _temporaries(directory: Path) -> list[str]:

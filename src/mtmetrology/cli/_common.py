@@ -59,10 +59,12 @@ CLICK_EXCEPTION = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "C
 _REPORTED: list[bool] = []  # set when the interruption line has been printed
 
 
-def interrupted_message() -> str:
+def interrupted_message(since: int = 0) -> str:
     """:data:`INTERRUPTED`, or, if the interruption came after an output was completed
-    (the last instant of a run), which output is complete."""
-    done = committed()
+    (the last instant of a run), which output is complete.
+
+    ``since`` is the number of outputs the process had completed before this run."""
+    done = committed()[since:]
     if not done:
         return INTERRUPTED
     return f"interrupted; {', '.join(str(p) for p in done)} written completely"
@@ -77,8 +79,11 @@ def _one_line(text: str) -> str:
     return " ".join(str(text).split())
 
 
-def describe_failure(err: BaseException) -> tuple[str, int]:
-    """The one-line message (without ``error:``) and exit code for an exception.
+def describe_failure(err: BaseException, outputs_before: int = 0) -> tuple[str, int]:
+    """The one-line message and exit code for an exception.
+
+    ``outputs_before``: outputs the process had completed before the run (an interruption
+    says which outputs of this run are complete, if any).
 
     Examples
     --------
@@ -88,7 +93,7 @@ def describe_failure(err: BaseException) -> tuple[str, int]:
     ('error: out.csv: Permission denied', 3)
     """
     if isinstance(err, KeyboardInterrupt):
-        return interrupted_message(), EXIT_INTERRUPTED
+        return interrupted_message(outputs_before), EXIT_INTERRUPTED
     if isinstance(err, MtmetrologyError):
         return f"error: {_one_line(err)}", err.exit_code
     if isinstance(err, RecursionError):
@@ -111,12 +116,13 @@ class MtmGroup(TyperGroup):
 
     def invoke(self, ctx: typer.Context):
         debug = bool(ctx.params.get("debug")) or os.environ.get("MTM_DEBUG", "") not in ("", "0")
+        outputs_before = len(committed())
         try:
             return super().invoke(ctx)
         except (typer.Exit, typer.Abort, CLICK_EXCEPTION):
             raise
         except KeyboardInterrupt:
-            message, code = describe_failure(KeyboardInterrupt())
+            message, code = describe_failure(KeyboardInterrupt(), outputs_before)
             _REPORTED.append(True)
         except Exception as err:
             if debug:

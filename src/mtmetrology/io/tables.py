@@ -11,8 +11,8 @@ worse than no number, so the reader is both a C parser (Apache Arrow) and strict
 - numbers follow the C grammar ``[+-]digits[.digits][e[+-]digits]`` of Arrow's parser:
   ``1_000``, ``1,5``, ``0x10``, Arabic-Indic or full-width digits, which Python's
   ``float()`` accepts, are refused with the line and column; NaN, infinities, and
-  magnitudes beyond :data:`MAX_MAGNITUDE` are refused unless asked for.  Spaces around a
-  cell are allowed.
+  magnitudes beyond :data:`MAX_MAGNITUDE` are refused unless asked for.  ASCII spaces
+  and tabs around a cell are allowed (a no-break space is not).
 
 Columns stay as compact Arrow string arrays until a command asks for them as numbers
 (:meth:`Table.floats`) or text (:meth:`Table.strings`), so identifiers such as ``00``
@@ -126,7 +126,7 @@ class Table:
 
     def strings(self, name: str) -> list[str]:
         """A column as stripped strings (raises :class:`InputFileError` if missing)."""
-        return pc.utf8_trim_whitespace(self._column(name)).to_pylist()
+        return _trim(self._column(name)).to_pylist()
 
     def floats(
         self,
@@ -165,7 +165,7 @@ class Table:
         except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
             values = None  # padded cells (" 1.5 ") or not numbers at all: look closer
         if values is None:
-            col = pc.utf8_trim_whitespace(col)
+            col = _trim(col)
             try:
                 values = pc.cast(col, pa.float64()).to_numpy(zero_copy_only=False)
             except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
@@ -196,6 +196,12 @@ class Table:
                 f"outside [{low:g}, {high:g}]{u}"
             )
         return values
+
+
+def _trim(column):
+    """Cells without the ASCII spaces and tabs around them (not Unicode spaces: a
+    no-break space is no padding a number may carry)."""
+    return pc.utf8_trim(column, characters=" \t")
 
 
 def _first_unparsable(col: pa.Array) -> int:
