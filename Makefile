@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 # Material for MkDocs prints a banner about MkDocs 2.0 on every build; it is not a warning.
 export NO_MKDOCS_2_WARNING := 1
 
-.PHONY: demo test docs lint format bench clean
+.PHONY: demo test docs lint format bench fuzz clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -35,6 +35,11 @@ lint: $(STAMP)
 format: $(STAMP)
 	$(BIN)/ruff format .
 	$(BIN)/ruff check --fix .
+
+# The whole fuzz corpus (CI runs a sample of it with `make test`): every catalogue case,
+# many hypothesis examples per strategy, 20 SIGINT and 20 SIGKILL runs; prints the census.
+fuzz: $(STAMP)
+	MTM_FUZZ=all $(BIN)/python -m pytest tests/fuzz -q -p no:xdist
 
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e ".[test,bench]"

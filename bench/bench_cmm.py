@@ -60,8 +60,8 @@ def setup():
         kind="ballplate-positions",
         positions=[
             {"id": "H", "origin_mm": [330, 230, 150], "rotation_deg": [0, 0, 0], "probes": ids},
-            {"id": "VX", "origin_mm": [330, 500, 80], "rotation_deg": [90, 0, 0], "probes": ids},
-            {"id": "VY", "origin_mm": [600, 230, 80], "rotation_deg": [90, 0, 90], "probes": ids},
+            {"id": "VX", "origin_mm": [330, 500, 10], "rotation_deg": [90, 0, 0], "probes": ids},
+            {"id": "VY", "origin_mm": [600, 230, 10], "rotation_deg": [90, 0, 90], "probes": ids},
             {"id": "T", "origin_mm": [330, 230, 120], "rotation_deg": [30, 0, 0], "probes": ids},
         ],
     )

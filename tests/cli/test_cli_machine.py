@@ -31,7 +31,8 @@ def poses(tmp_path_factory):
         balls={"1": (-80, -40, 100), "2": (80, 120, 150)},
         scale_bar={"SB1": (-152.60525, 0, 30), "SB2": (152.60525, 0, 30)},
     )
-    pairs = [(b, c) for b in (-90, -45, 0, 45, 90) for c in range(0, 360, 60)]
+    # B within ±60°: at ±90° the scale-bar ends would need Z below its travel (-110 mm)
+    pairs = [(b, c) for b in (-60, -30, 0, 30, 60) for c in range(0, 360, 60)]
     ids, q = probing_sequence(m, setup, pairs)
     c = m.readings_to_customary(q)
     d = tmp_path_factory.mktemp("poses")

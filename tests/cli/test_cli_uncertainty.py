@@ -112,4 +112,4 @@ def test_bad_model_file_names_file_and_token(tmp_path):
     assert result.exit_code == 2
     assert "evil.yaml: output 's': call to '__import__' is not allowed" in result.output
     result = runner.invoke(app, ["uncertainty", "run", str(tmp_path / "none.yaml")])
-    assert result.exit_code == 2 and "cannot read model file" in result.output
+    assert result.exit_code == 2 and "none.yaml: file not found" in result.output

@@ -30,8 +30,8 @@ def make_positions(*specs) -> PositionSet:
 #: horizontal, two vertical (XZ and YZ planes), tilted; D is the held-out diagonal
 TRAIN = [
     ("H", [330, 230, 150], [0, 0, 0], ALL),
-    ("VX", [330, 500, 80], [90, 0, 0], ALL),
-    ("VY", [600, 230, 80], [90, 0, 90], ALL),
+    ("VX", [330, 500, 10], [90, 0, 0], ALL),
+    ("VY", [600, 230, 10], [90, 0, 90], ALL),
     ("T", [330, 230, 120], [30, 0, 0], ALL),
 ]
-DIAGONAL = ("D", [300, 300, 60], [90, 0, 45], ALL)
+DIAGONAL = ("D", [300, 300, 10], [90, 0, 45], ALL)

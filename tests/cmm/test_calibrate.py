@@ -70,7 +70,7 @@ def test_held_out_diagonal_lengths_and_coverage(base, truth, plate3, probes):
 def test_horizontal_only_is_rank_deficient_and_vertical_fixes_it(base, truth, plate3, probes):
     """One plate height: a Z scale error is a plate shift (Salacheep 2016, §4.6: location 0
     alone is rank deficient); the error names it; a vertical position separates it."""
-    horizontal = [("H1", [330, 230, 150], [0, 0, 0], ALL), ("H2", [300, 200, 150], [0, 0, 90], ALL)]
+    horizontal = [("H1", [330, 230, 150], [0, 0, 0], ALL), ("H2", [600, 200, 150], [0, 0, 90], ALL)]
     camp = _campaign(truth, plate3, probes, horizontal, seed=3)
     with pytest.raises(RankDeficientError) as err:
         calibrate_ballplate(base, camp.records, plate3, probes, model="seed", sigma=SIGMA)

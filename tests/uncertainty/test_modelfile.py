@@ -75,7 +75,7 @@ def test_outputs_can_use_earlier_outputs_and_constant_outputs_broadcast():
     doc = _doc()
     doc["outputs"] = [
         {"name": "area", "expression": "pi * a**2 / 4"},
-        {"name": "twice", "expression": "2 * area + 0 * b"},
+        {"name": "twice", "expression": "2 * area + 0 * a**2"},
         {"name": "k", "expression": "sqrt(2) * e"},
     ]
     m = parse_model(doc)
@@ -131,13 +131,13 @@ def test_jacobian_is_vectorised():
 
 
 def test_pickle_round_trip_rebuilds_from_source():
-    m = parse_model(_doc("hypot(a, b) - c"), "model.yaml").model
+    m = parse_model(_doc("hypot(a, c) - c"), "model.yaml").model
     clone = pickle.loads(pickle.dumps(m))
     x = np.random.default_rng(3).normal(size=(4, 3))
     np.testing.assert_array_equal(clone(x), m(x))
     np.testing.assert_array_equal(clone.jacobian(x), m.jacobian(x))
-    assert clone.expressions == ["hypot(a, b) - c"]
-    assert b"hypot(a, b) - c" in pickle.dumps(m)
+    assert clone.expressions == ["hypot(a, c) - c"]
+    assert b"hypot(a, c) - c" in pickle.dumps(m)
 
 
 @pytest.mark.parametrize(
@@ -254,11 +254,11 @@ def test_correlated_normal_inputs_from_file():
 
 
 def test_load_model_file_errors(tmp_path):
-    with pytest.raises(ModelFileError, match="cannot read model file"):
+    with pytest.raises(ModelFileError, match=r"missing\.yaml: file not found"):
         load_model(tmp_path / "missing.yaml")
     p = tmp_path / "bad.yaml"
     p.write_text("inputs: [unclosed\n", encoding="utf-8")
-    with pytest.raises(ModelFileError, match=r"bad.yaml: YAML syntax error"):
+    with pytest.raises(ModelFileError, match=r"bad\.yaml, line 2: not valid YAML"):
         load_model(p)
     p.write_text("- just\n- a list\n", encoding="utf-8")
     with pytest.raises(ModelFileError, match="must be a YAML mapping"):

@@ -1,8 +1,23 @@
-"""Shared command-line plumbing: user errors become one line on stderr and exit code 2."""
+"""Shared command-line plumbing: the one error path of ``mtm`` and the readers of records.
+
+Every command runs inside :class:`MtmGroup`, which turns whatever stops a run into one
+line on stderr and a documented exit code (:mod:`mtmetrology.errors`):
+
+- a :class:`~mtmetrology.errors.MtmetrologyError` -> ``error: <message>``, its
+  ``exit_code`` (2 for input, rank, convergence and resource limits; 3 for environment);
+- ``RecursionError`` / ``MemoryError`` -> exit 2 (the input is too deep or too large);
+- any other ``OSError`` (unwritable target, directory given as a file ...) -> exit 3;
+- Ctrl-C (SIGINT) -> ``interrupted; nothing written``, exit 130 (outputs are written
+  atomically, so this is true);
+- anything else is a bug -> ``internal error: ...``, exit 1.
+
+``mtm --debug`` (or ``MTM_DEBUG=1``) lets the traceback through instead.
+"""
 
 from __future__ import annotations
 
 import json
+import os
 import shlex
 import sys
 from collections.abc import Callable
@@ -12,47 +27,165 @@ from typing import Annotated
 
 import numpy as np
 import typer
+from typer.core import TyperGroup
 
-from mtmetrology.io.files import InputFileError, Table
+from mtmetrology.errors import (
+    EXIT_ENVIRONMENT,
+    EXIT_INPUT,
+    EXIT_INTERNAL,
+    EXIT_INTERRUPTED,
+    InputError,
+    MtmetrologyError,
+)
+from mtmetrology.io import InputFileError, Table
+from mtmetrology.io.files import committed
 from mtmetrology.kinematics.machine import Machine
-from mtmetrology.units import UnitError
+from mtmetrology.units import from_internal
 
-USER_ERRORS = (InputFileError, ValueError, KeyError, UnitError, FileNotFoundError)
+__all__ = [
+    "CLICK_EXCEPTION",
+    "INTERRUPTED",
+    "MtmGroup",
+    "describe_failure",
+    "fail",
+    "interrupt_reported",
+    "interrupted_message",
+    "print_json",
+    "readings_from_table",
+    "senses_from_table",
+    "user_errors",
+]
+
+INTERRUPTED = "interrupted; nothing written"
+#: Typer's usage errors (its own or click's, depending on the Typer version).
+CLICK_EXCEPTION = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
+_REPORTED: list[bool] = []  # set when the interruption line has been printed
+
+
+def interrupted_message(since: int = 0) -> str:
+    """:data:`INTERRUPTED`, or, if the interruption came after an output was completed
+    (the last instant of a run), which output is complete.
+
+    ``since`` is the number of outputs the process had completed before this run."""
+    done = committed()[since:]
+    if not done:
+        return INTERRUPTED
+    return f"interrupted; {', '.join(str(p) for p in done)} written completely"
+
+
+def interrupt_reported() -> bool:
+    """Whether this process already printed :data:`INTERRUPTED`."""
+    return bool(_REPORTED)
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def describe_failure(err: BaseException, outputs_before: int = 0) -> tuple[str, int]:
+    """The one-line message and exit code for an exception.
+
+    ``outputs_before``: outputs the process had completed before the run (an interruption
+    says which outputs of this run are complete, if any).
+
+    Examples
+    --------
+    >>> describe_failure(InputError("a.csv, line 3: column 'X' holds 'x', not a number"))
+    ("error: a.csv, line 3: column 'X' holds 'x', not a number", 2)
+    >>> describe_failure(PermissionError(13, "Permission denied", "out.csv"))
+    ('error: out.csv: Permission denied', 3)
+    """
+    if isinstance(err, KeyboardInterrupt):
+        return interrupted_message(outputs_before), EXIT_INTERRUPTED
+    if isinstance(err, MtmetrologyError):
+        return f"error: {_one_line(err)}", err.exit_code
+    if isinstance(err, RecursionError):
+        return "error: the input is nested too deeply to be processed", EXIT_INPUT
+    if isinstance(err, MemoryError):
+        return "error: the input is too large for the available memory", EXIT_INPUT
+    if isinstance(err, OSError):
+        where = f"{err.filename}: " if err.filename else ""
+        return f"error: {where}{err.strerror or _one_line(err)}", EXIT_ENVIRONMENT
+    name = type(err).__name__
+    return (
+        f"internal error: {name}: {_one_line(err)} (a bug: please report it; "
+        "mtm --debug shows the traceback)",
+        EXIT_INTERNAL,
+    )
+
+
+class MtmGroup(TyperGroup):
+    """The ``mtm`` command group: every failure leaves through :func:`describe_failure`."""
+
+    def invoke(self, ctx: typer.Context):
+        debug = bool(ctx.params.get("debug")) or os.environ.get("MTM_DEBUG", "") not in ("", "0")
+        outputs_before = len(committed())
+        try:
+            return super().invoke(ctx)
+        except (typer.Exit, typer.Abort, CLICK_EXCEPTION):
+            raise
+        except KeyboardInterrupt:
+            message, code = describe_failure(KeyboardInterrupt(), outputs_before)
+            _REPORTED.append(True)
+        except Exception as err:
+            if debug:
+                raise
+            message, code = describe_failure(err)
+        typer.echo(message, err=True)
+        raise typer.Exit(code)
 
 
 def fail(message: str) -> None:
-    """Print ``error: message`` on stderr and exit with code 2."""
-    typer.echo(f"error: {message}", err=True)
-    raise typer.Exit(code=2)
+    """Refuse the request: raise :class:`InputError` (``error: message``, exit code 2)."""
+    raise InputError(message)
 
 
 def user_errors(func: Callable) -> Callable:
-    """Turn the library's input errors into :func:`fail` (no traceback for bad input)."""
+    """Let a command's plain ``ValueError``/``KeyError`` leave as input errors (exit 2).
+
+    The library's own errors (:class:`MtmetrologyError`) pass unchanged to
+    :class:`MtmGroup`, which prints them with their exit code.
+    """
 
     @wraps(func)
     def wrapper(*args, **kwargs):
         try:
             return func(*args, **kwargs)
-        except USER_ERRORS as err:
+        except MtmetrologyError:
+            raise
+        except (ValueError, KeyError) as err:
             msg = err.args[0] if isinstance(err, KeyError) and err.args else str(err)
-            fail(str(msg))
+            raise InputError(str(msg)) from err
 
     return wrapper
 
 
 def print_json(document: dict) -> None:
+    """Write a JSON document on standard output (NaN refused: never a result)."""
     sys.stdout.write(json.dumps(document, indent=2, ensure_ascii=False, allow_nan=False) + "\n")
 
 
 def readings_from_table(machine: Machine, table: Table) -> np.ndarray:
-    """Internal readings from a CSV with one column per axis (mm, degrees); S defaults to 0."""
-    cols = {}
-    for a in machine.axis_names:
-        if table.has(a):
-            cols[a] = table.floats(a)
-        elif a != "S":
-            table.floats(a)  # raises: missing column, naming the file
-    return machine.readings_from_customary(cols)
+    """Internal readings from a CSV with one column per axis (mm, degrees); S defaults to 0.
+
+    A reading outside the travel of its axis (machine file ``travel_mm``/``travel_deg``)
+    is refused with its line: no measurement was taken there.
+    """
+    readings = np.zeros((len(table), machine.n_axes))  # a missing S stays 0
+    for k, a in enumerate(machine.axis_names):
+        if a == "S" and not table.has(a):
+            continue
+        travel = machine.axes[a].travel
+        unit = "mm" if machine.axes[a].linear else "deg"
+        bounds = None
+        if travel is not None:
+            low, high = (float(from_internal(t, unit)) for t in travel)
+            slack = 1e-9 * max(abs(low), abs(high), 1.0)  # the round trip through rad
+            bounds = (low - slack, high + slack)
+        readings[:, k] = table.floats(a, bounds=bounds, unit=unit)
+    # In place, one column at a time: records of millions of rows are not copied thrice.
+    readings *= machine.readings_from_customary(np.ones(machine.n_axes))
+    return readings
 
 
 def senses_from_table(machine: Machine, table: Table) -> np.ndarray | None:

@@ -24,7 +24,8 @@ from mtmetrology.cmm.gp import GPErrorModel, fit_gp
 from mtmetrology.cmm.models import parse_model
 from mtmetrology.cmm.simulate import simulate_ballplate
 from mtmetrology.io.documents import load_document
-from mtmetrology.io.files import InputFileError, Table, read_csv_table, write_csv_table, write_json
+from mtmetrology.io.files import InputFileError, atomic_write, check_output, write_json
+from mtmetrology.io.tables import Table, read_csv_table, write_columns, write_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.units import from_internal, to_internal
@@ -299,6 +300,7 @@ def gp_predict(
     output: OutOpt,
 ) -> None:
     """Compensated x,y,z (mm) with standard uncertainties u_x,u_y,u_z (µm)."""
+    check_output(output, [readings, model, probes])
     m = Machine.load(machine)
     gp = GPErrorModel.from_document(load_document(model, "GP model"), m, str(model))
     table = read_csv_table(readings, required=["X", "Y", "Z", "probe"])
@@ -306,11 +308,11 @@ def gp_predict(
     tools = probe_tools(load_probes(probes), table)
     pts, u = gp.predict(q, tools)
     u_um = from_internal(u, "µm")
-    rows = (
-        [*row, *(f"{v:.6f}" for v in p), *(f"{v:.4f}" for v in uu)]
-        for row, p, uu in zip(table.rows, pts, u_um, strict=True)
-    )
-    write_csv_table(output, [*table.header, "x", "y", "z", "u_x", "u_y", "u_z"], rows)
+    columns = {c: table.text.column(c) for c in table.header}
+    columns.update({c: pts[:, k] for k, c in enumerate("xyz")})
+    columns.update({f"u_{c}": u_um[:, k] for k, c in enumerate("xyz")})
+    with atomic_write(output, "wb") as fh:
+        write_columns(fh, columns, decimals=6, plain=() if table.quoted else table.header)
     typer.echo(f"wrote {len(table)} rows to {output}", err=True)
 
 
@@ -319,3 +321,9 @@ def register(calibrate_app: typer.Typer, simulate_app: typer.Typer) -> None:
     calibrate_app.command("ballplate", help=_help(calibrate_ballplate_cmd))(calibrate_ballplate_cmd)
     calibrate_app.command("ballplate-budget")(budget_cmd)
     simulate_app.command("ballplate", help=_help(simulate_ballplate_cmd))(simulate_ballplate_cmd)
+
+
+#: The CMM commands of the shared ``mtm calibrate`` and ``mtm simulate`` groups.
+calibrate_app = typer.Typer()
+simulate_app = typer.Typer()
+register(calibrate_app, simulate_app)

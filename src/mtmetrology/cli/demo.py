@@ -13,6 +13,7 @@ is replaced only if it is a previous demo folder (it holds the ``.mtm-demo`` mar
 
 from __future__ import annotations
 
+import os
 import shlex
 import shutil
 import tempfile
@@ -28,7 +29,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
 from mtmetrology.cli._common import fail
-from mtmetrology.io.files import _umask, write_json
+from mtmetrology.io.files import write_json
 
 __all__ = ["DemoContext", "DemoSection", "demo"]
 
@@ -101,6 +102,13 @@ class DemoSection:
     name: str
     title: str
     run: Callable[[DemoContext], None]
+
+
+def _umask() -> int:
+    """The process umask (read by setting it and restoring it at once)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def _prepare(out: Path) -> Path:

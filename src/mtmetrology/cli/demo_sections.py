@@ -29,7 +29,7 @@ from mtmetrology.identification import (
     analyse_identifiability,
     gauss_newton,
 )
-from mtmetrology.io.files import write_csv_table
+from mtmetrology.io.tables import write_csv_table
 from mtmetrology.kinematics.conventions import describe_parameters
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet

@@ -28,6 +28,7 @@ from rich.console import Console
 from rich.table import Table as RichTable
 
 from mtmetrology.cli._common import ReportOption, command_line, write_report
+from mtmetrology.errors import InputError
 from mtmetrology.fitting import minimum_zone
 from mtmetrology.fitting.documents import fit_document
 from mtmetrology.fitting.elements import Circle, Cone, Cylinder, Line, Sphere
@@ -251,8 +252,10 @@ def fit(
         if notes:
             extra["notes"] = notes
     except ValueError as exc:  # InputFileError, FitError, _UsageError, element checks
-        typer.echo(f"error: {exc}", err=True)
-        raise typer.Exit(code=2) from None
+        message = str(exc)
+        if not isinstance(exc, _UsageError) and str(points_csv) not in message:
+            message = f"{points_csv}: {message}"  # name the file the points came from
+        raise InputError(message) from None
     document = fit_document(
         element.value, method.value, str(points_csv), fitted, residuals, form_error, extra
     )

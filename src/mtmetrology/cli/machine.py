@@ -26,9 +26,10 @@ from mtmetrology.identification import (
     analyse_identifiability,
     senses_from_sequence,
 )
-from mtmetrology.io.files import read_csv_table
+from mtmetrology.io import read_csv_table
 from mtmetrology.kinematics.conventions import machine_description
 from mtmetrology.kinematics.machine import Machine, list_presets
+from mtmetrology.kinematics.parameters import MAX_DEGREE
 from mtmetrology.samba.artefact import load_artefact
 from mtmetrology.units import to_internal
 
@@ -81,6 +82,8 @@ def show(
     json: Annotated[bool, typer.Option("--json", help="Print a JSON document.")] = False,
 ) -> None:
     """Show a machine: axes, and the parameters of its error model with units."""
+    if not 0 <= degree <= MAX_DEGREE:
+        raise InputError(f"--degree must be 0 to {MAX_DEGREE}, got {degree}")
     m = Machine.load(machine, model)
     if catalogue:
         m = m.with_parameters([p.name for p in m.catalogue(degree)])

@@ -19,7 +19,13 @@ from mtmetrology.cli._common import (
 )
 from mtmetrology.cli.cmm import probe_tools, read_error_model
 from mtmetrology.cmm.files import load_probes
-from mtmetrology.io.files import InputFileError, read_csv_table, write_csv_table
+from mtmetrology.io import (
+    InputFileError,
+    atomic_write,
+    check_output,
+    read_csv_table,
+    write_columns,
+)
 from mtmetrology.kinematics.machine import Machine
 
 
@@ -50,6 +56,10 @@ def add_compensation(report, machine: Machine, xyz: np.ndarray, nominal: np.ndar
     )
 
 
+#: Rows evaluated at once: bounds the memory of the kinematic chain on large records.
+CHUNK_ROWS = 1 << 16
+
+
 @user_errors
 def predict(
     ctx: typer.Context,
@@ -77,11 +87,21 @@ def predict(
     x, y, z appended. Sense-of-motion columns sense_<axis> (+1/-1) feed reversal terms.
     With --probes, each row's 'probe' column selects the stylus (tool vector).
     """
+    inputs = [readings, *(p for p in (params, probes) if p is not None)]
+    if Path(machine).suffix.lower() in (".yaml", ".yml", ".json"):
+        inputs.append(Path(machine))
+    if output is not None:
+        check_output(output, inputs)
     m = Machine.load(machine)
     theta, gp, pset = None, None, None
     if params is not None:
         m, theta, gp, pset = read_error_model(params, m)
     table = read_csv_table(readings)
+    clash = sorted(set(table.header) & {"x", "y", "z"})
+    if clash:
+        raise InputFileError(
+            f"{readings}: column(s) {', '.join(clash)} already present; predict appends x, y, z"
+        )
     tools = probe_tools(load_probes(probes), table) if probes is not None else None
     q = readings_from_table(m, table)
     senses = senses_from_table(m, table)
@@ -94,33 +114,43 @@ def predict(
             f"{readings}: the parameter set has reversal terms ({', '.join(reversal)}); "
             f"add the sense-of-motion column(s) {columns} (+1 or -1)"
         )
-    if gp is not None:
-        xyz = gp.predict(q, m.tool if tools is None else tools)[0]
-    else:
-        xyz = m.forward(q, theta, senses=senses, tool=tools)
+    xyz = np.empty((len(table), 3))
+    for start in range(0, len(table), CHUNK_ROWS):
+        rows = slice(start, start + CHUNK_ROWS)
+        tool = m.tool if tools is None else tools[rows]
+        if gp is not None:
+            xyz[rows] = gp.predict(q[rows], tool)[0]
+        else:
+            xyz[rows] = m.forward(
+                q[rows], theta, senses=None if senses is None else senses[rows], tool=tool
+            )
+    bad = ~np.isfinite(xyz).all(axis=1)
+    if bad.any():
+        raise InputFileError(
+            f"{readings}, line {table.lines[np.argmax(bad)]}: the compensated position is not "
+            "finite; check the readings and the parameter set"
+        )
     if report_path is not None:
         from mtmetrology.report import Report
         from mtmetrology.report.results import add_result
 
-        nominal = m.forward(q, None, senses=senses, tool=tools)
+        nominal = m.forward(q, None, senses=senses, tool=m.tool if tools is None else tools)
         report = Report(
             f"Compensated coordinates: {readings.name}",
             command=command_line(ctx),
-            provenance={"inputs": [readings, *([] if params is None else [params])]},
+            provenance={"inputs": inputs},
         )
-        add_compensation(report, m, np.atleast_2d(xyz), np.atleast_2d(nominal))
+        add_compensation(report, m, xyz, np.atleast_2d(nominal))
         if pset is not None:
             add_result(report, pset)
         write_report(report, report_path)
-    header = [*table.header, "x", "y", "z"]
-    rows = (
-        [*row, *(f"{v:.6f}" for v in p)]
-        for row, p in zip(table.rows, np.atleast_2d(xyz), strict=True)
-    )
+    columns = {c: table.text.column(c) for c in table.header}
+    columns.update({c: xyz[:, k] for k, c in enumerate("xyz")})
+    plain = () if table.quoted else table.header
     if output is None:
-        sys.stdout.write(",".join(header) + "\n")
-        for r in rows:
-            sys.stdout.write(",".join(r) + "\n")
-    else:
-        write_csv_table(output, header, rows)
-        typer.echo(f"wrote {len(table)} rows to {output}", err=True)
+        write_columns(sys.stdout.buffer, columns, decimals=6, plain=plain)
+        sys.stdout.flush()
+        return
+    with atomic_write(output, "wb") as fh:
+        write_columns(fh, columns, decimals=6, plain=plain)
+    typer.echo(f"wrote {len(table)} rows to {output}", err=True)

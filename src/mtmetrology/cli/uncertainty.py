@@ -27,13 +27,19 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from mtmetrology.cli._common import ReportOption, command_line, write_report
-from mtmetrology.errors import MtmetrologyError
+from mtmetrology.cli._common import ReportOption, command_line, fail, write_report
+from mtmetrology.errors import ConvergenceError, MtmetrologyError, ResourceLimitError
 from mtmetrology.uncertainty.guf import GUFResult, guf
 from mtmetrology.uncertainty.mcm import monte_carlo
 from mtmetrology.uncertainty.modelfile import ModelFileError, load_model
 from mtmetrology.uncertainty.outputs import Output, result_document
 from mtmetrology.uncertainty.validation import validate_results
+
+#: Most Monte Carlo values kept for the coverage intervals (trials x outputs): 400 MB.
+MAX_VALUES = 50_000_000
+#: Most significant digits an adaptive run may be asked for (JCGM 101:2008, 7.9.2 uses
+#: 1 or 2; each further digit costs 100 times the trials).
+MAX_DIGITS = 3
 
 app = typer.Typer(help="Evaluate measurement uncertainty (GUF, Monte Carlo).", no_args_is_help=True)
 
@@ -50,8 +56,7 @@ def _group() -> None:
 
 
 def _fail(message: str) -> None:
-    typer.echo(f"error: {message}", err=True)
-    raise typer.Exit(code=2)
+    fail(message)
 
 
 def _decimals(u: float) -> int:
@@ -146,7 +151,16 @@ def evaluate_model(loaded, model_file: Path, method: Method, *, digits=2, p=0.95
     if method in (Method.guf, Method.both):
         g = guf(loaded.model, loaded.inputs, p=p)
     if method in (Method.mcm, Method.both):
-        r = monte_carlo(loaded.model, loaded.inputs, digits=digits, p=p, **mcm_options)
+        max_trials = min(10_000_000, MAX_VALUES // len(loaded.output_names))
+        r = monte_carlo(
+            loaded.model, loaded.inputs, digits=digits, p=p, max_trials=max_trials, **mcm_options
+        )
+        if r.converged is False:
+            raise ConvergenceError(
+                f"adaptive Monte Carlo did not reach the tolerance of "
+                f"{digits} significant digit(s) within {r.trials} trials; ask for fewer "
+                "--digits or run a fixed number of --trials"
+            )
     if g is not None and r is not None:
         report = validate_results(g, r, digits=digits)
     document = result_document(g, r, report, model=loaded.name, source=str(model_file))
@@ -179,10 +193,18 @@ def run(
         _fail("--trials and --adaptive apply to --method mcm or both")
     if trials is not None and adaptive:
         _fail("give either --trials N or --adaptive, not both")
+    if not 1 <= digits <= MAX_DIGITS:
+        _fail(f"--digits must be 1 to {MAX_DIGITS} significant digits, got {digits}")
     try:
         loaded = load_model(model_file)
     except ModelFileError as exc:
         _fail(str(exc))
+    n_outputs = len(loaded.output_names)
+    if trials is not None and not 2 <= trials <= MAX_VALUES // n_outputs:
+        raise ResourceLimitError(
+            f"--trials {trials}: give 2 to {MAX_VALUES // n_outputs} trials for "
+            f"{n_outputs} output(s) (every value is kept for the coverage intervals)"
+        )
     try:
         mcm_options = {"trials": trials, "adaptive": adaptive, "seed": seed, "executor": executor}
         document, g, r, report = evaluate_model(

@@ -35,8 +35,8 @@ probed with three styli:
 >>> styli = ["A", "B", "C"]
 >>> positions = PositionSet(kind="ballplate-positions", positions=[
 ...     {"id": "H", "origin_mm": [300, 200, 150], "probes": styli},
-...     {"id": "V", "origin_mm": [300, 500, 80], "rotation_deg": [90, 0, 0], "probes": styli},
-...     {"id": "W", "origin_mm": [650, 200, 80], "rotation_deg": [90, 0, 90], "probes": styli}])
+...     {"id": "V", "origin_mm": [300, 500, 10], "rotation_deg": [90, 0, 0], "probes": styli},
+...     {"id": "W", "origin_mm": [650, 200, 10], "rotation_deg": [90, 0, 90], "probes": styli}])
 >>> from mtmetrology.units import from_internal, to_internal
 >>> theta = np.zeros(cmm.n_params)
 >>> theta[cmm.parameter_names.index("E_C0X")] = to_internal(20.0, "µrad")
@@ -45,7 +45,7 @@ probed with three styli:
 >>> i = cal.machine.parameter_names.index("E_C0X")
 >>> value, u = cal.theta[i], cal.parameters.standard_uncertainty[i]
 >>> [round(float(from_internal(v, "µrad")), 1) for v in (value, u)]
-[19.7, 1.3]
+[19.4, 1.3]
 
 References
 ----------

@@ -40,8 +40,9 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from mtmetrology.io.documents import load_document
-from mtmetrology.io.files import InputFileError, read_csv_table
+from mtmetrology.io.files import InputFileError
 from mtmetrology.io.schema import describe_validation_error
+from mtmetrology.io.tables import read_csv_table
 
 __all__ = [
     "BallPlate",

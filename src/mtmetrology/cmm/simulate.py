@@ -27,6 +27,7 @@ from mtmetrology.cmm.files import (
     ProbeSet,
     rotation_matrix,
 )
+from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.rng import as_generator
 from mtmetrology.units import to_internal
@@ -104,8 +105,25 @@ def simulate_ballplate(
     targets, tools = np.array(targets), np.array(tools)
     start = targets - tools
     q = machine.inverse(targets, start, theta, tool=tools)
+    _check_travel(machine, q, pos_ids, balls, probe_ids)
     q = q + sigma * rng.standard_normal(q.shape)
     records = BallPlateRecords(
         tuple(pos_ids), tuple(balls), tuple(probe_ids), q, np.arange(2, len(q) + 2)
     )
     return SimulatedCampaign(records, y, targets)
+
+
+def _check_travel(machine, q, positions, balls, probes) -> None:
+    """Refuse a set-up the machine cannot measure: a reading outside an axis's travel."""
+    for k, name in enumerate(machine.axis_names):
+        travel = machine.axes[name].travel
+        if travel is None:
+            continue
+        outside = (q[:, k] < travel[0]) | (q[:, k] > travel[1])
+        if outside.any():
+            i = int(np.argmax(outside))
+            raise InputError(
+                f"plate position {positions[i]!r}, ball {balls[i]!r}, probe {probes[i]!r}: "
+                f"needs {name} = {q[i, k]:.3f} mm, outside the travel "
+                f"[{travel[0]:g}, {travel[1]:g}] mm; move or turn the plate"
+            )

@@ -1,203 +1,224 @@
-"""File helpers shared by every layer: atomic writes and validated table reading.
+"""Output files that are complete or absent, and the checks before a run writes anything.
 
-Outputs are written atomically (temporary file in the same folder, then
-``os.replace``), so an interrupted run never leaves a half-written result.
-Tables are read with errors that name the file, the line and the column.
+Outputs are written atomically: the content goes to an anonymous temporary file in the
+target's directory (Linux ``O_TMPFILE``: it has no name, so a killed process leaves
+nothing behind), which is given a name only when complete and then renamed onto the
+target (``os.replace``).  Where anonymous files are not supported the temporary file is
+named ``.<target>.<pid>.tmp``; such leftovers of processes that no longer run are swept
+before the next write to the same directory.  An interrupted or failed run therefore
+leaves the previous target, or no target, never a partial one.
+
+:func:`check_output` refuses, before any computation, an output that would overwrite an
+input, a directory, a read-only file or a file in a directory that does not exist (it is
+not created silently).
 """
 
 from __future__ import annotations
 
-import csv
+import ctypes
+import errno
 import json
-import math
 import os
-import tempfile
-from collections.abc import Iterable, Iterator, Sequence
-from contextlib import contextmanager
+import re
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import IO
 
-import numpy as np
-
-from mtmetrology.errors import InputError
+from mtmetrology.errors import EnvironmentFailure, InputError
 
 __all__ = [
     "InputFileError",
-    "Table",
     "atomic_write",
-    "read_csv_table",
-    "write_csv_table",
+    "check_output",
+    "committed",
+    "sweep_temporaries",
     "write_json",
 ]
+
+_COMMITTED: list[Path] = []
+
+
+def committed() -> tuple[Path, ...]:
+    """The targets :func:`atomic_write` completed in this process (for an interrupted
+    command to say truthfully whether something was written)."""
+    return tuple(_COMMITTED)
 
 
 class InputFileError(InputError):
     """A user file that cannot be used; the message names file, line and field."""
 
 
-@contextmanager
-def atomic_write(
-    path: str | os.PathLike, mode: str = "w", encoding: str | None = "utf-8"
-) -> Iterator[IO]:
-    """Open a temporary file beside ``path``; rename it onto ``path`` on success.
+def _temporary_pattern(name: str) -> re.Pattern:
+    return re.compile(rf"^\.{re.escape(name)}\.(\d+)\.[0-9a-z]+\.tmp$")
 
-    On any exception the temporary file is removed and ``path`` is untouched. The file
-    gets the permissions of an ordinary new file (0666 less the umask), not the 0600 of
-    a temporary file.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+
+def _alive(pid: int) -> bool:
     try:
-        os.chmod(tmp, 0o666 & ~_umask())
-        kwargs = {} if "b" in mode else {"encoding": encoding, "newline": ""}
-        with os.fdopen(fd, mode, **kwargs) as fh:
-            yield fh
-        os.replace(tmp, path)
-    except BaseException:
-        with _suppress():
-            os.unlink(tmp)
-        raise
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
-def _umask() -> int:
-    """The process umask (read by setting it and restoring it at once)."""
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
+def sweep_temporaries(path: str | os.PathLike) -> list[Path]:
+    """Remove ``.<name>.<pid>.*.tmp`` files beside ``path`` left by processes that are gone.
 
-
-@contextmanager
-def _suppress():
-    try:
-        yield
-    except OSError:
-        pass
-
-
-def write_json(path: str | os.PathLike, document: dict) -> None:
-    """Write a JSON document atomically (NaN is refused: it is never a result)."""
-    text = json.dumps(document, indent=2, allow_nan=False)
-    with atomic_write(path) as fh:
-        fh.write(text + "\n")
-
-
-class Table:
-    """Columns of a CSV file: named float columns and string columns, with line numbers.
-
-    Attributes
-    ----------
-    path : str
-        The file read.
-    header : list of str
-        Column names in file order.
-    rows : list of list of str
-        Raw cells, for copying input columns to an output.
-    lines : ndarray of int
-        The 1-based file line of each row.
+    Returns the paths removed.
     """
-
-    def __init__(self, path: str, header: list[str], rows: list[list[str]], lines: list[int]):
-        self.path = path
-        self.header = header
-        self.rows = rows
-        self.lines = np.asarray(lines, dtype=int)
-
-    def __len__(self) -> int:
-        return len(self.rows)
-
-    def has(self, name: str) -> bool:
-        return name in self.header
-
-    def strings(self, name: str) -> list[str]:
-        """A column as strings; a missing column is an :class:`InputFileError`."""
-        j = self._index(name)
-        return [r[j].strip() for r in self.rows]
-
-    def floats(self, name: str, *, allow_nan: bool = False) -> np.ndarray:
-        """A column as float64, with an error naming file, line and column on bad cells."""
-        j = self._index(name)
-        out = np.empty(len(self.rows))
-        for i, r in enumerate(self.rows):
-            cell = r[j].strip()
-            try:
-                v = float(cell)
-            except ValueError:
-                raise InputFileError(
-                    f"{self.path}, line {self.lines[i]}: column {name!r} holds {cell!r}, "
-                    "not a number"
-                ) from None
-            if not allow_nan and not math.isfinite(v):
-                raise InputFileError(
-                    f"{self.path}, line {self.lines[i]}: column {name!r} is {cell!r}; "
-                    "NaN and infinite values are not accepted"
-                )
-            out[i] = v
-        return out
-
-    def _index(self, name: str) -> int:
-        try:
-            return self.header.index(name)
-        except ValueError:
-            raise InputFileError(
-                f"{self.path}: missing column {name!r} (columns present: {', '.join(self.header)})"
-            ) from None
+    target = Path(path)
+    pattern = _temporary_pattern(target.name)
+    removed = []
+    with suppress(OSError):
+        for entry in target.parent.iterdir():
+            m = pattern.match(entry.name)
+            if m and not _alive(int(m.group(1))):
+                with suppress(OSError):
+                    entry.unlink()
+                    removed.append(entry)
+    return removed
 
 
-def read_csv_table(
-    path: str | os.PathLike, required: Sequence[str] = (), *, min_rows: int = 1
-) -> Table:
-    """Read a CSV file with a header line; blank lines and ``#`` comments are skipped.
+def check_output(path: str | os.PathLike, inputs: Iterable[str | os.PathLike] = ()) -> Path:
+    """Refuse an output path before any work is done.
 
     Parameters
     ----------
     path : path-like
-        The CSV file.
-    required : sequence of str
-        Columns that must be present.
-    min_rows : int
-        Fewest data rows accepted.
+        The file a command will write.
+    inputs : iterable of path-like
+        The files the command reads: the output must be none of them.
+
+    Returns
+    -------
+    Path
 
     Raises
     ------
-    InputFileError
-        Missing file, missing column, ragged row, or too few rows.
+    InputError
+        The output is an input, a directory, a read-only file, or lies in a directory
+        that does not exist.
     """
     p = Path(path)
-    if not p.is_file():
-        raise InputFileError(f"{p}: file not found")
-    header: list[str] | None = None
-    rows: list[list[str]] = []
-    lines: list[int] = []
-    with p.open(newline="", encoding="utf-8-sig") as fh:
-        for lineno, row in enumerate(csv.reader(fh), start=1):
-            if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
-                continue
-            if header is None:
-                header = [c.strip() for c in row]
-                continue
-            if len(row) != len(header):
-                raise InputFileError(
-                    f"{p}, line {lineno}: {len(row)} fields where the header has {len(header)}"
-                )
-            rows.append(row)
-            lines.append(lineno)
-    if header is None:
-        raise InputFileError(f"{p}: empty file (no header line)")
-    table = Table(str(p), header, rows, lines)
-    for name in required:
-        table._index(name)
-    if len(rows) < min_rows:
-        raise InputFileError(f"{p}: {len(rows)} data rows, at least {min_rows} needed")
-    return table
+    if p.is_dir():
+        raise InputError(f"{p}: is a directory; give a file name for the output")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise InputError(f"{p}: the directory {parent} does not exist (it is not created)")
+    for source in inputs:
+        s = Path(source)
+        if s.exists() and p.exists() and os.path.samefile(s, p):
+            raise InputError(f"{p}: the output would overwrite the input {s}")
+    # A file without any write permission bit is read-only, even for root (who may
+    # write it): the mark says it is not to be replaced.
+    if p.exists() and (not os.access(p, os.W_OK) or not p.stat().st_mode & 0o222):
+        raise InputError(f"{p}: the file is read-only; choose another output")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise InputError(f"{p}: the directory {parent} is not writable")
+    return p
 
 
-def write_csv_table(
-    path: str | os.PathLike, header: Sequence[str], rows: Iterable[Sequence[object]]
-) -> None:
-    """Write a CSV file atomically."""
+_AT_FDCWD = -100
+_AT_EMPTY_PATH = 0x1000
+_LINKABLE: dict[int, bool] = {}  # st_dev -> whether an anonymous file can be named there
+
+
+def _link(fd: int, destination: Path) -> None:
+    """Give the anonymous file ``fd`` the name ``destination``.
+
+    ``linkat`` through ``/proc/self/fd`` is the unprivileged way (open(2), O_TMPFILE);
+    where /proc is not that of this process's mount namespace it fails with EXDEV, and
+    ``linkat(fd, "", ..., AT_EMPTY_PATH)`` (which needs CAP_DAC_READ_SEARCH) is tried.
+    """
+    try:
+        os.link(f"/proc/self/fd/{fd}", destination, follow_symlinks=True)
+        return
+    except OSError as err:
+        first = err
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.linkat(fd, b"", _AT_FDCWD, os.fsencode(destination), _AT_EMPTY_PATH) != 0:
+        raise first
+
+
+def _anonymous(directory: Path) -> int | None:
+    """An O_TMPFILE descriptor in ``directory`` that :func:`_link` can name, or None."""
+    flag = getattr(os, "O_TMPFILE", None)
+    if flag is None:
+        return None
+    try:
+        device = directory.stat().st_dev
+        fd = os.open(directory, flag | os.O_WRONLY, 0o666)
+    except OSError as err:
+        if err.errno in (errno.EOPNOTSUPP, errno.EISDIR, errno.EINVAL, errno.ENOENT):
+            return None
+        raise
+    if device not in _LINKABLE:  # probe once per file system
+        probe = directory / f".mtm-probe.{os.getpid()}.{os.urandom(4).hex()}.tmp"
+        try:
+            _link(fd, probe)
+            probe.unlink()
+            _LINKABLE[device] = True
+        except OSError:
+            _LINKABLE[device] = False
+            os.close(fd)
+            return None
+        os.close(fd)
+        fd = os.open(directory, flag | os.O_WRONLY, 0o666)
+    if not _LINKABLE[device]:
+        os.close(fd)
+        return None
+    return fd
+
+
+@contextmanager
+def atomic_write(
+    path: str | os.PathLike, mode: str = "w", encoding: str | None = "utf-8"
+) -> Iterator[IO]:
+    """Open an anonymous temporary file beside ``path``; give it ``path`` on success.
+
+    On any exception (KeyboardInterrupt included) nothing is linked and ``path`` is
+    untouched.  The directory must exist (see :func:`check_output`).
+
+    Raises
+    ------
+    EnvironmentFailure
+        The directory cannot be written (permissions, full disk ...).
+    """
+    target = Path(path)
+    directory = target.parent if str(target.parent) else Path(".")
+    if not directory.is_dir():
+        raise InputError(f"{target}: the directory {directory} does not exist (it is not created)")
+    sweep_temporaries(target)
+    named = directory / f".{target.name}.{os.getpid()}.{os.urandom(4).hex()}.tmp"
+    kwargs = {} if "b" in mode else {"encoding": encoding, "newline": ""}
+    try:
+        fd = _anonymous(directory)
+        anonymous = fd is not None
+        if fd is None:
+            fd = os.open(named, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    except OSError as err:
+        raise EnvironmentFailure(f"{target}: cannot write in {directory}: {err.strerror}") from None
+    try:
+        with os.fdopen(fd, mode, **kwargs) as fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+            if anonymous:
+                _link(fh.fileno(), named)
+        os.replace(named, target)
+        _COMMITTED.append(target)
+    except BaseException as err:
+        with suppress(OSError):
+            named.unlink()
+        if isinstance(err, OSError) and not isinstance(err, InputError):
+            raise EnvironmentFailure(f"{target}: cannot write: {err.strerror or err}") from None
+        raise
+
+
+def write_json(path: str | os.PathLike, document: dict) -> None:
+    """Write a JSON document atomically (NaN is refused: it is never a result)."""
+    text = json.dumps(document, indent=2, ensure_ascii=False, allow_nan=False)
     with atomic_write(path) as fh:
-        w = csv.writer(fh, lineterminator="\n")
-        w.writerow(list(header))
-        for r in rows:
-            w.writerow(list(r))
+        fh.write(text + "\n")

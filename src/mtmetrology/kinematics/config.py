@@ -29,13 +29,22 @@ Validation errors name the file and the field path (``axes.B.travel_deg``).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import Field, Strict, ValidationError, field_validator
 
 from mtmetrology.errors import InputError
 from mtmetrology.io.documents import load_document
-from mtmetrology.io.schema import describe_validation_error
+from mtmetrology.io.schema import (
+    Integer,
+    Number,
+    Sign,
+    StrictModel,
+    Text,
+    Version,
+    describe_validation_error,
+)
+from mtmetrology.kinematics.parameters import MAX_DEGREE
 
 __all__ = [
     "AxisSpec",
@@ -51,22 +60,20 @@ class MachineFileError(InputError):
     """A machine definition that cannot be used; the message names file and field."""
 
 
-_Vec3 = tuple[float, float, float]
-
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+_Vec3 = tuple[Number, Number, Number]
+_Range = tuple[Number, Number]
+_Strict = StrictModel  # unknown keys, non-finite numbers, booleans as numbers refused
 
 
 class AxisSpec(_Strict):
     """One axis. Linear axes use ``*_mm`` fields, rotary axes ``*_deg`` fields."""
 
-    direction: str | _Vec3 | None = None
-    sign: Literal[-1, 1] | None = None
-    travel_mm: tuple[float, float] | None = None
-    travel_deg: tuple[float, float] | None = None
-    resolution_mm: float | None = Field(default=None, gt=0)
-    resolution_deg: float | None = Field(default=None, gt=0)
+    direction: Text | _Vec3 | None = None
+    sign: Sign | None = None
+    travel_mm: _Range | None = None
+    travel_deg: _Range | None = None
+    resolution_mm: Number | None = Field(default=None, gt=0)
+    resolution_deg: Number | None = Field(default=None, gt=0)
     offset_mm: _Vec3 = (0.0, 0.0, 0.0)
     basis: Literal["monomial", "legendre", "chebyshev"] | None = None
 
@@ -92,11 +99,13 @@ class AxisSpec(_Strict):
 class ErrorModelSpec(_Strict):
     """A named error model: parameter names, error-motion degrees, basis."""
 
-    description: str = ""
+    description: Text = ""
     basis: Literal["monomial", "legendre", "chebyshev"] = "monomial"
-    normalise: bool | None = None
-    parameters: list[str] = Field(default_factory=list)
-    motions: dict[str, list[int]] = Field(default_factory=dict)
+    normalise: Annotated[bool, Strict()] | None = None
+    parameters: list[Text] = Field(default_factory=list)
+    motions: dict[Text, list[Annotated[Integer, Field(le=MAX_DEGREE)]]] = Field(
+        default_factory=dict
+    )
 
     @field_validator("motions")
     @classmethod
@@ -114,21 +123,21 @@ class ErrorModelSpec(_Strict):
 
 
 class ProbeSpec(_Strict):
-    tip_radius_mm: float = Field(default=0.0, ge=0)
+    tip_radius_mm: Number = Field(default=0.0, ge=0)
 
 
 class MachineSpec(_Strict):
     kind: Literal["machine"] = "machine"
-    version: int = 1
-    name: str
-    description: str = ""
-    topology: str
+    version: Version = 1
+    name: Text
+    description: Text = ""
+    topology: Text
     axes: dict[str, AxisSpec] = Field(default_factory=dict)
     workpiece_offset_mm: _Vec3 = (0.0, 0.0, 0.0)
     tool_mm: _Vec3 = (0.0, 0.0, 0.0)
     probe: ProbeSpec = Field(default_factory=ProbeSpec)
     error_models: dict[str, ErrorModelSpec] = Field(default_factory=dict)
-    default_model: str | None = None
+    default_model: Text | None = None
 
 
 def parse_machine_spec(data: object, source: str = "<machine>") -> MachineSpec:

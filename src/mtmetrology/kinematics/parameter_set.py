@@ -15,7 +15,8 @@ Reading is strict, because a parameter set moves a machine: ``kind`` must be
 ``parameter-set`` (or a calibration result that embeds one, :data:`RESULT_KINDS`, whose
 other keys belong to that result), ``version`` must be 1, ``machine`` must name the machine
 the set is applied to, ``model`` (when given) must be one of its error models, values must
-be JSON/YAML numbers (``true`` or ``"12.5"`` are refused), and unknown keys are errors.
+be JSON/YAML numbers (``true`` or ``"12.5"`` are refused) within :data:`MAX_MAGNITUDE` of
+their customary unit, and unknown keys are errors.
 """
 
 from __future__ import annotations
@@ -44,6 +45,9 @@ VERSION = 1
 RESULT_KINDS = ("samba-calibration", "ballplate-calibration")
 _KEYS = {"kind", "version", "machine", "model", "parameters", "covariance", "provenance"}
 _ENTRY_KEYS = {"name", "value", "unit", "u"}
+#: Largest magnitude of a parameter in its customary unit (1 m in µm, 1 rad in µrad): far
+#: beyond any machine error, and far below values that overflow the kinematic chain.
+MAX_MAGNITUDE = 1e6
 
 
 def _number(value: object, where: str) -> float:
@@ -245,6 +249,11 @@ class ParameterSet(NotebookRepr):
                     f"(expected a unit like {expected!r})"
                 )
             value = _number(e["value"], f"{where} ({p.name}): value")
+            if abs(value) * declared.factor > MAX_MAGNITUDE * parse_unit(expected).factor:
+                raise InputFileError(
+                    f"{where} ({p.name}): value {value:g} {e['unit']} is beyond "
+                    f"{MAX_MAGNITUDE:g} {expected}; no machine has such an error"
+                )
             names.append(p.name)
             values.append(value * declared.factor)
             units.append(expected)

@@ -73,6 +73,11 @@ class ErrorParameter:
         return self.component >= 3
 
 
+#: Highest degree of an error-motion polynomial (the sources use <= 3; beyond a dozen the
+#: monomials of a metre-long travel overflow and the catalogue stops being bounded).
+MAX_DEGREE = 12
+
+
 def normalise_name(name: str) -> str:
     """Normalise ISO spellings: ``E_A(0Z)B`` -> ``E_A0B``, ``E_X0(C1)`` -> ``E_X0S``."""
     s = name.strip()
@@ -94,6 +99,11 @@ def parse_parameter(name: str) -> ErrorParameter:
     if m := _LOCATION.match(s):
         return ErrorParameter(s, "location", m.group(2), COMPONENTS.index(m.group(1)))
     if m := _MOTION.match(s):
+        if len(m.group(3)) > 2 or int(m.group(3)) > MAX_DEGREE:
+            raise ParameterNameError(
+                f"{name!r}: degree {m.group(3)} is beyond the highest error-motion degree "
+                f"supported ({MAX_DEGREE})"
+            )
         return ErrorParameter(
             s, "motion", m.group(2), COMPONENTS.index(m.group(1)), int(m.group(3))
         )

@@ -1,6 +1,7 @@
 """SAMBA artefact files (ARCHITECTURE.md, "Files users bring and get")::
 
 kind: samba-artefact
+version: 1
 balls:
   - {id: "1", diameter_mm: 12.7}
   - {id: SB1, diameter_mm: 12.7}
@@ -14,38 +15,38 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import Field, ValidationError, model_validator
 
 from mtmetrology.identification.observations import ScaleBar
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError
-from mtmetrology.io.schema import describe_validation_error
+from mtmetrology.io.schema import Number, StrictModel, Text, Version, describe_validation_error
 
 __all__ = ["SambaArtefact", "load_artefact"]
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+_Strict = StrictModel  # unknown keys, non-finite numbers, booleans as numbers refused
 
 
 class BallSpec(_Strict):
-    id: str
-    diameter_mm: float = Field(gt=0)
+    id: Text
+    diameter_mm: Number = Field(gt=0)
 
 
 class ScaleBarSpec(_Strict):
-    ends: tuple[str, str]
-    length_mm: float = Field(gt=0)
-    u_mm: float = Field(gt=0)
+    ends: tuple[Text, Text]
+    length_mm: Number = Field(gt=0)
+    u_mm: Number = Field(gt=0)
 
 
 class SambaArtefact(_Strict):
     """A SAMBA artefact: master balls, scale-bar balls and the calibrated bar length."""
 
     kind: Literal["samba-artefact"] = "samba-artefact"
+    version: Version = 1
     balls: list[BallSpec] = Field(min_length=1)
     scale_bar: ScaleBarSpec | None = None
-    stylus_tip_diameter_mm: float | None = Field(default=None, gt=0)
+    stylus_tip_diameter_mm: Number | None = Field(default=None, gt=0)
 
     @model_validator(mode="after")
     def _ends_are_balls(self):

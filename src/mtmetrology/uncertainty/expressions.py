@@ -1,6 +1,6 @@
 """Safe measurement-model expressions: parsed with :mod:`ast`, never ``eval``.
 
-Expressions are a safe subset of Python compiled to a tree of nodes evaluated over numpy
+Expressions are a safe subset of Python compiled to a graph of nodes evaluated over numpy
 arrays: numbers, the names of inputs and of earlier outputs, ``pi`` and ``e``,
 ``+ - * / **``, unary minus, and calls of the whitelisted functions in
 :data:`FUNCTIONS`.  Attribute access, subscripts, keyword arguments, comparisons and any
@@ -8,8 +8,15 @@ other construct are refused with an error naming the file, the output and the of
 token.
 
 The compiled model is vectorised (X of shape (..., N) -> (..., m)), carries an analytic
-Jacobian obtained by symbolic differentiation of the expression tree, and pickles as its
+Jacobian obtained by symbolic differentiation of the expression graph, and pickles as its
 source text (rebuilt on unpickling), so process pools and Dask workers can run it.
+
+An output used by later outputs is one shared node of the graph: it is evaluated (and
+differentiated) once per call, however many outputs refer to it, so a chain of outputs
+each reusing the previous one twice costs linear, not exponential, time.  Expressions
+are bounded (:data:`MAX_EXPRESSION_LENGTH` characters, :data:`MAX_DEPTH` levels,
+:data:`MAX_NODES` operations for the whole model): beyond, the model is refused with a
+message that says to define intermediate outputs.
 """
 
 from __future__ import annotations
@@ -47,47 +54,60 @@ class ExpressionError(ModelFileError):
 
 
 class Node:
-    """A node of a compiled expression; ``evaluate(values)`` works on numpy arrays."""
+    """A node of a compiled expression graph.
+
+    Nodes compare and hash by identity: an output reused by later outputs is one shared
+    node, evaluated once (:class:`_Program`), however often it is referred to.
+    """
 
     __slots__ = ()
 
-    def evaluate(self, values: Sequence[np.ndarray]):  # pragma: no cover - abstract
+    def children(self) -> tuple[Node, ...]:
+        return ()
+
+    def apply(self, columns: Sequence[np.ndarray], args: list):  # pragma: no cover
         raise NotImplementedError
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False)
 class Const(Node):
     value: float
 
-    def evaluate(self, values):
+    def apply(self, columns, args):
         return self.value
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False)
 class Var(Node):
     index: int
     name: str
 
-    def evaluate(self, values):
-        return values[self.index]
+    def apply(self, columns, args):
+        return columns[self.index]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False)
 class Neg(Node):
     operand: Node
 
-    def evaluate(self, values):
-        return -self.operand.evaluate(values)
+    def children(self):
+        return (self.operand,)
+
+    def apply(self, columns, args):
+        return -args[0]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False)
 class Binary(Node):
     op: str
     left: Node
     right: Node
 
-    def evaluate(self, values):
-        a, b = self.left.evaluate(values), self.right.evaluate(values)
+    def children(self):
+        return (self.left, self.right)
+
+    def apply(self, columns, args):
+        a, b = args
         if self.op == "+":
             return a + b
         if self.op == "-":
@@ -99,22 +119,74 @@ class Binary(Node):
         return np.power(a, b)
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False)
 class Call(Node):
     func: str
     args: tuple[Node, ...]
 
-    def evaluate(self, values):
-        return FUNCTIONS[self.func][0](*(a.evaluate(values) for a in self.args))
+    def children(self):
+        return self.args
+
+    def apply(self, columns, args):
+        return FUNCTIONS[self.func][0](*args)
+
+
+def _is(node: Node, value: float) -> bool:
+    return isinstance(node, Const) and node.value == value
+
+
+def topological(roots: Sequence[Node]) -> list[Node]:
+    """Every distinct node reachable from ``roots``, children before parents (iterative:
+    graphs deeper than Python's recursion limit are fine)."""
+    order: list[Node] = []
+    seen: set[int] = set()
+    for root in roots:
+        stack: list[tuple[Node, bool]] = [(root, False)]
+        while stack:
+            node, expanded = stack.pop()
+            if expanded:
+                order.append(node)
+                continue
+            if id(node) in seen:
+                continue
+            seen.add(id(node))
+            stack.append((node, True))
+            stack.extend((c, False) for c in reversed(node.children()) if id(c) not in seen)
+    return order
+
+
+class _Program:
+    """A graph flattened into steps: each node evaluated once, each intermediate array
+    released after its last use (memory stays bounded on large chunks of trials)."""
+
+    def __init__(self, roots: Sequence[Node]):
+        order = topological(roots)
+        index = {id(n): k for k, n in enumerate(order)}
+        self.steps = [(n, tuple(index[id(c)] for c in n.children())) for n in order]
+        self.roots = [index[id(r)] for r in roots]
+        last = {a: k for k, (_, args) in enumerate(self.steps) for a in args}
+        keep = set(self.roots)
+        self.release: list[list[int]] = [[] for _ in self.steps]
+        for a, k in last.items():
+            if a not in keep:
+                self.release[k].append(a)
+
+    def run(self, columns: Sequence[np.ndarray]) -> list:
+        values: list = [None] * len(self.steps)
+        for k, (node, args) in enumerate(self.steps):
+            values[k] = node.apply(columns, [values[a] for a in args])
+            for a in self.release[k]:
+                values[a] = None
+        return [values[r] for r in self.roots]
 
 
 ZERO, ONE = Const(0.0), Const(1.0)
 
 
 def _add(a: Node, b: Node) -> Node:
-    if a == ZERO:
+    if _is(a, 0.0):
         return b
-    if b == ZERO:
+    if _is(b, 0.0):
         return a
     if isinstance(a, Const) and isinstance(b, Const):
         return Const(a.value + b.value)
@@ -122,9 +194,9 @@ def _add(a: Node, b: Node) -> Node:
 
 
 def _sub(a: Node, b: Node) -> Node:
-    if b == ZERO:
+    if _is(b, 0.0):
         return a
-    if a == ZERO:
+    if _is(a, 0.0):
         return _neg(b)
     if isinstance(a, Const) and isinstance(b, Const):
         return Const(a.value - b.value)
@@ -132,11 +204,11 @@ def _sub(a: Node, b: Node) -> Node:
 
 
 def _mul(a: Node, b: Node) -> Node:
-    if a == ZERO or b == ZERO:
+    if _is(a, 0.0) or _is(b, 0.0):
         return ZERO
-    if a == ONE:
+    if _is(a, 1.0):
         return b
-    if b == ONE:
+    if _is(b, 1.0):
         return a
     if isinstance(a, Const) and isinstance(b, Const):
         return Const(a.value * b.value)
@@ -144,9 +216,9 @@ def _mul(a: Node, b: Node) -> Node:
 
 
 def _div(a: Node, b: Node) -> Node:
-    if a == ZERO:
+    if _is(a, 0.0):
         return ZERO
-    if b == ONE:
+    if _is(b, 1.0):
         return a
     return Binary("/", a, b)
 
@@ -160,9 +232,9 @@ def _neg(a: Node) -> Node:
 
 
 def _pow(a: Node, b: Node) -> Node:
-    if b == ONE:
+    if _is(b, 1.0):
         return a
-    if b == ZERO:
+    if _is(b, 0.0):
         return ONE
     return Binary("**", a, b)
 
@@ -226,17 +298,31 @@ FUNCTIONS: dict[str, tuple[Callable, int, Callable[[tuple, tuple], Node]]] = {
 CONSTANTS: dict[str, float] = {"pi": math.pi, "e": math.e}
 
 
-def differentiate(node: Node, index: int) -> Node:
-    """Symbolic derivative of ``node`` with respect to variable ``index``."""
+def differentiate(node: Node, index: int, memo: dict[int, Node] | None = None) -> Node:
+    """Symbolic derivative of ``node`` with respect to variable ``index``.
+
+    The derivative of every shared node is built once (``memo``, by node identity), so
+    the derivative graph grows linearly with the expression graph, not with the tree it
+    unfolds to.
+    """
+    memo = {} if memo is None else memo
+    for n in topological([node]):
+        if id(n) not in memo:
+            memo[id(n)] = _derivative(n, index, memo)
+    return memo[id(node)]
+
+
+def _derivative(node: Node, index: int, memo: dict[int, Node]) -> Node:
+    """The derivative of one node from those of its children (already in ``memo``)."""
     if isinstance(node, Const):
         return ZERO
     if isinstance(node, Var):
         return ONE if node.index == index else ZERO
     if isinstance(node, Neg):
-        return _neg(differentiate(node.operand, index))
+        return _neg(memo[id(node.operand)])
     if isinstance(node, Binary):
         a, b = node.left, node.right
-        da, db = differentiate(a, index), differentiate(b, index)
+        da, db = memo[id(a)], memo[id(b)]
         if node.op == "+":
             return _add(da, db)
         if node.op == "-":
@@ -246,14 +332,14 @@ def differentiate(node: Node, index: int) -> Node:
         if node.op == "/":
             # (a/b)' = (da·b − a·db)/b²
             return _div(_sub(_mul(da, b), _mul(a, db)), _pow(b, Const(2.0)))
-        if db == ZERO:
+        if _is(db, 0.0):
             # Constant exponent: (a^b)' = b·a^(b−1)·da, valid for negative a too.
             return _mul(_mul(b, _pow(a, _sub(b, ONE))), da)
         # General power: (a^b)' = a^b·(db·ln a + b·da/a).
         return _mul(node, _add(_mul(db, _call("log", a)), _div(_mul(b, da), a)))
     if isinstance(node, Call):
-        dargs = tuple(differentiate(arg, index) for arg in node.args)
-        if all(d == ZERO for d in dargs):
+        dargs = tuple(memo[id(arg)] for arg in node.args)
+        if all(_is(d, 0.0) for d in dargs):
             return ZERO
         return FUNCTIONS[node.func][2](node.args, dargs)
     raise TypeError(f"unknown node {node!r}")  # pragma: no cover - the compiler builds no others
@@ -263,6 +349,24 @@ def differentiate(node: Node, index: int) -> Node:
 
 
 _BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**"}
+
+#: Longest expression accepted (characters); real models are far shorter, and longer ones
+#: are better split into named intermediate outputs.
+MAX_EXPRESSION_LENGTH = 10_000
+#: Deepest nesting of one expression (operators, calls, parentheses).
+MAX_DEPTH = 200
+#: Most distinct nodes of a model's expression graph (all outputs together).
+MAX_NODES = 100_000
+
+
+def _depth(tree: ast.AST) -> int:
+    """Nesting depth of an AST, computed without recursion."""
+    deepest, stack = 0, [(tree, 1)]
+    while stack:
+        node, depth = stack.pop()
+        deepest = max(deepest, depth)
+        stack.extend((c, depth + 1) for c in ast.iter_child_nodes(node))
+    return deepest
 
 
 class _Compiler:
@@ -284,10 +388,27 @@ class _Compiler:
         self.output = name
         if not isinstance(expression, str) or not expression.strip():
             raise self.fail(None, "expression must be a non-empty string")
+        if len(expression) > MAX_EXPRESSION_LENGTH:
+            raise self.fail(
+                None,
+                f"the expression has {len(expression)} characters, more than "
+                f"{MAX_EXPRESSION_LENGTH}; define intermediate outputs",
+            )
         try:
             tree = ast.parse(expression.strip(), mode="eval")
         except SyntaxError as exc:
-            raise self.fail(None, f"syntax error in {expression!r}: {exc.msg}") from None
+            shown = expression if len(expression) <= 60 else expression[:57] + "..."
+            raise self.fail(None, f"syntax error in {shown!r}: {exc.msg}") from None
+        except (RecursionError, MemoryError):
+            raise self.fail(
+                None, f"nested deeper than {MAX_DEPTH} levels; define intermediate outputs"
+            ) from None
+        depth = _depth(tree)
+        if depth > MAX_DEPTH:
+            raise self.fail(
+                None,
+                f"nested {depth} levels deep, more than {MAX_DEPTH}; define intermediate outputs",
+            )
         self.forbidden(tree)
         node = self.visit(tree.body)
         self.outputs[name] = node
@@ -310,7 +431,7 @@ class _Compiler:
         if isinstance(node, ast.Constant):
             if isinstance(node.value, bool) or not isinstance(node.value, int | float):
                 raise self.fail(node, f"constant {ast.unparse(node)} is not a real number")
-            return Const(float(node.value))
+            return self.constant(node, node.value)
         if isinstance(node, ast.Name):
             return self.name(node)
         if isinstance(node, ast.BinOp):
@@ -321,7 +442,9 @@ class _Compiler:
                 )
             left, right = self.visit(node.left), self.visit(node.right)
             if isinstance(left, Const) and isinstance(right, Const):
-                return Const(float(Binary(op, left, right).evaluate(())))
+                with np.errstate(all="ignore"):
+                    value = Binary(op, left, right).apply((), [left.value, right.value])
+                return self.constant(node, value)
             return Binary(op, left, right)
         if isinstance(node, ast.UnaryOp):
             if isinstance(node.op, ast.USub):
@@ -338,6 +461,16 @@ class _Compiler:
         raise self.fail(
             node, f"{type(node).__name__} {ast.unparse(node)!r} is not allowed in an expression"
         )
+
+    def constant(self, node: ast.AST, value: float) -> Const:
+        """A finite constant (``1e400``, ``10**400`` or ``0/0`` are refused)."""
+        try:
+            v = float(value)
+        except OverflowError:
+            v = math.inf
+        if not math.isfinite(v):
+            raise self.fail(node, f"the constant {ast.unparse(node)} is not a finite number")
+        return Const(v)
 
     def name(self, node: ast.Name) -> Node:
         n = node.id
@@ -423,8 +556,26 @@ class CompiledModel:
             seen.add(name)
             trees.append(compiler.compile(name, expression))
         self._trees = tuple(trees)
-        n = len(st["input_names"])
-        self._derivatives = tuple(tuple(differentiate(t, i) for i in range(n)) for t in trees)
+        size = len(topological(trees))
+        if size > MAX_NODES:
+            raise ModelFileError(
+                f"{src}: the outputs form a graph of {size} operations, more than {MAX_NODES}"
+            )
+        self._values = _Program(trees)
+        self._gradient: _Program | None = None  # built on first use (GUF only needs it)
+
+    @property
+    def trees(self) -> tuple[Node, ...]:
+        """The compiled expression graph of each output (shared nodes are shared)."""
+        return self._trees
+
+    def _jacobian_program(self) -> _Program:
+        if self._gradient is None:
+            n = len(self._state["input_names"])
+            memos: list[dict[int, Node]] = [{} for _ in range(n)]
+            rows = [differentiate(t, i, memos[i]) for t in self._trees for i in range(n)]
+            self._gradient = _Program(rows)
+        return self._gradient
 
     def __getstate__(self) -> dict:
         return self._state
@@ -461,17 +612,16 @@ class CompiledModel:
         """Evaluate the outputs: X (..., N) -> (..., m)."""
         cols, batch = self._columns(x)
         with np.errstate(all="ignore"):  # NaN/inf are reported by the caller, not warned
-            vals = [np.broadcast_to(t.evaluate(cols), batch) for t in self._trees]
+            vals = [np.broadcast_to(v, batch) for v in self._values.run(cols)]
         return np.stack(vals, axis=-1)
 
     def jacobian(self, x) -> np.ndarray:
         """Analytic sensitivities ∂Y_j/∂X_i: x (..., N) -> (..., m, N)."""
         cols, batch = self._columns(x)
+        n = len(self._state["input_names"])
         with np.errstate(all="ignore"):
-            rows = [
-                np.stack([np.broadcast_to(d.evaluate(cols), batch) for d in drow], axis=-1)
-                for drow in self._derivatives
-            ]
+            flat = [np.broadcast_to(v, batch) for v in self._jacobian_program().run(cols)]
+        rows = [np.stack(flat[j * n : (j + 1) * n], axis=-1) for j in range(len(self._trees))]
         return np.stack(rows, axis=-2)
 
     def __repr__(self) -> str:

@@ -30,10 +30,12 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from mtmetrology.io.schema import describe_validation_error
+from mtmetrology.io import InputFileError
+from mtmetrology.io.documents import load_document
+from mtmetrology.io.schema import Number, StrictModel, Text, Version, describe_validation_error
+from mtmetrology.uncertainty.dimensions import check_output_units
 from mtmetrology.uncertainty.distributions import make_distribution
 from mtmetrology.uncertainty.expressions import (
     CONSTANTS,
@@ -63,44 +65,60 @@ __all__ = [
 # --------------------------------------------------------------------------- file schema
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+_Strict = StrictModel  # unknown keys, empty values, non-finite numbers refused
 
 
 class DistributionSpec(BaseModel):
     """``{kind: ..., <parameters>}``; parameters are checked by ``make_distribution``."""
 
     model_config = ConfigDict(extra="allow", allow_inf_nan=False)
-    kind: str
+    kind: Text
+
+    @model_validator(mode="after")
+    def _numbers(self):
+        for key, value in (self.model_extra or {}).items():
+            _check_number(value, key)
+        return self
+
+
+def _check_number(value: object, key: str, depth: int = 0) -> None:
+    """Distribution parameters are numbers or (nested) lists of them, never ``true`` or
+    ``"12.5"`` (finiteness and ranges are checked by ``make_distribution``)."""
+    if isinstance(value, list) and depth < 3:
+        for v in value:
+            _check_number(v, key, depth + 1)
+        return
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"{key}: {value!r} is not a number")
 
 
 class InputSpec(_Strict):
-    name: str
-    value: float | None = None
-    u: float | None = Field(default=None, ge=0)
-    unit: str = ""
+    name: Text
+    value: Number | None = None
+    u: Number | None = Field(default=None, ge=0)
+    unit: Text = ""
     distribution: DistributionSpec | None = None
-    dof: float | None = Field(default=None, gt=0, allow_inf_nan=True)
+    dof: Number | None = Field(default=None, gt=0, allow_inf_nan=True)
 
 
 class CorrelationSpec(_Strict):
-    inputs: tuple[str, str]
-    r: float = Field(ge=-1.0, le=1.0)
+    inputs: tuple[Text, Text]
+    r: Number = Field(ge=-1.0, le=1.0)
 
 
 class OutputSpec(_Strict):
-    name: str
-    expression: str
-    unit: str = ""
+    name: Text
+    expression: Text
+    unit: Text | None = None  # when given, checked against the expression's dimension
 
 
 class ModelSpec(_Strict):
     kind: Literal["measurement-model"] = "measurement-model"
-    version: int = 1
-    name: str = ""
-    description: str = ""
+    version: Version = 1
+    name: Text = ""
+    description: Text = ""
     inputs: list[InputSpec] = Field(min_length=1)
-    correlations: list[CorrelationSpec] = []
+    correlations: list[CorrelationSpec] = Field(default_factory=list)
     outputs: list[OutputSpec] = Field(min_length=1)
 
 
@@ -199,15 +217,16 @@ def parse_model(document: Any, source: str = "<model>") -> MeasurementModel:
         raise ModelFileError(f"{source}: correlations: {exc}") from None
     for k, o in enumerate(spec.outputs):
         try:
-            parse_unit(o.unit)
+            parse_unit(o.unit or "")
         except UnitError as exc:
             raise ModelFileError(f"{source}: outputs.{k} ({o.name!r}): {exc}") from None
     model = CompiledModel(
         names,
         [(o.name, o.expression) for o in spec.outputs],
-        [o.unit for o in spec.outputs],
+        [o.unit or "" for o in spec.outputs],
         source,
     )
+    check_output_units(model, [s.unit for s in spec.inputs], [o.unit for o in spec.outputs], source)
     return MeasurementModel(spec.name, spec.description, inputs, model, source)
 
 
@@ -221,13 +240,11 @@ def load_model(path: str | os.PathLike) -> MeasurementModel:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ModelFileError(f"{path}: cannot read model file ({exc.strerror})") from None
-    try:
-        document = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ModelFileError(f"{path}: YAML syntax error: {exc}") from None
+        document = load_document(path, "measurement model")
+    except ModelFileError:
+        raise
+    except InputFileError as exc:
+        raise ModelFileError(str(exc)) from None
     if not isinstance(document, dict):
         raise ModelFileError(f"{path}: a model file must be a YAML mapping")
     return parse_model(document, str(path))

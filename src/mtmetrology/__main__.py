@@ -1,0 +1,64 @@
+"""``mtm`` / ``python -m mtmetrology``: the command line, interrupt-safe from the first
+instruction.
+
+This module imports nothing heavy before it can answer Ctrl-C: a SIGINT during start-up
+(importing numpy, scipy, pyarrow ... takes about a second) or during a run prints one
+line, ``interrupted; nothing written``, and exits with code 130; outputs are written
+atomically, so that line is true (in the last instant of a run, after its output was
+completed, the line names the output instead).  Once the command has returned, SIGINT is
+ignored: the exit of the interpreter has nothing left to stop.
+"""
+
+from __future__ import annotations
+
+import sys
+
+INTERRUPTED = "interrupted; nothing written"
+EXIT_INTERRUPTED = 130
+
+
+def _interrupted() -> None:
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not add a traceback
+    message = INTERRUPTED
+    if "mtmetrology.cli._common" in sys.modules:  # start-up is over: an output may be done
+        message = sys.modules["mtmetrology.cli._common"].interrupted_message()
+    sys.stderr.write(message + "\n")
+    sys.stderr.flush()
+    raise SystemExit(EXIT_INTERRUPTED)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run ``mtm`` with ``args`` (default: the process arguments) and exit."""
+    try:
+        import signal  # here, not above: importing it is already a moment to answer
+
+        import typer
+
+        argv = sys.argv[1:] if args is None else list(args)
+        from mtmetrology.cli import COMMANDS, SHARED_GROUPS, _common, build_app
+
+        named = argv[0] if argv and (argv[0] in COMMANDS or argv[0] in SHARED_GROUPS) else None
+        app = build_app(named)
+        try:
+            try:
+                code = app(args=argv, prog_name="mtm", standalone_mode=False)
+            finally:
+                # The run is over (done, refused or interrupted): a later Ctrl-C, during
+                # the exit of the interpreter, has nothing left to stop.
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
+        except typer.Abort:
+            raise KeyboardInterrupt from None
+        except _common.CLICK_EXCEPTION as err:
+            err.show()
+            raise SystemExit(err.exit_code) from None
+        if code == EXIT_INTERRUPTED and not _common.interrupt_reported():
+            raise KeyboardInterrupt  # typer turned a Ctrl-C outside the command into 130
+    except KeyboardInterrupt:
+        _interrupted()
+    raise SystemExit(code if isinstance(code, int) else 0)
+
+
+if __name__ == "__main__":
+    main()
