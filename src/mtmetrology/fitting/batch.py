@@ -11,12 +11,14 @@ the sets that have not converged.  Planes and lines use the stacked SVD.
 
 from __future__ import annotations
 
+import functools
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
 from mtmetrology.fitting.least_squares import FitError
-from mtmetrology.optimize import least_squares_batch
+from mtmetrology.optimize import _cholesky_solve, least_squares_batch
 
 __all__ = [
     "BatchLineFit",
@@ -28,10 +30,33 @@ __all__ = [
     "fit_spheres",
 ]
 
+#: ``"numba"``: the moment matrices of circle/sphere fits are formed by a compiled kernel
+#: (when numba is installed); ``"numpy"``: by stacked matrix products.  Set from the
+#: environment variable ``MTMETROLOGY_BACKEND`` at import; may be changed at run time.
+BACKEND = os.environ.get("MTMETROLOGY_BACKEND", "numba").strip().lower()
+
+
+@functools.cache
+def _import_kernels():
+    try:
+        from mtmetrology.fitting import _kernels
+    except ImportError:
+        return None
+    return _kernels
+
+
+def _compiled_kernels():
+    """The compiled kernels module when the numba backend is selected and installed."""
+    return _import_kernels() if BACKEND == "numba" else None
+
+
 _STEP_TOL = 1e-13
 _EPS = float(np.finfo(float).eps)
 _MAX_ITER = 100
+#: Sets per chunk: a few thousand keep the numpy path's temporaries in cache; the
+#: compiled path has no large temporaries, so larger chunks cut the solver's per-call cost.
 _CHUNK = 1024
+_COMPILED_CHUNK = 16384
 
 
 @dataclass(frozen=True, eq=False)
@@ -167,31 +192,6 @@ def _require_spread_scatter(kind: str, scatter: np.ndarray, first_index: int) ->
         )
 
 
-def _solve_spd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solve stacked small symmetric positive-definite systems a x = b by Cholesky.
-
-    a : (k, p, p), b : (k, p) -> x (k, p).  Written out over the p ≤ 5 indices with
-    vector operations over k, which beats LAPACK's per-matrix call overhead for tiny
-    matrices.  A set whose matrix is not positive definite gets NaN.
-    """
-    k, p, _ = a.shape
-    chol = np.zeros((p, p, k))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        for j in range(p):
-            diag = a[:, j, j] - sum(chol[j, m] ** 2 for m in range(j))
-            chol[j, j] = np.sqrt(np.where(diag > 0, diag, np.nan))
-            for i in range(j + 1, p):
-                off = a[:, i, j] - sum(chol[i, m] * chol[j, m] for m in range(j))
-                chol[i, j] = off / chol[j, j]
-        y = np.empty((p, k))
-        for i in range(p):
-            y[i] = (b[:, i] - sum(chol[i, m] * y[m] for m in range(i))) / chol[i, i]
-        x = np.empty((p, k))
-        for i in reversed(range(p)):
-            x[i] = (y[i] - sum(chol[m, i] * x[m] for m in range(i + 1, p))) / chol[i, i]
-    return x.T
-
-
 def _canonical(v: np.ndarray) -> np.ndarray:
     """Per-row sign convention (K, d): largest component positive."""
     k = np.argmax(np.abs(v), axis=1)
@@ -219,7 +219,7 @@ def _kasa(xt: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     design[:, d] = 1.0
     design[:, d + 1] = 0.25 * _squared_norms(design[:, :d])
     m = np.matmul(design, design.transpose(0, 2, 1))  # (k, d + 2, d + 2)
-    sol = _solve_spd(m[:, : d + 1, : d + 1], m[:, : d + 1, d + 1])
+    sol, _ = _cholesky_solve(m[:, : d + 1, : d + 1], m[:, : d + 1, d + 1])
     centres = sol[:, :d]
     radii = np.sqrt(np.maximum(sol[:, d] + np.sum(centres * centres, axis=1), 0.0))
     return centres * scale[:, None], radii * scale
@@ -239,9 +239,15 @@ def _round_gauss_newton(
     fixed = radius is not None
     p = d if fixed else d + 1
 
-    def moments(xs: np.ndarray, c: np.ndarray, r: np.ndarray) -> np.ndarray:
-        """Stacked moment matrices A Aᵀ of A = [u; 1; ρ − r] (k, d + 2, n): they hold the
-        normal equations JᵀJ, Jᵀd of J = [−u, −1] and the cost Σd² in one product."""
+    def moments(index: np.ndarray, c: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """Stacked moment matrices A Aᵀ of A = [u; 1; ρ − r] (k, d + 2, n) of the sets
+        ``index``: they hold the normal equations JᵀJ, Jᵀd of J = [−u, −1] and the cost
+        Σd² in one product."""
+        if (kernels := _compiled_kernels()) is not None:
+            out = np.empty((index.size, d + 2, d + 2))
+            kernels.round_moments(xt, index, c, r, out)
+            return out
+        xs = xt if index.size == n_sets else xt[index]  # a view while every set iterates
         a = np.empty((xs.shape[0], d + 2, xs.shape[2]))
         np.subtract(xs, c[:, :, None], out=a[:, :d])
         rho = np.sqrt(_squared_norms(a[:, :d]))  # (k, n)
@@ -251,9 +257,8 @@ def _round_gauss_newton(
         return np.matmul(a, a.transpose(0, 2, 1))  # (k, d + 2, d + 2)
 
     def normal_equations(x: np.ndarray, index: np.ndarray):
-        xs = xt if index.size == n_sets else xt[index]  # a view while every set iterates
-        r = np.full(index.size, float(radius)) if fixed else x[:, d]
-        m = moments(xs, x[:, :d], r)
+        r = np.full(index.size, float(radius)) if fixed else np.ascontiguousarray(x[:, d])
+        m = moments(index, np.ascontiguousarray(x[:, :d]), r)
         return m[:, :p, :p], -m[:, :p, d + 1], m[:, d + 1, d + 1], n_points
 
     def retract(x: np.ndarray, steps: np.ndarray, index: np.ndarray):
@@ -332,9 +337,9 @@ def fit_spheres(points: object, radius: float | None = None) -> BatchRoundFit:
     centres, radii = np.empty((n_sets, 3)), np.empty(n_sets)
     residuals = np.empty(p.shape[:2])
     status, nit = np.empty(n_sets, dtype=np.int8), np.empty(n_sets, dtype=int)
-    # Chunks of a few thousand sets keep the temporaries in cache.
-    for start in range(0, n_sets, _CHUNK):
-        part = slice(start, start + _CHUNK)
+    chunk = _CHUNK if _compiled_kernels() is None else _COMPILED_CHUNK
+    for start in range(0, n_sets, chunk):
+        part = slice(start, start + chunk)
         xt = np.ascontiguousarray(p[part].transpose(0, 2, 1))  # (k, 3, n) coordinate-major
         centroid = xt.mean(axis=2)
         xt -= centroid[:, :, None]
