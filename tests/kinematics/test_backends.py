@@ -67,6 +67,24 @@ def test_backends_agree_on_every_preset_and_model(name, model, monkeypatch):
     assert compiled.position.shape == (37, 23, 3)
     assert compiled.d_params.shape == (37, 23, 3, m.n_params)
     assert_agree(compiled, reference, np.abs(reference.position).max())
+    compiled, reference = both(m, monkeypatch, q, theta, senses=senses, tool=tool)
+    assert_agree(compiled, reference, np.abs(reference.position).max())
+
+
+@pytest.mark.parametrize(("name", "model"), [PRESET_MODELS[0], PRESET_MODELS[3]])
+def test_generated_kernels_agree(name, model, monkeypatch):
+    """Large position-only calls run a kernel generated for the program (compiled once
+    per machine, about a second: two presets here, all instruction kinds)."""
+    m = Machine.load(name, model)
+    q, theta, senses, tool = state(m, 70, 300, seed=5)
+    monkeypatch.setattr(m.chain, "generated_min_pairs", 0)
+    kernel = kinematic_chain._compiled_kernel()
+    generated = []
+    build = kernel.kernel
+    monkeypatch.setattr(kernel, "kernel", lambda *a: generated.append(1) or build(*a))
+    compiled, reference = both(m, monkeypatch, q, theta, senses=senses, tool=tool)
+    assert generated == [1]
+    assert_agree(compiled, reference, np.abs(reference.position).max())
 
 
 @pytest.mark.parametrize(

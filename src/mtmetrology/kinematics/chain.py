@@ -357,6 +357,9 @@ class KinematicChain:
     #: and this many trials (below, the numpy blocks are as fast and need no compiler).
     compiled_min_pairs = 20_000
     compiled_min_trials = 16
+    #: From this many pairs, a position-only call compiles its own kernel (once per
+    #: machine and model; see :mod:`mtmetrology.kinematics._kernel`).
+    generated_min_pairs = 1_000_000
 
     def evaluate(
         self,
@@ -506,7 +509,8 @@ class KinematicChain:
         ops, n_registers = program.compile()
         position = np.empty((n_trials * n_poses, 3))
         jacobian = np.empty((n_trials * n_poses, 3 * self.n_params) if d_params else (1, 1))
-        _compiled_kernel().run(ops, program.table(), th, n_registers, position, jacobian)
+        generate = n_trials * n_poses >= self.generated_min_pairs
+        _compiled_kernel().run(ops, program.table(), th, n_registers, position, jacobian, generate)
         return ChainEvaluation(
             position.reshape(*shape, 3),
             jacobian.reshape(*shape, 3, self.n_params) if d_params else None,
