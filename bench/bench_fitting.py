@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from harness import Benchmark
+from harness import Benchmark, patched
 from mtmetrology.fitting import batch
 
 SETS = 100_000
@@ -96,23 +96,11 @@ def scipy_fit(points: np.ndarray) -> np.ndarray:
     return sol.x
 
 
-def with_backend(name: str, function):
-    def run():
-        saved = batch.BACKEND
-        batch.BACKEND = name
-        try:
-            return function()
-        finally:
-            batch.BACKEND = saved
-
-    return run
-
-
 def main() -> None:
     sets = make_sets(SETS)
     ours = batch.fit_spheres(sets)
     assert ours.success.all(), ours.message
-    numpy_ours = with_backend("numpy", lambda: batch.fit_spheres(sets))()
+    numpy_ours = patched(batch, "BACKEND", "numpy", lambda: batch.fit_spheres(sets))()
     assert np.abs(numpy_ours.centres - ours.centres).max() < 1e-10, "backends disagree"
     c, r = numpy_gauss_newton(sets)
     assert np.abs(c - ours.centres).max() < 1e-9 and np.abs(r - ours.radii).max() < 1e-9
@@ -129,7 +117,7 @@ def main() -> None:
     b.time(
         "fit_spheres (numpy backend)",
         "ours",
-        with_backend("numpy", lambda: batch.fit_spheres(sets)),
+        patched(batch, "BACKEND", "numpy", lambda: batch.fit_spheres(sets)),
         note="MTMETROLOGY_BACKEND=numpy",
     )
     b.time(

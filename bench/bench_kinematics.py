@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness import Benchmark
+from harness import Benchmark, patched
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics import chain as kinematic_chain
 
@@ -181,40 +181,34 @@ def problem(machine: Machine, trials: int, seed: int = 0):
     return q, theta
 
 
-def with_backend(name: str, function):
-    def run():
-        saved = kinematic_chain.BACKEND
-        kinematic_chain.BACKEND = name
-        try:
-            return function()
-        finally:
-            kinematic_chain.BACKEND = saved
-
-    return run
+def numpy_backend(function):
+    return patched(kinematic_chain, "BACKEND", "numpy", function)
 
 
 def interpreted(machine: Machine, function):
     """Run with the interpreter kernel instead of the program's generated one."""
+    return patched(machine.chain, "generated_min_pairs", 10**18, function)
 
-    def run():
-        machine.chain.generated_min_pairs = 10**18
-        try:
-            return function()
-        finally:
-            del machine.chain.generated_min_pairs
 
-    return run
+def time_loop(bench: Benchmark, q: np.ndarray, theta: np.ndarray, pairs: int) -> None:
+    bench.time(
+        "per-point 4x4 loop",
+        "loop",
+        lambda: [loop_point(q[i % POSES], theta[i]) for i in range(LOOP_PAIRS)],
+        scale=pairs / LOOP_PAIRS,
+        note=f"position + Jacobian, {LOOP_PAIRS:,} pairs, scaled",
+    )
 
 
 def check_contenders(m: Machine, q: np.ndarray, theta: np.ndarray) -> None:
     """Every contender evaluates the same model: compare before timing."""
     ev = m.evaluate(q, theta[:20, None, :], d_params=True)
-    ref = with_backend("numpy", lambda: m.evaluate(q, theta[:20, None, :], d_params=True))()
+    ref = numpy_backend(lambda: m.evaluate(q, theta[:20, None, :], d_params=True))()
     assert np.array_equal(ev.position, ref.position), "backends disagree (position)"
     many = theta[:20_000, None, :]  # enough pairs for the generated kernel
-    assert np.array_equal(
-        m.forward(q, many), with_backend("numpy", lambda: m.forward(q, many))()
-    ), "generated kernel disagrees"
+    assert np.array_equal(m.forward(q, many), numpy_backend(lambda: m.forward(q, many))()), (
+        "generated kernel disagrees"
+    )
     assert np.allclose(ev.d_params, ref.d_params, rtol=0, atol=1e-12), "backends disagree"
     assert np.allclose(numpy_forward(q, theta[:20]), ev.position, atol=1e-9), "baseline"
     for t in range(3):
@@ -246,17 +240,11 @@ def main() -> None:
     b.time(
         "Machine.forward (numpy backend)",
         "ours",
-        with_backend("numpy", lambda: m.forward(q, th)),
+        numpy_backend(lambda: m.forward(q, th)),
         note="MTMETROLOGY_BACKEND=numpy",
     )
     b.time("vectorised numpy chain (this file)", "baseline", lambda: numpy_forward(q, theta))
-    b.time(
-        "per-point 4x4 loop",
-        "loop",
-        lambda: [loop_point(q[i % POSES], theta[i]) for i in range(LOOP_PAIRS)],
-        scale=pairs / LOOP_PAIRS,
-        note=f"position + Jacobian, {LOOP_PAIRS:,} pairs, scaled",
-    )
+    time_loop(b, q, theta, pairs)
     b.time("write the output once", "floor", lambda: np.empty((TRIALS, POSES, 3)).fill(0.0))
     b.time(
         "draw the parameters",
@@ -290,16 +278,10 @@ def main() -> None:
     j.time(
         "Machine.evaluate(d_params=True) (numpy)",
         "ours",
-        with_backend("numpy", lambda: m.evaluate(qj, thetaj, d_params=True)),
+        numpy_backend(lambda: m.evaluate(qj, thetaj, d_params=True)),
         note="MTMETROLOGY_BACKEND=numpy",
     )
-    j.time(
-        "per-point 4x4 loop",
-        "loop",
-        lambda: [loop_point(q[i % POSES], theta[i]) for i in range(LOOP_PAIRS)],
-        scale=pairs / LOOP_PAIRS,
-        note=f"{LOOP_PAIRS:,} pairs, scaled",
-    )
+    time_loop(j, q, theta, pairs)
     j.time(
         "write the outputs once",
         "floor",

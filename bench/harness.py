@@ -33,12 +33,27 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-__all__ = ["KINDS", "Benchmark", "Target", "Timing", "repeat_times"]
+__all__ = ["KINDS", "Benchmark", "Target", "Timing", "patched", "repeat_times"]
 
 RESULTS_DIR = Path(__file__).resolve().parent / "results"
 #: ours, a vectorised baseline, a per-trial loop (timed on a subset, extrapolated), a peer
 #: library, and the hardware floor.
 KINDS = ("ours", "baseline", "loop", "peer", "floor")
+
+
+def patched(owner: object, attribute: str, value: object, function: Callable[[], object]):
+    """``function`` made to run with ``owner.attribute`` set to ``value``, restored after
+    (e.g. a module's ``BACKEND``, to time one implementation against another)."""
+
+    def run():
+        saved = getattr(owner, attribute)
+        setattr(owner, attribute, value)
+        try:
+            return function()
+        finally:
+            setattr(owner, attribute, saved)
+
+    return run
 
 
 def repeat_times(function: Callable[[], object], repeats: int = 5, warmup: int = 1) -> list:

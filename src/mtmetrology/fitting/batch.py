@@ -11,12 +11,11 @@ the sets that have not converged.  Planes and lines use the stacked SVD.
 
 from __future__ import annotations
 
-import functools
-import os
 from dataclasses import dataclass
 
 import numpy as np
 
+from mtmetrology._backend import compiled_module, from_environment
 from mtmetrology.fitting.least_squares import FitError
 from mtmetrology.optimize import _cholesky_solve, least_squares_batch
 
@@ -32,22 +31,14 @@ __all__ = [
 
 #: ``"numba"``: the moment matrices of circle/sphere fits are formed by a compiled kernel
 #: (when numba is installed); ``"numpy"``: by stacked matrix products.  Set from the
-#: environment variable ``MTMETROLOGY_BACKEND`` at import; may be changed at run time.
-BACKEND = os.environ.get("MTMETROLOGY_BACKEND", "numba").strip().lower()
-
-
-@functools.cache
-def _import_kernels():
-    try:
-        from mtmetrology.fitting import _kernels
-    except ImportError:
-        return None
-    return _kernels
+#: environment variable ``MTMETROLOGY_BACKEND`` at import (:mod:`mtmetrology._backend`);
+#: may be changed at run time.
+BACKEND = from_environment()
 
 
 def _compiled_kernels():
     """The compiled kernels module when the numba backend is selected and installed."""
-    return _import_kernels() if BACKEND == "numba" else None
+    return compiled_module("mtmetrology.fitting._kernels") if BACKEND == "numba" else None
 
 
 _STEP_TOL = 1e-13

@@ -79,13 +79,12 @@ artefact layout and measurement sequence*, Polytechnique Montréal, 2018, §3.5 
 
 from __future__ import annotations
 
-import functools
 import math
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from mtmetrology._backend import compiled_module, from_environment
 from mtmetrology.kinematics import _sparse3 as s3
 from mtmetrology.kinematics._program import JACOBIAN, POSITION, Program
 from mtmetrology.kinematics.basis import Basis
@@ -95,19 +94,14 @@ from mtmetrology.kinematics.topology import LINEAR_AXES, Topology
 __all__ = ["BACKEND", "AxisGeometry", "ChainEvaluation", "KinematicChain"]
 
 #: ``"numba"``: many trials sharing their poses run in a compiled kernel (when numba is
-#: installed); ``"numpy"``: numpy blocks only.  Set from the environment variable
-#: ``MTMETROLOGY_BACKEND`` at import; may be changed at run time.
-BACKEND = os.environ.get("MTMETROLOGY_BACKEND", "numba").strip().lower()
+#: installed); ``"numpy"``: numpy blocks only.  From ``MTMETROLOGY_BACKEND`` at import
+#: (:mod:`mtmetrology._backend`); may be changed at run time.
+BACKEND = from_environment()
 
 
-@functools.cache
 def _compiled_kernel():
     """The compiled kernel module, or None when numba is not installed."""
-    try:
-        from mtmetrology.kinematics import _kernel
-    except ImportError:
-        return None
-    return _kernel
+    return compiled_module("mtmetrology.kinematics._kernel")
 
 
 @dataclass(frozen=True)
