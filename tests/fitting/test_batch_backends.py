@@ -41,10 +41,10 @@ def _sets(rng, k, n, kind, arc, radius=None):
 
 def _both(monkeypatch, fit, points, **kwargs):
     monkeypatch.setattr(batch, "BACKEND", "numba")
-    assert batch._compiled_kernels() is not None
+    assert batch._compiled_kernels(len(points)) is not None
     compiled = fit(points, **kwargs)
     monkeypatch.setattr(batch, "BACKEND", "numpy")
-    assert batch._compiled_kernels() is None
+    assert batch._compiled_kernels(len(points)) is None
     return compiled, fit(points, **kwargs)
 
 

@@ -36,9 +36,16 @@ __all__ = [
 BACKEND = from_environment()
 
 
-def _compiled_kernels():
-    """The compiled kernels module when the numba backend is selected and installed."""
-    return compiled_module("mtmetrology.fitting._kernels") if BACKEND == "numba" else None
+#: Fewer sets than this are fitted on numpy (no import of numba for a handful of fits).
+_COMPILED_MIN_SETS = 256
+
+
+def _compiled_kernels(n_sets: int):
+    """The compiled kernels module when the numba backend is selected and installed and
+    the batch is large enough, else None."""
+    if BACKEND != "numba" or n_sets < _COMPILED_MIN_SETS:
+        return None
+    return compiled_module("mtmetrology.fitting._kernels")
 
 
 _STEP_TOL = 1e-13
@@ -217,13 +224,14 @@ def _kasa(xt: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _round_gauss_newton(
-    xt: np.ndarray, scale: np.ndarray, radius: float | None
+    xt: np.ndarray, scale: np.ndarray, radius: float | None, kernels=None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Batched geometric circle/sphere fit of centred coordinate-major sets xt (K, d, n).
 
     The project's batched least-squares core iterates; this function supplies the stacked
-    normal equations from one product per set (see ``moments``).  Returns centres (K, d),
-    radii (K,), status (K,), nit (K,).
+    normal equations from one product per set (see ``moments``), by the compiled
+    ``kernels`` module when given, else by numpy.  Returns centres (K, d), radii (K,),
+    status (K,), nit (K,).
     """
     n_sets, d, n_points = xt.shape
     centres, radii = _kasa(xt, scale)
@@ -234,7 +242,7 @@ def _round_gauss_newton(
         """Stacked moment matrices A Aᵀ of A = [u; 1; ρ − r] (k, d + 2, n) of the sets
         ``index``: they hold the normal equations JᵀJ, Jᵀd of J = [−u, −1] and the cost
         Σd² in one product."""
-        if (kernels := _compiled_kernels()) is not None:
+        if kernels is not None:
             out = np.empty((index.size, d + 2, d + 2))
             kernels.round_moments(xt, index, c, r, out)
             return out
@@ -328,7 +336,8 @@ def fit_spheres(points: object, radius: float | None = None) -> BatchRoundFit:
     centres, radii = np.empty((n_sets, 3)), np.empty(n_sets)
     residuals = np.empty(p.shape[:2])
     status, nit = np.empty(n_sets, dtype=np.int8), np.empty(n_sets, dtype=int)
-    chunk = _CHUNK if _compiled_kernels() is None else _COMPILED_CHUNK
+    kernels = _compiled_kernels(n_sets)
+    chunk = _CHUNK if kernels is None else _COMPILED_CHUNK
     for start in range(0, n_sets, chunk):
         part = slice(start, start + chunk)
         xt = np.ascontiguousarray(p[part].transpose(0, 2, 1))  # (k, 3, n) coordinate-major
@@ -337,7 +346,7 @@ def fit_spheres(points: object, radius: float | None = None) -> BatchRoundFit:
         scatter = np.matmul(xt, xt.transpose(0, 2, 1))  # (k, 3, 3)
         _require_spread_scatter(kind, scatter, start)
         scale = np.sqrt(np.trace(scatter, axis1=1, axis2=2) / xt.shape[2])
-        c, r, status[part], nit[part] = _round_gauss_newton(xt, scale, radius)
+        c, r, status[part], nit[part] = _round_gauss_newton(xt, scale, radius, kernels)
         residuals[part] = _round_residuals(xt, c, r)
         centres[part], radii[part] = c + centroid, r
     return _round_fit(kind, centres, radii, None, residuals, status, nit)
@@ -372,7 +381,7 @@ def fit_circles(points: object) -> BatchRoundFit:
     vt = _require_spread(kind, x, 2, "collinear")
     if p.shape[2] == 2:
         xt = np.ascontiguousarray(x.transpose(0, 2, 1))
-        c, r, status, nit = _round_gauss_newton(xt, scale, None)
+        c, r, status, nit = _round_gauss_newton(xt, scale, None, _compiled_kernels(len(p)))
         res = _round_residuals(xt, c, r)
         centres, normals = c + centroid, None
     else:
@@ -381,7 +390,8 @@ def fit_circles(points: object) -> BatchRoundFit:
         e2 = np.cross(normals, e1)
         uv = np.stack([np.einsum("knd,kd->kn", x, e1), np.einsum("knd,kd->kn", x, e2)], axis=1)
         uv_mean = uv.mean(axis=2)  # (K, 2); uv is coordinate-major (K, 2, n)
-        c2, r, status, nit = _round_gauss_newton(uv - uv_mean[:, :, None], scale, None)
+        kernels = _compiled_kernels(len(p))
+        c2, r, status, nit = _round_gauss_newton(uv - uv_mean[:, :, None], scale, None, kernels)
         c2 = c2 + uv_mean
         res = _round_residuals(uv, c2, r)
         centres = centroid + c2[:, 0:1] * e1 + c2[:, 1:2] * e2
