@@ -5,7 +5,8 @@ the points of each set forms the symmetric moment matrix ``A Aᵀ`` of
 ``A = [u; 1; ρ − r]`` (the normal equations ``JᵀJ``, ``Jᵀd`` and the cost ``Σd²`` of the
 geometric fit in one matrix) in scalar accumulators, without the ``(k, d + 2, n)``
 temporary of the numpy path.  Circles (d = 2) run the sphere loop with a zero third
-coordinate, whose row and column are dropped.
+coordinate, whose row and column are dropped.  The algebraic (Kåsa) start is formed the
+same way.
 """
 
 from __future__ import annotations
@@ -56,3 +57,30 @@ def round_moments(xt, index, centres, radii, out):  # pragma: no cover - compile
         for i in range(keep.size):
             for j in range(i, keep.size):
                 out[s, i, j] = out[s, j, i] = m[keep[i], keep[j]]
+
+
+@njit(cache=True, nogil=True)
+def kasa_moments(xt, scale, out):  # pragma: no cover - compiled
+    """out[k] = D Dᵀ of the Kåsa design ``D = [2y; 1; ‖y‖²]`` (d + 2, n) of the centred
+    set ``xt[k]`` (d, n), ``y = x / scale[k]``."""
+    k_sets, d, n = xt.shape
+    m = d + 2
+    a = np.empty(m)
+    for k in range(k_sets):
+        f = 2.0 / scale[k]
+        for i in range(m):
+            for j in range(m):
+                out[k, i, j] = 0.0
+        for p in range(n):
+            squared = 0.0
+            for j in range(d):
+                a[j] = xt[k, j, p] * f
+                squared += a[j] * a[j]
+            a[d] = 1.0
+            a[d + 1] = 0.25 * squared
+            for i in range(m):
+                for j in range(i + 1):
+                    out[k, i, j] += a[i] * a[j]
+        for i in range(m):
+            for j in range(i):
+                out[k, j, i] = out[k, i, j]

@@ -123,7 +123,7 @@ class BatchLineFit:
 
 def _check_sets(points: object, kind: str, dims: tuple[int, ...], min_points: int) -> np.ndarray:
     try:
-        arr = np.array(points, dtype=float)
+        arr = np.asarray(points, dtype=float)  # not copied: no fit writes into it
     except (TypeError, ValueError) as exc:
         raise FitError(f"{kind}: points must be a numeric (K, n, d) array ({exc})") from exc
     if arr.ndim != 3 or arr.shape[2] not in dims:
@@ -205,18 +205,23 @@ def _squared_norms(xt: np.ndarray) -> np.ndarray:
     return out
 
 
-def _kasa(xt: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _kasa(xt: np.ndarray, scale: np.ndarray, kernels=None) -> tuple[np.ndarray, np.ndarray]:
     """Stacked Kåsa fit ``‖x‖² = 2 c·x + k`` of centred coordinate-major sets (k, d, n).
 
     One batched product ``D Dᵀ`` of ``D = [2y, 1, ‖y‖²]`` (y = x / scale) holds both the
-    normal matrix and the right-hand side.  Returns centres (k, d) and radii (k,).
+    normal matrix and the right-hand side (formed by the compiled ``kernels`` when
+    given).  Returns centres (k, d) and radii (k,).
     """
     k, d, n = xt.shape
-    design = np.empty((k, d + 2, n))
-    np.multiply(xt, 2.0 / scale[:, None, None], out=design[:, :d])
-    design[:, d] = 1.0
-    design[:, d + 1] = 0.25 * _squared_norms(design[:, :d])
-    m = np.matmul(design, design.transpose(0, 2, 1))  # (k, d + 2, d + 2)
+    if kernels is not None:
+        m = np.empty((k, d + 2, d + 2))
+        kernels.kasa_moments(xt, np.ascontiguousarray(scale), m)
+    else:
+        design = np.empty((k, d + 2, n))
+        np.multiply(xt, 2.0 / scale[:, None, None], out=design[:, :d])
+        design[:, d] = 1.0
+        design[:, d + 1] = 0.25 * _squared_norms(design[:, :d])
+        m = np.matmul(design, design.transpose(0, 2, 1))  # (k, d + 2, d + 2)
     sol, _ = _cholesky_solve(m[:, : d + 1, : d + 1], m[:, : d + 1, d + 1])
     centres = sol[:, :d]
     radii = np.sqrt(np.maximum(sol[:, d] + np.sum(centres * centres, axis=1), 0.0))
@@ -234,7 +239,7 @@ def _round_gauss_newton(
     status (K,), nit (K,).
     """
     n_sets, d, n_points = xt.shape
-    centres, radii = _kasa(xt, scale)
+    centres, radii = _kasa(xt, scale, kernels)
     fixed = radius is not None
     p = d if fixed else d + 1
 
