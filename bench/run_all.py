@@ -50,15 +50,15 @@ def markdown(fragments: list[dict]) -> str:
         f"- versions: {', '.join(versions())}",
         "",
         "Min and median of at least 5 repeats. `vs ours` is the contender's median over ours "
-        "(> 1: ours is faster); `/ floor` is the median over the hardware floor measured in "
-        "the same run (writing the output once, drawing the random inputs).",
+        "(> 1: ours is faster); `/ floor` is the median over the first hardware floor listed, "
+        "measured in the same run (writing the output once; drawing the random inputs is "
+        "listed too).  The machine may be shared: compare ratios within one run.",
         "",
     ]
     for doc in fragments:
         timings = doc["timings"]
         ours = next((t for t in timings if t["kind"] == "ours"), None)
-        floors = [t for t in timings if t["kind"] == "floor"]
-        floor = min(floors, key=lambda t: t["median"]) if floors else None
+        floor = next((t for t in timings if t["kind"] == "floor"), None)
         lines += [
             f"## {doc['name']}",
             "",

@@ -386,27 +386,50 @@ class BatchLeastSquaresResult:
         )
 
 
+#: Up to this order, stacked systems are factorised by the Cholesky recurrences written out
+#: over the indices with vector operations over the stack, which beats LAPACK's
+#: per-matrix call overhead for tiny matrices (spheres: 4×4); larger ones go to LAPACK.
+_SMALL_ORDER = 6
+
+
 def _cholesky_solve(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Solve stacked SPD systems a x = b; rows whose factorisation fails are flagged."""
+    """Solve stacked SPD systems a x = b, a (k, n, n), b (k, n); rows whose factorisation
+    fails (not positive definite) get NaN and ``ok`` False."""
+    k, n = b.shape
+    if n <= _SMALL_ORDER:
+        chol = np.zeros((n, n, k))
+        y = np.empty((n, k))
+        x = np.empty((n, k))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            for j in range(n):
+                diag = a[:, j, j] - sum(chol[j, m] ** 2 for m in range(j))
+                chol[j, j] = np.sqrt(np.where(diag > 0, diag, np.nan))
+                for i in range(j + 1, n):
+                    off = a[:, i, j] - sum(chol[i, m] * chol[j, m] for m in range(j))
+                    chol[i, j] = off / chol[j, j]
+            for i in range(n):
+                y[i] = (b[:, i] - sum(chol[i, m] * y[m] for m in range(i))) / chol[i, i]
+            for i in reversed(range(n)):
+                x[i] = (y[i] - sum(chol[m, i] * x[m] for m in range(i + 1, n))) / chol[i, i]
+        x = x.T
+        return x, np.all(np.isfinite(x), axis=1)
     x = np.full(b.shape, np.nan)
-    ok = np.ones(b.shape[0], dtype=bool)
+    ok = np.ones(k, dtype=bool)
     try:
         low = np.linalg.cholesky(a)
     except np.linalg.LinAlgError:
         # rare: solve one by one to find the singular systems
-        for k in range(b.shape[0]):
+        for i in range(k):
             try:
-                low_k = np.linalg.cholesky(a[k])
+                low_i = np.linalg.cholesky(a[i])
             except np.linalg.LinAlgError:
-                ok[k] = False
+                ok[i] = False
                 continue
-            y = np.linalg.solve(low_k, b[k])
-            x[k] = np.linalg.solve(low_k.T, y)
+            x[i] = np.linalg.solve(low_i.T, np.linalg.solve(low_i, b[i]))
         return x, ok
     y = np.linalg.solve(low, b[..., None])
     x = np.linalg.solve(np.swapaxes(low, -1, -2), y)[..., 0]
-    ok = np.all(np.isfinite(x), axis=1)
-    return x, ok
+    return x, np.all(np.isfinite(x), axis=1)
 
 
 def least_squares_batch(

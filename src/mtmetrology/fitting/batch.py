@@ -15,8 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mtmetrology._backend import compiled_module, from_environment
 from mtmetrology.fitting.least_squares import FitError
-from mtmetrology.optimize import least_squares_batch
+from mtmetrology.optimize import _cholesky_solve, least_squares_batch
 
 __all__ = [
     "BatchLineFit",
@@ -28,10 +29,32 @@ __all__ = [
     "fit_spheres",
 ]
 
+#: ``"numba"``: the moment matrices of circle/sphere fits are formed by a compiled kernel
+#: (when numba is installed); ``"numpy"``: by stacked matrix products.  Set from the
+#: environment variable ``MTMETROLOGY_BACKEND`` at import (:mod:`mtmetrology._backend`);
+#: may be changed at run time.
+BACKEND = from_environment()
+
+
+#: Fewer sets than this are fitted on numpy (no import of numba for a handful of fits).
+_COMPILED_MIN_SETS = 256
+
+
+def _compiled_kernels(n_sets: int):
+    """The compiled kernels module when the numba backend is selected and installed and
+    the batch is large enough, else None."""
+    if BACKEND != "numba" or n_sets < _COMPILED_MIN_SETS:
+        return None
+    return compiled_module("mtmetrology.fitting._kernels")
+
+
 _STEP_TOL = 1e-13
 _EPS = float(np.finfo(float).eps)
 _MAX_ITER = 100
+#: Sets per chunk: a few thousand keep the numpy path's temporaries in cache; the
+#: compiled path has no large temporaries, so larger chunks cut the solver's per-call cost.
 _CHUNK = 1024
+_COMPILED_CHUNK = 16384
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,7 +123,7 @@ class BatchLineFit:
 
 def _check_sets(points: object, kind: str, dims: tuple[int, ...], min_points: int) -> np.ndarray:
     try:
-        arr = np.array(points, dtype=float)
+        arr = np.asarray(points, dtype=float)  # not copied: no fit writes into it
     except (TypeError, ValueError) as exc:
         raise FitError(f"{kind}: points must be a numeric (K, n, d) array ({exc})") from exc
     if arr.ndim != 3 or arr.shape[2] not in dims:
@@ -167,31 +190,6 @@ def _require_spread_scatter(kind: str, scatter: np.ndarray, first_index: int) ->
         )
 
 
-def _solve_spd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solve stacked small symmetric positive-definite systems a x = b by Cholesky.
-
-    a : (k, p, p), b : (k, p) -> x (k, p).  Written out over the p ≤ 5 indices with
-    vector operations over k, which beats LAPACK's per-matrix call overhead for tiny
-    matrices.  A set whose matrix is not positive definite gets NaN.
-    """
-    k, p, _ = a.shape
-    chol = np.zeros((p, p, k))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        for j in range(p):
-            diag = a[:, j, j] - sum(chol[j, m] ** 2 for m in range(j))
-            chol[j, j] = np.sqrt(np.where(diag > 0, diag, np.nan))
-            for i in range(j + 1, p):
-                off = a[:, i, j] - sum(chol[i, m] * chol[j, m] for m in range(j))
-                chol[i, j] = off / chol[j, j]
-        y = np.empty((p, k))
-        for i in range(p):
-            y[i] = (b[:, i] - sum(chol[i, m] * y[m] for m in range(i))) / chol[i, i]
-        x = np.empty((p, k))
-        for i in reversed(range(p)):
-            x[i] = (y[i] - sum(chol[m, i] * x[m] for m in range(i + 1, p))) / chol[i, i]
-    return x.T
-
-
 def _canonical(v: np.ndarray) -> np.ndarray:
     """Per-row sign convention (K, d): largest component positive."""
     k = np.argmax(np.abs(v), axis=1)
@@ -207,41 +205,53 @@ def _squared_norms(xt: np.ndarray) -> np.ndarray:
     return out
 
 
-def _kasa(xt: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _kasa(xt: np.ndarray, scale: np.ndarray, kernels=None) -> tuple[np.ndarray, np.ndarray]:
     """Stacked Kåsa fit ``‖x‖² = 2 c·x + k`` of centred coordinate-major sets (k, d, n).
 
     One batched product ``D Dᵀ`` of ``D = [2y, 1, ‖y‖²]`` (y = x / scale) holds both the
-    normal matrix and the right-hand side.  Returns centres (k, d) and radii (k,).
+    normal matrix and the right-hand side (formed by the compiled ``kernels`` when
+    given).  Returns centres (k, d) and radii (k,).
     """
     k, d, n = xt.shape
-    design = np.empty((k, d + 2, n))
-    np.multiply(xt, 2.0 / scale[:, None, None], out=design[:, :d])
-    design[:, d] = 1.0
-    design[:, d + 1] = 0.25 * _squared_norms(design[:, :d])
-    m = np.matmul(design, design.transpose(0, 2, 1))  # (k, d + 2, d + 2)
-    sol = _solve_spd(m[:, : d + 1, : d + 1], m[:, : d + 1, d + 1])
+    if kernels is not None:
+        m = np.empty((k, d + 2, d + 2))
+        kernels.kasa_moments(xt, np.ascontiguousarray(scale), m)
+    else:
+        design = np.empty((k, d + 2, n))
+        np.multiply(xt, 2.0 / scale[:, None, None], out=design[:, :d])
+        design[:, d] = 1.0
+        design[:, d + 1] = 0.25 * _squared_norms(design[:, :d])
+        m = np.matmul(design, design.transpose(0, 2, 1))  # (k, d + 2, d + 2)
+    sol, _ = _cholesky_solve(m[:, : d + 1, : d + 1], m[:, : d + 1, d + 1])
     centres = sol[:, :d]
     radii = np.sqrt(np.maximum(sol[:, d] + np.sum(centres * centres, axis=1), 0.0))
     return centres * scale[:, None], radii * scale
 
 
 def _round_gauss_newton(
-    xt: np.ndarray, scale: np.ndarray, radius: float | None
+    xt: np.ndarray, scale: np.ndarray, radius: float | None, kernels=None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Batched geometric circle/sphere fit of centred coordinate-major sets xt (K, d, n).
 
     The project's batched least-squares core iterates; this function supplies the stacked
-    normal equations from one product per set (see ``moments``).  Returns centres (K, d),
-    radii (K,), status (K,), nit (K,).
+    normal equations from one product per set (see ``moments``), by the compiled
+    ``kernels`` module when given, else by numpy.  Returns centres (K, d), radii (K,),
+    status (K,), nit (K,).
     """
     n_sets, d, n_points = xt.shape
-    centres, radii = _kasa(xt, scale)
+    centres, radii = _kasa(xt, scale, kernels)
     fixed = radius is not None
     p = d if fixed else d + 1
 
-    def moments(xs: np.ndarray, c: np.ndarray, r: np.ndarray) -> np.ndarray:
-        """Stacked moment matrices A Aᵀ of A = [u; 1; ρ − r] (k, d + 2, n): they hold the
-        normal equations JᵀJ, Jᵀd of J = [−u, −1] and the cost Σd² in one product."""
+    def moments(index: np.ndarray, c: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """Stacked moment matrices A Aᵀ of A = [u; 1; ρ − r] (k, d + 2, n) of the sets
+        ``index``: they hold the normal equations JᵀJ, Jᵀd of J = [−u, −1] and the cost
+        Σd² in one product."""
+        if kernels is not None:
+            out = np.empty((index.size, d + 2, d + 2))
+            kernels.round_moments(xt, index, c, r, out)
+            return out
+        xs = xt if index.size == n_sets else xt[index]  # a view while every set iterates
         a = np.empty((xs.shape[0], d + 2, xs.shape[2]))
         np.subtract(xs, c[:, :, None], out=a[:, :d])
         rho = np.sqrt(_squared_norms(a[:, :d]))  # (k, n)
@@ -251,9 +261,8 @@ def _round_gauss_newton(
         return np.matmul(a, a.transpose(0, 2, 1))  # (k, d + 2, d + 2)
 
     def normal_equations(x: np.ndarray, index: np.ndarray):
-        xs = xt if index.size == n_sets else xt[index]  # a view while every set iterates
-        r = np.full(index.size, float(radius)) if fixed else x[:, d]
-        m = moments(xs, x[:, :d], r)
+        r = np.full(index.size, float(radius)) if fixed else np.ascontiguousarray(x[:, d])
+        m = moments(index, np.ascontiguousarray(x[:, :d]), r)
         return m[:, :p, :p], -m[:, :p, d + 1], m[:, d + 1, d + 1], n_points
 
     def retract(x: np.ndarray, steps: np.ndarray, index: np.ndarray):
@@ -332,16 +341,17 @@ def fit_spheres(points: object, radius: float | None = None) -> BatchRoundFit:
     centres, radii = np.empty((n_sets, 3)), np.empty(n_sets)
     residuals = np.empty(p.shape[:2])
     status, nit = np.empty(n_sets, dtype=np.int8), np.empty(n_sets, dtype=int)
-    # Chunks of a few thousand sets keep the temporaries in cache.
-    for start in range(0, n_sets, _CHUNK):
-        part = slice(start, start + _CHUNK)
+    kernels = _compiled_kernels(n_sets)
+    chunk = _CHUNK if kernels is None else _COMPILED_CHUNK
+    for start in range(0, n_sets, chunk):
+        part = slice(start, start + chunk)
         xt = np.ascontiguousarray(p[part].transpose(0, 2, 1))  # (k, 3, n) coordinate-major
         centroid = xt.mean(axis=2)
         xt -= centroid[:, :, None]
         scatter = np.matmul(xt, xt.transpose(0, 2, 1))  # (k, 3, 3)
         _require_spread_scatter(kind, scatter, start)
         scale = np.sqrt(np.trace(scatter, axis1=1, axis2=2) / xt.shape[2])
-        c, r, status[part], nit[part] = _round_gauss_newton(xt, scale, radius)
+        c, r, status[part], nit[part] = _round_gauss_newton(xt, scale, radius, kernels)
         residuals[part] = _round_residuals(xt, c, r)
         centres[part], radii[part] = c + centroid, r
     return _round_fit(kind, centres, radii, None, residuals, status, nit)
@@ -376,7 +386,7 @@ def fit_circles(points: object) -> BatchRoundFit:
     vt = _require_spread(kind, x, 2, "collinear")
     if p.shape[2] == 2:
         xt = np.ascontiguousarray(x.transpose(0, 2, 1))
-        c, r, status, nit = _round_gauss_newton(xt, scale, None)
+        c, r, status, nit = _round_gauss_newton(xt, scale, None, _compiled_kernels(len(p)))
         res = _round_residuals(xt, c, r)
         centres, normals = c + centroid, None
     else:
@@ -385,7 +395,8 @@ def fit_circles(points: object) -> BatchRoundFit:
         e2 = np.cross(normals, e1)
         uv = np.stack([np.einsum("knd,kd->kn", x, e1), np.einsum("knd,kd->kn", x, e2)], axis=1)
         uv_mean = uv.mean(axis=2)  # (K, 2); uv is coordinate-major (K, 2, n)
-        c2, r, status, nit = _round_gauss_newton(uv - uv_mean[:, :, None], scale, None)
+        kernels = _compiled_kernels(len(p))
+        c2, r, status, nit = _round_gauss_newton(uv - uv_mean[:, :, None], scale, None, kernels)
         c2 = c2 + uv_mean
         res = _round_residuals(uv, c2, r)
         centres = centroid + c2[:, 0:1] * e1 + c2[:, 1:2] * e2

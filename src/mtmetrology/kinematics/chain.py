@@ -79,16 +79,29 @@ artefact layout and measurement sequence*, Polytechnique Montréal, 2018, §3.5 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from mtmetrology._backend import compiled_module, from_environment
 from mtmetrology.kinematics import _sparse3 as s3
+from mtmetrology.kinematics._program import JACOBIAN, POSITION, Program
 from mtmetrology.kinematics.basis import Basis
 from mtmetrology.kinematics.parameters import ErrorParameter
 from mtmetrology.kinematics.topology import LINEAR_AXES, Topology
 
-__all__ = ["AxisGeometry", "ChainEvaluation", "KinematicChain"]
+__all__ = ["BACKEND", "AxisGeometry", "ChainEvaluation", "KinematicChain"]
+
+#: ``"numba"``: many trials sharing their poses run in a compiled kernel (when numba is
+#: installed); ``"numpy"``: numpy blocks only.  From ``MTMETROLOGY_BACKEND`` at import
+#: (:mod:`mtmetrology._backend`); may be changed at run time.
+BACKEND = from_environment()
+
+
+def _compiled_kernel():
+    """The compiled kernel module, or None when numba is not installed."""
+    return compiled_module("mtmetrology.kinematics._kernel")
 
 
 @dataclass(frozen=True)
@@ -178,11 +191,76 @@ class ChainEvaluation:
     d_tool: np.ndarray | None = None
 
 
-def _accumulate(out: np.ndarray, j: int, col, factor, shape) -> None:
-    """out[i, j] += factor * col[i] for a sparse column; ``out`` is (3, n, *shape)."""
+def _accumulate(out: list, j: int, col, factor) -> None:
+    """out[i][j] += factor · col[i] for sparse entries; ``out`` is [3][n]."""
     for i in range(3):
         if col[i] is not s3.ZERO:
-            out[i, j] += factor * (1.0 if col[i] is s3.ONE else col[i])
+            out[i][j] = s3.add(out[i][j], s3.mul(factor, col[i]))
+
+
+def _trial_split(shape: tuple, theta: np.ndarray, poses: list) -> int | None:
+    """Index splitting ``shape`` into trial dimensions (where only the parameters vary)
+    and pose dimensions (where only readings, tool and senses vary); None if they mix."""
+    n = len(shape)
+
+    def padded(a: np.ndarray) -> tuple:
+        return (1,) * (n - a.ndim + 1) + a.shape[:-1]
+
+    first_pose = min(next((d for d, m in enumerate(padded(a)) if m > 1), n) for a in poses)
+    last_trial = max((d for d, m in enumerate(padded(theta)) if m > 1), default=-1)
+    return last_trial + 1 if last_trial < first_pose else None
+
+
+def _separate(shape: tuple, split: int, readings, senses, tool, theta):
+    """Pose arrays (n_poses, k) and parameters (n_trials, n_params) of a split call.
+
+    A tool of shape (3,) stays a constant vector.
+    """
+    pose_shape, trial_shape = shape[split:], shape[:split]
+    n_poses = math.prod(pose_shape)
+
+    def per_pose(a: np.ndarray) -> np.ndarray:
+        lead = a.shape[:-1][max(0, a.ndim - 1 - len(pose_shape)) :]  # drop size-1 trial dims
+        a = a.reshape(*lead, a.shape[-1])
+        return np.broadcast_to(a, (*pose_shape, a.shape[-1])).reshape(n_poses, a.shape[-1])
+
+    lead = ((1,) * (len(shape) - theta.ndim + 1) + theta.shape[:-1])[:split]
+    th = np.broadcast_to(theta.reshape(*lead, theta.shape[-1]), (*trial_shape, theta.shape[-1]))
+    return (
+        per_pose(readings),
+        None if senses is None else per_pose(senses),
+        tool if tool.ndim == 1 else per_pose(tool),
+        np.ascontiguousarray(th.reshape(math.prod(trial_shape), theta.shape[-1])),
+    )
+
+
+def _views(out: ChainEvaluation, lead: tuple) -> list:
+    """The arrays of ``out`` with their leading dimensions reshaped to ``lead`` (views)."""
+    arrays = (out.position, out.d_params, out.d_axes, out.d_tool)
+    trailing = (1, 2, 2, 2)
+    return [
+        None if a is None else a.reshape(*lead, *a.shape[a.ndim - k :])
+        for a, k in zip(arrays, trailing, strict=True)
+    ]
+
+
+class _Parameters:
+    """The error parameters as registers of a program: ``theta[..., j]`` is register j."""
+
+    ndim = 1
+
+    def __init__(self, registers: list):
+        self.registers = registers
+
+    def __getitem__(self, key):
+        return self.registers[key[-1]]
+
+
+def _dense(entry):
+    """A sparse entry as something numpy assigns: 0.0, 1.0 or the value."""
+    if entry is s3.ZERO:
+        return 0.0
+    return 1.0 if entry is s3.ONE else entry
 
 
 class KinematicChain:
@@ -265,9 +343,17 @@ class KinematicChain:
     def n_axes(self) -> int:
         return len(self.axis_names)
 
-    #: (trial, point) pairs per block: arrays of this size stay in the CPU cache, which
-    #: makes the many small element-wise operations of the chain several times faster.
+    #: (trial, point) pairs per block of the numpy backend: arrays of this size stay in
+    #: the CPU cache, which makes the many small element-wise operations several times
+    #: faster.
     chunk_size = 16384
+    #: The compiled backend runs when a call has at least this many (trial, pose) pairs
+    #: and this many trials (below, the numpy blocks are as fast and need no compiler).
+    compiled_min_pairs = 20_000
+    compiled_min_trials = 16
+    #: From this many pairs, a position-only call compiles its own kernel (once per
+    #: machine and model; see :mod:`mtmetrology.kinematics._kernel`).
+    generated_min_pairs = 1_000_000
 
     def evaluate(
         self,
@@ -299,47 +385,22 @@ class KinematicChain:
         Returns
         -------
         ChainEvaluation
+            Arrays of the broadcast shape of the inputs' leading dimensions.
+
+        Notes
+        -----
+        Two backends compute the same model (they agree to rounding, ~1e-13 relative):
+        numpy blocks of :attr:`chunk_size` pairs, and, for many trials sharing their
+        poses (readings, senses and tool broadcast over leading "trial" dimensions, the
+        parameters over trailing "pose" dimensions) and no readings/tool Jacobian, a
+        compiled kernel (:mod:`mtmetrology.kinematics._program`).  :data:`BACKEND`
+        (environment variable ``MTMETROLOGY_BACKEND``) selects ``"numba"`` or
+        ``"numpy"``; without numba installed the numpy backend runs.  In both, the
+        nominal trigonometry and basis values are computed once per pose and block, not
+        per trial.
         """
         theta = np.zeros(self.n_params) if params is None else params
         t = np.zeros(3) if tool is None else tool
-        arrays = [readings, theta, t] + ([] if senses is None else [senses])
-        shape = np.broadcast_shapes(*(a.shape[:-1] for a in arrays))
-        total = int(np.prod(shape))
-        if total <= self.chunk_size:
-            return self._evaluate_block(readings, theta, senses, t, d_params, d_axes, d_tool)
-        flat = [
-            a if a.ndim == 1 else np.broadcast_to(a, (*shape, a.shape[-1])).reshape(total, -1)
-            for a in arrays
-        ]
-        position = np.empty((total, 3))
-        jp = np.empty((total, 3, self.n_params)) if d_params else None
-        ja = np.empty((total, 3, self.n_axes)) if d_axes else None
-        jt = np.empty((total, 3, 3)) if d_tool else None
-        for start in range(0, total, self.chunk_size):
-            sl = slice(start, start + self.chunk_size)
-            part = [a if a.ndim == 1 else a[sl] for a in flat]
-            ev = self._evaluate_block(
-                part[0],
-                part[1],
-                part[3] if senses is not None else None,
-                part[2],
-                d_params,
-                d_axes,
-                d_tool,
-            )
-            position[sl] = ev.position
-            for out, res in ((jp, ev.d_params), (ja, ev.d_axes), (jt, ev.d_tool)):
-                if out is not None:
-                    out[sl] = res
-        return ChainEvaluation(
-            position.reshape(*shape, 3),
-            None if jp is None else jp.reshape(*shape, 3, self.n_params),
-            None if ja is None else ja.reshape(*shape, 3, self.n_axes),
-            None if jt is None else jt.reshape(*shape, 3, 3),
-        )
-
-    def _evaluate_block(self, q, theta, senses, t, d_params, d_axes, d_tool) -> ChainEvaluation:
-        """One block of :meth:`evaluate` (inputs already defaulted)."""
         if senses is None and self.has_reversal:
             rev = [i for i, p in enumerate(self.parameters) if p.kind == "reversal"]
             if d_params or np.any(theta[..., rev] != 0):
@@ -347,14 +408,125 @@ class KinematicChain:
                     "this error model has reversal (backlash) terms: the sense of motion of "
                     "each axis is needed"
                 )
-            senses = np.zeros(q.shape)
-        shape = np.broadcast_shapes(q.shape[:-1], theta.shape[:-1], t.shape[:-1])
-        if senses is not None:
-            shape = np.broadcast_shapes(shape, senses.shape[:-1])
-        elements = self._elements
+            senses = np.zeros(readings.shape)
+        poses = [readings, t] + ([] if senses is None else [senses])
+        shape = np.broadcast_shapes(theta.shape[:-1], *(a.shape[:-1] for a in poses))
+        split = _trial_split(shape, theta, poses)
+        if (
+            split is not None
+            and not (d_axes or d_tool)
+            and BACKEND == "numba"
+            and math.prod(shape) >= self.compiled_min_pairs
+            and math.prod(shape[:split]) >= self.compiled_min_trials
+            and _compiled_kernel() is not None
+        ):
+            return self._evaluate_compiled(readings, theta, senses, t, shape, split, d_params)
+        out = ChainEvaluation(
+            np.empty((*shape, 3)),
+            np.empty((*shape, 3, self.n_params)) if d_params else None,
+            np.empty((*shape, 3, self.n_axes)) if d_axes else None,
+            np.empty((*shape, 3, 3)) if d_tool else None,
+        )
+        total = math.prod(shape)
+        if total <= self.chunk_size:
+            self._evaluate_block(readings, theta, senses, t, out)
+            return out
+        if split is not None and math.prod(shape[split:]) <= self.chunk_size // 2:
+            # Blocks of whole trials: the pose arrays are not broadcast over the trials,
+            # so sin/cos and basis values are computed once per pose and block.
+            q, s, tt, th = _separate(shape, split, readings, senses, t, theta)
+            n_trials, n_poses = th.shape[0], q.shape[0]
+            step = self.chunk_size // n_poses
+            flat = _views(out, (n_trials, n_poses))
+            for start in range(0, n_trials, step):
+                sl = slice(start, start + step)
+                part = ChainEvaluation(*(None if a is None else a[sl] for a in flat))
+                self._evaluate_block(q, th[sl, None, :], s, tt, part)
+            return out
+        arrays = [readings, theta, t] + ([] if senses is None else [senses])
+        flat_in = [
+            a if a.ndim == 1 else np.broadcast_to(a, (*shape, a.shape[-1])).reshape(total, -1)
+            for a in arrays
+        ]
+        flat = _views(out, (total,))
+        for start in range(0, total, self.chunk_size):
+            sl = slice(start, start + self.chunk_size)
+            part = [a if a.ndim == 1 else a[sl] for a in flat_in]
+            self._evaluate_block(
+                part[0],
+                part[1],
+                part[3] if senses is not None else None,
+                part[2],
+                ChainEvaluation(*(None if a is None else a[sl] for a in flat)),
+            )
+        return out
+
+    def _evaluate_block(self, q, theta, senses, t, out: ChainEvaluation) -> None:
+        """One numpy block of :meth:`evaluate`, written into the views of ``out``."""
         if theta.ndim > 1:
             # one contiguous copy instead of a strided read per parameter
             theta = np.moveaxis(np.ascontiguousarray(np.moveaxis(theta, -1, 0)), 0, -1)
+        v, jp, ja, a = self._sparse_chain(
+            q,
+            theta,
+            senses,
+            t,
+            out.d_params is not None,
+            out.d_axes is not None,
+            out.d_tool is not None,
+        )
+        for i in range(3):
+            out.position[..., i] = _dense(v[i])
+            if jp is not None:
+                for j in range(self.n_params):
+                    out.d_params[..., i, j] = _dense(jp[i][j])
+            if ja is not None:
+                for j in range(self.n_axes):
+                    out.d_axes[..., i, j] = _dense(ja[i][j])
+            if a is not None:
+                for j in range(3):
+                    out.d_tool[..., i, j] = _dense(a[i][j])
+
+    def _evaluate_compiled(self, readings, theta, senses, t, shape, split, d_params):
+        """Many trials sharing their poses: record the chain once, run it compiled."""
+        q, s, tt, th = _separate(shape, split, readings, senses, t, theta)
+        n_trials, n_poses = th.shape[0], q.shape[0]
+        program = Program(n_poses, self.n_params)
+        v, jp, _, _ = self._sparse_chain(
+            q, _Parameters(program.inputs()), s, tt, d_params, False, False
+        )
+        for i in range(3):
+            program.store(POSITION, i, v[i])
+            if d_params:
+                for j in range(self.n_params):
+                    program.store(JACOBIAN, i * self.n_params + j, jp[i][j])
+        ops, n_registers = program.compile()
+        position = np.empty((n_trials * n_poses, 3))
+        jacobian = np.empty((n_trials * n_poses, 3 * self.n_params) if d_params else (1, 1))
+        generate = n_trials * n_poses >= self.generated_min_pairs
+        _compiled_kernel().run(ops, program.table(), th, n_registers, position, jacobian, generate)
+        return ChainEvaluation(
+            position.reshape(*shape, 3),
+            jacobian.reshape(*shape, 3, self.n_params) if d_params else None,
+        )
+
+    def _sparse_chain(self, q, theta, senses, t, d_params, d_axes, d_tool):
+        """Both passes of the chain on sparse entries (:mod:`._sparse3`).
+
+        ``q``, ``senses``, ``t`` and ``theta`` may be arrays of any broadcastable shapes
+        (numpy backend) or, for the compiled backend, pose arrays and the registers of a
+        :class:`~mtmetrology.kinematics._program.Program`: the same code serves both.
+
+        Returns
+        -------
+        v : 3-tuple of entries
+            Position.
+        jp, ja : lists [3][n] of entries or None
+            Parameter and readings Jacobians.
+        a : 3×3 tuple of entries or None
+            Tool Jacobian (the linear part of the whole chain).
+        """
+        elements = self._elements
 
         # Per element: sparse error values (δ, ε), their q-derivatives, term factors;
         # rotation matrices of rotary motions.  Arrays keep their own (broadcastable)
@@ -389,9 +561,8 @@ class KinematicChain:
                 de = data[i][0]
                 w = s3.add_vectors(de[:3], s3.cross(de[3:], v))
                 v = tuple(s3.add(v[k], w[k] if el.varsign > 0 else s3.neg(w[k])) for k in range(3))
-        position = s3.stack_vector(v, shape)
         if not (d_params or d_axes or d_tool):
-            return ChainEvaluation(position)
+            return v, None, None, None
 
         # Left-to-right pass: a is the linear part of F_1 ... F_{i-1}.  The last element
         # that needs it bounds the pass (no product is formed for nothing).
@@ -402,10 +573,8 @@ class KinematicChain:
             or (isinstance(el, _Motion) and d_axes)
         ]
         last = len(elements) - 1 if d_tool else (max(needs) if needs else -1)
-        # Jacobians are filled component-major, (3, n, *shape), so every write is
-        # contiguous, and returned as (..., 3, n) views.
-        jp = np.zeros((3, self.n_params, *shape)) if d_params else None
-        ja = np.zeros((3, self.n_axes, *shape)) if d_axes else None
+        jp = [[s3.ZERO] * self.n_params for _ in range(3)] if d_params else None
+        ja = [[s3.ZERO] * self.n_axes for _ in range(3)] if d_axes else None
         a = s3.IDENTITY
         for i, el in enumerate(elements[: last + 1]):
             if isinstance(el, _Offset):
@@ -421,7 +590,7 @@ class KinematicChain:
                         out = inputs[i - 1] if i > 0 else v
                         u = tuple(float(x) if x else s3.ZERO for x in el.direction)
                         col = s3.matvec(a, s3.cross(u, out))
-                    _accumulate(ja, el.axis, col, el.sigma, shape)
+                    _accumulate(ja, el.axis, col, el.sigma)
                 if not el.linear and (i < last or d_tool):
                     a = s3.matmul(a, data[i])
                 continue
@@ -438,21 +607,16 @@ class KinematicChain:
                     cols[c] = s3.matvec(a, s3.cross(tuple(e), r_in))
             if d_params:
                 for k, j in enumerate(el.params):
-                    _accumulate(jp, j, cols[el.components[k]], gs * factors[k], shape)
+                    _accumulate(jp, j, cols[el.components[k]], gs * factors[k])
             if d_axes and dde is not None:
                 for c, col in cols.items():
                     if dde[c] is not s3.ZERO:
-                        _accumulate(ja, el.axis, col, gs * dde[c], shape)
+                        _accumulate(ja, el.axis, col, gs * dde[c])
             if el.has_rotation and (i < last or d_tool):
                 eps = de[3:] if gs > 0 else tuple(s3.neg(x) for x in de[3:])
                 # linear part of I + ς[ε]×
                 a = s3.add_matrices(a, s3.matmul(a, s3.skew(eps)))
-        dt = s3.stack_matrix(a, shape) if d_tool else None
-        if jp is not None:
-            jp = np.moveaxis(jp, (0, 1), (-2, -1))
-        if ja is not None:
-            ja = np.moveaxis(ja, (0, 1), (-2, -1))
-        return ChainEvaluation(position, jp, ja, dt)
+        return v, jp, ja, (a if d_tool else None)
 
     def _block_values(self, el: _Errors, q, theta, senses, need_dq: bool):
         """Sparse δε (6 entries) of an error block, its q-derivative, each term's factor."""
