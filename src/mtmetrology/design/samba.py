@@ -61,7 +61,7 @@ __all__ = [
     "indexation_count",
     "measurement_count",
     "plan_samba",
-    "test_duration_h",
+    "estimate_test_duration_h",
 ]
 
 #: Minutes per ball measurement, from seed 004's reported durations (digest 004 §3.10).
@@ -123,7 +123,7 @@ def indexation_count(
     return max(math.floor((k * unknowns / 3 - fixed) / n_balls + 1e-9), 1)
 
 
-def test_duration_h(
+def estimate_test_duration_h(
     n_measurements: int,
     n_indexations: int = 0,
     *,
@@ -136,7 +136,7 @@ def test_duration_h(
     Ch. 6 within 7 % (digest 004 §3.10); ``b`` (per indexation) is 0 unless the user has
     timed the rotary moves.
 
-    >>> round(test_duration_h(163), 2), round(test_duration_h(29), 2)
+    >>> round(estimate_test_duration_h(163), 2), round(estimate_test_duration_h(29), 2)
     (3.69, 0.66)
     """
     return (
@@ -349,7 +349,7 @@ class SambaProgramme:
     def duration_h(
         self, minutes_per_measurement=MINUTES_PER_MEASUREMENT, minutes_per_indexation=0.0
     ):
-        return test_duration_h(
+        return estimate_test_duration_h(
             self.n_measurements,
             len(self.pairs_deg),
             minutes_per_measurement=minutes_per_measurement,
