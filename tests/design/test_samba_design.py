@@ -10,11 +10,11 @@ from mtmetrology.design.inputs import ScaleBarPlacement, default_indexations
 from mtmetrology.design.samba import (
     choose_balls,
     choose_indexations,
+    estimate_test_duration_h,
     evaluate_programme,
     indexation_count,
     measurement_count,
     plan_samba,
-    estimate_test_duration_h,
 )
 from mtmetrology.errors import InputError, RankDeficientError
 from mtmetrology.identification import BallCentreProblem, ScaleBar, gauss_newton
@@ -84,7 +84,7 @@ def test_linear_pairing_is_rank_deficient_where_detmax_of_same_size_is_not(m84):
     assert not on_line.report.full_rank
     confounded = {n for group in on_line.report.confounded() for n in group}
     assert {"E_ZC1", "E_ZB1"} <= confounded
-    pairs, senses, res = choose_indexations(
+    pairs, senses, _ = choose_indexations(
         m84, LAB_IDS, LAB_CENTRES, PAIRS, len(line), criterion="D", rule=FREE, starts=1, seed=0
     )
     design = evaluate_programme(m84, LAB_IDS, LAB_CENTRES, pairs, rule=FREE, senses=senses)

@@ -57,11 +57,11 @@ __all__ = [
     "SambaProgramme",
     "choose_balls",
     "choose_indexations",
+    "estimate_test_duration_h",
     "evaluate_programme",
     "indexation_count",
     "measurement_count",
     "plan_samba",
-    "estimate_test_duration_h",
 ]
 
 #: Minutes per ball measurement, from seed 004's reported durations (digest 004 §3.10).
