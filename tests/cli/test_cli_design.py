@@ -73,6 +73,7 @@ def test_84_model_programme_states_approach_senses(tmp_path):
     out = tmp_path / "prog.csv"
     args = ["design", "samba", *MACHINE, "--model", "84", "--balls", str(tmp_path / "balls.yaml")]
     args += ["--k", "1", "--criterion", "D", "--starts", "1", "--seed", "1", "-o", str(out)]
+    args += ["--b-grid", "-90:90:15", "--c-grid", "0:315:45"]
     args += ["--artefact-out", str(tmp_path / "art.yaml")]
     result = runner.invoke(app, args)
     assert result.exit_code == 0, result.output

@@ -12,6 +12,7 @@ from rich.table import Table as RichTable
 
 from mtmetrology.cli._common import print_json, user_errors
 from mtmetrology.design.accessibility import AccessibilityRule, load_accessibility_rule
+from mtmetrology.design.counts import COUNT_RULES, MINUTES_PER_MEASUREMENT
 from mtmetrology.design.criteria import CRITERIA
 from mtmetrology.design.inputs import (
     BallGridFile,
@@ -22,7 +23,7 @@ from mtmetrology.design.inputs import (
     load_balls,
     read_indexations,
 )
-from mtmetrology.design.samba import COUNT_RULES, MINUTES_PER_MEASUREMENT, plan_samba
+from mtmetrology.design.samba import plan_samba
 from mtmetrology.errors import InputError
 from mtmetrology.io.files import atomic_write, write_csv_table
 from mtmetrology.kinematics.machine import Machine

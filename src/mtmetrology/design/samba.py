@@ -1,4 +1,4 @@
-"""SAMBA calibration planning: which balls, which (B, C) indexations, in what order.
+"""SAMBA calibration planning: which balls, which (B, C) indexations (DETMAX).
 
 Two DETMAX steps (Alami Mchichi 2018, §5.5, Fig. 5.3; digest 004 §3.9):
 
@@ -6,213 +6,47 @@ Two DETMAX steps (Alami Mchichi 2018, §5.5, Fig. 5.3; digest 004 §3.9):
   positions × stem lengths, every candidate probed at a fixed rich set of (B, C)
   indexations (450 in the source) wherever it is accessible;
 * **step 2** (:func:`choose_indexations`): with the balls placed, M indexations out of the
-  candidates, ``M = k × unknowns/3`` (:func:`indexation_count`), every ball probed at every
-  chosen indexation where it is accessible.
+  candidates, ``M = k × unknowns/3`` (:func:`~mtmetrology.design.counts.indexation_count`),
+  every ball probed at every chosen indexation where it is accessible.
 
-Every design contains the rows of seed 004 eq. 5.14: each master ball at B = C = 0 (m_0°),
-the scale bar at (0°, 0°) and (0°, 90°), and the first scale-bar ball at spindle
-indexations S = 90°, 180°, 270° (tool/spindle separation). The rows are those of the
-identification engine (:class:`~mtmetrology.identification.BallCentreProblem`, weighted by
-the probing noise σ and the bar's u, evaluated at the nominal point), so the condition
-number and the uncertainties a design predicts are what ``mtm machine identifiability``
-and a calibration of the simulated programme give.
-
-Models with reversal terms (E_BBb, E_CCb) need both senses of approach: each candidate
-indexation carries a sense of approach of B and of C, alternating over the candidate
-list so that the four combinations are equally represented, and the programme states
-them in ``sense_B, sense_C`` columns (the indexation is approached from that side).
+The rows of a design and its predictions are those of
+:mod:`mtmetrology.design.programme`.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from mtmetrology.design.accessibility import AccessibilityRule, accessible
+from mtmetrology.design.counts import MINUTES_PER_MEASUREMENT, indexation_count, measurement_count
 from mtmetrology.design.criteria import (
     SCALED_CRITERIA,
     check_criterion,
     criterion_from_spectrum,
     scaled_spectrum,
-    uncertainty_propagation_factors,
 )
 from mtmetrology.design.detmax import BlockInformation, DetmaxResult, detmax
 from mtmetrology.design.inputs import ScaleBarPlacement
-from mtmetrology.errors import InputError, RankDeficientError
-from mtmetrology.identification import (
-    BallCentreProblem,
-    IdentifiabilityReport,
-    ScaleBar,
-    analyse_identifiability,
+from mtmetrology.design.programme import (
+    ProgrammeRows,
+    SambaProgramme,
+    approach_senses,
+    check_sigma,
+    evaluate_programme,
+    fixed_programme_rows,
+    nominal_jacobian,
+    programme_problem,
 )
+from mtmetrology.errors import InputError, RankDeficientError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.rng import SeedLike, chunk_generators
 from mtmetrology.units import from_internal
 
-__all__ = [
-    "BallInformation",
-    "SambaDesign",
-    "SambaProgramme",
-    "choose_balls",
-    "choose_indexations",
-    "estimate_test_duration_h",
-    "evaluate_programme",
-    "indexation_count",
-    "measurement_count",
-    "plan_samba",
-]
-
-#: Minutes per ball measurement, from seed 004's reported durations (digest 004 §3.10).
-MINUTES_PER_MEASUREMENT = 1.36
-SPINDLE_DEG = (90.0, 180.0, 270.0)
-BAR_PAIRS_DEG = ((0.0, 0.0), (0.0, 90.0))
-COUNT_RULES = ("indexations", "measurements")
+__all__ = ["BallInformation", "SambaDesign", "choose_balls", "choose_indexations", "plan_samba"]
 
 
-# ----------------------------------------------------------------------------- counts
-def measurement_count(n_indexations: int, n_balls: int, tools: int = 1) -> int:
-    """Total measurements ``M_T`` of a SAMBA programme (seed 004 eq. 5.14).
-
-    ``M_T = M·n + 2·bar(0°) + 2·bar(90°) + m_0°·n + 3·tools``.
-
-    >>> measurement_count(21, 1), measurement_count(14, 1), measurement_count(38, 4)
-    (29, 22, 163)
-    """
-    return n_indexations * n_balls + 4 + n_balls + 3 * tools
-
-
-def indexation_count(
-    k: float, n_params: int, n_balls: int, *, rule: str = "indexations", tool: bool = True
-) -> int:
-    """Number of (B, C) indexations M of a strategy ``xB.kn`` (seed 004 §5.5.2).
-
-    Parameters
-    ----------
-    k : float
-        Multiple of the minimum (2, 3, 4, 5, 10 in the source).
-    n_params : int
-        Machine error parameters of the model.
-    n_balls : int
-        Master balls.
-    rule : {"indexations", "measurements"}
-        How ``k × unknowns/3`` is read, the unknowns being ``U = n_params + 3·n_balls +
-        3`` (tool). ``"indexations"``: ``M = k·⌈U/3⌉`` indexations — reproduces 1B.2n = 14
-        and 1B.3n = 21 (13 parameters). ``"measurements"``: ``M_T ≈ k·U/3`` measurements
-        in total, ``M = ⌊(k·U/3 − fixed)/n⌋`` — reproduces 4B.5n = 38 (84 parameters).
-        The source uses both readings (digest 004 §7 item 5).
-    tool : bool
-        Whether the tool offset is among the unknowns.
-
-    Examples
-    --------
-    >>> indexation_count(3, 13, 1), indexation_count(2, 13, 1)
-    (21, 14)
-    >>> indexation_count(5, 84, 4, rule="measurements")
-    38
-    """
-    if rule not in COUNT_RULES:
-        raise InputError(f"count rule {rule!r}: choose one of {', '.join(COUNT_RULES)}")
-    if not (k > 0 and math.isfinite(k)):
-        raise InputError(f"k must be a positive number, got {k}")
-    unknowns = n_params + 3 * n_balls + (3 if tool else 0)
-    if rule == "indexations":
-        return math.ceil(k * math.ceil(unknowns / 3) - 1e-9)
-    fixed = measurement_count(0, n_balls)
-    return max(math.floor((k * unknowns / 3 - fixed) / n_balls + 1e-9), 1)
-
-
-def estimate_test_duration_h(
-    n_measurements: int,
-    n_indexations: int = 0,
-    *,
-    minutes_per_measurement: float = MINUTES_PER_MEASUREMENT,
-    minutes_per_indexation: float = 0.0,
-) -> float:
-    """Estimated test duration, hours: ``T ≈ a·M_T + b·M``.
-
-    ``a`` = 1.36 min per ball measurement fits every duration of seed 004 Table 5.5 and
-    Ch. 6 within 7 % (digest 004 §3.10); ``b`` (per indexation) is 0 unless the user has
-    timed the rotary moves.
-
-    >>> round(estimate_test_duration_h(163), 2), round(estimate_test_duration_h(29), 2)
-    (3.69, 0.66)
-    """
-    return (
-        minutes_per_measurement * n_measurements + minutes_per_indexation * n_indexations
-    ) / 60.0
-
-
-# ----------------------------------------------------------------------------- rows
-def _approach_senses(n: int) -> np.ndarray:
-    """(B, C) senses of candidate i: the four combinations in turn, (n, 2) of ±1."""
-    i = np.arange(n)
-    return np.column_stack(
-        [np.where(i % 2 == 0, 1.0, -1.0), np.where((i // 2) % 2 == 0, 1.0, -1.0)]
-    )
-
-
-@dataclass(frozen=True)
-class _Rows:
-    """Indications of a (partial) programme: ball id, B, C, S (degrees), senses."""
-
-    balls: list
-    b: np.ndarray
-    c: np.ndarray
-    s: np.ndarray
-    sense_b: np.ndarray
-    sense_c: np.ndarray
-
-    @staticmethod
-    def concat(parts):
-        return _Rows(
-            [b for p in parts for b in p.balls],
-            *(
-                np.concatenate([getattr(p, f) for p in parts])
-                for f in ("b", "c", "s", "sense_b", "sense_c")
-            ),
-        )
-
-
-def _fixed_rows(bar: ScaleBarPlacement, ball_ids) -> _Rows:
-    balls, b, c, s = [], [], [], []
-    for bid in ball_ids:  # m_0°: every master ball at B = C = 0
-        balls.append(bid), b.append(0.0), c.append(0.0), s.append(0.0)
-    for bb, cc in BAR_PAIRS_DEG:
-        for end in bar.ends:
-            balls.append(end), b.append(bb), c.append(cc), s.append(0.0)
-    for ss in SPINDLE_DEG:  # tool/spindle separation on the first bar ball
-        balls.append(bar.ends[0]), b.append(0.0), c.append(0.0), s.append(ss)
-    n = len(balls)
-    return _Rows(balls, np.array(b), np.array(c), np.array(s), np.ones(n), np.ones(n))
-
-
-def _problem(machine, rows: _Rows, centres: dict, bar: ScaleBarPlacement | None, sigma):
-    """The identification problem of a programme (readings by inverse kinematics)."""
-    cols = {a: np.zeros(len(rows.balls)) for a in machine.axis_names}
-    cols["B"], cols["C"] = rows.b, rows.c
-    if "S" in cols:
-        cols["S"] = rows.s
-    guess = machine.readings_from_customary(cols)
-    targets = np.array([centres[b] for b in rows.balls], dtype=float)
-    q = machine.inverse(targets, guess)
-    senses = None
-    if machine.chain.has_reversal:
-        senses = np.ones((len(rows.balls), machine.n_axes))
-        senses[:, machine.axis_names.index("B")] = rows.sense_b
-        senses[:, machine.axis_names.index("C")] = rows.sense_c
-    bars = [ScaleBar(tuple(bar.ends), bar.length, bar.u_mm)] if bar is not None else []
-    return BallCentreProblem(
-        machine, q, rows.balls, senses=senses, scale_bars=bars, estimate_tool=True, sigma=sigma
-    )
-
-
-def _jacobian(problem: BallCentreProblem) -> np.ndarray:
-    return problem.evaluate(problem.initial())[1]
-
-
-# ----------------------------------------------------------------------------- step 1
 @dataclass
 class _BallState:
     members: np.ndarray
@@ -302,93 +136,6 @@ class BallInformation:
 
     def update(self, state, index, sign) -> None:
         state.members[index] = sign > 0
-
-
-# ----------------------------------------------------------------------------- results
-@dataclass(frozen=True)
-class SambaProgramme:
-    """An ordered SAMBA probing programme and what it predicts.
-
-    Attributes
-    ----------
-    machine : Machine
-    ball_ids : tuple of str
-        Master balls.
-    centres : ndarray, shape (n_balls, 3)
-        Their centres in the workpiece frame, mm.
-    bar : ScaleBarPlacement
-    pairs_deg : ndarray, shape (M, 2)
-        Chosen (B, C) indexations in probing order, degrees.
-    rows : _Rows
-        Every indication in order (ball, B, C, S, senses).
-    readings : ndarray, shape (M_T, n_axes)
-        Nominal readings, internal units.
-    report : IdentifiabilityReport
-        Rank, condition numbers and O1–O5 of the programme's Jacobian.
-    standard_uncertainty : ndarray or None, shape (n_params,)
-        Predicted standard uncertainty of each machine parameter for the probing noise
-        ``sigma_mm`` (internal units); None when rank deficient.
-    sigma_mm : float
-    """
-
-    machine: Machine
-    ball_ids: tuple
-    centres: np.ndarray
-    bar: ScaleBarPlacement
-    pairs_deg: np.ndarray
-    rows: _Rows = field(repr=False)
-    readings: np.ndarray = field(repr=False)
-    report: IdentifiabilityReport = field(repr=False)
-    standard_uncertainty: np.ndarray | None
-    sigma_mm: float
-
-    @property
-    def n_measurements(self) -> int:
-        return len(self.rows.balls)
-
-    def duration_h(
-        self, minutes_per_measurement=MINUTES_PER_MEASUREMENT, minutes_per_indexation=0.0
-    ):
-        return estimate_test_duration_h(
-            self.n_measurements,
-            len(self.pairs_deg),
-            minutes_per_measurement=minutes_per_measurement,
-            minutes_per_indexation=minutes_per_indexation,
-        )
-
-    def table(self) -> tuple[list[str], list[list]]:
-        """Header and rows of the programme CSV: ``ball,B,C,S,X,Y,Z`` (+ senses).
-
-        X, Y, Z are the nominal readings that put the stylus centre on the ball centre
-        (mm), so the file is also a ball-centre indication file of the nominal machine.
-        """
-        m = self.machine
-        cust = m.readings_to_customary(self.readings)
-        lin = {a: cust[:, m.axis_names.index(a)] for a in ("X", "Y", "Z")}
-        header = ["ball", "B", "C", "S", "X", "Y", "Z"]
-        reversal = m.chain.has_reversal
-        if reversal:
-            header += ["sense_B", "sense_C"]
-        out = []
-        r = self.rows
-        for i, bid in enumerate(r.balls):
-            row = [bid, f"{r.b[i]:.6g}", f"{r.c[i]:.6g}", f"{r.s[i]:.6g}"]
-            row += [f"{lin[a][i]:.6f}" for a in ("X", "Y", "Z")]
-            if reversal:
-                row += [f"{int(r.sense_b[i]):+d}", f"{int(r.sense_c[i]):+d}"]
-            out.append(row)
-        return header, out
-
-    def parameters(self) -> list[dict]:
-        """Machine parameters with their predicted u in customary units."""
-        m = self.machine
-        out = []
-        for i, (name, unit) in enumerate(zip(m.parameter_names, m.parameter_units, strict=True)):
-            u = None
-            if self.standard_uncertainty is not None:
-                u = float(from_internal(self.standard_uncertainty[i], unit))
-            out.append({"name": name, "unit": unit, "u": u})
-        return out
 
 
 @dataclass(frozen=True)
@@ -483,12 +230,6 @@ def _num(x):
     return float(x) if np.isfinite(x) else None
 
 
-# ----------------------------------------------------------------------------- API
-def _check_sigma(sigma_mm):
-    if not (sigma_mm > 0 and math.isfinite(sigma_mm)):
-        raise InputError(f"probing sigma must be a positive number, got {sigma_mm} mm")
-
-
 def _check_machine(machine: Machine):
     if not {"B", "C"} <= set(machine.axis_names):
         raise InputError(f"machine {machine.name}: a SAMBA design needs rotary axes B and C")
@@ -539,7 +280,7 @@ def choose_balls(
     search : DetmaxResult
     """
     _check_machine(machine)
-    _check_sigma(sigma_mm)
+    check_sigma(sigma_mm)
     bar = bar or ScaleBarPlacement()
     rule = rule or AccessibilityRule()
     ids = [str(i) for i in candidate_ids]
@@ -552,14 +293,14 @@ def choose_balls(
             "no candidate ball is accessible at any candidate indexation: widen the travel, "
             "lower stem_cone_deg/clearance_mm in the accessibility rule, or move the grid"
         )
-    fixed_problem = _problem(
+    fixed_problem = programme_problem(
         machine,
-        _fixed_rows(bar, []),
+        fixed_programme_rows(bar, []),
         dict(zip(bar.ends, bar.centres_mm, strict=True)),
         bar,
         sigma_mm,
     )
-    j0 = _jacobian(fixed_problem)
+    j0 = nominal_jacobian(fixed_problem)
     p = machine.n_params
     shared_names = [*machine.parameter_names, "tool x", "tool y", "tool z"] + [
         f"ball {e} {c}" for e in bar.ends for c in "xyz"
@@ -573,10 +314,10 @@ def choose_balls(
     own = np.zeros((n, 3, 3))
     counts = np.zeros(n, dtype=int)
     pairs = np.asarray(indexations_deg, dtype=float)
-    senses = _approach_senses(len(pairs))
+    senses = approach_senses(len(pairs))
     for i in range(n):
         ok = np.flatnonzero(mask[:, i])
-        rows = _Rows(
+        rows = ProgrammeRows(
             [ids[i]] * (ok.size + 1),
             np.r_[0.0, pairs[ok, 0]],
             np.r_[0.0, pairs[ok, 1]],
@@ -584,8 +325,8 @@ def choose_balls(
             np.r_[1.0, senses[ok, 0]],
             np.r_[1.0, senses[ok, 1]],
         )
-        prob = _problem(machine, rows, {ids[i]: cent[i]}, None, sigma_mm)
-        j = _jacobian(prob)
+        prob = programme_problem(machine, rows, {ids[i]: cent[i]}, None, sigma_mm)
+        j = nominal_jacobian(prob)
         cols = [prob.names.index(nm) for nm in shared_names[: p + 3]]
         own_cols = [prob.names.index(f"ball {ids[i]} {c}") for c in "xyz"]
         a = j[:, cols]
@@ -602,7 +343,7 @@ def choose_balls(
     return [ids[i] for i in chosen], cent[chosen], search
 
 
-def _candidate_blocks(machine, ball_ids, centres, pairs, bar, rule, sigma_mm):
+def candidate_blocks(machine, ball_ids, centres, pairs, bar, rule, sigma_mm):
     """Fixed rows, candidate blocks and accessibility of step 2."""
     mask, _ = accessible(machine, rule, centres, pairs)
     usable = np.flatnonzero(mask.any(axis=1))
@@ -612,9 +353,9 @@ def _candidate_blocks(machine, ball_ids, centres, pairs, bar, rule, sigma_mm):
             "move the balls or relax the accessibility rule (stem_cone_deg, clearance_mm, "
             "check_travel)"
         )
-    senses = _approach_senses(len(pairs))
+    senses = approach_senses(len(pairs))
     nb = len(ball_ids)
-    fixed = _fixed_rows(bar, ball_ids)
+    fixed = fixed_programme_rows(bar, ball_ids)
     cand_balls, cand_b, cand_c, cand_sb, cand_sc, owner = [], [], [], [], [], []
     for i in usable:
         for j in np.flatnonzero(mask[i]):
@@ -622,7 +363,7 @@ def _candidate_blocks(machine, ball_ids, centres, pairs, bar, rule, sigma_mm):
             cand_b.append(pairs[i, 0]), cand_c.append(pairs[i, 1])
             cand_sb.append(senses[i, 0]), cand_sc.append(senses[i, 1])
             owner.append((i, j))
-    cand = _Rows(
+    cand = ProgrammeRows(
         cand_balls,
         np.array(cand_b),
         np.array(cand_c),
@@ -633,8 +374,10 @@ def _candidate_blocks(machine, ball_ids, centres, pairs, bar, rule, sigma_mm):
     centre_of = dict(zip(ball_ids, centres, strict=True)) | dict(
         zip(bar.ends, bar.centres_mm, strict=True)
     )
-    problem = _problem(machine, _Rows.concat([fixed, cand]), centre_of, bar, sigma_mm)
-    jac = _jacobian(problem)
+    problem = programme_problem(
+        machine, ProgrammeRows.concat([fixed, cand]), centre_of, bar, sigma_mm
+    )
+    jac = nominal_jacobian(problem)
     nf = len(fixed.balls)
     fixed_rows = np.vstack([jac[: 3 * nf], jac[3 * (nf + len(cand.balls)) :]])  # + bar row
     blocks = np.zeros((len(pairs), 3 * nb, jac.shape[1]))
@@ -691,12 +434,12 @@ def choose_indexations(
         If the best design found is rank deficient: name what to change (k, balls).
     """
     _check_machine(machine)
-    _check_sigma(sigma_mm)
+    check_sigma(sigma_mm)
     bar = bar or ScaleBarPlacement()
     rule = rule or AccessibilityRule()
     pairs = np.asarray(indexations_deg, dtype=float)
     c = np.asarray(centres, dtype=float)
-    fixed_rows, blocks, counts, _, usable, n_fixed = _candidate_blocks(
+    fixed_rows, blocks, counts, _, usable, n_fixed = candidate_blocks(
         machine, list(ball_ids), c, pairs, bar, rule, sigma_mm
     )
     if size > usable.size:
@@ -713,7 +456,7 @@ def choose_indexations(
             "indexations, or use a smaller error model"
         )
     chosen = usable[search.best.members]
-    return pairs[chosen], _approach_senses(len(pairs))[chosen], search
+    return pairs[chosen], approach_senses(len(pairs))[chosen], search
 
 
 def _full_rank(space: BlockInformation, search: DetmaxResult) -> bool:
@@ -722,104 +465,6 @@ def _full_rank(space: BlockInformation, search: DetmaxResult) -> bool:
     info = space.information(members) - space.ridge * np.eye(space.n_unknowns)
     lam = scaled_spectrum(info)
     return bool(lam[0] > 1e-16 * lam[-1])
-
-
-def order_indexations(pairs_deg: np.ndarray) -> np.ndarray:
-    """Probing order: B ascending, C serpentine (ascending, then descending on the next B).
-
-    Short rotary moves; the approach sense of each indexation is stated separately.
-    """
-    p = np.asarray(pairs_deg, dtype=float)
-    out = []
-    for k, b in enumerate(np.unique(p[:, 0])):
-        row = p[p[:, 0] == b]
-        row = row[np.argsort(row[:, 1])]
-        out.append(row if k % 2 == 0 else row[::-1])
-    return np.vstack(out) if out else p.reshape(0, 2)
-
-
-def evaluate_programme(
-    machine: Machine,
-    ball_ids,
-    centres: np.ndarray,
-    pairs_deg: np.ndarray,
-    *,
-    bar: ScaleBarPlacement | None = None,
-    rule: AccessibilityRule | None = None,
-    sigma_mm: float = 0.001,
-    senses: np.ndarray | None = None,
-    order: bool = True,
-) -> SambaProgramme:
-    """The programme of balls × indexations, with its diagnostics and predicted u.
-
-    Parameters
-    ----------
-    machine : Machine
-    ball_ids : sequence of str
-    centres : ndarray, shape (n_balls, 3)
-    pairs_deg : ndarray, shape (M, 2)
-        Indexations, degrees; each ball is probed at each where accessible.
-    bar, rule, sigma_mm
-        As in :func:`choose_indexations`.
-    senses : ndarray, shape (M, 2), optional
-        Approach senses (±1) of B and C per indexation (as returned by
-        :func:`choose_indexations`); alternating combinations by default.
-    order : bool
-        Put the indexations in probing order (:func:`order_indexations`).
-
-    Returns
-    -------
-    SambaProgramme
-    """
-    _check_sigma(sigma_mm)
-    bar = bar or ScaleBarPlacement()
-    rule = rule or AccessibilityRule()
-    ids = [str(b) for b in ball_ids]
-    c = np.asarray(centres, dtype=float)
-    pairs = np.asarray(pairs_deg, dtype=float).reshape(-1, 2)
-    senses = _approach_senses(len(pairs)) if senses is None else np.asarray(senses, dtype=float)
-    if order:
-        ordered = order_indexations(pairs)
-        idx = [int(np.flatnonzero(np.all(pairs == row, axis=1))[0]) for row in ordered]
-        pairs, senses = pairs[idx], senses[idx]
-    mask, _ = (
-        accessible(machine, rule, c, pairs) if len(pairs) else (np.zeros((0, len(ids)), bool), None)
-    )
-    parts = [_fixed_rows(bar, ids)]
-    for i in range(len(pairs)):
-        js = np.flatnonzero(mask[i])
-        parts.append(
-            _Rows(
-                [ids[j] for j in js],
-                np.full(js.size, pairs[i, 0]),
-                np.full(js.size, pairs[i, 1]),
-                np.zeros(js.size),
-                np.full(js.size, senses[i, 0]),
-                np.full(js.size, senses[i, 1]),
-            )
-        )
-    rows = _Rows.concat(parts)
-    centre_of = dict(zip(ids, c, strict=True)) | dict(zip(bar.ends, bar.centres_mm, strict=True))
-    problem = _problem(machine, rows, centre_of, bar, sigma_mm)
-    jac = _jacobian(problem)
-    report = analyse_identifiability(
-        jac, problem.names, n_measurements=len(rows.balls), report_names=machine.parameter_names
-    )
-    u = None
-    if report.full_rank:
-        u = uncertainty_propagation_factors(jac)[: machine.n_params]
-    return SambaProgramme(
-        machine=machine,
-        ball_ids=tuple(ids),
-        centres=c,
-        bar=bar,
-        pairs_deg=pairs,
-        rows=rows,
-        readings=problem.readings,
-        report=report,
-        standard_uncertainty=u,
-        sigma_mm=sigma_mm,
-    )
 
 
 def plan_samba(
