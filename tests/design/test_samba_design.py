@@ -129,9 +129,9 @@ def _simulate(m, programme, theta, rng, sigma):
 def test_planned_uncertainties_are_achieved_by_simulated_calibrations(m13):
     """Plan 1B.3n (13 parameters) on the ball step 1 chooses, simulate it on a machine
     with ~50 µm/µrad errors and 1 µm probing noise with the kinematic engine, identify
-    each repeat with the engine's Gauss-Newton: the spread of every parameter is within 20 % of the planned u. 200
-    repeats: the relative standard error of a standard deviation is 1/sqrt(398) = 5 %,
-    so 20 % is four of them (13 parameters)."""
+    each repeat with the engine's Gauss-Newton: the spread of every parameter is within
+    20 % of the planned u. 200 repeats: the relative standard error of a standard
+    deviation is 1/sqrt(398) = 5 %, so 20 % is four of them (13 parameters)."""
     sigma = 0.001
     one_ball = (["x80y40h75"], np.array([[80.0, 40.0, 75.0]]))  # step 1's choice (1 ball)
     design = plan_samba(m13, PAIRS, balls=one_ball, k=3, starts=2, seed=4)
