@@ -195,14 +195,23 @@ class SambaProgramme:
         return header, out
 
     def parameters(self) -> list[dict]:
-        """Machine parameters with their predicted u in customary units."""
+        """Machine parameters with their predicted u in customary units, and the UPF.
+
+        ``upf`` is u divided by the probing σ in µm (Alami Mchichi 2018, eq. 6.14; exact
+        when the scale bar's u is proportional to σ, as with the default 1 µm each), in
+        the parameter's unit per µm: compare it only between designs of the same parameter
+        list and units (see :func:`~mtmetrology.design.criteria.
+        uncertainty_propagation_factors`).
+        """
         m = self.machine
+        sigma_um = float(from_internal(self.sigma_mm, "µm"))
         out = []
         for i, (name, unit) in enumerate(zip(m.parameter_names, m.parameter_units, strict=True)):
-            u = None
+            u = upf = None
             if self.standard_uncertainty is not None:
                 u = float(from_internal(self.standard_uncertainty[i], unit))
-            out.append({"name": name, "unit": unit, "u": u})
+                upf = u / sigma_um
+            out.append({"name": name, "unit": unit, "u": u, "upf": upf, "upf_unit": f"{unit}/µm"})
         return out
 
 
