@@ -449,7 +449,8 @@ def choose_indexations(
         )
     space = BlockInformation(fixed_rows, blocks[usable], criterion, n_fixed, counts[usable])
     search = detmax(space, size, starts=starts, seed=seed, executor=executor)
-    if not _full_rank(space, search):
+    chosen_rows = blocks[usable[search.best.members]].reshape(-1, blocks.shape[2])
+    if not _full_rank(np.vstack([fixed_rows, chosen_rows])):
         raise RankDeficientError(
             f"the best {size}-indexation design found is rank deficient for the "
             f"{machine.n_params}-parameter model: raise --k, add balls or candidate "
@@ -459,12 +460,11 @@ def choose_indexations(
     return pairs[chosen], approach_senses(len(pairs))[chosen], search
 
 
-def _full_rank(space: BlockInformation, search: DetmaxResult) -> bool:
-    members = np.zeros(space.n_candidates, dtype=bool)
-    members[search.best.members] = True
-    info = space.information(members) - space.ridge * np.eye(space.n_unknowns)
-    lam = scaled_spectrum(info)
-    return bool(lam[0] > 1e-16 * lam[-1])
+def _full_rank(rows: np.ndarray, rtol: float = 1e-8) -> bool:
+    """Rank test of the diagnostics: σ_min > rtol·σ_max of the unit-norm-column rows."""
+    norms = np.linalg.norm(rows, axis=0)
+    s = np.linalg.svd(rows / np.where(norms > 0, norms, 1.0), compute_uv=False)
+    return bool(rows.shape[0] >= rows.shape[1] and s[-1] > rtol * s[0])
 
 
 def plan_samba(
