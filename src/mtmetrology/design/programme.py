@@ -267,6 +267,20 @@ def evaluate_programme(
     Returns
     -------
     SambaProgramme
+
+    Examples
+    --------
+    The linear pairing c = 3b of the old strategy (Alami Mchichi 2018, Table 4.1) with
+    the 84-coefficient model: E_ZC/E_ZB and E_CB/E_CC are confounded.
+
+    >>> from mtmetrology.kinematics import Machine
+    >>> m = Machine.load("five-axis-wcbxfzyst", "84")
+    >>> balls = np.array([[-80, -40, 100], [80, -40, 150], [80, 120, 75], [-80, 120, 175]])
+    >>> line = np.array([(b, 3 * b) for b in range(-90, 91, 15)], dtype=float)
+    >>> free = AccessibilityRule(check_travel=False)
+    >>> p = evaluate_programme(m, list("1234"), balls, line, rule=free)
+    >>> p.report.full_rank, p.n_measurements   # 11 fixed + 13 x 4, one hidden by a stem
+    (False, 62)
     """
     check_sigma(sigma_mm)
     bar = bar or ScaleBarPlacement()
