@@ -27,11 +27,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
-from mtmetrology.io.documents import load_document
-from mtmetrology.io.files import InputFileError
-from mtmetrology.io.schema import describe_validation_error
+from mtmetrology.design.inputs import load_validated
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.units import to_internal
 
@@ -76,12 +74,7 @@ class AccessibilityRule(BaseModel):
 
 def load_accessibility_rule(path: str | Path) -> AccessibilityRule:
     """Read an accessibility-rule YAML file; errors name the file and the field."""
-    p = Path(path)
-    data = load_document(p, "accessibility rule")
-    try:
-        return AccessibilityRule.model_validate(data)
-    except ValidationError as err:
-        raise InputFileError(describe_validation_error(str(p), "accessibility rule", err)) from None
+    return load_validated(path, "accessibility rule", AccessibilityRule)
 
 
 def nominal_readings(machine: Machine, centres: np.ndarray, pairs_deg: np.ndarray) -> np.ndarray:

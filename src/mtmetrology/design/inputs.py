@@ -41,6 +41,7 @@ __all__ = [
     "default_indexations",
     "load_ball_grid",
     "load_balls",
+    "load_validated",
     "read_indexations",
 ]
 
@@ -123,7 +124,9 @@ class BallsFile(_Strict):
         return self
 
 
-def _load(path, label, model):
+def load_validated(path: str | Path, label: str, model: type[BaseModel]):
+    """Read a YAML/JSON document strictly and validate it with a pydantic model; errors
+    name the file and the field."""
     p = Path(path)
     data = load_document(p, label)
     try:
@@ -134,12 +137,12 @@ def _load(path, label, model):
 
 def load_ball_grid(path: str | Path) -> BallGridFile:
     """Read a ``samba-ball-grid`` YAML file; errors name the file and the field."""
-    return _load(path, "SAMBA ball grid", BallGridFile)
+    return load_validated(path, "SAMBA ball grid", BallGridFile)
 
 
 def load_balls(path: str | Path) -> BallsFile:
     """Read a ``samba-balls`` YAML file; errors name the file and the field."""
-    return _load(path, "SAMBA balls", BallsFile)
+    return load_validated(path, "SAMBA balls", BallsFile)
 
 
 def read_indexations(path: str | Path) -> np.ndarray:
