@@ -98,7 +98,11 @@ def samba(
         ),
     ] = "indexations",
     criterion: Annotated[
-        str, typer.Option("--criterion", help=f"One of {', '.join(CRITERIA)}.")
+        str,
+        typer.Option(
+            "--criterion",
+            help=f"One of {', '.join(CRITERIA)} (D and A are the fastest: rank-r updates).",
+        ),
     ] = "O2",
     starts: Annotated[int, typer.Option("--starts", help="Random DETMAX starts.")] = 8,
     seed: Annotated[int | None, typer.Option("--seed", help="Seed of the random starts.")] = None,
