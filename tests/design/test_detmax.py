@@ -98,3 +98,17 @@ def test_bad_sizes_name_the_parameter():
     assert "design size" in str(err.value)
     with pytest.raises(InputError):
         detmax(space, 5, starts=0)
+
+
+@pytest.mark.parametrize("criterion", ["O2", "E", "A"])
+def test_a_rank_deficient_start_is_repaired(criterion):
+    """Start on candidates that never see the last two unknowns: the exchange follows the
+    ridge D criterion until the design has full rank, then the requested one."""
+    space = random_space(criterion, n_candidates=40, seed=4)
+    space.blocks[:6, :, -2:] = 0.0
+    space.fixed_info[:, -2:] = space.fixed_info[-2:, :] = 0.0
+    run = detmax_run(space, np.arange(6))
+    # no value for the spectral criteria; the ridge's huge penalty for A
+    assert run.start_value == -np.inf if criterion != "A" else run.start_value < -1e9
+    assert np.isfinite(run.value) and run.status in (1, 2)
+    assert np.all(np.diff(run.history) >= 0)

@@ -31,9 +31,10 @@ like the diagnostics. E and O1–O5 need the spectrum: they are scored by batche
 eigenvalue problems of the n × n trial matrices (never an SVD of the tall Jacobian).
 
 A tiny ridge ``δ·I`` (δ = 1e-12 of the mean diagonal over the candidate set) keeps ``F``
-invertible when a random start is rank deficient, so the D scores still rank the
-candidates by how much rank they restore; the values reported for a final design are
-recomputed without it.
+invertible when a random start is rank deficient, so the D (and A) scores still rank the
+candidates by how much rank they restore; E and O1–O5 are evaluated without it (a
+rank-deficient design has no value, and its exchanges follow the D scores until it has
+full rank). The values reported for a final design are recomputed without it.
 
 References
 ----------
@@ -165,31 +166,43 @@ class BlockInformation:
             return state.logdet
         if self.criterion == "A":
             return -float(np.trace(state.inverse))
-        lam = self._spectrum(state.info)
+        lam = self._spectrum(self._without_ridge(state.info), self.criterion)
         return float(criterion_from_spectrum(self.criterion, lam, state.n_measurements))
 
-    def _spectrum(self, info: np.ndarray) -> np.ndarray:
-        if self.criterion in SCALED_CRITERIA:
+    def _without_ridge(self, info: np.ndarray) -> np.ndarray:
+        """The spectral criteria see the true information: with the ridge, a column no
+        row touches would scale to a perfect unit column."""
+        return info - self.ridge * np.eye(self.n_unknowns)
+
+    @staticmethod
+    def _spectrum(info: np.ndarray, criterion: str) -> np.ndarray:
+        if criterion in SCALED_CRITERIA:
             return scaled_spectrum(info)
         return np.linalg.eigvalsh(info)
 
     # ------------------------------------------------------------------ scores
-    def scores(self, state: _State, sign: int, indices: np.ndarray) -> np.ndarray:
+    def scores(
+        self, state: _State, sign: int, indices: np.ndarray, criterion: str | None = None
+    ) -> np.ndarray:
         """Criterion after adding (sign +1) or removing (−1) each candidate in ``indices``.
+
+        ``criterion`` overrides the space's own (the exchange of a rank-deficient start
+        follows D); the space is never modified, so threads may share it.
 
         Returns
         -------
         ndarray, shape (len(indices),)
             ``−inf`` where the trial design is singular.
         """
-        if self.criterion not in ("D", "A"):
-            return self._spectral_scores(state, sign, indices)
+        criterion = self.criterion if criterion is None else criterion
+        if criterion not in ("D", "A"):
+            return self._spectral_scores(state, sign, indices, criterion)
         x = self.blocks[indices]  # (k, r, n)
         n = x.shape[2]
         g = (x.reshape(-1, n) @ state.inverse).reshape(x.shape)  # one GEMM for all rows
         k_mat = np.eye(x.shape[1]) + sign * (g @ np.swapaxes(x, 1, 2))  # (k, r, r)
         s, logdet_k = np.linalg.slogdet(k_mat)
-        if self.criterion == "D":
+        if criterion == "D":
             return np.where(s > 0, state.logdet + logdet_k, -np.inf)
         # trace of the new inverse: trace F⁻¹ ∓ Σ G ∘ (K⁻¹ G)
         out = np.full(len(indices), -np.inf)
@@ -198,14 +211,14 @@ class BlockInformation:
         out[ok] = -(np.trace(state.inverse) - sign * np.einsum("crk,crk->c", g[ok], kg))
         return out
 
-    def _spectral_scores(self, state, sign, indices) -> np.ndarray:
+    def _spectral_scores(self, state, sign, indices, criterion) -> np.ndarray:
         m = state.n_measurements + sign * self.measurements[indices]
         out = np.empty(len(indices))
         for lo in range(0, len(indices), _CHUNK):
             x = self.blocks[indices[lo : lo + _CHUNK]]
-            trial = state.info[None] + sign * (np.swapaxes(x, 1, 2) @ x)
+            trial = self._without_ridge(state.info)[None] + sign * (np.swapaxes(x, 1, 2) @ x)
             out[lo : lo + _CHUNK] = criterion_from_spectrum(
-                self.criterion, self._spectrum(trial), m[lo : lo + _CHUNK]
+                criterion, self._spectrum(trial, criterion), m[lo : lo + _CHUNK]
             )
         return out
 
@@ -317,10 +330,10 @@ def detmax_run(
         # a rank-deficient design has no spectral value: its exchanges follow the ridge
         # D criterion, which ranks candidates by the rank and volume they restore
         use = space.criterion if np.isfinite(value) else "D"
-        added = int(outside[int(np.argmax(_scores(space, use, state, +1, outside)))])
+        added = int(outside[int(np.argmax(space.scores(state, +1, outside, use)))])
         space.update(state, added, +1)
         inside = np.flatnonzero(state.members)
-        remove_scores = _scores(space, use, state, -1, inside)
+        remove_scores = space.scores(state, -1, inside, use)
         best = int(np.argmax(remove_scores))
         keep_added = float(remove_scores[np.searchsorted(inside, added)])
         if float(remove_scores[best]) <= keep_added + tol * abs(keep_added):
@@ -352,17 +365,6 @@ def detmax_run(
         history=tuple(history),
         status=status,
     )
-
-
-def _scores(space, criterion, state, sign, indices):
-    if criterion == space.criterion:
-        return space.scores(state, sign, indices)
-    saved = space.criterion
-    space.criterion = criterion
-    try:
-        return space.scores(state, sign, indices)
-    finally:
-        space.criterion = saved
 
 
 def _run_task(task, max_iter, tol):

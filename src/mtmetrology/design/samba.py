@@ -109,11 +109,12 @@ class BallInformation:
             f[:, sl, sl] = self.own[sets[:, j]]
         return f
 
-    def _values(self, sets: np.ndarray) -> np.ndarray:
+    def _values(self, sets: np.ndarray, criterion: str | None = None) -> np.ndarray:
+        criterion = self.criterion if criterion is None else criterion
         f = self._assemble(sets)
-        lam = scaled_spectrum(f) if self.criterion in SCALED_CRITERIA else np.linalg.eigvalsh(f)
+        lam = scaled_spectrum(f) if criterion in SCALED_CRITERIA else np.linalg.eigvalsh(f)
         m = self.measurements_fixed + self.measurements[sets].sum(axis=1)
-        return criterion_from_spectrum(self.criterion, lam, m)
+        return criterion_from_spectrum(criterion, lam, m)
 
     def start(self, indices) -> _BallState:
         members = np.zeros(self.n_candidates, dtype=bool)
@@ -126,13 +127,14 @@ class BallInformation:
     def value(self, state) -> float:
         return float(self._values(np.flatnonzero(state.members)[None, :])[0])
 
-    def scores(self, state, sign, indices) -> np.ndarray:
+    def scores(self, state, sign, indices, criterion: str | None = None) -> np.ndarray:
+        """Criterion of each trial ball set (adding or removing each candidate)."""
         base = np.flatnonzero(state.members)
         if sign > 0:
             sets = np.column_stack([np.broadcast_to(base, (len(indices), base.size)), indices])
         else:
             sets = np.array([base[base != i] for i in indices])
-        return self._values(sets)
+        return self._values(sets, criterion)
 
     def update(self, state, index, sign) -> None:
         state.members[index] = sign > 0
