@@ -35,6 +35,7 @@ COMMANDS = {
     "fit": ("mtmetrology.cli.fit", "fit", False),
     "predict": ("mtmetrology.cli.predict", "predict", False),
     "gp": ("mtmetrology.cli.cmm", "gp_app", True),
+    "design": ("mtmetrology.cli.design", "app", True),
     "demo": ("mtmetrology.cli.demo", "demo", False),
 }
 

@@ -4,6 +4,7 @@ from mtmetrology.identification.diagnostics import (
     IdentifiabilityReport,
     NullDirection,
     analyse_identifiability,
+    observability_indices,
 )
 from mtmetrology.identification.observations import (
     BallCentreProblem,
@@ -25,5 +26,6 @@ __all__ = [
     "ScaleBar",
     "analyse_identifiability",
     "gauss_newton",
+    "observability_indices",
     "senses_from_sequence",
 ]

@@ -34,7 +34,12 @@ import numpy as np
 
 from mtmetrology.report.notebook import NotebookRepr
 
-__all__ = ["IdentifiabilityReport", "NullDirection", "analyse_identifiability"]
+__all__ = [
+    "IdentifiabilityReport",
+    "NullDirection",
+    "analyse_identifiability",
+    "observability_indices",
+]
 
 
 @dataclass(frozen=True)
@@ -137,6 +142,56 @@ def _finite_or_none(x: float):
     return float(x) if np.isfinite(x) else None
 
 
+def observability_indices(singular_values: np.ndarray, n_measurements: int) -> dict:
+    """Observability indices O1–O5 of a full-rank Jacobian from its singular values.
+
+    Parameters
+    ----------
+    singular_values : ndarray, shape (n,)
+        Singular values σ_1 ≥ … ≥ σ_n > 0 of the (column-scaled) Jacobian.
+    n_measurements : int
+        Number of measurements (poses) m.
+
+    Returns
+    -------
+    dict
+        ``{"O1": …, "O5": …}`` as floats.
+
+    Notes
+    -----
+    Alami Mchichi (2018), eqs 5.9–5.13::
+
+        O1 = (σ_1 σ_2 … σ_n)^(1/n) / √m      (Borm & Menq 1989)
+        O2 = σ_n / σ_1 = 1/κ                 (Driels & Pathre 1990)
+        O3 = σ_n                             (Nahvi & Hollerbach 1996)
+        O4 = σ_n² / σ_1                      (Nahvi & Hollerbach 1996)
+        O5 = 1 / Σ_i 1/σ_i                   (Sun & Hollerbach 2008)
+
+    O5 sums over the n unknowns; the source's eq. 8.8 sums to σ_m, a typo.
+
+    References
+    ----------
+    Alami Mchichi, N. (2018). *Étalonnage des machines-outils à cinq axes : configuration
+    optimisée des artefacts et de la séquence de mesure de la méthode SAMBA en vue d'une
+    estimation efficace des erreurs géométriques*. PhD thesis, École Polytechnique de
+    Montréal, §5.4.
+
+    Examples
+    --------
+    >>> o = observability_indices(np.array([4.0, 2.0, 1.0]), n_measurements=4)
+    >>> round(o["O1"], 6), o["O2"], o["O3"], o["O4"], round(o["O5"], 6)
+    (1.0, 0.25, 1.0, 0.25, 0.571429)
+    """
+    s = np.sort(np.asarray(singular_values, dtype=float))[::-1]
+    return {
+        "O1": float(np.exp(np.mean(np.log(s))) / np.sqrt(n_measurements)),
+        "O2": float(s[-1] / s[0]),
+        "O3": float(s[-1]),
+        "O4": float(s[-1] ** 2 / s[0]),
+        "O5": float(1.0 / np.sum(1.0 / s)),
+    }
+
+
 def _rref(a: np.ndarray, tol: float) -> np.ndarray:
     """Reduced row-echelon form with partial pivoting (rows = null vectors)."""
     m = a.copy()
@@ -233,13 +288,7 @@ def analyse_identifiability(
     observability: dict = {}
     if rank == n and n > 0:
         m = n_measurements if n_measurements is not None else max(j.shape[0] // 3, 1)
-        observability = {
-            "O1": float(np.exp(np.mean(np.log(s_full))) / np.sqrt(m)),
-            "O2": float(s_full[-1] / s_full[0]),
-            "O3": float(s_full[-1]),
-            "O4": float(s_full[-1] ** 2 / s_full[0]),
-            "O5": float(1.0 / np.sum(1.0 / s_full)),
-        }
+        observability = observability_indices(s_full, m)
 
     if rank == n:
         message = f"full rank: {n} unknowns, condition {cond_scaled:.4g} (columns scaled)"

@@ -1,0 +1,233 @@
+"""``mtm design``: plan a calibration (SAMBA balls and probing programme by DETMAX)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table as RichTable
+
+from mtmetrology.cli._common import print_json, user_errors
+from mtmetrology.design.accessibility import AccessibilityRule, load_accessibility_rule
+from mtmetrology.design.counts import COUNT_RULES, MINUTES_PER_MEASUREMENT
+from mtmetrology.design.criteria import CRITERIA
+from mtmetrology.design.inputs import (
+    BallGridFile,
+    axis_grid,
+    default_indexations,
+    grid_indexations,
+    load_ball_grid,
+    load_balls,
+    read_indexations,
+)
+from mtmetrology.design.samba import plan_samba
+from mtmetrology.errors import InputError
+from mtmetrology.io.files import atomic_write
+from mtmetrology.io.tables import write_csv_table
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.units import to_internal
+
+app = typer.Typer(
+    help="Plan calibrations: artefact layout and probing programme.", no_args_is_help=True
+)
+
+#: Seed 004 candidate grid: 5 x 4 positions at 80 mm pitch, stems 75-175 mm (§5.5).
+SEED004_GRID = BallGridFile(
+    kind="samba-ball-grid",
+    x_mm=[-160.0, -80.0, 0.0, 80.0, 160.0],
+    y_mm=[-120.0, -40.0, 40.0, 120.0],
+    stems_mm=[75.0, 100.0, 125.0, 150.0, 175.0],
+)
+
+
+def _positive(value: float, option: str, allow_zero: bool = False) -> None:
+    ok = math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
+    if not ok:
+        raise InputError(
+            f"{option} must be a {'non-negative' if allow_zero else 'positive'} number, got {value}"
+        )
+
+
+def _artefact_yaml(design, ball_diameter_mm: float) -> str:
+    p = design.programme
+    lines = ["kind: samba-artefact", "balls:"]
+    for b in (*p.ball_ids, *p.bar.ends):
+        lines.append(f'  - {{id: "{b}", diameter_mm: {ball_diameter_mm:g}}}')
+    ends = ", ".join(f'"{e}"' for e in p.bar.ends)
+    lines.append(
+        f"scale_bar: {{ends: [{ends}], length_mm: {p.bar.length:.6f}, u_mm: {p.bar.u_mm:g}}}"
+    )
+    return "\n".join(lines) + "\n"
+
+
+@app.command("samba")
+@user_errors
+def samba(
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML file.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Programme CSV to write.")],
+    model: Annotated[str | None, typer.Option("--model", help="Error model (e.g. 13, 84).")] = None,
+    balls_from: Annotated[
+        Path | None,
+        typer.Option("--balls-from", help="Candidate ball grid YAML (step 1 chooses --n-balls)."),
+    ] = None,
+    balls: Annotated[
+        Path | None, typer.Option("--balls", help="Placed balls YAML (step 2 only).")
+    ] = None,
+    n_balls: Annotated[
+        int | None, typer.Option("--n-balls", help="Balls to choose from the grid.")
+    ] = None,
+    indexations: Annotated[
+        Path | None, typer.Option("--indexations", help="Candidate indexations CSV: B,C (deg).")
+    ] = None,
+    b_grid: Annotated[
+        str | None,
+        typer.Option("--b-grid", help="Candidate B angles: start:stop:step or list, deg."),
+    ] = None,
+    c_grid: Annotated[
+        str | None,
+        typer.Option("--c-grid", help="Candidate C angles: start:stop:step or list, deg."),
+    ] = None,
+    k: Annotated[float, typer.Option("--k", help="Multiple of unknowns/3 (strategy xB.kn).")] = 3.0,
+    count_rule: Annotated[
+        str,
+        typer.Option(
+            "--count-rule",
+            help="indexations: M = k*ceil(U/3) indexations; measurements: M_T ~ k*U/3.",
+        ),
+    ] = "indexations",
+    criterion: Annotated[
+        str,
+        typer.Option(
+            "--criterion",
+            help=f"One of {', '.join(CRITERIA)} (D and A are the fastest: rank-r updates).",
+        ),
+    ] = "O2",
+    starts: Annotated[int, typer.Option("--starts", help="Random DETMAX starts.")] = 8,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the random starts.")] = None,
+    executor: Annotated[
+        str | None,
+        typer.Option("--executor", help="inprocess, processes[:n], dask-local[:n] or an address."),
+    ] = None,
+    sigma_um: Annotated[
+        float, typer.Option("--sigma-um", help="Probing noise: u of one coordinate, µm.")
+    ] = 1.0,
+    accessibility: Annotated[
+        Path | None, typer.Option("--accessibility", help="Accessibility rule YAML.")
+    ] = None,
+    minutes_per_measurement: Annotated[
+        float,
+        typer.Option("--minutes-per-measurement", help="Duration a, min per ball measurement."),
+    ] = MINUTES_PER_MEASUREMENT,
+    minutes_per_indexation: Annotated[
+        float, typer.Option("--minutes-per-indexation", help="Duration b, min per indexation.")
+    ] = 0.0,
+    artefact_out: Annotated[
+        Path | None,
+        typer.Option("--artefact-out", help="Also write the samba-artefact YAML (scale bar)."),
+    ] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print the design as JSON.")] = False,
+) -> None:
+    """Choose SAMBA balls and (B, C) indexations by DETMAX; write the probing programme.
+
+    The programme CSV has columns ball,B,C,S,X,Y,Z (+ sense_B,sense_C for models with
+    backlash): X,Y,Z are the nominal readings at the ball centre, so `mtm machine
+    identifiability MACHINE PROGRAMME.csv --artefact ARTEFACT.yaml` reads it as is.
+    """
+    _positive(sigma_um, "--sigma-um")
+    _positive(k, "--k")
+    _positive(minutes_per_measurement, "--minutes-per-measurement")
+    _positive(minutes_per_indexation, "--minutes-per-indexation", allow_zero=True)
+    if count_rule not in COUNT_RULES:
+        raise InputError(f"--count-rule {count_rule!r}: choose one of {', '.join(COUNT_RULES)}")
+    if balls is not None and balls_from is not None:
+        raise InputError("give --balls (placed balls) or --balls-from (candidate grid), not both")
+    m = Machine.load(machine, model)
+    rule = load_accessibility_rule(accessibility) if accessibility else AccessibilityRule()
+    if indexations is not None and (b_grid or c_grid):
+        raise InputError("give --indexations or --b-grid/--c-grid, not both")
+    if indexations is not None:
+        pairs = read_indexations(indexations)
+    elif b_grid or c_grid:
+        if not (b_grid and c_grid):
+            raise InputError("--b-grid and --c-grid go together")
+        pairs = grid_indexations(axis_grid(b_grid, "--b-grid"), axis_grid(c_grid, "--c-grid"))
+    else:
+        pairs = default_indexations()
+    if balls is not None:
+        spec = load_balls(balls)
+        placed = ([b.id for b in spec.balls], [b.centre_mm for b in spec.balls])
+        candidates, bar = None, spec.scale_bar
+    else:
+        grid = load_ball_grid(balls_from) if balls_from else SEED004_GRID
+        placed, bar = None, grid.scale_bar
+        candidates = grid.candidates(rule.table_z_mm)
+    design = plan_samba(
+        m,
+        pairs,
+        balls=placed,
+        candidates=candidates,
+        n_balls=n_balls,
+        k=k,
+        count_rule=count_rule,
+        criterion=criterion,
+        bar=bar,
+        rule=rule,
+        sigma_mm=float(to_internal(sigma_um, "µm")),
+        starts=starts,
+        seed=seed,
+        executor=executor,
+    )
+    header, rows = design.programme.table()
+    if artefact_out is not None:
+        with atomic_write(artefact_out) as fh:
+            fh.write(_artefact_yaml(design, rule.ball_diameter_mm))
+    write_csv_table(output, header, rows)
+    doc = design.to_dict(minutes_per_measurement, minutes_per_indexation)
+    if json:
+        print_json(doc)
+        return
+    _print(doc, output)
+
+
+def _print(doc: dict, output: Path) -> None:
+    console = Console()
+    console.print(
+        f"[bold]{doc['machine']}[/bold] model {doc['model']}: criterion {doc['criterion']}, "
+        f"k = {doc['k']:g} ({doc['count_rule']} rule)"
+    )
+    bt = RichTable(title="master balls")
+    for col in ("id", "x mm", "y mm", "z mm (stem)"):
+        bt.add_column(col)
+    for b in doc["balls"]:
+        x, y, z = b["centre_mm"]
+        bt.add_row(b["id"], f"{x:g}", f"{y:g}", f"{z:g}")
+    console.print(bt)
+    console.print(
+        f"{doc['n_indexations']} indexations of {doc['n_accessible_indexations']} accessible "
+        f"({doc['n_candidate_indexations']} candidates); {doc['n_measurements']} measurements; "
+        f"duration ≈ {doc['duration_h']:.2f} h (a = {doc['minutes_per_measurement']:g} min/"
+        f"measurement, b = {doc['minutes_per_indexation']:g} min/indexation)"
+    )
+    console.print(
+        f"rank {doc['rank']} of {doc['n_unknowns']}, condition {doc['condition_scaled']:.4g} "
+        "(columns scaled); " + ", ".join(f"{k} {v:.4g}" for k, v in doc["observability"].items())
+    )
+    for step in ("step1", "step2"):
+        s = doc[step]
+        if s:
+            console.print(
+                f"{step}: {s['criterion']} {s['best_start_value']:.6g} -> {s['best_value']:.6g} "
+                f"in {s['exchanges']} exchanges ({s['stop']})"
+            )
+    pt = RichTable(
+        title=f"predicted standard uncertainty (probing σ = {doc['probing_sigma_um']:g} µm)"
+    )
+    for col in ("parameter", "u", "unit"):
+        pt.add_column(col)
+    for p in doc["parameters"]:
+        pt.add_row(p["name"], f"{p['u']:.3g}", p["unit"])
+    console.print(pt)
+    console.print(f"programme written to {output}")

@@ -1,0 +1,620 @@
+"""SAMBA calibration planning: which balls, which (B, C) indexations (DETMAX).
+
+Two DETMAX steps (Alami Mchichi 2018, §5.5, Fig. 5.3; digest 004 §3.9):
+
+* **step 1** (:func:`choose_balls`): n master balls out of a candidate grid of pallet
+  positions × stem lengths, every candidate probed at a fixed rich set of (B, C)
+  indexations (450 in the source) wherever it is accessible;
+* **step 2** (:func:`choose_indexations`): with the balls placed, M indexations out of the
+  candidates, ``M = k × unknowns/3`` (:func:`~mtmetrology.design.counts.indexation_count`),
+  every ball probed at every chosen indexation where it is accessible.
+
+The rows of a design and its predictions are those of
+:mod:`mtmetrology.design.programme`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mtmetrology.design.accessibility import AccessibilityRule, accessible
+from mtmetrology.design.counts import MINUTES_PER_MEASUREMENT, indexation_count, measurement_count
+from mtmetrology.design.criteria import (
+    SCALED_CRITERIA,
+    check_criterion,
+    criterion_from_spectrum,
+    scaled_spectrum,
+)
+from mtmetrology.design.detmax import BlockInformation, DetmaxResult, detmax
+from mtmetrology.design.inputs import ScaleBarPlacement
+from mtmetrology.design.programme import (
+    ProgrammeRows,
+    SambaProgramme,
+    approach_senses,
+    check_sigma,
+    evaluate_programme,
+    fixed_programme_rows,
+    nominal_jacobian,
+    programme_problem,
+)
+from mtmetrology.errors import InputError, RankDeficientError
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.rng import SeedLike, chunk_generators
+from mtmetrology.units import from_internal
+
+__all__ = ["BallInformation", "SambaDesign", "choose_balls", "choose_indexations", "plan_samba"]
+
+
+@dataclass
+class _BallState:
+    members: np.ndarray
+    exchanges: int = 0
+
+
+class BallInformation:
+    """Step-1 candidates: master balls, each adding its own three centre unknowns.
+
+    The information of a ball set ``S`` is assembled from per-candidate blocks of the
+    Gram matrix: shared unknowns (machine parameters, tool, scale-bar balls) get
+    ``F_0 + Σ_{c∈S} P_c``; each ball's centre couples only to the shared unknowns
+    (``C_c``) and to itself (``O_c``). Trial designs are assembled and their spectra
+    computed in one batched call (n ≤ a few balls: no rank-r update is needed).
+
+    Parameters
+    ----------
+    fixed_info : ndarray, shape (s, s)
+        Gram matrix of the rows every design has (shared unknowns).
+    shared : ndarray, shape (N, s, s)
+    cross : ndarray, shape (N, s, 3)
+    own : ndarray, shape (N, 3, 3)
+    criterion : str
+    measurements_fixed : int
+    measurements : ndarray of int, shape (N,)
+    """
+
+    def __init__(self, fixed_info, shared, cross, own, criterion, measurements_fixed, measurements):
+        self.criterion = check_criterion(criterion)
+        ref = np.sqrt(np.diag(fixed_info + shared.sum(axis=0)))
+        ref = np.where(ref > 0, ref, 1.0)
+        own_ref = np.sqrt(np.einsum("cii->ci", own))  # (N, 3)
+        own_ref = np.where(own_ref > 0, own_ref, 1.0)
+        self.fixed_info = fixed_info / ref[:, None] / ref[None, :]
+        self.shared = shared / ref[None, :, None] / ref[None, None, :]
+        self.cross = cross / ref[None, :, None] / own_ref[:, None, :]
+        self.own = own / own_ref[:, :, None] / own_ref[:, None, :]
+        self.measurements_fixed = int(measurements_fixed)
+        self.measurements = np.asarray(measurements, dtype=int)
+
+    @property
+    def n_candidates(self) -> int:
+        return self.shared.shape[0]
+
+    def information(self, members) -> np.ndarray:
+        """Gram matrix of a ball set (fixed reference scaling), shape (s + 3k, s + 3k)."""
+        idx = np.flatnonzero(members) if np.asarray(members).dtype == bool else np.asarray(members)
+        return self._assemble(idx[None, :])[0]
+
+    def _assemble(self, sets: np.ndarray) -> np.ndarray:
+        """Gram matrices of many ball sets at once, sets (t, k) -> (t, s + 3k, s + 3k)."""
+        t, k = sets.shape
+        s = self.fixed_info.shape[0]
+        f = np.zeros((t, s + 3 * k, s + 3 * k))
+        f[:, :s, :s] = self.fixed_info + self.shared[sets].sum(axis=1)
+        for j in range(k):
+            sl = slice(s + 3 * j, s + 3 * j + 3)
+            f[:, :s, sl] = self.cross[sets[:, j]]
+            f[:, sl, :s] = np.swapaxes(self.cross[sets[:, j]], 1, 2)
+            f[:, sl, sl] = self.own[sets[:, j]]
+        return f
+
+    def _values(self, sets: np.ndarray, criterion: str | None = None) -> np.ndarray:
+        criterion = self.criterion if criterion is None else criterion
+        f = self._assemble(sets)
+        lam = scaled_spectrum(f) if criterion in SCALED_CRITERIA else np.linalg.eigvalsh(f)
+        m = self.measurements_fixed + self.measurements[sets].sum(axis=1)
+        return criterion_from_spectrum(criterion, lam, m)
+
+    def start(self, indices) -> _BallState:
+        members = np.zeros(self.n_candidates, dtype=bool)
+        members[np.asarray(indices, dtype=int)] = True
+        return _BallState(members)
+
+    def refresh(self, state) -> None:
+        """Nothing is carried between iterations."""
+
+    def value(self, state) -> float:
+        return float(self._values(np.flatnonzero(state.members)[None, :])[0])
+
+    def scores(self, state, sign, indices, criterion: str | None = None) -> np.ndarray:
+        """Criterion of each trial ball set (adding or removing each candidate)."""
+        base = np.flatnonzero(state.members)
+        if sign > 0:
+            sets = np.column_stack([np.broadcast_to(base, (len(indices), base.size)), indices])
+        else:
+            sets = np.array([base[base != i] for i in indices])
+        return self._values(sets, criterion)
+
+    def update(self, state, index, sign) -> None:
+        state.members[index] = sign > 0
+
+
+@dataclass(frozen=True)
+class SambaDesign:
+    """Result of a SAMBA design: the programme, the DETMAX runs and the counts.
+
+    Attributes
+    ----------
+    programme : SambaProgramme
+    criterion : str
+    k : float or None
+    count_rule : str or None
+    balls_search : DetmaxResult or None
+        Step 1 runs (None when the balls were given).
+    indexations_search : DetmaxResult
+        Step 2 runs.
+    n_candidate_indexations : int
+    n_accessible : int
+        Candidate indexations at which at least one ball is accessible.
+    """
+
+    programme: SambaProgramme
+    criterion: str
+    k: float | None
+    count_rule: str | None
+    balls_search: DetmaxResult | None
+    indexations_search: DetmaxResult
+    n_candidate_indexations: int
+    n_accessible: int
+
+    def to_dict(
+        self, minutes_per_measurement=MINUTES_PER_MEASUREMENT, minutes_per_indexation=0.0
+    ) -> dict:
+        p = self.programme
+        rep = p.report
+
+        def runs(res):
+            if res is None:
+                return None
+            return {
+                "criterion": res.criterion,
+                "best_value": _num(res.best.value),
+                "best_start_value": _num(res.best.start_value),
+                "history": [_num(v) for v in res.best.history],
+                "exchanges": res.best.exchanges,
+                "stop": res.best.message,
+                "start_values": [_num(r.start_value) for r in res.runs],
+                "final_values": [_num(r.value) for r in res.runs],
+            }
+
+        header, rows = p.table()
+        return {
+            "kind": "samba-design",
+            "version": 1,
+            "machine": p.machine.name,
+            "model": p.machine.model_name,
+            "criterion": self.criterion,
+            "k": self.k,
+            "count_rule": self.count_rule,
+            "balls": [
+                {"id": b, "centre_mm": c.tolist(), "stem_mm": float(c[2])}
+                for b, c in zip(p.ball_ids, p.centres, strict=True)
+            ],
+            "scale_bar": {
+                "ends": list(p.bar.ends),
+                "centres_mm": [list(c) for c in p.bar.centres_mm],
+                "length_mm": p.bar.length,
+                "u_mm": p.bar.u_mm,
+            },
+            "indexations_deg": p.pairs_deg.tolist(),
+            "n_indexations": len(p.pairs_deg),
+            "n_candidate_indexations": self.n_candidate_indexations,
+            "n_accessible_indexations": self.n_accessible,
+            "n_measurements": p.n_measurements,
+            "duration_h": p.duration_h(minutes_per_measurement, minutes_per_indexation),
+            "minutes_per_measurement": minutes_per_measurement,
+            "minutes_per_indexation": minutes_per_indexation,
+            "probing_sigma_um": float(from_internal(p.sigma_mm, "µm")),
+            "rank": rep.rank,
+            "n_unknowns": rep.n_unknowns,
+            "condition_scaled": _num(rep.condition_scaled),
+            "condition_raw": _num(rep.condition_raw),
+            "observability": rep.observability,
+            "parameters": p.parameters(),
+            "step1": runs(self.balls_search),
+            "step2": runs(self.indexations_search),
+            "programme": {"columns": header, "rows": rows},
+        }
+
+
+def _num(x):
+    return float(x) if np.isfinite(x) else None
+
+
+def _check_machine(machine: Machine):
+    if not {"B", "C"} <= set(machine.axis_names):
+        raise InputError(f"machine {machine.name}: a SAMBA design needs rotary axes B and C")
+
+
+def choose_balls(
+    machine: Machine,
+    candidate_ids,
+    candidate_centres: np.ndarray,
+    n_balls: int,
+    indexations_deg: np.ndarray,
+    *,
+    criterion: str = "O2",
+    bar: ScaleBarPlacement | None = None,
+    rule: AccessibilityRule | None = None,
+    sigma_mm: float = 0.001,
+    starts: int = 8,
+    seed: SeedLike = None,
+    executor=None,
+) -> tuple[list[str], np.ndarray, DetmaxResult]:
+    """Step 1: the best ``n_balls`` of a candidate set for a fixed rich set of indexations.
+
+    Parameters
+    ----------
+    machine : Machine
+        With rotary axes B, C and the error model to identify.
+    candidate_ids : sequence of str, length N
+    candidate_centres : ndarray, shape (N, 3)
+        Ball centres in the workpiece frame, mm.
+    n_balls : int
+    indexations_deg : ndarray, shape (K, 2)
+        (B, C) at which every candidate is probed where accessible (450 in seed 004).
+    criterion : str
+        D, A, E or O1–O5 (O2 in the source, Table 5.2).
+    bar : ScaleBarPlacement, optional
+    rule : AccessibilityRule, optional
+        Rules 1–3 are applied to every candidate; rule 4 (other balls) to the chosen set
+        in step 2, since which balls stand together is what step 1 decides.
+    sigma_mm : float
+        Standard uncertainty of one indication coordinate, mm.
+    starts, seed, executor
+        As in :func:`mtmetrology.design.detmax.detmax`.
+
+    Returns
+    -------
+    ids : list of str
+    centres : ndarray, shape (n_balls, 3)
+    search : DetmaxResult
+
+    Examples
+    --------
+    One ball of four candidates for the 13-parameter model. Within the preset's travel the
+    tall stem at the pallet corner is reachable at the candidate indexations and its longer
+    lever arms condition best; with a shorter Z travel it is not, and the short central stem
+    wins, as in Alami Mchichi (2018), §5.7.1 (the choice depends on accessibility).
+
+    >>> from mtmetrology.kinematics import Machine
+    >>> from mtmetrology.design.inputs import grid_indexations
+    >>> m = Machine.load("five-axis-wcbxfzyst", "13")
+    >>> cands = np.array([[0, 40, 75], [0, 40, 175], [160, 120, 75], [160, 120, 175]])
+    >>> pairs = grid_indexations(np.arange(-90, 91, 45), np.arange(0, 360, 60))
+    >>> ids, _, res = choose_balls(m, list("abcd"), cands, 1, pairs, starts=1, seed=0)
+    >>> ids
+    ['d']
+    """
+    _check_machine(machine)
+    check_sigma(sigma_mm)
+    bar = bar or ScaleBarPlacement()
+    rule = rule or AccessibilityRule()
+    ids = [str(i) for i in candidate_ids]
+    cent = np.asarray(candidate_centres, dtype=float)
+    if not 1 <= n_balls <= len(ids):
+        raise InputError(f"--n-balls {n_balls} must be between 1 and the {len(ids)} candidates")
+    mask, _ = accessible(machine, rule, cent, indexations_deg, obstacles=False)
+    if not mask.any():
+        raise InputError(
+            "no candidate ball is accessible at any candidate indexation: widen the travel, "
+            "lower stem_cone_deg/clearance_mm in the accessibility rule, or move the grid"
+        )
+    fixed_problem = programme_problem(
+        machine,
+        fixed_programme_rows(bar, []),
+        dict(zip(bar.ends, bar.centres_mm, strict=True)),
+        bar,
+        sigma_mm,
+    )
+    j0 = nominal_jacobian(fixed_problem)
+    p = machine.n_params
+    shared_names = [*machine.parameter_names, "tool x", "tool y", "tool z"] + [
+        f"ball {e} {c}" for e in bar.ends for c in "xyz"
+    ]
+    order0 = [fixed_problem.names.index(n) for n in shared_names]
+    j0 = j0[:, order0]
+    s = len(shared_names)
+    n = len(ids)
+    shared = np.zeros((n, s, s))
+    cross = np.zeros((n, s, 3))
+    own = np.zeros((n, 3, 3))
+    counts = np.zeros(n, dtype=int)
+    pairs = np.asarray(indexations_deg, dtype=float)
+    senses = approach_senses(len(pairs))
+    for i in range(n):
+        ok = np.flatnonzero(mask[:, i])
+        rows = ProgrammeRows(
+            [ids[i]] * (ok.size + 1),
+            np.r_[0.0, pairs[ok, 0]],
+            np.r_[0.0, pairs[ok, 1]],
+            np.zeros(ok.size + 1),
+            np.r_[1.0, senses[ok, 0]],
+            np.r_[1.0, senses[ok, 1]],
+        )
+        prob = programme_problem(machine, rows, {ids[i]: cent[i]}, None, sigma_mm)
+        j = nominal_jacobian(prob)
+        cols = [prob.names.index(nm) for nm in shared_names[: p + 3]]
+        own_cols = [prob.names.index(f"ball {ids[i]} {c}") for c in "xyz"]
+        a = j[:, cols]
+        b = j[:, own_cols]
+        shared[i, : p + 3, : p + 3] = a.T @ a
+        cross[i, : p + 3] = a.T @ b
+        own[i] = b.T @ b
+        counts[i] = ok.size + 1
+    space = BallInformation(
+        j0.T @ j0, shared, cross, own, criterion, measurement_count(0, 0), counts
+    )
+    search = detmax(space, n_balls, starts=starts, seed=seed, executor=executor)
+    chosen = search.best.members
+    return [ids[i] for i in chosen], cent[chosen], search
+
+
+def candidate_blocks(machine, ball_ids, centres, pairs, bar, rule, sigma_mm):
+    """Fixed rows, candidate blocks and accessibility of step 2."""
+    mask, _ = accessible(machine, rule, centres, pairs)
+    usable = np.flatnonzero(mask.any(axis=1))
+    if usable.size == 0:
+        raise InputError(
+            "no candidate indexation has an accessible ball: widen the B/C candidates, "
+            "move the balls or relax the accessibility rule (stem_cone_deg, clearance_mm, "
+            "check_travel)"
+        )
+    senses = approach_senses(len(pairs))
+    nb = len(ball_ids)
+    fixed = fixed_programme_rows(bar, ball_ids)
+    cand_balls, cand_b, cand_c, cand_sb, cand_sc, owner = [], [], [], [], [], []
+    for i in usable:
+        for j in np.flatnonzero(mask[i]):
+            cand_balls.append(ball_ids[j])
+            cand_b.append(pairs[i, 0]), cand_c.append(pairs[i, 1])
+            cand_sb.append(senses[i, 0]), cand_sc.append(senses[i, 1])
+            owner.append((i, j))
+    cand = ProgrammeRows(
+        cand_balls,
+        np.array(cand_b),
+        np.array(cand_c),
+        np.zeros(len(cand_b)),
+        np.array(cand_sb),
+        np.array(cand_sc),
+    )
+    centre_of = dict(zip(ball_ids, centres, strict=True)) | dict(
+        zip(bar.ends, bar.centres_mm, strict=True)
+    )
+    problem = programme_problem(
+        machine, ProgrammeRows.concat([fixed, cand]), centre_of, bar, sigma_mm
+    )
+    jac = nominal_jacobian(problem)
+    nf = len(fixed.balls)
+    fixed_rows = np.vstack([jac[: 3 * nf], jac[3 * (nf + len(cand.balls)) :]])  # + bar row
+    blocks = np.zeros((len(pairs), 3 * nb, jac.shape[1]))
+    counts = mask.sum(axis=1)
+    for k, (i, j) in enumerate(owner):
+        blocks[i, 3 * j : 3 * j + 3] = jac[3 * (nf + k) : 3 * (nf + k) + 3]
+    return fixed_rows, blocks, counts, mask, usable, len(fixed.balls)
+
+
+def choose_indexations(
+    machine: Machine,
+    ball_ids,
+    centres: np.ndarray,
+    indexations_deg: np.ndarray,
+    size: int,
+    *,
+    criterion: str = "D",
+    bar: ScaleBarPlacement | None = None,
+    rule: AccessibilityRule | None = None,
+    sigma_mm: float = 0.001,
+    starts: int = 8,
+    seed: SeedLike = None,
+    executor=None,
+) -> tuple[np.ndarray, np.ndarray, DetmaxResult]:
+    """Step 2: the best ``size`` (B, C) indexations for balls in place.
+
+    Parameters
+    ----------
+    machine : Machine
+    ball_ids : sequence of str
+    centres : ndarray, shape (n_balls, 3)
+        Master-ball centres, workpiece frame, mm.
+    indexations_deg : ndarray, shape (N, 2)
+        Candidate (B, C), degrees; inaccessible balls are left out of each candidate and
+        candidates with no accessible ball are never chosen.
+    size : int
+        Indexations in the design (see :func:`indexation_count`).
+    criterion, bar, rule, sigma_mm, starts, seed, executor
+        As in :func:`choose_balls` (all four accessibility rules apply here).
+
+    Returns
+    -------
+    pairs : ndarray, shape (size, 2)
+        Chosen indexations in candidate order, degrees.
+    senses : ndarray, shape (size, 2)
+        Approach senses (±1) of B and C the design assumed at each.
+    search : DetmaxResult
+
+    Raises
+    ------
+    InputError
+        No accessible candidate, or ``size`` larger than the accessible candidates.
+    RankDeficientError
+        If the best design found is rank deficient: name what to change (k, balls).
+
+    Examples
+    --------
+    >>> from mtmetrology.kinematics import Machine
+    >>> from mtmetrology.design.inputs import grid_indexations
+    >>> m = Machine.load("five-axis-wcbxfzyst", "13")
+    >>> pairs = grid_indexations(np.arange(-90, 91, 45), np.arange(0, 360, 60))
+    >>> chosen, senses, res = choose_indexations(
+    ...     m, ["1"], np.array([[80.0, 40.0, 75.0]]), pairs, 7, criterion="D", seed=0
+    ... )
+    >>> chosen.shape, bool(np.all(np.diff(res.best.history) >= 0))
+    ((7, 2), True)
+    """
+    _check_machine(machine)
+    check_sigma(sigma_mm)
+    bar = bar or ScaleBarPlacement()
+    rule = rule or AccessibilityRule()
+    pairs = np.asarray(indexations_deg, dtype=float)
+    c = np.asarray(centres, dtype=float)
+    fixed_rows, blocks, counts, _, usable, n_fixed = candidate_blocks(
+        machine, list(ball_ids), c, pairs, bar, rule, sigma_mm
+    )
+    if size > usable.size:
+        raise InputError(
+            f"{size} indexations asked but only {usable.size} candidates have an accessible "
+            "ball: lower --k or give more candidate indexations"
+        )
+    space = BlockInformation(fixed_rows, blocks[usable], criterion, n_fixed, counts[usable])
+    search = detmax(space, size, starts=starts, seed=seed, executor=executor)
+    chosen_rows = blocks[usable[search.best.members]].reshape(-1, blocks.shape[2])
+    if not _full_rank(np.vstack([fixed_rows, chosen_rows])):
+        raise RankDeficientError(
+            f"the best {size}-indexation design found is rank deficient for the "
+            f"{machine.n_params}-parameter model: raise --k, add balls or candidate "
+            "indexations, or use a smaller error model"
+        )
+    chosen = usable[search.best.members]
+    return pairs[chosen], approach_senses(len(pairs))[chosen], search
+
+
+def _full_rank(rows: np.ndarray, rtol: float = 1e-8) -> bool:
+    """Rank test of the diagnostics: σ_min > rtol·σ_max of the unit-norm-column rows."""
+    norms = np.linalg.norm(rows, axis=0)
+    s = np.linalg.svd(rows / np.where(norms > 0, norms, 1.0), compute_uv=False)
+    return bool(rows.shape[0] >= rows.shape[1] and s[-1] > rtol * s[0])
+
+
+def plan_samba(
+    machine: Machine,
+    indexations_deg: np.ndarray,
+    *,
+    balls: tuple[list[str], np.ndarray] | None = None,
+    candidates: tuple[list[str], np.ndarray] | None = None,
+    n_balls: int | None = None,
+    k: float = 3.0,
+    count_rule: str = "indexations",
+    criterion: str = "O2",
+    bar: ScaleBarPlacement | None = None,
+    rule: AccessibilityRule | None = None,
+    sigma_mm: float = 0.001,
+    starts: int = 8,
+    seed: SeedLike = None,
+    executor=None,
+) -> SambaDesign:
+    """Plan a SAMBA test: step 1 (balls) when candidates are given, then step 2.
+
+    Parameters
+    ----------
+    machine : Machine
+        With the error model to identify.
+    indexations_deg : ndarray, shape (N, 2)
+        Candidate (B, C), degrees (also the fixed rich set of step 1).
+    balls : (ids, centres), optional
+        Balls already placed (skips step 1).
+    candidates : (ids, centres), optional
+        Candidate balls for step 1, with ``n_balls``.
+    n_balls : int, optional
+    k, count_rule
+        Indexations ``M`` (:func:`indexation_count`).
+    criterion : str
+        D, A, E or O1–O5, for both steps.
+    bar, rule, sigma_mm, starts, seed, executor
+        As in :func:`choose_indexations`; step 1 and step 2 draw independent streams
+        from ``seed``.
+
+    Returns
+    -------
+    SambaDesign
+
+    Raises
+    ------
+    InputError
+        Both or neither of ``balls``/``candidates``, missing ``n_balls``, nothing
+        accessible, an unknown criterion or count rule.
+    RankDeficientError
+        If the design cannot identify the model: raise k or add balls.
+
+    Examples
+    --------
+    Strategy 1B.3n of seed 004 (13 parameters, one ball, k = 3): 21 indexations,
+    29 measurements, about 0.66 h.
+
+    >>> from mtmetrology.kinematics import Machine
+    >>> from mtmetrology.design.inputs import grid_indexations
+    >>> m = Machine.load("five-axis-wcbxfzyst", "13")
+    >>> pairs = grid_indexations(np.arange(-90, 91, 30), np.arange(0, 360, 45))
+    >>> d = plan_samba(m, pairs, balls=(["1"], [[80.0, 40.0, 75.0]]), k=3, starts=1, seed=0)
+    >>> doc = d.to_dict()
+    >>> doc["n_indexations"], doc["n_measurements"], round(doc["duration_h"], 2), doc["rank"]
+    (21, 29, 0.66, 25)
+    """
+    criterion = check_criterion(criterion)
+    if (balls is None) == (candidates is None):
+        raise InputError(
+            "give either the placed balls (--balls) or a candidate grid (--balls-from)"
+        )
+    bar = bar or ScaleBarPlacement()
+    rule = rule or AccessibilityRule()
+    step_seeds = [np.random.SeedSequence(int(g.integers(2**63))) for g in chunk_generators(seed, 2)]
+    balls_search = None
+    if candidates is not None:
+        if n_balls is None:
+            raise InputError("--n-balls is required with a candidate grid (--balls-from)")
+        ids, centres, balls_search = choose_balls(
+            machine,
+            candidates[0],
+            candidates[1],
+            n_balls,
+            indexations_deg,
+            criterion=criterion,
+            bar=bar,
+            rule=rule,
+            sigma_mm=sigma_mm,
+            starts=starts,
+            seed=step_seeds[0],
+            executor=executor,
+        )
+    else:
+        ids, centres = [str(b) for b in balls[0]], np.asarray(balls[1], dtype=float)
+    size = indexation_count(k, machine.n_params, len(ids), rule=count_rule)
+    pairs, senses, search = choose_indexations(
+        machine,
+        ids,
+        centres,
+        indexations_deg,
+        size,
+        criterion=criterion,
+        bar=bar,
+        rule=rule,
+        sigma_mm=sigma_mm,
+        starts=starts,
+        seed=step_seeds[1],
+        executor=executor,
+    )
+    programme = evaluate_programme(
+        machine, ids, centres, pairs, bar=bar, rule=rule, sigma_mm=sigma_mm, senses=senses
+    )
+    mask, _ = accessible(machine, rule, centres, indexations_deg)
+    return SambaDesign(
+        programme=programme,
+        criterion=criterion,
+        k=float(k),
+        count_rule=count_rule,
+        balls_search=balls_search,
+        indexations_search=search,
+        n_candidate_indexations=len(indexations_deg),
+        n_accessible=int(mask.any(axis=1).sum()),
+    )
