@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import typer
 
-from mtmetrology.cli import fit, machine, predict, uncertainty
+from mtmetrology.cli import calibrate, fit, machine, predict, simulate, uncertainty, verify
 
 app = typer.Typer(
     name="mtm",
@@ -14,6 +14,9 @@ app = typer.Typer(
 )
 app.add_typer(machine.app, name="machine")
 app.add_typer(uncertainty.app, name="uncertainty")
+app.add_typer(calibrate.app, name="calibrate")
+app.add_typer(simulate.app, name="simulate")
+app.add_typer(verify.app, name="verify")
 app.command("fit")(fit.fit)
 app.command("predict")(predict.predict)
 
