@@ -320,6 +320,7 @@ def identification_mcm(
     executor=None,
     p: float = 0.95,
     chunk_size: int = CHUNK_TRIALS,
+    sequence_size: int = 10_000,
     keep_samples: bool = False,
 ) -> MCMResult:
     """Monte Carlo of the machine errors, re-solving the identification in every trial.
@@ -343,6 +344,8 @@ def identification_mcm(
     p : float
     chunk_size : int
         Trials per model call; part of what the random streams depend on.
+    sequence_size : int
+        Trials per sequence of the adaptive procedure (JCGM 101 7.9.4 recommends 10⁴).
     keep_samples : bool
 
     Returns
@@ -363,6 +366,7 @@ def identification_mcm(
         executor=executor,
         p=p,
         chunk_size=chunk_size,
+        sequence_size=sequence_size,
         keep_samples=keep_samples,
     )
 
