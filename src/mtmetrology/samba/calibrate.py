@@ -223,16 +223,30 @@ _ADVICE = (
 
 
 def separation_advice(groups) -> str:
-    """What to add to the test to separate confounded groups (seed 004 Table 4.4, §3.6)."""
+    """What to add to the test to separate confounded groups (Alami Mchichi (2018) Table
+    4.4, §3.6); groups no SAMBA measurement separates (e.g. E_Y0C ~ E_Y0S, Sepahi
+    Boroujeni (2021) §3.2) are said to be so.
+
+    Examples
+    --------
+    >>> separation_advice([("E_X0S", "tool x")])
+    'add spindle indexing (one ball re-probed at S = 90, 180, 270°)'
+    >>> separation_advice([("E_Y0C", "E_Y0S")])
+    'no probing of balls separates E_Y0C ~ E_Y0S'
+    """
     hints: list[str] = []
+    inseparable: list[str] = []
     for group in groups:
         text = " ".join(group)
-        for marks, hint in _ADVICE:
-            if any(mark in text for mark in marks) and hint not in hints:
-                hints.append(hint)
-                break
-    hints.append("another ball")
-    return "add " + " or ".join(hints)
+        hint = next((h for marks, h in _ADVICE if any(m in text for m in marks)), None)
+        if hint is None:
+            inseparable.append(" ~ ".join(group))
+        elif hint not in hints:
+            hints.append(hint)
+    parts = ["add " + " or ".join(hints)] if hints else []
+    if inseparable:
+        parts.append(f"no probing of balls separates {'; '.join(inseparable)}")
+    return "; ".join(parts)
 
 
 def calibrate(

@@ -149,54 +149,53 @@ def simulate_records(
 ) -> SimulatedRecords:
     """Records of a SAMBA test on a virtual machine.
 
-        Parameters
-        ----------
-        machine : Machine
-            The machine with the error model of ``truth``.
-        truth : (n_params,) ndarray or None
-            True error parameters, internal units (zero when None).
-        balls : dict of str to (3,) array
-            True ball centres in the workpiece frame, mm.
-        programme : ProbingProgramme
-            Probings in order.
-        artefact : SambaArtefact
-            Ball diameters and stylus tip diameter (raw points).
-        noise : float
-            Standard deviation of each linear reading, mm.
-        raw_points : bool
-            Write raw probed points instead of ball-centre indications.
-        points_per_ball : int
-            Points per probing (≥ 5: equator points and the pole).
-        campaigns : int
-            Repetitions K of the whole programme (a ``campaign`` column when K > 1).
-        drift : float
-            Amplitude of the linear drift over each campaign, mm.
-        tool_offset : (3,) array_like
-            True tool-vector correction (mm) of the virtual probe.
-        seed : int, SeedSequence or Generator
+    Parameters
+    ----------
+    machine : Machine
+        The machine with the error model of ``truth``.
+    truth : (n_params,) ndarray or None
+        True error parameters, internal units (zero when None).
+    balls : dict of str to (3,) array
+        True ball centres in the workpiece frame, mm.
+    programme : ProbingProgramme
+        Probings in order.
+    artefact : SambaArtefact
+        Ball diameters and stylus tip diameter (raw points).
+    noise : float
+        Standard deviation of each linear reading, mm.
+    raw_points : bool
+        Write raw probed points instead of ball-centre indications.
+    points_per_ball : int
+        Points per probing (≥ 5: equator points and the pole).
+    campaigns : int
+        Repetitions K of the whole programme (a ``campaign`` column when K > 1).
+    drift : float
+        Amplitude of the linear drift over each campaign, mm.
+    tool_offset : (3,) array_like
+        True tool-vector correction (mm) of the virtual probe.
+    seed : int, SeedSequence or Generator
 
-        Returns
-        -------
-        SimulatedRecords
+    Returns
+    -------
+    SimulatedRecords
 
-        Raises
-        ------
-        InputFileError
-            A probing of a ball that is not in the layout or the artefact, a reading outside
-            the travel, too few points per ball.
+    Raises
+    ------
+    InputFileError
+        A probing of a ball that is not in the layout or the artefact, a reading outside
+        the travel, too few points per ball.
 
-        Examples
-        --------
-        >>> from mtmetrology.samba.artefact import SambaArtefact
-    from mtmetrology.samba.records import check_travel
-        >>> m = Machine.load("five-axis-wcbxfzyst", "13")
-        >>> art = SambaArtefact(balls=[{"id": "1", "diameter_mm": 19.05}])
-        >>> prog = ProbingProgramme(("1", "1"), np.array([0.0, 90.0]), np.zeros(2), np.zeros(2))
-        >>> rec = simulate_records(m, None, {"1": np.array([10.0, 0.0, 100.0])}, prog, art)
-        >>> rec.header
-        ('ball', 'X', 'Y', 'Z', 'B', 'C', 'S')
-        >>> rec.rows[1][:4]                     # B = 90°: q = R_y(B) p
-        ('1', '100.000000', '0.000000', '-10.000000')
+    Examples
+    --------
+    >>> from mtmetrology.samba.artefact import SambaArtefact
+    >>> m = Machine.load("five-axis-wcbxfzyst", "13")
+    >>> art = SambaArtefact(balls=[{"id": "1", "diameter_mm": 19.05}])
+    >>> prog = ProbingProgramme(("1", "1"), np.array([0.0, 90.0]), np.zeros(2), np.zeros(2))
+    >>> rec = simulate_records(m, None, {"1": np.array([10.0, 0.0, 100.0])}, prog, art)
+    >>> rec.header
+    ('ball', 'X', 'Y', 'Z', 'B', 'C', 'S')
+    >>> rec.rows[1][:4]   # at B = 90° the point (x, y, z) is read at X = −z, Z = x
+    ('1', '-100.000000', '0.000000', '10.000000')
     """
     if points_per_ball < 5 and raw_points:
         raise InputFileError(f"points per ball must be at least 5, got {points_per_ball}")
