@@ -29,7 +29,6 @@ import numpy as np
 import scipy.optimize
 
 from harness import Benchmark
-from mtmetrology.identification import BallCentreProblem, ScaleBar
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.samba import (
@@ -62,20 +61,7 @@ def calibrated(machine, truth, programme, tmp: Path):
 
 def scipy_trial(cal, z):
     """One Monte Carlo trial the straightforward way: a new problem, scipy's solver."""
-    p = cal.problem
-    n = p.readings.shape[0]
-    q = p.readings.copy()
-    q[:, :3] = z[: 3 * n].reshape(n, 3)
-    bars = [ScaleBar(b.ends, float(z[3 * n + k]), b.u) for k, b in enumerate(p.scale_bars)]
-    trial = BallCentreProblem(
-        p.machine,
-        q,
-        [p.ball_ids[i] for i in p._ball_index],
-        senses=p.senses,
-        scale_bars=bars,
-        estimate_tool=True,
-        sigma=p.sigma,
-    )
+    trial = cal.problem.with_inputs(z)
     res = scipy.optimize.least_squares(
         lambda x: trial.evaluate(x, jacobian=False)[0],
         cal.identification.estimate,

@@ -41,9 +41,10 @@ def test_batched_residuals_are_the_single_residuals_of_each_copy(samba_setup):
             estimate_tool=True,
             sigma=SIGMA,
         )
-        np.testing.assert_allclose(
-            batched[k], single.evaluate(xs[k], jacobian=False)[0], rtol=0, atol=1e-9
-        )
+        expected = single.evaluate(xs[k], jacobian=False)[0]
+        np.testing.assert_allclose(batched[k], expected, rtol=0, atol=1e-9)
+        copy = problem.with_inputs(zs[k]).evaluate(xs[k], jacobian=False)[0]
+        np.testing.assert_allclose(copy, expected, rtol=0, atol=1e-12)
     np.testing.assert_allclose(
         problem.residuals_batch(x0[None])[0],
         problem.evaluate(x0, jacobian=False)[0],

@@ -214,6 +214,27 @@ class BallCentreProblem:
             jac[3 * n + k, n * nl + k] = -1.0 / bar.u
         return jac
 
+    def with_inputs(self, inputs: np.ndarray) -> BallCentreProblem:
+        """The same problem with other inputs z (n_inputs,): linear readings, bar lengths."""
+        z = np.asarray(inputs, dtype=float)
+        if z.shape != (self.n_inputs,):
+            raise ValueError(f"inputs must have shape ({self.n_inputs},), got {z.shape}")
+        n, nl = self.readings.shape[0], self._linear.size
+        q = self.readings.copy()
+        q[:, self._linear] = z[: n * nl].reshape(n, nl)
+        bars = [
+            ScaleBar(bar.ends, float(z[n * nl + k]), bar.u) for k, bar in enumerate(self.scale_bars)
+        ]
+        return BallCentreProblem(
+            self.machine,
+            q,
+            [self.ball_ids[i] for i in self._ball_index],
+            senses=self.senses,
+            scale_bars=bars,
+            estimate_tool=self.estimate_tool,
+            sigma=self.sigma,
+        )
+
     def residuals_batch(self, x: np.ndarray, inputs: np.ndarray | None = None) -> np.ndarray:
         """Weighted residuals of K copies of the problem, each with its own unknowns and inputs.
 

@@ -75,7 +75,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mtmetrology.errors import ConvergenceError, InputError
-from mtmetrology.identification import BallCentreProblem, ScaleBar
+from mtmetrology.identification import BallCentreProblem
 from mtmetrology.optimize import chord_batch, least_squares
 from mtmetrology.rng import SeedLike
 from mtmetrology.samba.calibrate import SambaCalibration
@@ -235,23 +235,7 @@ class IdentificationModel:
 
     def _full_solve(self, z: np.ndarray) -> np.ndarray:
         """Gauss–Newton with the exact Jacobian for one trial the chord did not converge."""
-        p = self.problem
-        n = p.readings.shape[0]
-        q = p.readings.copy()
-        q[:, p._linear] = z[: n * p._linear.size].reshape(n, -1)
-        bars = [
-            ScaleBar(bar.ends, float(z[n * p._linear.size + k]), bar.u)
-            for k, bar in enumerate(p.scale_bars)
-        ]
-        trial = BallCentreProblem(
-            p.machine,
-            q,
-            [p.ball_ids[i] for i in p._ball_index],
-            senses=p.senses,
-            scale_bars=bars,
-            estimate_tool=p.estimate_tool,
-            sigma=p.sigma,
-        )
+        trial = self.problem.with_inputs(z)
         res = least_squares(
             lambda x: trial.evaluate(x), self.x0, xtol=1e-8, rank_rtol=self.rank_rtol
         )
@@ -440,6 +424,7 @@ class SambaUncertainty:
                     )
                     for j in range(len(g.names))
                 ],
+                "correlation": {"names": list(g.names), "matrix": g.correlation.tolist()},
                 "largest_eigenvalue": g.largest_eigenvalue,
                 "joint_coverage": joint_coverage(len(g.names), g.p),
                 "message": g.message,
@@ -471,6 +456,11 @@ class SambaUncertainty:
                 "sequences": mc.sequences,
                 "adaptive": mc.converged is not None,
                 "converged": mc.converged,
+                "correlation": mc.correlation.tolist(),
+                # the MC output PDFs (JCGM 101 7.5.1), for plots against the GUF normals
+                "histograms": [
+                    {"density": h.values.tolist(), "edges": h.edges.tolist()} for h in mc.histograms
+                ],
                 "largest_eigenvalue": mc.largest_eigenvalue,
                 "joint_coverage_factor": mc.coverage_factor,
                 "joint_rectangular_coverage_factor": mc.rectangular_coverage_factor,
