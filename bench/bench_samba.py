@@ -88,6 +88,8 @@ def run(name, cal, inputs, trials, bench_guf=True):
         "ours",
         lambda: identification_mcm(cal, inputs, trials=trials, seed=1, executor="processes:2"),
         repeats=5,
+        warmup=0,
+        note="cold: each repeat starts its pool",
     )
     bench.time(
         f"identification_mcm {trials:,}, in-process",

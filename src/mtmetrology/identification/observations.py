@@ -247,22 +247,36 @@ class BallCentreProblem:
         Returns
         -------
         ndarray, shape (K, n_rows)
-            The residuals :meth:`evaluate` gives for each copy, computed by one call of
-            the kinematic engine over all (copy, indication) pairs.
+            The residuals :meth:`evaluate` gives for each copy, computed by the
+            kinematic engine over all (copy, indication) pairs at once, in blocks of its
+            block size.
         """
         x = np.asarray(x, dtype=float)
+        z = self.input_estimate()[None] if inputs is None else np.asarray(inputs, dtype=float)
+        z = np.broadcast_to(z, (x.shape[0], z.shape[1]))
+        # blocks of copies whose (copy, indication) pairs fit one block of the kinematic
+        # engine: it then broadcasts the parameters instead of copying them per point
+        n = self.readings.shape[0]
+        block = getattr(self.machine.chain, "chunk_size", 16384)
+        step = max(1, block // max(n, 1))
+        r = np.empty((x.shape[0], self.n_rows))
+        for start in range(0, x.shape[0], step):
+            part = slice(start, start + step)
+            r[part] = self._residuals_block(x[part], z[part])
+        return r
+
+    def _residuals_block(self, x: np.ndarray, z: np.ndarray) -> np.ndarray:
         k, n = x.shape[0], self.readings.shape[0]
         p, nb = self.n_params, self.n_balls
-        z = self.input_estimate()[None] if inputs is None else np.asarray(inputs, dtype=float)
-        q = np.broadcast_to(self.readings, (z.shape[0], n, self.machine.n_axes)).copy()
-        q[:, :, self._linear] = z[:, : n * self._linear.size].reshape(z.shape[0], n, -1)
+        q = np.broadcast_to(self.readings, (k, n, self.machine.n_axes)).copy()
+        q[:, :, self._linear] = z[:, : n * self._linear.size].reshape(k, n, -1)
         tool = self.machine.tool + (x[:, p + 3 * nb :] if self.estimate_tool else np.zeros(3))
         pos = self.machine.forward(
             q,
             x[:, None, :p],
             senses=self.senses,
             tool=np.broadcast_to(tool, (k, 3))[:, None, :],
-        )  # (K, n, 3)
+        )  # (k, n, 3)
         centres = x[:, p : p + 3 * nb].reshape(k, nb, 3)
         r = np.empty((k, self.n_rows))
         r[:, : 3 * n] = ((pos - centres[:, self._ball_index]) / self.sigma).reshape(k, 3 * n)
