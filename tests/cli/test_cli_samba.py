@@ -15,6 +15,18 @@ from mtmetrology.cli import app
 runner = CliRunner()
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "samba"
 MACHINE = "five-axis-wcbxfzyst"
+SIMULATE = (
+    "--machine",
+    MACHINE,
+    "--truth",
+    EXAMPLES / "truth.json",
+    "--artefact",
+    EXAMPLES / "artefact.yaml",
+    "--balls",
+    EXAMPLES / "balls.yaml",
+    "--poses",
+    EXAMPLES / "poses.csv",
+)
 
 
 def mtm(*args):
@@ -28,18 +40,9 @@ def records(tmp_path_factory):
     result = mtm(
         "simulate",
         "samba",
-        "--machine",
-        MACHINE,
+        *SIMULATE,
         "--model",
         "13",
-        "--truth",
-        EXAMPLES / "truth.json",
-        "--artefact",
-        EXAMPLES / "artefact.yaml",
-        "--balls",
-        EXAMPLES / "balls.yaml",
-        "--poses",
-        EXAMPLES / "poses.csv",
         "--noise-um",
         "0.5",
         "--seed",
@@ -155,20 +158,7 @@ def test_length_check_after_calibration(calibrated, tmp_path):
 
 def test_raw_points_and_campaigns_from_simulate_are_read_by_calibrate(tmp_path):
     raw = tmp_path / "raw.csv"
-    common = (
-        "--machine",
-        MACHINE,
-        "--truth",
-        EXAMPLES / "truth.json",
-        "--artefact",
-        EXAMPLES / "artefact.yaml",
-        "--balls",
-        EXAMPLES / "balls.yaml",
-        "--poses",
-        EXAMPLES / "poses.csv",
-        "--seed",
-        "2",
-    )
+    common = (*SIMULATE, "--seed", "2")
     assert mtm("simulate", "samba", *common, "--raw-points", "-o", raw).exit_code == 0
     camp = tmp_path / "campaigns.csv"
     assert mtm("simulate", "samba", *common, "--campaigns", "5", "-o", camp).exit_code == 0

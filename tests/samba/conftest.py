@@ -3,6 +3,8 @@ scale bar, 111 indications) and true errors of Sepahi Boroujeni (2021) Table 5-2
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 from samba_helpers import EXAMPLES, MACHINE, NOISE, simulate
@@ -35,6 +37,13 @@ def programme():
 @pytest.fixture(scope="session")
 def truth13(machine13) -> np.ndarray:
     return ParameterSet.load(EXAMPLES / "truth.json", machine13).vector_for(machine13)
+
+
+@pytest.fixture
+def simulated(tmp_path, machine13, truth13, balls, programme, artefact):
+    """``simulated(**options)``: records of the virtual 13-parameter test, written to a CSV
+    and read back (options of :func:`mtmetrology.samba.simulate_records`, ``name``)."""
+    return functools.partial(simulate, tmp_path, machine13, truth13, balls, programme, artefact)
 
 
 @pytest.fixture(scope="session")

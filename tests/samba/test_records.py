@@ -5,28 +5,20 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from samba_helpers import NOISE, simulate
+from samba_helpers import NOISE
 
 from mtmetrology.io.files import InputFileError
 from mtmetrology.samba import calibrate, read_records, simulate_records
 
 
-def test_raw_points_reduce_to_the_centre_indications(
-    tmp_path, machine13, truth13, balls, programme, artefact
-):
+def test_raw_points_reduce_to_the_centre_indications(simulated, machine13, truth13, artefact):
     """Noise-free: the known-radius sphere of 5 points (equator + pole) gives the centre
     readings in X and Y to the 1 nm of the file.  In Z only the pole is probed, so the
     fit moves the centre by ρ·E_ZZ1 (the machine reads the pole offset ρ with its own Z
     scale): a constant shift of every indication, as on the real machine, which the tool
     length absorbs — the identified errors are those of the centre indications."""
-    centres = simulate(tmp_path, machine13, truth13, balls, programme, artefact)
-    raw = simulate(
-        tmp_path,
-        machine13,
-        truth13,
-        balls,
-        programme,
-        artefact,
+    centres = simulated()
+    raw = simulated(
         name="raw.csv",
         raw_points=True,
     )
@@ -45,17 +37,11 @@ def test_raw_points_reduce_to_the_centre_indications(
 
 
 def test_raw_points_and_centres_give_the_same_parameters_within_their_uncertainties(
-    tmp_path, machine13, truth13, balls, programme, artefact, noisy_calibration
+    simulated, machine13, artefact, noisy_calibration
 ):
     """The same simulated test as raw points (0.5 µm per point, 7 points per probing):
     |θ_raw − θ_centres| < 3 sqrt(u_raw² + u_centres²) for every parameter."""
-    raw = simulate(
-        tmp_path,
-        machine13,
-        truth13,
-        balls,
-        programme,
-        artefact,
+    raw = simulated(
         name="raw.csv",
         raw_points=True,
         points_per_ball=7,
@@ -68,14 +54,8 @@ def test_raw_points_and_centres_give_the_same_parameters_within_their_uncertaint
     assert np.all(np.abs(a.values - b.values) < 3 * combined)
 
 
-def test_campaigns_are_averaged_and_kept(tmp_path, machine13, truth13, balls, programme, artefact):
-    rec = simulate(
-        tmp_path,
-        machine13,
-        truth13,
-        balls,
-        programme,
-        artefact,
+def test_campaigns_are_averaged_and_kept(simulated, programme):
+    rec = simulated(
         noise=NOISE,
         campaigns=3,
         seed=2,

@@ -103,10 +103,7 @@ def samba(
     m, theta = _truth(Machine.load(machine, model), truth)
     offset = np.zeros(3)
     if tool_offset_um:
-        parts = [p for p in tool_offset_um.split(",") if p.strip()]
-        if len(parts) != 3:
-            raise InputError(f"--tool-offset-um needs three values dx,dy,dz, got {tool_offset_um}")
-        offset = to_internal(np.array([float(p) for p in parts]), "µm")
+        offset = to_internal(_vector(tool_offset_um, "--tool-offset-um", "µm"), "µm")
     rec = simulate_records(
         m,
         theta,
@@ -125,11 +122,16 @@ def samba(
     typer.echo(f"wrote {len(rec)} rows to {output}", err=True)
 
 
-def _vector(text: str, option: str) -> np.ndarray:
+def _vector(text: str, option: str, unit: str = "mm") -> np.ndarray:
+    """Three comma-separated numbers of an option."""
     parts = [p for p in text.split(",") if p.strip()]
-    if len(parts) != 3:
-        raise InputError(f"{option} needs three values x,y,z in mm, got {text!r}")
-    return np.array([float(p) for p in parts])
+    try:
+        values = np.array([float(p) for p in parts])
+    except ValueError:
+        values = np.array([])
+    if values.shape != (3,) or not np.all(np.isfinite(values)):
+        raise InputError(f"{option} needs three numbers x,y,z in {unit}, got {text!r}")
+    return values
 
 
 @app.command("length", help=LENGTH_HELP)
