@@ -40,8 +40,9 @@ def test_noisy_round_trip_within_three_standard_uncertainties(noisy_calibration,
 def test_residuals_have_the_size_of_the_noise_and_the_nominal_model_does_not(
     noisy_calibration,
 ):
-    """RMS residual ≈ σ sqrt(dof / 3n) (digest 004 §5.2); the nominal model (machine
-    errors held at zero) leaves the volumetric errors the calibration removes (§3.13)."""
+    """RMS residual ≈ σ sqrt(dof / 3n) (3n + 1 rows, 34 unknowns); the nominal model (machine
+    errors held at zero) leaves the volumetric errors the calibration removes (Alami Mchichi (2018)
+    Tables 6.2, 6.3)."""
     cal = noisy_calibration
     res = cal.residual_vectors
     n = res.shape[0]

@@ -173,7 +173,12 @@ def samba(
         noise = float(to_internal(0.5 if noise_um is None else noise_um, "µm"))
         sigma = noise
         described = f"probing noise {from_internal(noise, 'µm'):g} µm per reading"
-    cal = calibrate(m, rec, art, sigma=sigma, estimate_tool=estimate_tool, minimum_norm=min_norm)
+    try:
+        cal = calibrate(
+            m, rec, art, sigma=sigma, estimate_tool=estimate_tool, minimum_norm=min_norm
+        )
+    except ConvergenceError as err:
+        fail(str(err))
     unc = None
     if uncertainty != "none":
         inputs = indication_inputs(

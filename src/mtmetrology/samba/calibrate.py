@@ -2,11 +2,12 @@
 
 The identification is the weighted Gauss–Newton of the identification engine
 (:class:`~mtmetrology.identification.BallCentreProblem`,
-:func:`~mtmetrology.identification.gauss_newton`; seed 004 §3.6, Sepahi Boroujeni (2021),
+:func:`~mtmetrology.identification.gauss_newton`; Alami Mchichi (2018) §5.3.4 and §6.3.2,
+Sepahi Boroujeni (2021),
 eqs 5-1…5-6): unknowns are the machine's error parameters, the centres of every probed
 ball (nuisance) and, with ``estimate_tool``, the tool-vector correction.  Besides the
 parameters the result carries what a calibration engineer reads (Alami Mchichi (2018),
-§3.6 and §3.13):
+§6.3 and Tables 4.5, 6.2, 6.3):
 
 - the residual vector of every indication, the *unexplained volumetric error*, with the
   mean and maximum of its norm;
@@ -23,9 +24,9 @@ References
 Alami Mchichi, N. (2018). *Étalonnage des machines-outils à cinq axes : configuration
 optimisée des artefacts et de la séquence de mesure de la méthode SAMBA en vue d'une
 estimation efficace des erreurs géométriques*. PhD thesis, École Polytechnique de Montréal,
-§3.6, §3.7, §3.13, Table 4.4.
+§5.3.4, §6.3.2, Tables 4.4, 4.5, 6.2, 6.3.
 Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine
-Tool Metrology*. PhD thesis, Polytechnique Montréal, §5 (eqs 5-1 to 5-6).
+Tool Metrology*. PhD thesis, Polytechnique Montréal, Ch. 5 (eqs 5-1 to 5-6).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mtmetrology.errors import RankDeficientError
+from mtmetrology.errors import ConvergenceError, RankDeficientError
 from mtmetrology.identification import (
     BallCentreProblem,
     IdentificationResult,
@@ -224,8 +225,8 @@ _ADVICE = (
 
 def separation_advice(groups) -> str:
     """What to add to the test to separate confounded groups (Alami Mchichi (2018) Table
-    4.4, §3.6); groups no SAMBA measurement separates (e.g. E_Y0C ~ E_Y0S, Sepahi
-    Boroujeni (2021) §3.2) are said to be so.
+    4.4); groups no SAMBA measurement separates (e.g. E_Y0C ~ E_Y0S, Sepahi
+    Boroujeni (2021) Ch. 3) are said to be so.
 
     Examples
     --------
@@ -285,6 +286,8 @@ def calibrate(
     ------
     RankDeficientError
         Naming the confounded combinations and what to add; ``confounded`` lists them.
+    ConvergenceError
+        If the Gauss–Newton iteration stops without converging.
 
     Notes
     -----
@@ -313,6 +316,12 @@ def calibrate(
             "minimum-norm solution (--min-norm)",
             confounded=tuple(groups),
         ) from None
+    if not result.success:
+        raise ConvergenceError(
+            f"{records.source}: the identification did not converge ({result.message}); "
+            "look for gross errors in the records (a wrong ball id, a reading of another "
+            "probing)"
+        )
     nominal_problem = BallCentreProblem(
         machine.with_parameters([]),
         records.readings,

@@ -5,7 +5,7 @@ rotary readings in degrees:
 
 ``ball,X,Y,Z,B,C[,S]``
     one ball-centre indication per row: the axis readings that put the stylus centre on
-    the ball centre (seed 000 §3.4: the five-point estimate of the control).
+    the ball centre (Sepahi Boroujeni (2021) Ch. 5: the five-point estimate of the control).
 ``measurement,ball,X,Y,Z,B,C[,S,i,j,k]``
     raw probed points: every row is one trigger (stylus-centre readings), rows sharing a
     ``measurement`` id are one probing of one ball at one (B, C, S).  Each measurement is

@@ -10,7 +10,7 @@ reading (probing repeatability).
 With ``raw_points`` each probing becomes ``points_per_ball`` triggers: the stylus centre
 touches the ball at distance ρ = (ball diameter + tip diameter)/2 from its centre, on the
 equator (machine X/Y directions, evenly spaced) and at the pole (machine +Z, the spindle
-direction) — the five-point probing of seed 004 §2 — each point with its own noise; the
+direction) — the five-point probing of Alami Mchichi (2018) — each point with its own noise; the
 approach direction (i, j, k) of the probe, in machine axes, is written with it.
 
 K campaigns repeat the programme with independent noise; a drift adds to campaign k a

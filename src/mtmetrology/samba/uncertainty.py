@@ -8,20 +8,21 @@ the linear readings of every indication (mm) and the calibrated scale-bar length
 (:meth:`~mtmetrology.identification.BallCentreProblem.input_estimate`).  Their covariance
 U_z (:func:`indication_inputs`) is one of
 
-- probing noise: σ² on every reading (seed 004 §3.12; Sepahi Boroujeni (2021) §5);
+- probing noise: σ² on every reading (Alami Mchichi (2018) eq. 5.17; Sepahi Boroujeni
+  (2021) Ch. 5);
 - a repeatability model: per-axis standard uncertainties u_X, u_Y, u_Z;
 - K campaigns of the same test: the sample covariance S of the indications divided by K
   (the identification uses their mean).  S has rank ≤ K − 1, below the 3n readings for
   any practical K, so it cannot be inverted.  It is made usable as Sepahi Boroujeni (2021)
-  §5 does (digest §3.5): the *weights* of the identification use the pooled variance
+  Ch. 5 does: the *weights* of the identification use the pooled variance
   ``σ̄² = trace(S)/3n`` (full rank), the GUF needs no inverse of U_z (a sandwich), and the
   Monte Carlo draws ``z̄ + Σ_k ζ_k (z_k − z̄)/√(K(K − 1))`` (ζ ~ N(0, 1)), whose
   covariance is exactly S/K;
 
 plus u_L² of the scale-bar length (the artefact file).
 
-GUF (JCGM 102:2011, 6.2.2; seed 004 eq. 5.15)
---------------------------------------------
+GUF (JCGM 102:2011, 6.2.2; Alami Mchichi (2018) eq. 5.15)
+----------------------------------------------------------
 At the solution the normal equations ``Jᵀ r(x̂, z) = 0`` hold; implicit differentiation
 gives the sensitivities of *all* unknowns (machine errors, ball centres, tool)::
 
@@ -29,11 +30,11 @@ gives the sensitivities of *all* unknowns (machine errors, ball centres, tool)::
 
 with J the full weighted Jacobian; the machine-error block of U_x is the marginal
 covariance of the errors (the nuisance unknowns are marginalised by dropping their rows,
-which leaves the statistics of the errors unchanged: seed 000 §5).  With U_z = σ² I this
-is ``(JᵀJ)⁻¹`` of the weighted problem.
+which leaves the statistics of the errors unchanged: Sepahi Boroujeni (2021) Ch. 5).
+With U_z = σ² I this is ``(JᵀJ)⁻¹`` of the weighted problem.
 
 Monte Carlo (JCGM 101:2008, JCGM 102:2011 §7)
---------------------------------------------
+---------------------------------------------
 Every trial draws z from its distribution and re-solves the identification to
 convergence with the exact residuals (not a linearisation): all trials of a chunk start
 at the converged solution and iterate ``x ← x − J₀⁺ r(x; z)`` with the factorised Jacobian
@@ -62,7 +63,7 @@ distributions using a Monte Carlo method*, §7.9.
 JCGM 102:2011, *Evaluation of measurement data — Supplement 2 to the GUM — Extension to any
 number of output quantities*, §6.2, §6.5, §7.7, §7.8, §8.
 Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine
-Tool Metrology*. PhD thesis, Polytechnique Montréal, §5, Tables 5-2, 5-3.
+Tool Metrology*. PhD thesis, Polytechnique Montréal, Ch. 5, Tables 5-2, 5-3.
 Alami Mchichi, N. (2018). *Étalonnage des machines-outils à cinq axes ...*. PhD thesis,
 École Polytechnique de Montréal, eqs 5.15–5.18.
 """
