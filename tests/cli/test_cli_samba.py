@@ -295,3 +295,38 @@ def test_rank_deficiency_names_the_confounded_parameters_and_min_norm_flags(reco
     result = mtm(*args, "--min-norm", "--json")
     assert result.exit_code == 0
     assert json.loads(result.stdout)["identification"]["minimum_norm"] is True
+
+
+def test_repeatability_file_is_strict(records, tmp_path):
+    bad = tmp_path / "rep.json"
+    bad.write_text(
+        '{"kind": "samba-repeatability", "version": 1, "u_um": {"X": 0.4, "Y": 0.5}}',
+        encoding="utf-8",
+    )
+    result = mtm(
+        "calibrate",
+        "samba",
+        records,
+        "--machine",
+        MACHINE,
+        "--artefact",
+        EXAMPLES / "artefact.yaml",
+        "--repeatability",
+        bad,
+    )
+    assert result.exit_code == 2 and "u_um" in result.output
+    result = mtm(
+        "calibrate",
+        "samba",
+        records,
+        "--machine",
+        MACHINE,
+        "--artefact",
+        EXAMPLES / "artefact.yaml",
+        "--repeatability",
+        EXAMPLES / "repeatability.json",
+        "--estimate-tool",
+        "--json",
+    )
+    assert result.exit_code == 0, result.output
+    assert "repeatability" in json.loads(result.stdout)["records"]["input_covariance"]

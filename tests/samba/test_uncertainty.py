@@ -164,3 +164,16 @@ def test_thesis_k_q_is_a_bonferroni_factor_over_all_unknowns_not_sqrt_chi2_m():
     assert round(normal_rectangular_coverage_factor(31), 2) == 3.15
     assert round(normal_rectangular_coverage_factor(105), 2) == 3.49
     assert abs(joint_coverage(13)["hyper_ellipsoid"] - 3.12) > 1.5
+
+
+def test_a_repeatability_model_of_equal_axes_is_the_probing_noise(noisy_calibration, noise_inputs):
+    same = indication_inputs(noisy_calibration.problem, repeatability=(NOISE, NOISE, NOISE))
+    np.testing.assert_array_equal(same.covariance, noise_inputs.covariance)
+    doubled = indication_inputs(
+        noisy_calibration.problem, repeatability=(2 * NOISE, 2 * NOISE, 2 * NOISE)
+    )
+    g1 = identification_guf(noisy_calibration, noise_inputs)
+    g2 = identification_guf(noisy_calibration, doubled)
+    # the bar's u does not double: every u grows, by at most a factor 2
+    assert np.all(g2.standard_uncertainty > g1.standard_uncertainty)
+    assert np.all(g2.standard_uncertainty <= 2 * g1.standard_uncertainty * (1 + 1e-12))
