@@ -162,7 +162,10 @@ def test_raw_points_and_campaigns_from_simulate_are_read_by_calibrate(tmp_path):
     assert mtm("simulate", "samba", *common, "--raw-points", "-o", raw).exit_code == 0
     camp = tmp_path / "campaigns.csv"
     assert mtm("simulate", "samba", *common, "--campaigns", "5", "-o", camp).exit_code == 0
-    for path, form, k in ((raw, "raw-points", 1), (camp, "centres", 5)):
+    for path, form, k, extra in (
+        (raw, "raw-points", 1, ()),
+        (camp, "centres", 5, ("--uncertainty", "guf")),
+    ):
         result = mtm(
             "calibrate",
             "samba",
@@ -172,9 +175,8 @@ def test_raw_points_and_campaigns_from_simulate_are_read_by_calibrate(tmp_path):
             "--artefact",
             EXAMPLES / "artefact.yaml",
             "--estimate-tool",
-            "--uncertainty",
-            "guf",
             "--json",
+            *extra,
         )
         assert result.exit_code == 0, result.output
         doc = json.loads(result.stdout)
