@@ -7,11 +7,12 @@ import functools
 
 import numpy as np
 import pytest
-from samba_helpers import EXAMPLES, MACHINE, NOISE, simulate
 
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.samba import calibrate, load_artefact, load_balls, read_poses
+
+from .samba_helpers import EXAMPLES, MACHINE, NOISE, simulate
 
 
 @pytest.fixture(scope="session")

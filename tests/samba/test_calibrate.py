@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from samba_helpers import MACHINE, NOISE, simulate
 
 from mtmetrology.errors import RankDeficientError
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.samba import ProbingProgramme, calibrate
+
+from .samba_helpers import MACHINE, NOISE, simulate
 
 
 def test_noise_free_round_trip_recovers_every_parameter_ball_and_the_tool(

@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from samba_helpers import NOISE
 
 from mtmetrology.io.files import InputFileError
 from mtmetrology.samba import calibrate, read_records, simulate_records
+
+from .samba_helpers import NOISE
 
 
 def test_raw_points_reduce_to_the_centre_indications(simulated, machine13, truth13, artefact):

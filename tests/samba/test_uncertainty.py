@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from samba_helpers import NOISE, simulate
 from scipy import stats
 
 from mtmetrology.samba import (
@@ -20,6 +19,8 @@ from mtmetrology.samba import (
 )
 from mtmetrology.samba.uncertainty import pooled_sigma, validate
 from mtmetrology.uncertainty.regions import normal_rectangular_coverage_factor
+
+from .samba_helpers import NOISE, simulate
 
 
 @pytest.fixture(scope="module")
