@@ -242,7 +242,10 @@ def read_records(path: str | Path, machine: Machine, artefact: SambaArtefact) ->
     if raw:
         rows, q, rms = _reduce_raw_points(machine, table, q, balls, artefact)
         balls = [balls[i] for i in rows]
-    campaign = [table.strings("campaign")[i] for i in rows] if table.has("campaign") else None
+    campaign = None
+    if table.has("campaign"):
+        labels = table.strings("campaign")
+        campaign = [labels[i] for i in rows]
     campaigns = None
     if campaign is not None:
         groups = _groups(campaign)
