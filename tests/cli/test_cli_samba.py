@@ -33,6 +33,20 @@ def mtm(*args):
     return runner.invoke(app, [str(a) for a in args])
 
 
+def calibrate_samba(records, *args):
+    """``mtm calibrate samba RECORDS`` on the example machine and artefact."""
+    return mtm(
+        "calibrate",
+        "samba",
+        records,
+        "--machine",
+        MACHINE,
+        "--artefact",
+        EXAMPLES / "artefact.yaml",
+        *args,
+    )
+
+
 @pytest.fixture(scope="module")
 def records(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("cli")
@@ -57,14 +71,8 @@ def records(tmp_path_factory):
 @pytest.fixture(scope="module")
 def calibrated(records):
     out = records.parent / "result.json"
-    result = mtm(
-        "calibrate",
-        "samba",
+    result = calibrate_samba(
         records,
-        "--machine",
-        MACHINE,
-        "--artefact",
-        EXAMPLES / "artefact.yaml",
         "--noise-um",
         "0.5",
         "--estimate-tool",
@@ -166,14 +174,8 @@ def test_raw_points_and_campaigns_from_simulate_are_read_by_calibrate(tmp_path):
         (raw, "raw-points", 1, ()),
         (camp, "centres", 5, ("--uncertainty", "guf")),
     ):
-        result = mtm(
-            "calibrate",
-            "samba",
+        result = calibrate_samba(
             path,
-            "--machine",
-            MACHINE,
-            "--artefact",
-            EXAMPLES / "artefact.yaml",
             "--estimate-tool",
             "--json",
             *extra,
@@ -230,14 +232,8 @@ def _bad_records(records, tmp_path, edit):
 def test_bad_input_is_one_line_exit_2_and_no_result(records, tmp_path, edit, extra, expected):
     path = _bad_records(records, tmp_path, edit)
     out = tmp_path / "RESULT.json"
-    result = mtm(
-        "calibrate",
-        "samba",
+    result = calibrate_samba(
         path,
-        "--machine",
-        MACHINE,
-        "--artefact",
-        EXAMPLES / "artefact.yaml",
         *extra,
         "-o",
         out,
@@ -281,20 +277,10 @@ def test_rank_deficiency_names_the_confounded_parameters_and_min_norm_flags(reco
     ]
     path = tmp_path / "nospindle.csv"
     path.write_text("\n".join(no_spindle) + "\n", encoding="utf-8")
-    args = (
-        "calibrate",
-        "samba",
-        path,
-        "--machine",
-        MACHINE,
-        "--artefact",
-        EXAMPLES / "artefact.yaml",
-        "--estimate-tool",
-    )
-    result = mtm(*args)
+    result = calibrate_samba(path, "--estimate-tool")
     assert result.exit_code == 2 and "tool x" in result.output and "E_X0S" in result.output
     assert "spindle indexing" in result.output
-    result = mtm(*args, "--min-norm", "--json")
+    result = calibrate_samba(path, "--estimate-tool", "--min-norm", "--json")
     assert result.exit_code == 0
     assert json.loads(result.stdout)["identification"]["minimum_norm"] is True
 
@@ -305,26 +291,14 @@ def test_repeatability_file_is_strict(records, tmp_path):
         '{"kind": "samba-repeatability", "version": 1, "u_um": {"X": 0.4, "Y": 0.5}}',
         encoding="utf-8",
     )
-    result = mtm(
-        "calibrate",
-        "samba",
+    result = calibrate_samba(
         records,
-        "--machine",
-        MACHINE,
-        "--artefact",
-        EXAMPLES / "artefact.yaml",
         "--repeatability",
         bad,
     )
     assert result.exit_code == 2 and "u_um" in result.output
-    result = mtm(
-        "calibrate",
-        "samba",
+    result = calibrate_samba(
         records,
-        "--machine",
-        MACHINE,
-        "--artefact",
-        EXAMPLES / "artefact.yaml",
         "--repeatability",
         EXAMPLES / "repeatability.json",
         "--estimate-tool",
