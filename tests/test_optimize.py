@@ -175,3 +175,25 @@ def test_chord_marks_a_perturbation_it_cannot_follow():
     res = chord_batch(residuals, np.tile(x_hat, (2, 1)), jac0, max_iter=5)
     assert res.status[0] == Status.STEP_TOLERANCE
     assert res.status[1] <= 0 and not res.success[1]
+
+
+def test_chord_final_step_applied_costs_no_evaluation_and_tightens_the_solution():
+    """With a loose xtol the converged step is applied: one evaluation fewer than a tight
+    xtol needs, and an error of the order of rate × xtol instead of xtol."""
+    rng = np.random.default_rng(7)
+    y0 = 3.0 * np.exp(-0.7 * T)
+    x_hat = np.array([3.0, -0.7])
+    _, jac0 = exponential(y0)(x_hat)
+    ys = y0 + 1e-3 * rng.normal(size=(4, T.size))
+
+    def residuals(x, index):
+        return x[:, :1] * np.exp(x[:, 1:] * T) - ys[index]
+
+    start = np.tile(x_hat, (4, 1))
+    tight = chord_batch(residuals, start, jac0, xtol=1e-14)
+    loose = chord_batch(residuals, start, jac0, xtol=1e-3)
+    final = chord_batch(residuals, start, jac0, xtol=1e-3, apply_final_step=True)
+    assert final.nfev == loose.nfev < tight.nfev
+    err_loose = np.abs(loose.x - tight.x).max()
+    err_final = np.abs(final.x - tight.x).max()
+    assert err_final < 1e-3 * err_loose

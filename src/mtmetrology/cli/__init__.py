@@ -36,6 +36,7 @@ COMMANDS = {
     "predict": ("mtmetrology.cli.predict", "predict", False),
     "gp": ("mtmetrology.cli.cmm", "gp_app", True),
     "design": ("mtmetrology.cli.design", "app", True),
+    "verify": ("mtmetrology.cli.verify", "app", True),
     "demo": ("mtmetrology.cli.demo", "demo", False),
 }
 
@@ -44,11 +45,11 @@ COMMANDS = {
 SHARED_GROUPS = {
     "calibrate": (
         "Identify a machine's errors from artefact records.",
-        [("mtmetrology.cli.cmm", "calibrate_app")],
+        [("mtmetrology.cli.calibrate", "app"), ("mtmetrology.cli.cmm", "calibrate_app")],
     ),
     "simulate": (
         "Simulate artefact records of a machine with known errors.",
-        [("mtmetrology.cli.cmm", "simulate_app")],
+        [("mtmetrology.cli.simulate", "app"), ("mtmetrology.cli.cmm", "simulate_app")],
     ),
 }
 

@@ -13,6 +13,13 @@ and a calibrated scale bar between balls a and b adds (seed 000 §3.4, seed 004 
 
 Rows are weighted by the standard uncertainty of each kind (coordinates σ, bar u_L), so
 the problem is the weighted least squares the identification engine solves.
+
+The *inputs* of the problem, for uncertainty propagation, are the linear-axis readings of
+every indication (X, Y, Z in the order of the machine's linear axes, mm) followed by the
+calibrated bar lengths (mm): :meth:`BallCentreProblem.input_estimate`,
+:meth:`~BallCentreProblem.input_jacobian` (∂r/∂z for the GUF) and
+:meth:`~BallCentreProblem.residuals_batch` (exact residuals of K perturbed copies, for the
+batched Monte Carlo re-solve of :func:`mtmetrology.optimize.chord_batch`).
 """
 
 from __future__ import annotations
@@ -146,6 +153,9 @@ class BallCentreProblem:
         self.sigma = float(sigma)
         self.n_params = machine.n_params
         self.n_balls = len(self.ball_ids)
+        self._linear = np.array(
+            [i for i, a in enumerate(machine.axis_names) if a in machine.linear_axes]
+        )
         ball_names = [f"ball {b} {c}" for b in self.ball_ids for c in "xyz"]
         tool_names = ["tool x", "tool y", "tool z"] if estimate_tool else []
         self.names = (*machine.parameter_names, *ball_names, *tool_names)
@@ -164,6 +174,118 @@ class BallCentreProblem:
         residual is a difference of positions of that size)."""
         size = max(float(np.abs(self.readings).max(initial=0.0)), 1.0)
         return float(np.finfo(float).eps) * size / self.sigma
+
+    @property
+    def n_inputs(self) -> int:
+        """Linear-axis readings of every indication plus the bar lengths."""
+        return self.readings.shape[0] * self._linear.size + len(self.scale_bars)
+
+    def input_estimate(self) -> np.ndarray:
+        """The inputs z (n_inputs,): linear readings (indication-major, mm), bar lengths (mm)."""
+        lengths = [bar.length for bar in self.scale_bars]
+        return np.concatenate([self.readings[:, self._linear].ravel(), lengths])
+
+    def input_names(self) -> list[str]:
+        """Names of the inputs, e.g. ``indication 3 (ball 2) Y`` and ``scale bar SB1-SB2``."""
+        axes = [self.machine.axis_names[i] for i in self._linear]
+        names = [
+            f"indication {k + 1} (ball {self.ball_ids[b]}) {a}"
+            for k, b in enumerate(self._ball_index)
+            for a in axes
+        ]
+        return names + [f"scale bar {bar.ends[0]}-{bar.ends[1]}" for bar in self.scale_bars]
+
+    def input_jacobian(self, x: np.ndarray) -> np.ndarray:
+        """∂r/∂z (n_rows, n_inputs) of the weighted residuals with respect to the inputs.
+
+        Block diagonal: ``∂p/∂q_lin / σ`` (3×3, the machine's axis Jacobian) for each
+        indication, ``−1/u_L`` for each bar length.
+        """
+        theta, _, dtool = self.split(np.asarray(x, dtype=float))
+        d_axes = self.machine.evaluate(
+            self.readings, theta, senses=self.senses, tool=self.machine.tool + dtool, d_axes=True
+        ).d_axes[:, :, self._linear]  # (n, 3, 3)
+        n, nl = self.readings.shape[0], self._linear.size
+        jac = np.zeros((self.n_rows, self.n_inputs))
+        rows = 3 * np.arange(n)[:, None, None] + np.arange(3)[None, :, None]
+        cols = nl * np.arange(n)[:, None, None] + np.arange(nl)[None, None, :]
+        jac[rows, cols] = d_axes / self.sigma
+        for k, bar in enumerate(self.scale_bars):
+            jac[3 * n + k, n * nl + k] = -1.0 / bar.u
+        return jac
+
+    def with_inputs(self, inputs: np.ndarray) -> BallCentreProblem:
+        """The same problem with other inputs z (n_inputs,): linear readings, bar lengths."""
+        z = np.asarray(inputs, dtype=float)
+        if z.shape != (self.n_inputs,):
+            raise ValueError(f"inputs must have shape ({self.n_inputs},), got {z.shape}")
+        n, nl = self.readings.shape[0], self._linear.size
+        q = self.readings.copy()
+        q[:, self._linear] = z[: n * nl].reshape(n, nl)
+        bars = [
+            ScaleBar(bar.ends, float(z[n * nl + k]), bar.u) for k, bar in enumerate(self.scale_bars)
+        ]
+        return BallCentreProblem(
+            self.machine,
+            q,
+            [self.ball_ids[i] for i in self._ball_index],
+            senses=self.senses,
+            scale_bars=bars,
+            estimate_tool=self.estimate_tool,
+            sigma=self.sigma,
+        )
+
+    def residuals_batch(self, x: np.ndarray, inputs: np.ndarray | None = None) -> np.ndarray:
+        """Weighted residuals of K copies of the problem, each with its own unknowns and inputs.
+
+        Parameters
+        ----------
+        x : ndarray, shape (K, n_unknowns)
+        inputs : ndarray, shape (K, n_inputs), optional
+            Perturbed inputs (see :meth:`input_estimate`); the problem's own when omitted.
+
+        Returns
+        -------
+        ndarray, shape (K, n_rows)
+            The residuals :meth:`evaluate` gives for each copy, computed by the
+            kinematic engine over all (copy, indication) pairs at once, in blocks of its
+            block size.
+        """
+        x = np.asarray(x, dtype=float)
+        z = self.input_estimate()[None] if inputs is None else np.asarray(inputs, dtype=float)
+        z = np.broadcast_to(z, (x.shape[0], z.shape[1]))
+        # blocks of copies whose (copy, indication) pairs fit one block of the kinematic
+        # engine: it then broadcasts the parameters instead of copying them per point
+        n = self.readings.shape[0]
+        block = getattr(self.machine.chain, "chunk_size", 16384)
+        step = max(1, block // max(n, 1))
+        r = np.empty((x.shape[0], self.n_rows))
+        for start in range(0, x.shape[0], step):
+            part = slice(start, start + step)
+            r[part] = self._residuals_block(x[part], z[part])
+        return r
+
+    def _residuals_block(self, x: np.ndarray, z: np.ndarray) -> np.ndarray:
+        k, n = x.shape[0], self.readings.shape[0]
+        p, nb = self.n_params, self.n_balls
+        q = np.broadcast_to(self.readings, (k, n, self.machine.n_axes)).copy()
+        q[:, :, self._linear] = z[:, : n * self._linear.size].reshape(k, n, -1)
+        tool = self.machine.tool + (x[:, p + 3 * nb :] if self.estimate_tool else np.zeros(3))
+        pos = self.machine.forward(
+            q,
+            x[:, None, :p],
+            senses=self.senses,
+            tool=np.broadcast_to(tool, (k, 3))[:, None, :],
+        )  # (k, n, 3)
+        centres = x[:, p : p + 3 * nb].reshape(k, nb, 3)
+        r = np.empty((k, self.n_rows))
+        r[:, : 3 * n] = ((pos - centres[:, self._ball_index]) / self.sigma).reshape(k, 3 * n)
+        lengths = z[:, n * self._linear.size :]
+        for j, bar in enumerate(self.scale_bars):
+            a, b = (self.ball_ids.index(e) for e in bar.ends)
+            dist = np.linalg.norm(centres[:, a] - centres[:, b], axis=1)
+            r[:, 3 * n + j] = (dist - lengths[:, j]) / bar.u
+        return r
 
     def split(self, x: np.ndarray):
         """(θ, ball centres (n_balls, 3), tool correction (3,)) from the unknown vector."""

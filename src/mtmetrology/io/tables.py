@@ -117,6 +117,13 @@ class Table:
         """Whether the file has a column ``name``."""
         return name in self.header
 
+    def take(self, rows: Sequence[int] | np.ndarray) -> Table:
+        """The data rows ``rows`` (0-based indices) as a table, with their file lines."""
+        rows = np.asarray(rows, dtype=np.intp)
+        return Table(
+            self.path, self.header, self.text.take(pa.array(rows)), self.lines[rows], self.quoted
+        )
+
     def _column(self, name: str) -> pa.ChunkedArray:
         if name not in self.header:
             raise InputFileError(

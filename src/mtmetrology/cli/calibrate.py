@@ -1,0 +1,230 @@
+"""``mtm calibrate``: identify a machine's errors from artefact measurements."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Literal
+
+import typer
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from mtmetrology.cli._common import fail, print_json, user_errors
+from mtmetrology.errors import ConvergenceError, InputError
+from mtmetrology.io.documents import load_document
+from mtmetrology.io.files import InputFileError, write_json
+from mtmetrology.io.schema import describe_validation_error
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameters import parse_parameter
+from mtmetrology.samba import (
+    calibrate,
+    evaluate_uncertainty,
+    indication_inputs,
+    load_artefact,
+    read_records,
+)
+from mtmetrology.samba.uncertainty import pooled_sigma
+from mtmetrology.units import from_internal, to_internal
+
+app = typer.Typer(help="Calibrate a machine from artefact measurements.", no_args_is_help=True)
+
+CALIBRATE_HELP = """Identify a five-axis machine's geometric errors from a SAMBA test.
+
+RECORDS.csv (mm, degrees; one header line, '#' comments) in one of three forms:
+
+  ball,X,Y,Z,B,C[,S]                      ball-centre indications (readings that put
+                                          the stylus centre on the ball centre)
+
+  measurement,ball,X,Y,Z,B,C[,S,i,j,k]    raw probed points; rows sharing a
+                                          measurement id are one probing, reduced to
+                                          its centre by the sphere of radius
+                                          (ball + tip diameter)/2
+
+  campaign,...                            either form repeated K times (same balls and
+                                          indexations): mean indications, and their
+                                          sample covariance for the uncertainty
+
+Optional sense_<axis> columns (+1/-1) feed reversal terms (else: the row order).
+
+ARTEFACT.yaml:
+
+  kind: samba-artefact
+  balls: [{id: "1", diameter_mm: 19.05}, {id: SB1, diameter_mm: 19.05}, ...]
+  scale_bar: {ends: [SB1, SB2], length_mm: 305.569, u_mm: 0.001}
+  stylus_tip_diameter_mm: 6.0
+
+REPEATABILITY.json: {"kind": "samba-repeatability", "version": 1,
+  "u_um": {"X": 0.4, "Y": 0.5, "Z": 0.6}}  (standard uncertainty per reading)
+
+RESULT.json (kind samba-calibration) is a parameter set that 'mtm predict --params'
+reads as it is (parameters [{name, value, unit, u}], covariance {names, matrix} in the
+listed units), plus ball centres, tool vector, residual vector of every indication,
+mean/max unexplained volumetric error and the same for the nominal model, rank,
+condition numbers, O1-O5, the parameter sign conventions and, with --uncertainty, the
+GUF and MCM outputs [{name, value, unit, u, U, k, p, interval}], the JCGM 102
+validation table and the joint coverage factors.
+
+A rank-deficient test is refused, naming the confounded parameters and what to add;
+--min-norm returns the minimum-norm solution instead, flagged in the result.
+"""
+
+
+class Repeatability(BaseModel):
+    """Per-axis standard uncertainty of one indication reading (µm)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    kind: Literal["samba-repeatability"]
+    version: Literal[1]
+    u_um: dict[Literal["X", "Y", "Z"], float] = Field(min_length=3, max_length=3)
+
+
+def load_repeatability(path: Path) -> tuple[float, float, float]:
+    """(u_X, u_Y, u_Z) in mm from a repeatability JSON/YAML file."""
+    data = load_document(path, "repeatability model")
+    try:
+        model = Repeatability.model_validate(data)
+    except ValidationError as err:
+        raise InputFileError(describe_validation_error(str(path), "repeatability", err)) from None
+    u = tuple(float(to_internal(model.u_um[a], "µm")) for a in "XYZ")
+    if min(u) <= 0:
+        raise InputFileError(f"{path}: u_um: every standard uncertainty must be positive")
+    return u
+
+
+def _machine(machine: str, model: str | None, params_only: str | None) -> Machine:
+    m = Machine.load(machine, model)
+    if params_only:
+        names = [parse_parameter(n.strip()).name for n in params_only.split(",") if n.strip()]
+        if not names:
+            raise InputError("--params-only: give parameter names separated by commas")
+        m = m.with_parameters(names)
+    if m.n_params == 0:
+        raise InputError(f"{machine}: the error model has no parameters to identify")
+    return m
+
+
+@app.command("samba", help=CALIBRATE_HELP)
+@user_errors
+def samba(
+    records: Annotated[Path, typer.Argument(help="RECORDS.csv (see the formats above).")],
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    artefact: Annotated[Path, typer.Option("--artefact", help="ARTEFACT.yaml.")],
+    model: Annotated[
+        str | None, typer.Option("--model", help="Error model: 13, 84 or a model name.")
+    ] = None,
+    params_only: Annotated[
+        str | None,
+        typer.Option("--params-only", help="Identify only these parameters (E_X0C,E_A0C,...)."),
+    ] = None,
+    noise_um: Annotated[
+        float | None,
+        typer.Option("--noise-um", help="Standard uncertainty of every reading, µm [0.5]."),
+    ] = None,
+    repeatability: Annotated[
+        Path | None, typer.Option("--repeatability", help="REPEATABILITY.json (per-axis u).")
+    ] = None,
+    uncertainty: Annotated[
+        str, typer.Option("--uncertainty", help="none, guf, mcm or both.")
+    ] = "none",
+    trials: Annotated[
+        int | None, typer.Option("--trials", help="Monte Carlo trials (fixed) [100000].")
+    ] = None,
+    adaptive: Annotated[
+        bool, typer.Option("--adaptive", help="Adaptive Monte Carlo (JCGM 101 §7.9).")
+    ] = False,
+    digits: Annotated[
+        int,
+        typer.Option("--digits", help="Significant digits of u for the tolerances δ [1]."),
+    ] = 1,
+    seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
+    executor: Annotated[
+        str | None,
+        typer.Option("--executor", help="inprocess, processes[:n], dask-local[:n] or a scheduler."),
+    ] = None,
+    estimate_tool: Annotated[
+        bool, typer.Option("--estimate-tool", help="Identify the tool vector too (needs S).")
+    ] = False,
+    min_norm: Annotated[
+        bool, typer.Option("--min-norm", help="Minimum-norm solution if rank deficient.")
+    ] = False,
+    json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
+) -> None:
+    if uncertainty not in ("none", "guf", "mcm", "both"):
+        raise InputError(f"--uncertainty must be none, guf, mcm or both, got {uncertainty!r}")
+    if noise_um is not None and repeatability is not None:
+        raise InputError("give --noise-um or --repeatability, not both")
+    if noise_um is not None and not noise_um > 0:
+        raise InputError(f"--noise-um must be positive, got {noise_um}")
+    if trials is not None and adaptive:
+        raise InputError("give --trials or --adaptive, not both")
+    m = _machine(machine, model, params_only)
+    art = load_artefact(artefact)
+    rec = read_records(records, m, art)
+    noise = repeat = campaigns = None
+    if repeatability is not None:
+        repeat = load_repeatability(repeatability)
+        sigma = float(sum(u * u for u in repeat) / 3) ** 0.5
+        described = f"repeatability model {repeatability}"
+    elif noise_um is None and rec.campaigns is not None:
+        campaigns = rec.campaigns
+        sigma = pooled_sigma(campaigns)
+        described = f"sample covariance of {rec.n_campaigns} campaigns / {rec.n_campaigns}"
+    else:
+        noise = float(to_internal(0.5 if noise_um is None else noise_um, "µm"))
+        sigma = noise
+        described = f"probing noise {from_internal(noise, 'µm'):g} µm per reading"
+    try:
+        cal = calibrate(
+            m, rec, art, sigma=sigma, estimate_tool=estimate_tool, minimum_norm=min_norm
+        )
+    except ConvergenceError as err:
+        fail(str(err))
+    unc = None
+    if uncertainty != "none":
+        inputs = indication_inputs(
+            cal.problem, noise=noise, repeatability=repeat, campaigns=campaigns
+        )
+        try:
+            unc = evaluate_uncertainty(
+                cal,
+                inputs,
+                described,
+                method=uncertainty,
+                trials=trials,
+                adaptive=adaptive,
+                digits=digits,
+                seed=seed,
+                executor=executor,
+            )
+        except ConvergenceError as err:
+            fail(str(err))
+    doc = cal.to_dict(unc, described)
+    if output is not None:
+        write_json(output, doc)
+    if json:
+        print_json(doc)
+    else:
+        _summary(doc, output)
+
+
+def _summary(doc: dict, output: Path | None) -> None:
+    ident = doc["identification"]
+    typer.echo(f"SAMBA calibration: {ident['message']}")
+    if ident["minimum_norm"]:
+        typer.echo("WARNING: minimum-norm solution of a rank-deficient problem", err=True)
+    for p in doc["parameters"]:
+        typer.echo(f"  {p['name']:<8} {p['value']:>12.4f} ± {p['u']:.4f} {p['unit']}")
+    v = doc["volumetric_error"]
+    typer.echo(
+        "volumetric error norm: unexplained mean {:.3f} max {:.3f} µm; nominal model mean "
+        "{:.3f} max {:.3f} µm".format(
+            v["unexplained"]["mean_um"],
+            v["unexplained"]["max_um"],
+            v["nominal_model"]["mean_um"],
+            v["nominal_model"]["max_um"],
+        )
+    )
+    if "uncertainty" in doc and "validation" in doc["uncertainty"]:
+        typer.echo(doc["uncertainty"]["validation"]["message"])
+    if output is not None:
+        typer.echo(f"wrote {output}", err=True)

@@ -1,0 +1,172 @@
+"""``mtm simulate``: records of a virtual machine with chosen errors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from mtmetrology.cli._common import user_errors
+from mtmetrology.errors import InputError
+from mtmetrology.io.tables import write_csv_table
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.samba import (
+    load_artefact,
+    load_balls,
+    read_poses,
+    simulate_length_readings,
+    simulate_records,
+)
+from mtmetrology.units import to_internal
+
+app = typer.Typer(help="Simulate measurements on a virtual machine.", no_args_is_help=True)
+
+SIMULATE_HELP = """Records of a SAMBA test on a virtual machine with chosen errors.
+
+TRUTH.json: a parameter set (kind parameter-set, or a samba-calibration result) with
+the true errors, e.g. {"kind": "parameter-set", "version": 1, "machine":
+"five-axis-wcbxfzyst", "parameters": [{"name": "E_X0C", "value": -104.6, "unit":
+"µm"}, ...]}; parameters it does not list are zero.
+
+BALLS.yaml: true ball centres in the workpiece frame:
+
+  kind: samba-balls
+  balls: [{id: "1", centre_mm: [-50, -50, 50]}, {id: SB1, centre_mm: [-152.78, 0, 30]}]
+
+ARTEFACT.yaml: as for 'mtm calibrate samba' (ball and stylus tip diameters).
+
+POSES.csv: the probing programme, one probing per row in probing order:
+ball,B,C[,S] (degrees).
+
+RECORDS.csv is written in the format 'mtm calibrate samba' reads: ball,X,Y,Z,B,C,S
+(ball-centre indications), or measurement,ball,X,Y,Z,B,C,S,i,j,k with --raw-points
+(i,j,k: approach direction in machine axes), with a leading campaign column when
+--campaigns K > 1 and sense_<axis> columns when the model has reversal terms.
+"""
+
+LENGTH_HELP = """Readings of a gauge-block length check on a virtual machine.
+
+Writes READINGS.csv (pair,end,X,Y,Z,B,C[,S]) for 'mtm verify length': the stylus
+centre against end a and end b of a length whose end-face centres END_A and END_B
+(workpiece frame, mm) are given, at --pairs random (B, C) indexations.
+"""
+
+
+def _truth(machine: Machine, truth: Path | None) -> tuple[Machine, np.ndarray | None]:
+    if truth is None:
+        return machine, None
+    pset = ParameterSet.load(truth, machine)
+    missing = [n for n in pset.names if n not in machine.parameter_names]
+    if missing:
+        machine = machine.with_parameters([*machine.parameter_names, *missing])
+    return machine, pset.vector_for(machine)
+
+
+@app.command("samba", help=SIMULATE_HELP)
+@user_errors
+def samba(
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    artefact: Annotated[Path, typer.Option("--artefact", help="ARTEFACT.yaml.")],
+    balls: Annotated[Path, typer.Option("--balls", help="BALLS.yaml (true ball centres).")],
+    poses: Annotated[Path, typer.Option("--poses", help="POSES.csv: ball,B,C[,S].")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="RECORDS.csv to write.")],
+    model: Annotated[
+        str | None, typer.Option("--model", help="Error model: 13, 84 or a name.")
+    ] = None,
+    truth: Annotated[
+        Path | None, typer.Option("--truth", help="TRUTH.json (zero errors if omitted).")
+    ] = None,
+    noise_um: Annotated[
+        float, typer.Option("--noise-um", help="Std. deviation of each reading, µm.")
+    ] = 0.5,
+    raw_points: Annotated[
+        bool, typer.Option("--raw-points", help="Write raw probed points.")
+    ] = False,
+    points_per_ball: Annotated[
+        int, typer.Option("--points-per-ball", help="Points per probing (>= 5).")
+    ] = 5,
+    campaigns: Annotated[int, typer.Option("--campaigns", help="Repetitions K.")] = 1,
+    drift_um: Annotated[
+        float, typer.Option("--drift-um", help="Linear drift over each campaign, µm.")
+    ] = 0.0,
+    tool_offset_um: Annotated[
+        str | None,
+        typer.Option("--tool-offset-um", help="True tool-vector correction dx,dy,dz (µm)."),
+    ] = None,
+    seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
+) -> None:
+    if noise_um < 0 or drift_um < 0:
+        raise InputError("--noise-um and --drift-um must be >= 0")
+    m, theta = _truth(Machine.load(machine, model), truth)
+    offset = np.zeros(3)
+    if tool_offset_um:
+        offset = to_internal(_vector(tool_offset_um, "--tool-offset-um", "µm"), "µm")
+    rec = simulate_records(
+        m,
+        theta,
+        load_balls(balls).centres(),
+        read_poses(poses),
+        load_artefact(artefact),
+        noise=float(to_internal(noise_um, "µm")),
+        raw_points=raw_points,
+        points_per_ball=points_per_ball,
+        campaigns=campaigns,
+        drift=float(to_internal(drift_um, "µm")),
+        tool_offset=offset,
+        seed=seed,
+    )
+    rec.write(output)
+    typer.echo(f"wrote {len(rec)} rows to {output}", err=True)
+
+
+def _vector(text: str, option: str, unit: str = "mm") -> np.ndarray:
+    """Three comma-separated numbers of an option."""
+    parts = [p for p in text.split(",") if p.strip()]
+    try:
+        values = np.array([float(p) for p in parts])
+    except ValueError:
+        values = np.array([])
+    if values.shape != (3,) or not np.all(np.isfinite(values)):
+        raise InputError(f"{option} needs three numbers x,y,z in {unit}, got {text!r}")
+    return values
+
+
+@app.command("length", help=LENGTH_HELP)
+@user_errors
+def length(
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    end_a: Annotated[str, typer.Option("--end-a", help="Centre of end face a: x,y,z (mm).")],
+    end_b: Annotated[str, typer.Option("--end-b", help="Centre of end face b: x,y,z (mm).")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="READINGS.csv to write.")],
+    model: Annotated[str | None, typer.Option("--model", help="Error model.")] = None,
+    truth: Annotated[Path | None, typer.Option("--truth", help="TRUTH.json.")] = None,
+    pairs: Annotated[int, typer.Option("--pairs", help="Number of (B, C) indexations.")] = 20,
+    b_max_deg: Annotated[
+        float, typer.Option("--b-max-deg", help="Largest |B| of the random indexations.")
+    ] = 45.0,
+    noise_um: Annotated[float, typer.Option("--noise-um", help="Reading noise, µm.")] = 0.0,
+    seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
+) -> None:
+    if pairs < 1:
+        raise InputError(f"--pairs must be at least 1, got {pairs}")
+    m, theta = _truth(Machine.load(machine, model), truth)
+    rng = np.random.default_rng(seed)
+    bc = np.column_stack([rng.uniform(-b_max_deg, b_max_deg, pairs), rng.uniform(0, 360, pairs)])
+    header, rows = simulate_length_readings(
+        m,
+        theta,
+        _vector(end_a, "--end-a"),
+        _vector(end_b, "--end-b"),
+        bc,
+        tip_radius=m.tip_radius,
+        noise=float(to_internal(noise_um, "µm")),
+        seed=rng,
+    )
+    lines = [
+        [str(k // 2 + 1), "ab"[k % 2], *(f"{v:.6f}" for v in row)] for k, row in enumerate(rows)
+    ]
+    write_csv_table(output, header, lines)
+    typer.echo(f"wrote {pairs} pairs to {output}", err=True)

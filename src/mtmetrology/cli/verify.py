@@ -1,0 +1,82 @@
+"""``mtm verify``: independent checks of a calibrated machine."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from mtmetrology.cli._common import print_json, user_errors
+from mtmetrology.errors import InputError
+from mtmetrology.io.files import write_json
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.samba import read_length_readings, verify_length
+
+app = typer.Typer(help="Independent checks of a calibrated machine.", no_args_is_help=True)
+
+LENGTH_HELP = """Gauge-block length check before and after compensation.
+
+READINGS.csv (mm, degrees): pair,end,X,Y,Z,B,C[,S], end a or b: each pair of rows puts
+the stylus centre against the two end faces of the calibrated length at one (B, C).
+
+Each pair's length is the distance of the two stylus centres (forward kinematics of
+the nominal model and of the compensated model RESULT.json) less the tip diameter;
+its error is length - L. Reports each pair's nominal and compensated error and their
+mean, RMS, standard deviation, range and largest magnitude (µm); --json prints the
+length-check document, -o writes it.
+"""
+
+
+@app.command("length", help=LENGTH_HELP)
+@user_errors
+def length(
+    readings: Annotated[Path, typer.Argument(help="READINGS.csv: pair,end,X,Y,Z,B,C[,S].")],
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    length_mm: Annotated[float, typer.Option("--length", help="Calibrated length L, mm.")],
+    params: Annotated[
+        Path | None, typer.Option("--params", help="RESULT.json or a parameter set.")
+    ] = None,
+    u_length: Annotated[
+        float | None, typer.Option("--u-length", help="Standard uncertainty of L, mm.")
+    ] = None,
+    tip_radius_mm: Annotated[
+        float | None,
+        typer.Option("--tip-radius-mm", help="Effective tip radius (machine file's if omitted)."),
+    ] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print the JSON document.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
+) -> None:
+    if u_length is not None and not u_length >= 0:
+        raise InputError(f"--u-length must be >= 0, got {u_length}")
+    m = Machine.load(machine)
+    theta = None
+    if params is not None:
+        pset = ParameterSet.load(params, m)
+        m = pset.machine_for(m)
+        theta = pset.vector_for(m)
+    data = read_length_readings(readings, m)
+    check = verify_length(
+        m,
+        theta,
+        data,
+        length_mm,
+        tip_radius=m.tip_radius if tip_radius_mm is None else tip_radius_mm,
+        u_length=u_length,
+    )
+    doc = check.to_dict()
+    if output is not None:
+        write_json(output, doc)
+    if json:
+        print_json(doc)
+        return
+    typer.echo(f"length check, L = {length_mm} mm, {len(check.pairs)} pairs (errors in µm)")
+    for name in ("nominal", "compensated"):
+        s = doc[name]
+        typer.echo(
+            f"  {name:<12} mean {s['mean']:9.3f}  rms {s['rms']:9.3f}  "
+            f"max |e| {s['max_abs']:9.3f}  range {s['range']:9.3f}"
+        )
+    if u_length is not None:
+        typer.echo(f"  u(L) = {u_length:g} mm")

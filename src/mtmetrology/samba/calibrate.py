@@ -1,0 +1,351 @@
+"""SAMBA calibration: machine errors, ball centres and tool offset from ball-centre indications.
+
+The identification is the weighted Gauss–Newton of the identification engine
+(:class:`~mtmetrology.identification.BallCentreProblem`,
+:func:`~mtmetrology.identification.gauss_newton`; Alami Mchichi (2018) §5.3.4 and §6.3.2,
+Sepahi Boroujeni (2021),
+eqs 5-1…5-6): unknowns are the machine's error parameters, the centres of every probed
+ball (nuisance) and, with ``estimate_tool``, the tool-vector correction.  Besides the
+parameters the result carries what a calibration engineer reads (Alami Mchichi (2018),
+§6.3 and Tables 4.5, 6.2, 6.3):
+
+- the residual vector of every indication, the *unexplained volumetric error*, with the
+  mean and maximum of its norm;
+- the same norms for the *nominal model*: the set-up unknowns alone fitted with every
+  machine error held at zero, i.e. the volumetric error the calibration removes;
+- rank, condition numbers and observability indices O1–O5 of the Jacobian.
+
+A rank-deficient problem is refused (:class:`~mtmetrology.errors.RankDeficientError`)
+naming the confounded combinations and what measurement would separate them, unless the
+minimum-norm solution is asked for; it is then flagged in the result.
+
+References
+----------
+Alami Mchichi, N. (2018). *Étalonnage des machines-outils à cinq axes : configuration
+optimisée des artefacts et de la séquence de mesure de la méthode SAMBA en vue d'une
+estimation efficace des erreurs géométriques*. PhD thesis, École Polytechnique de Montréal,
+§5.3.4, §6.3.2, Tables 4.4, 4.5, 6.2, 6.3.
+Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine
+Tool Metrology*. PhD thesis, Polytechnique Montréal, Ch. 5 (eqs 5-1 to 5-6).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mtmetrology.errors import ConvergenceError, RankDeficientError
+from mtmetrology.identification import (
+    BallCentreProblem,
+    IdentificationResult,
+    gauss_newton,
+)
+from mtmetrology.kinematics.conventions import describe_parameters
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.samba.artefact import SambaArtefact
+from mtmetrology.samba.records import SambaRecords
+from mtmetrology.units import from_internal
+
+__all__ = ["SambaCalibration", "calibrate", "separation_advice"]
+
+KIND = "samba-calibration"
+#: Converged when the scaled Gauss–Newton step is below a millionth of the input standard
+#: uncertainties.  Tighter is below the rounding of the 84-coefficient chain (its
+#: residuals carry ~1e-8 σ of rounding, which the undamped step amplifies by 1/s_min).
+XTOL = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class SambaCalibration:
+    """Result of :func:`calibrate`.
+
+    Attributes
+    ----------
+    machine : Machine
+        The machine with the identified error model active.
+    records : SambaRecords
+    artefact : SambaArtefact
+    problem : BallCentreProblem
+    identification : IdentificationResult
+    nominal : IdentificationResult
+        The set-up unknowns alone (machine errors held at zero).
+    parameters : ParameterSet
+        The machine's error parameters with ``(JᵀJ)⁻¹`` of the weighted problem.
+    """
+
+    machine: Machine
+    records: SambaRecords = field(repr=False)
+    artefact: SambaArtefact = field(repr=False)
+    problem: BallCentreProblem = field(repr=False)
+    identification: IdentificationResult = field(repr=False)
+    nominal: IdentificationResult = field(repr=False)
+    parameters: ParameterSet
+
+    @property
+    def minimum_norm(self) -> bool:
+        return self.identification.minimum_norm
+
+    @property
+    def residual_vectors(self) -> np.ndarray:
+        """(n, 3) unexplained volumetric error of each indication, mm."""
+        return _vectors(self.identification, self.problem)
+
+    @property
+    def nominal_vectors(self) -> np.ndarray:
+        """(n, 3) volumetric error of each indication under the nominal model, mm."""
+        return _vectors(self.nominal, self.problem)
+
+    def ball_centres(self) -> dict[str, np.ndarray]:
+        """Identified ball centres in the workpiece frame, mm."""
+        _, centres, _ = self.problem.split(self.identification.estimate)
+        return {b: centres[i] for i, b in enumerate(self.problem.ball_ids)}
+
+    @property
+    def tool(self) -> np.ndarray:
+        """Identified tool (stylus-centre) vector, mm (the nominal one unless estimated)."""
+        _, _, dtool = self.problem.split(self.identification.estimate)
+        return self.machine.tool + dtool
+
+    def parameter_indices(self) -> np.ndarray:
+        """Positions of the machine's error parameters among the unknowns."""
+        names = self.identification.names
+        return np.array([names.index(n) for n in self.machine.parameter_names], dtype=int)
+
+    def to_dict(self, uncertainty=None, input_covariance: str = "") -> dict:
+        """The RESULT document: a parameter set ``mtm predict --params`` reads as it is,
+        plus the calibration's own keys (customary units: µm, µrad, µm/m, mm, degrees).
+
+        Parameters
+        ----------
+        uncertainty : SambaUncertainty, optional
+            When given, its covariance (GUF, or MCM when the GUF is not validated) is the
+            parameter covariance, and its GUF/MCM outputs and validation are included.
+        input_covariance : str
+            How the indication covariance was stated (reported).
+        """
+        pset = self.parameters
+        source = "identification: (JᵀJ)⁻¹ of the weighted problem"
+        if uncertainty is not None:
+            f = self.machine.parameter_scales
+            pset = ParameterSet(
+                pset.names,
+                pset.values,
+                pset.units,
+                uncertainty.covariance * np.outer(f, f),
+                pset.provenance,
+                machine=pset.machine,
+                model=pset.model,
+            )
+            source = "mcm" if uncertainty.guf is None or not _validated(uncertainty) else "guf"
+        doc = pset.to_document()
+        doc["kind"] = KIND
+        doc["covariance_source"] = source
+        ident = self.identification
+        diag = ident.diagnostics
+        n = self.problem.readings.shape[0]
+        customary = self.machine.readings_to_customary(self.problem.readings)
+        axes = self.machine.axis_names
+        res = from_internal(self.residual_vectors, "µm")
+        norms = np.linalg.norm(res, axis=1)
+        nominal = np.linalg.norm(from_internal(self.nominal_vectors, "µm"), axis=1)
+        doc["conventions"] = [c.to_dict() for c in describe_parameters(self.machine)]
+        doc["identification"] = {
+            "status": ident.status,
+            "success": ident.success,
+            "message": ident.message,
+            "iterations": ident.nit,
+            "minimum_norm": ident.minimum_norm,
+            "unknowns": len(ident.names),
+            "rank": diag.rank,
+            "condition_scaled": _finite(diag.condition_scaled),
+            "condition_raw": _finite(diag.condition_raw),
+            "observability": diag.observability,
+            "confounded": [list(g) for g in diag.confounded()],
+            "variance_factor": ident.variance_factor,
+            "dof": ident.dof,
+        }
+        doc["records"] = {
+            "source": self.records.source,
+            "form": self.records.form,
+            "indications": n,
+            "campaigns": self.records.n_campaigns,
+            "sigma_um": float(from_internal(self.problem.sigma, "µm")),
+            "input_covariance": input_covariance,
+        }
+        doc["balls"] = [
+            {"id": b, "centre_mm": [float(v) for v in c]} for b, c in self.ball_centres().items()
+        ]
+        doc["tool_mm"] = [float(v) for v in self.tool]
+        doc["tool_estimated"] = self.problem.estimate_tool
+        doc["residuals"] = [
+            {
+                "indication": k + 1,
+                "line": int(self.records.lines[k]),
+                "ball": self.records.balls[k],
+                **{f"{a}": float(customary[k, i]) for i, a in enumerate(axes) if a in "BCS"},
+                "dx_um": float(res[k, 0]),
+                "dy_um": float(res[k, 1]),
+                "dz_um": float(res[k, 2]),
+                "norm_um": float(norms[k]),
+            }
+            for k in range(n)
+        ]
+        doc["volumetric_error"] = {
+            "unexplained": {"mean_um": float(norms.mean()), "max_um": float(norms.max())},
+            "nominal_model": {"mean_um": float(nominal.mean()), "max_um": float(nominal.max())},
+        }
+        if uncertainty is not None:
+            doc["uncertainty"] = uncertainty.to_dict()
+        return doc
+
+
+def _validated(uncertainty) -> bool:
+    return uncertainty.validation is None or uncertainty.validation.passed
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
+def _vectors(result: IdentificationResult, problem: BallCentreProblem) -> np.ndarray:
+    n = problem.readings.shape[0]
+    return result.residuals[: 3 * n].reshape(n, 3) * problem.sigma
+
+
+#: (names that mark a confounding, what to add) — most specific first.
+_ADVICE = (
+    (("tool x", "tool y"), "spindle indexing (one ball re-probed at S = 90, 180, 270°)"),
+    (("tool z",), "indexations that tilt the tool against the table (B ≠ 0)"),
+    (("E_XX1", "E_YY1", "E_ZZ1"), "the scale bar (both balls probed, at two indexations)"),
+    (
+        ("E_ZC", "E_ZB", "E_CB", "E_CC", "E_BBb", "E_CCb"),
+        "(B, C) indexations off any straight line c = k·b, approached from both senses",
+    ),
+    (("E_AY", "E_BY", "E_BZ", "E_CY"), "a second stylus length (one stylus cannot tell them)"),
+)
+
+
+def separation_advice(groups) -> str:
+    """What to add to the test to separate confounded groups (Alami Mchichi (2018) Table
+    4.4); groups no SAMBA measurement separates (e.g. E_Y0C ~ E_Y0S, Sepahi
+    Boroujeni (2021) Ch. 3) are said to be so.
+
+    Examples
+    --------
+    >>> separation_advice([("E_X0S", "tool x")])
+    'add spindle indexing (one ball re-probed at S = 90, 180, 270°)'
+    >>> separation_advice([("E_Y0C", "E_Y0S")])
+    'no probing of balls separates E_Y0C ~ E_Y0S'
+    """
+    hints: list[str] = []
+    inseparable: list[str] = []
+    for group in groups:
+        text = " ".join(group)
+        hint = next((h for marks, h in _ADVICE if any(m in text for m in marks)), None)
+        if hint is None:
+            inseparable.append(" ~ ".join(group))
+        elif hint not in hints:
+            hints.append(hint)
+    parts = ["add " + " or ".join(hints)] if hints else []
+    if inseparable:
+        parts.append(f"no probing of balls separates {'; '.join(inseparable)}")
+    return "; ".join(parts)
+
+
+def calibrate(
+    machine: Machine,
+    records: SambaRecords,
+    artefact: SambaArtefact,
+    *,
+    sigma: float,
+    estimate_tool: bool = False,
+    minimum_norm: bool = False,
+) -> SambaCalibration:
+    """Identify a machine's errors from SAMBA records.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine with the error model to identify active.
+    records : SambaRecords
+        Indications (see :func:`mtmetrology.samba.read_records`).
+    artefact : SambaArtefact
+        Balls and scale bar (length and u).
+    sigma : float
+        Standard uncertainty of one indication coordinate, mm: the weight of the
+        indications against the scale bar.
+    estimate_tool : bool
+        Add the tool-vector correction to the unknowns (needs spindle indexing).
+    minimum_norm : bool
+        Solve a rank-deficient problem by its minimum-norm solution (flagged) instead of
+        refusing it.
+
+    Returns
+    -------
+    SambaCalibration
+
+    Raises
+    ------
+    RankDeficientError
+        Naming the confounded combinations and what to add; ``confounded`` lists them.
+    ConvergenceError
+        If the Gauss–Newton iteration stops without converging.
+
+    Notes
+    -----
+    Residuals ``r_k = p(q_k; θ, t) − d_i(k)`` (3 rows per indication, weight 1/σ) and
+    ``r_L = ‖d_a − d_b‖ − L`` (weight 1/u_L); Gauss–Newton with column scaling on the
+    project's least-squares core (Sepahi Boroujeni (2021), eqs 5-4 to 5-6).
+    """
+    problem = BallCentreProblem(
+        machine,
+        records.readings,
+        records.balls,
+        senses=records.senses,
+        scale_bars=artefact.scale_bars(),
+        estimate_tool=estimate_tool,
+        sigma=sigma,
+    )
+    report = [*machine.parameter_names, "tool x", "tool y", "tool z"]
+    try:
+        result = gauss_newton(problem, xtol=XTOL, report_names=report, minimum_norm=minimum_norm)
+    except RankDeficientError as err:
+        groups = [g for g in err.confounded if set(g) & set(report)] or list(err.confounded)
+        listed = "; ".join(" ~ ".join(g) for g in groups)
+        raise RankDeficientError(
+            f"{records.source}: the test cannot separate {listed}: {separation_advice(groups)}; "
+            "or drop one parameter of each group (--params-only), or ask for the "
+            "minimum-norm solution (--min-norm)",
+            confounded=tuple(groups),
+        ) from None
+    if not result.success:
+        raise ConvergenceError(
+            f"{records.source}: the identification did not converge ({result.message}); "
+            "look for gross errors in the records (a wrong ball id, a reading of another "
+            "probing)"
+        )
+    nominal_problem = BallCentreProblem(
+        machine.with_parameters([]),
+        records.readings,
+        records.balls,
+        scale_bars=artefact.scale_bars(),
+        estimate_tool=estimate_tool,
+        sigma=sigma,
+    )
+    nominal = gauss_newton(nominal_problem, minimum_norm=True)
+    provenance = {
+        "method": "SAMBA (Alami Mchichi 2018; Sepahi Boroujeni 2021)",
+        "records": records.source,
+        "minimum_norm": result.minimum_norm,
+    }
+    return SambaCalibration(
+        machine=machine,
+        records=records,
+        artefact=artefact,
+        problem=problem,
+        identification=result,
+        nominal=nominal,
+        parameters=result.parameter_set(machine, provenance),
+    )

@@ -1,0 +1,308 @@
+"""``mtm simulate samba``, ``mtm calibrate samba``, ``mtm simulate length`` and ``mtm verify
+length`` end to end through typer's CliRunner, with the example files of examples/samba."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from mtmetrology.cli import app
+
+runner = CliRunner()
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "samba"
+MACHINE = "five-axis-wcbxfzyst"
+SIMULATE = (
+    "--machine",
+    MACHINE,
+    "--truth",
+    EXAMPLES / "truth.json",
+    "--artefact",
+    EXAMPLES / "artefact.yaml",
+    "--balls",
+    EXAMPLES / "balls.yaml",
+    "--poses",
+    EXAMPLES / "poses.csv",
+)
+
+
+def mtm(*args):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+def calibrate_samba(records, *args):
+    """``mtm calibrate samba RECORDS`` on the example machine and artefact."""
+    return mtm(
+        "calibrate",
+        "samba",
+        records,
+        "--machine",
+        MACHINE,
+        "--artefact",
+        EXAMPLES / "artefact.yaml",
+        *args,
+    )
+
+
+@pytest.fixture(scope="module")
+def records(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("cli")
+    path = tmp / "records.csv"
+    result = mtm(
+        "simulate",
+        "samba",
+        *SIMULATE,
+        "--model",
+        "13",
+        "--noise-um",
+        "0.5",
+        "--seed",
+        "1",
+        "-o",
+        path,
+    )
+    assert result.exit_code == 0, result.output
+    return path
+
+
+@pytest.fixture(scope="module")
+def calibrated(records):
+    out = records.parent / "result.json"
+    result = calibrate_samba(
+        records,
+        "--noise-um",
+        "0.5",
+        "--estimate-tool",
+        "--uncertainty",
+        "both",
+        "--trials",
+        "4000",
+        "--seed",
+        "3",
+        "--json",
+        "-o",
+        out,
+    )
+    assert result.exit_code == 0, result.output
+    return out, json.loads(result.stdout)
+
+
+def test_calibrate_writes_the_result_it_prints_with_validated_uncertainty(calibrated):
+    path, doc = calibrated
+    assert json.loads(path.read_text(encoding="utf-8")) == doc
+    assert doc["kind"] == "samba-calibration" and doc["identification"]["rank"] == 34
+    truth = {
+        p["name"]: p["value"]
+        for p in json.loads((EXAMPLES / "truth.json").read_text(encoding="utf-8"))["parameters"]
+    }
+    for p in doc["parameters"]:
+        assert abs(p["value"] - truth[p["name"]]) < 3 * p["u"]
+    unc = doc["uncertainty"]
+    assert {o["name"] for o in unc["guf"]["outputs"]} == set(truth)
+    out = unc["mcm"]["outputs"][0]
+    assert set(out) == {"name", "value", "unit", "u", "U", "k", "p", "interval"}
+    assert unc["validation"]["passed"] and len(unc["validation"]["table"]) == 15
+    assert doc["covariance_source"] == "guf"
+
+
+def test_predict_reads_the_result_as_it_is(calibrated, records, tmp_path):
+    path, doc = calibrated
+    out = tmp_path / "xyz.csv"
+    result = mtm("predict", "--machine", MACHINE, "--params", path, records, "-o", out)
+    assert result.exit_code == 0, result.output
+    lines = out.read_text(encoding="utf-8").splitlines()
+    assert lines[0].endswith("x,y,z") and len(lines) == 112
+    # the compensated centre of ball 1 at B = C = 0 is the identified ball centre
+    x = np.array([float(v) for v in lines[1].split(",")[-3:]])
+    centre = next(b["centre_mm"] for b in doc["balls"] if b["id"] == "1")
+    assert np.allclose(x, centre, atol=0.003)
+
+
+def test_length_check_after_calibration(calibrated, tmp_path):
+    path, _ = calibrated
+    gauge = tmp_path / "gauge.csv"
+    result = mtm(
+        "simulate",
+        "length",
+        "--machine",
+        MACHINE,
+        "--truth",
+        EXAMPLES / "truth.json",
+        "--end-a",
+        "-100,-100,40",
+        "--end-b",
+        "100,100,40",
+        "--pairs",
+        "20",
+        "--seed",
+        "5",
+        "-o",
+        gauge,
+    )
+    assert result.exit_code == 0, result.output
+    length = float(np.hypot(200.0, 200.0))
+    result = mtm(
+        "verify",
+        "length",
+        gauge,
+        "--machine",
+        MACHINE,
+        "--params",
+        path,
+        "--length",
+        f"{length:.9f}",
+        "--u-length",
+        "0.0005",
+        "--json",
+    )
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert doc["kind"] == "length-check" and len(doc["pairs"]) == 20
+    assert doc["compensated"]["rms"] < 0.05 * doc["nominal"]["rms"]
+
+
+def test_raw_points_and_campaigns_from_simulate_are_read_by_calibrate(tmp_path):
+    raw = tmp_path / "raw.csv"
+    common = (*SIMULATE, "--seed", "2")
+    assert mtm("simulate", "samba", *common, "--raw-points", "-o", raw).exit_code == 0
+    camp = tmp_path / "campaigns.csv"
+    assert mtm("simulate", "samba", *common, "--campaigns", "5", "-o", camp).exit_code == 0
+    for path, form, k, extra in (
+        (raw, "raw-points", 1, ()),
+        (camp, "centres", 5, ("--uncertainty", "guf")),
+    ):
+        result = calibrate_samba(
+            path,
+            "--estimate-tool",
+            "--json",
+            *extra,
+        )
+        assert result.exit_code == 0, result.output
+        doc = json.loads(result.stdout)
+        assert doc["records"]["form"] == form and doc["records"]["campaigns"] == k
+    assert "campaigns" in doc["uncertainty"]["input_covariance"]
+
+
+def test_help_documents_the_file_formats():
+    text = mtm("calibrate", "samba", "--help").output
+    for fmt in (
+        "ball,X,Y,Z,B,C[,S]",
+        "measurement,ball,X,Y,Z,B,C",
+        "samba-artefact",
+        "samba-repeatability",
+    ):
+        assert fmt in text
+    assert "samba-balls" in mtm("simulate", "samba", "--help").output
+    assert "pair,end,X,Y,Z,B,C" in mtm("verify", "length", "--help").output
+
+
+def _bad_records(records, tmp_path, edit):
+    lines = records.read_text(encoding="utf-8").splitlines()
+    path = tmp_path / "bad.csv"
+    path.write_text("\n".join(edit(lines)) + "\n", encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize(
+    ("edit", "extra", "expected"),
+    [
+        (
+            lambda ls: [ls[0], *(ln for ln in ls[1:] if not ln.startswith("4,")), ls[4]],
+            (),
+            "probed only once",
+        ),
+        (lambda ls: [ln for ln in ls if not ln.startswith("SB")], (), "never probed"),
+        (lambda ls: ls, ("--params-only", "E_X0C,E_FOO1"), "E_FOO1"),
+        (
+            lambda ls: [
+                ls[0],
+                ls[1].replace(",0.000000,0.000000,0.000000", ",95.0,0.0,0.0"),
+                *ls[2:],
+            ],
+            (),
+            "outside the travel",
+        ),
+        (lambda ls: [ls[0], "1,nan,0,0,0,0,0", *ls[2:]], (), "line 2"),
+    ],
+    ids=["ball-once", "bar-never-probed", "unknown-parameter", "outside-travel", "nan"],
+)
+def test_bad_input_is_one_line_exit_2_and_no_result(records, tmp_path, edit, extra, expected):
+    path = _bad_records(records, tmp_path, edit)
+    out = tmp_path / "RESULT.json"
+    result = calibrate_samba(
+        path,
+        *extra,
+        "-o",
+        out,
+    )
+    assert result.exit_code == 2
+    assert result.output.startswith("error: ") and result.output.count("\n") == 1
+    assert expected in result.output
+    assert not out.exists()
+
+
+def test_a_unit_that_does_not_fit_is_refused_and_nothing_written(tmp_path):
+    truth = json.loads((EXAMPLES / "truth.json").read_text(encoding="utf-8"))
+    truth["parameters"][2]["unit"] = "µrad"  # E_X0C is a length
+    bad = tmp_path / "truth.json"
+    bad.write_text(json.dumps(truth), encoding="utf-8")
+    out = tmp_path / "records.csv"
+    result = mtm(
+        "simulate",
+        "samba",
+        "--machine",
+        MACHINE,
+        "--truth",
+        bad,
+        "--artefact",
+        EXAMPLES / "artefact.yaml",
+        "--balls",
+        EXAMPLES / "balls.yaml",
+        "--poses",
+        EXAMPLES / "poses.csv",
+        "-o",
+        out,
+    )
+    assert result.exit_code == 2 and "E_X0C" in result.output and "unit" in result.output
+    assert not out.exists()
+
+
+def test_rank_deficiency_names_the_confounded_parameters_and_min_norm_flags(records, tmp_path):
+    lines = records.read_text(encoding="utf-8").splitlines()
+    no_spindle = [
+        ln for ln in lines if not ln.endswith((",90.000000", ",180.000000", ",270.000000"))
+    ]
+    path = tmp_path / "nospindle.csv"
+    path.write_text("\n".join(no_spindle) + "\n", encoding="utf-8")
+    result = calibrate_samba(path, "--estimate-tool")
+    assert result.exit_code == 2 and "tool x" in result.output and "E_X0S" in result.output
+    assert "spindle indexing" in result.output
+    result = calibrate_samba(path, "--estimate-tool", "--min-norm", "--json")
+    assert result.exit_code == 0
+    assert json.loads(result.stdout)["identification"]["minimum_norm"] is True
+
+
+def test_repeatability_file_is_strict(records, tmp_path):
+    bad = tmp_path / "rep.json"
+    bad.write_text(
+        '{"kind": "samba-repeatability", "version": 1, "u_um": {"X": 0.4, "Y": 0.5}}',
+        encoding="utf-8",
+    )
+    result = calibrate_samba(
+        records,
+        "--repeatability",
+        bad,
+    )
+    assert result.exit_code == 2 and "u_um" in result.output
+    result = calibrate_samba(
+        records,
+        "--repeatability",
+        EXAMPLES / "repeatability.json",
+        "--estimate-tool",
+        "--json",
+    )
+    assert result.exit_code == 0, result.output
+    assert "repeatability" in json.loads(result.stdout)["records"]["input_covariance"]
