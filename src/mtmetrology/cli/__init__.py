@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import typer
 
-from mtmetrology.cli import fit, machine, predict, uncertainty
+from mtmetrology.cli import fit, machine, predict, repeatability, uncertainty
 
 app = typer.Typer(
     name="mtm",
@@ -14,6 +14,7 @@ app = typer.Typer(
 )
 app.add_typer(machine.app, name="machine")
 app.add_typer(uncertainty.app, name="uncertainty")
+app.add_typer(repeatability.app, name="repeatability")
 app.command("fit")(fit.fit)
 app.command("predict")(predict.predict)
 

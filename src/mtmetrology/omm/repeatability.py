@@ -279,12 +279,14 @@ def target_statistics(
         idx = np.flatnonzero(inverse == g)
         idx = idx[np.argsort(time[idx], kind="stable")]
         if not np.all(factors[idx] == factors[idx[0]]):
-            raise InputError(f"{where}: target {names[g]!r}: pose factors change between touches")
+            raise InputError(
+                f"{where}: target {str(names[g])!r}: pose factors change between touches"
+            )
         if discard_first:
             idx = idx[1:]
         if idx.size < 3:
             raise InputError(
-                f"{where}: target {names[g]!r} has {idx.size} usable touches; "
+                f"{where}: target {str(names[g])!r} has {idx.size} usable touches; "
                 "repeatability needs at least 3 after the first is discarded"
             )
         p = readings[idx]
@@ -554,7 +556,7 @@ def fit_repeatability_model(
     if n - n_val <= p_max:
         raise InputError(
             f"{n} targets ({n_val} held out): the covariance model (eq. 4-2) needs more than "
-            f"{p_max} fitting targets"
+            f"{p_max} fitting targets; probe more poses or lower the holdout"
         )
     rng = as_generator(seed)
     val = np.zeros(n, bool)
