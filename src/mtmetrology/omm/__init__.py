@@ -1,5 +1,10 @@
 """On-machine measurement (OMM): probing repeatability, reference values, task uncertainty."""
 
+from mtmetrology.omm.reference import (
+    ReferenceValue,
+    coverage_probability,
+    thermal_reference_value,
+)
 from mtmetrology.omm.repeatability import (
     RepeatabilityModel,
     TargetStatistics,
@@ -11,11 +16,14 @@ from mtmetrology.omm.repeatability import (
 )
 
 __all__ = [
+    "ReferenceValue",
     "RepeatabilityModel",
     "TargetStatistics",
+    "coverage_probability",
     "fit_repeatability_model",
     "lateral_deviation_threshold",
     "normal_tangential",
     "sphere_normal",
     "target_statistics",
+    "thermal_reference_value",
 ]
