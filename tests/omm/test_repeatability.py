@@ -242,3 +242,39 @@ def test_too_few_targets_and_too_few_levels_are_refused():
     rec["factors"][:, 6] = 7.0  # Z_T constant
     with pytest.raises(InputError, match="Z_T"):
         fit_repeatability_model(target_statistics(**rec), holdout=0.0)
+
+
+def test_model_document_round_trips_through_a_strict_file(fitted, tmp_path):
+    from mtmetrology.io import write_json
+    from mtmetrology.omm.repeatability_file import load_repeatability_model
+
+    _, model = fitted
+    path = tmp_path / "R.json"
+    write_json(path, model.to_dict())
+    loaded = load_repeatability_model(path)
+    pose = (LOW + HIGH) / 2
+    assert np.allclose(loaded.covariance(pose), model.covariance(pose), rtol=1e-12, atol=0)
+    assert np.allclose(loaded.factor_high, model.factor_high, rtol=1e-15)
+
+
+@pytest.mark.parametrize(
+    ("edit", "field"),
+    [
+        (lambda d: d.update(extra=1), "extra"),
+        (lambda d: d["outputs"][0]["coefficients"].pop(), "sigma_X"),
+        (lambda d: d["factors"].reverse(), "factors"),
+        (lambda d: d["factors"][4].update(high=-1000.0), "X_T"),
+        (lambda d: d["outputs"].reverse(), "outputs"),
+    ],
+)
+def test_bad_model_documents_are_refused_naming_the_field(fitted, tmp_path, edit, field):
+    from mtmetrology.io import write_json
+    from mtmetrology.omm.repeatability_file import load_repeatability_model
+
+    doc = fitted[1].to_dict()
+    edit(doc)
+    path = tmp_path / "R.json"
+    write_json(path, doc)
+    with pytest.raises(InputError, match=field) as err:
+        load_repeatability_model(path)
+    assert "\n" not in str(err.value)

@@ -14,6 +14,7 @@ from mtmetrology.omm.repeatability import (
     sphere_normal,
     target_statistics,
 )
+from mtmetrology.omm.repeatability_file import load_repeatability_model
 
 __all__ = [
     "ReferenceValue",
@@ -22,6 +23,7 @@ __all__ = [
     "coverage_probability",
     "fit_repeatability_model",
     "lateral_deviation_threshold",
+    "load_repeatability_model",
     "normal_tangential",
     "sphere_normal",
     "target_statistics",
