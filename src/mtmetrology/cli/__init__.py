@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import typer
 
-from mtmetrology.cli import fit, machine, predict, repeatability, uncertainty
+from mtmetrology.cli import fit, machine, predict, repeatability, task, uncertainty
 
 app = typer.Typer(
     name="mtm",
@@ -15,6 +15,7 @@ app = typer.Typer(
 app.add_typer(machine.app, name="machine")
 app.add_typer(uncertainty.app, name="uncertainty")
 app.add_typer(repeatability.app, name="repeatability")
+app.add_typer(task.app, name="task")
 app.command("fit")(fit.fit)
 app.command("predict")(predict.predict)
 
