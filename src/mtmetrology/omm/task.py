@@ -249,17 +249,17 @@ def task_uncertainty(
     m_par = -f_inv @ g  # (n, 3, P): ∂Γ_lin/∂Δ
     size = n * n_axes + n_par + 3 * n
     ux = np.zeros((size, size))
-    lin_idx = np.array([[s * n_axes + k for k in linear] for s in range(n)])  # (n, 3)
-    for s in range(n):
-        for t in range(n):
-            block = m_par[s] @ sigma @ m_par[t].T
-            if s == t:
-                block = block + f_inv[s] @ w[s] @ f_inv[s].T
-            ux[np.ix_(lin_idx[s], lin_idx[t])] = block
-        cross = m_par[s] @ sigma  # (3, P)
-        ux[np.ix_(lin_idx[s], range(n * n_axes, n * n_axes + n_par))] = cross
-        ux[np.ix_(range(n * n_axes, n * n_axes + n_par), lin_idx[s])] = cross.T
+    lin = (np.arange(n)[:, None] * n_axes + np.array(linear)[None, :]).ravel()  # (3n,)
     par = slice(n * n_axes, n * n_axes + n_par)
+    m_stack = m_par.reshape(3 * n, n_par)  # ∂Γ_lin/∂Δ of every point, stacked
+    gamma_cov = m_stack @ sigma @ m_stack.T  # parameter-driven part, all point pairs
+    own = f_inv @ w @ np.swapaxes(f_inv, 1, 2)  # (n, 3, 3): repeatability, per point
+    for s in range(n):
+        gamma_cov[3 * s : 3 * s + 3, 3 * s : 3 * s + 3] += own[s]
+    ux[np.ix_(lin, lin)] = gamma_cov
+    cross = m_stack @ sigma  # (3n, P)
+    ux[lin, par] = cross
+    ux[par, lin] = cross.T
     ux[par, par] = sigma
     e0 = n * n_axes + n_par
     ux[e0:, e0:] = np.kron(np.eye(n), cov_e)
@@ -282,13 +282,10 @@ def task_uncertainty(
     def jacobian(_x):
         return feature_jac @ c_points
 
-    names = [f"{ax}_{s + 1}" for s in range(n) for ax in machine.axis_names]
+    axis_names, linear_names = machine.axis_names, machine.linear_axes
+    names = [f"{ax}_{s + 1}" for s in range(n) for ax in axis_names]
     names += list(machine.parameter_names) + [f"e{c}_{s + 1}" for s in range(n) for c in "xyz"]
-    units = [
-        ("mm" if ax in machine.linear_axes else "rad")
-        for _ in range(n)
-        for ax in machine.axis_names
-    ]
+    units = [("mm" if ax in linear_names else "rad") for ax in axis_names] * n
     units += ["1"] * n_par + ["mm"] * (3 * n)
     result = guf(
         model,
