@@ -37,6 +37,8 @@ COMMANDS = {
     "gp": ("mtmetrology.cli.cmm", "gp_app", True),
     "design": ("mtmetrology.cli.design", "app", True),
     "verify": ("mtmetrology.cli.verify", "app", True),
+    "repeatability": ("mtmetrology.cli.repeatability", "app", True),
+    "task": ("mtmetrology.cli.task", "app", True),
     "demo": ("mtmetrology.cli.demo", "demo", False),
 }
 

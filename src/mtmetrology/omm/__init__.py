@@ -1,0 +1,31 @@
+"""On-machine measurement (OMM): probing repeatability, reference values, task uncertainty."""
+
+from mtmetrology.omm.reference import (
+    ReferenceValue,
+    coverage_probability,
+    thermal_reference_value,
+)
+from mtmetrology.omm.repeatability import (
+    RepeatabilityModel,
+    TargetStatistics,
+    fit_repeatability_model,
+    lateral_deviation_threshold,
+    normal_tangential,
+    sphere_normal,
+    target_statistics,
+)
+from mtmetrology.omm.repeatability_file import load_repeatability_model
+
+__all__ = [
+    "ReferenceValue",
+    "RepeatabilityModel",
+    "TargetStatistics",
+    "coverage_probability",
+    "fit_repeatability_model",
+    "lateral_deviation_threshold",
+    "load_repeatability_model",
+    "normal_tangential",
+    "sphere_normal",
+    "target_statistics",
+    "thermal_reference_value",
+]

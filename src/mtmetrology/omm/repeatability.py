@@ -1,0 +1,609 @@
+"""Probing repeatability of on-machine measurement: per-target statistics and pose models.
+
+From replicated probing records (one row per touch), :func:`target_statistics` gives, per
+target pose, the sample standard deviations of the X, Y, Z readings and of their normal
+and tangential projections, and the covariances cov(X,Y), cov(X,Z), cov(Y,Z), cov(N,T),
+with the first touch of every group discarded (its preceding motion differs: hysteresis).
+:func:`fit_repeatability_model` fits the separable polynomial models of Sepahi Boroujeni
+(2021), eqs. 4-1 (standard deviations, 22 coefficients) and 4-2 (covariances, 36
+coefficients), on factors normalised to [−1, 1], by the library's least-squares core; the
+:class:`RepeatabilityModel` predicts a positive-semidefinite 3×3 covariance (and the 5×5
+``v_i`` with zero rotary rows) for any pose and approach inside the fitted range.
+
+Factors, in this order: φ (polar angle of the target normal from machine Z), θ (azimuth
+from machine Y), B and C (rotary positions), X_T, Y_T, Z_T (target position). Internally
+rad and mm; standard deviations in mm, covariances in mm².
+
+References
+----------
+Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine
+Tool Metrology*. PhD thesis, Polytechnique Montréal, ch. 4 and Appendix A.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from mtmetrology.errors import InputError
+from mtmetrology.optimize import least_squares
+from mtmetrology.rng import SeedLike, as_generator
+from mtmetrology.units import from_internal, to_internal
+
+__all__ = [
+    "COVARIANCE_OUTPUTS",
+    "FACTORS",
+    "FACTOR_UNITS",
+    "STD_OUTPUTS",
+    "OutputFit",
+    "PoseRangeWarning",
+    "RepeatabilityModel",
+    "TargetStatistics",
+    "factors_from_file_units",
+    "fit_repeatability_model",
+    "lateral_deviation_threshold",
+    "normal_tangential",
+    "sphere_normal",
+    "target_statistics",
+]
+
+FACTORS = ("phi", "theta", "B", "C", "X_T", "Y_T", "Z_T")
+FACTOR_UNITS = ("deg", "deg", "deg", "deg", "mm", "mm", "mm")
+STD_OUTPUTS = ("sigma_X", "sigma_Y", "sigma_Z", "sigma_N", "sigma_T")
+COVARIANCE_OUTPUTS = ("cov_XY", "cov_XZ", "cov_YZ", "cov_NT")
+# Polynomial degree of each factor (order of FACTORS) in eq. 4-1; eq. 4-2 uses 5 for all.
+_STD_DEGREES = (2, 4, 3, 3, 3, 3, 3)
+_COV_DEGREES = (5,) * 7
+_RANGE_SLACK = 1e-9  # normalised units: rounding of the range limits themselves
+
+
+class PoseRangeWarning(UserWarning):
+    """A pose outside the range the repeatability model was fitted on."""
+
+
+def sphere_normal(phi: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """Outward unit normal of a sphere target (Sepahi Boroujeni (2021), eq. A.4-2).
+
+    Parameters
+    ----------
+    phi, theta : (...,) array, rad
+        Polar angle from machine Z and azimuth from machine Y (θ = 90° points along X).
+
+    Returns
+    -------
+    (..., 3) ndarray
+        n̂ = (sin φ sin θ, sin φ cos θ, cos φ).
+
+    Examples
+    --------
+    >>> sphere_normal(np.pi / 2, np.pi / 2).round(12)
+    array([1., 0., 0.])
+    """
+    phi, theta = np.asarray(phi, float), np.asarray(theta, float)
+    return np.stack(
+        [np.sin(phi) * np.sin(theta), np.sin(phi) * np.cos(theta), np.cos(phi)], axis=-1
+    )
+
+
+def normal_tangential(
+    points: np.ndarray, centre: np.ndarray, normal: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Normal and tangential projections of probed points (Sepahi Boroujeni (2021), A.4).
+
+    Parameters
+    ----------
+    points : (..., 3) array, mm
+        Probed points OP.
+    centre : (..., 3) array, mm
+        Sphere centre OC (or any point on the nominal normal line of the target).
+    normal : (..., 3) array
+        Unit normal n̂ of the target.
+
+    Returns
+    -------
+    N, T : (...,) ndarray, mm
+        N = CP·n̂ and T = √(‖CP‖² − N²) with CP = OP − OC (eqs. A.4-1 to A.4-3).
+
+    Examples
+    --------
+    Appendix A: target (φ, θ) = (18°, 144°), OC = (76.2, 80, −78.919) mm and
+    OP = (78.9655, 76.195, −64.443) mm give N = 15.2211 mm and T ≈ 0.0009 mm:
+
+    >>> n = sphere_normal(np.radians(18.0), np.radians(144.0))
+    >>> N, T = normal_tangential([78.9655, 76.195, -64.443], [76.2, 80.0, -78.919], n)
+    >>> round(float(N), 4), round(float(T), 4)
+    (15.2211, 0.0009)
+    """
+    cp = np.asarray(points, float) - np.asarray(centre, float)
+    n = np.sum(cp * np.asarray(normal, float), axis=-1)
+    # Clip at 0: for a point on the normal line, rounding can make ‖CP‖² − N² slightly < 0.
+    t = np.sqrt(np.maximum(np.sum(cp * cp, axis=-1) - n * n, 0.0))
+    return n, t
+
+
+def lateral_deviation_threshold(radius: float, resolution: float) -> float:
+    """Lateral tip deviation that changes the probed distance by one resolution step.
+
+    Parameters
+    ----------
+    radius : float, mm
+        Sphere radius plus stylus tip radius, R.
+    resolution : float, mm
+        Resolution of the recorded coordinates, d.
+
+    Returns
+    -------
+    float, mm
+        b′ = √(2 R d): a lateral deviation b′ changes the approach distance by
+        d ≈ b′²/(2R) (Sepahi Boroujeni (2021), §4; second order), so lateral randomness
+        smaller than b′ is invisible in the readings.
+
+    Examples
+    --------
+    R = 12.7 + 3.0 mm and d = 0.5 µm give 125.3 µm:
+
+    >>> round(lateral_deviation_threshold(15.7, 0.0005) * 1000, 1)
+    125.3
+    """
+    if not (math.isfinite(radius) and radius > 0 and math.isfinite(resolution)):
+        raise InputError("radius and resolution must be finite, radius > 0")
+    if resolution < 0:
+        raise InputError("resolution must be >= 0")
+    return math.sqrt(2.0 * radius * resolution)
+
+
+@dataclass(frozen=True)
+class TargetStatistics:
+    """Per-target repeatability statistics (first touch discarded).
+
+    Attributes
+    ----------
+    targets : tuple of str
+        Target ids, in first-appearance order.
+    factors : (n, 7) ndarray
+        φ, θ, B, C (rad), X_T, Y_T, Z_T (mm) of each target.
+    n_touches : (n,) ndarray of int
+        Touches used (after discarding the first).
+    mean : (n, 3) ndarray, mm
+        Mean X, Y, Z readings.
+    std : (n, 5) ndarray, mm
+        Sample standard deviations of X, Y, Z, N, T (:data:`STD_OUTPUTS`).
+    cov : (n, 4) ndarray, mm²
+        Sample covariances (X,Y), (X,Z), (Y,Z), (N,T) (:data:`COVARIANCE_OUTPUTS`).
+    zero_variance : (n, 3) ndarray of bool
+        X, Y, Z readings that did not change at all: the scale resolution hides the
+        scatter (an approach along an axis); approach slightly off the axes instead.
+    """
+
+    targets: tuple[str, ...]
+    factors: np.ndarray
+    n_touches: np.ndarray
+    mean: np.ndarray
+    std: np.ndarray
+    cov: np.ndarray
+    zero_variance: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.targets)
+
+    def to_dict(self) -> dict:
+        """JSON rows in file units (deg, mm, µm, µm²)."""
+        rows = []
+        for i, name in enumerate(self.targets):
+            row = {"target": name, "n_touches": int(self.n_touches[i])}
+            row.update(_factors_to_file(self.factors[i]))
+            row.update({f"mean_{a}": float(v) for a, v in zip("XYZ", self.mean[i], strict=True)})
+            row.update(_outputs_to_file(self.std[i], self.cov[i]))
+            row["zero_variance"] = [
+                a for a, z in zip("XYZ", self.zero_variance[i], strict=True) if z
+            ]
+            rows.append(row)
+        return {"units": _file_units(), "targets": rows}
+
+
+def _factors_to_file(f: np.ndarray) -> dict:
+    return {
+        name: float(from_internal(v, unit))
+        for name, v, unit in zip(FACTORS, f, FACTOR_UNITS, strict=True)
+    }
+
+
+def _outputs_to_file(std: np.ndarray, cov: np.ndarray) -> dict:
+    out = {n: float(from_internal(v, "µm")) for n, v in zip(STD_OUTPUTS, std, strict=True)}
+    out.update(
+        {
+            n: float(from_internal(from_internal(v, "µm"), "µm"))
+            for n, v in zip(COVARIANCE_OUTPUTS, cov, strict=True)
+        }
+    )
+    return out
+
+
+def _file_units() -> dict:
+    units = dict(zip(FACTORS, FACTOR_UNITS, strict=True))
+    units.update({n: "µm" for n in STD_OUTPUTS})
+    units.update({n: "µm²" for n in COVARIANCE_OUTPUTS})
+    return units
+
+
+def target_statistics(
+    target: list[str],
+    factors: np.ndarray,
+    readings: np.ndarray,
+    normal: np.ndarray,
+    time: np.ndarray,
+    *,
+    centre: np.ndarray | None = None,
+    discard_first: bool = True,
+    where: str = "records",
+) -> TargetStatistics:
+    """Per-target sample standard deviations and covariances of replicated probing.
+
+    Parameters
+    ----------
+    target : list of str, length m
+        Target id of each touch.
+    factors : (m, 7) array
+        φ, θ, B, C (rad), X_T, Y_T, Z_T (mm): constant within a target.
+    readings : (m, 3) array, mm
+        Recorded X, Y, Z of each touch.
+    normal : (m, 3) array
+        Unit outward normal of the target (the probe approaches along −n̂).
+    time : (m,) array, s
+        Touch time: orders the touches of a target (the first is discarded).
+    centre : (m, 3) array, mm, optional
+        Sphere centre for the N/T projections; by default the line along n̂ through the
+        target's mean reading (N then scatters about 0 and T is the lateral distance).
+    discard_first : bool, default True
+        Drop the first touch of each target (hysteresis of the preceding motion,
+        Sepahi Boroujeni (2021), §4).
+    where : str
+        Name of the source (file) for error messages.
+
+    Returns
+    -------
+    TargetStatistics
+
+    Raises
+    ------
+    InputError
+        A target with fewer than 3 usable touches or with changing pose factors.
+    """
+    names, first, inverse = np.unique(np.asarray(target), return_index=True, return_inverse=True)
+    order = np.argsort(first)  # first-appearance order
+    rows = []
+    for g in order:
+        idx = np.flatnonzero(inverse == g)
+        idx = idx[np.argsort(time[idx], kind="stable")]
+        if not np.all(factors[idx] == factors[idx[0]]):
+            raise InputError(
+                f"{where}: target {str(names[g])!r}: pose factors change between touches"
+            )
+        if discard_first:
+            idx = idx[1:]
+        if idx.size < 3:
+            raise InputError(
+                f"{where}: target {str(names[g])!r} has {idx.size} usable touches; "
+                "repeatability needs at least 3 after the first is discarded"
+            )
+        p = readings[idx]
+        mean = p.mean(axis=0)
+        origin = centre[idx] if centre is not None else mean
+        n_proj, t_proj = normal_tangential(p, origin, normal[idx])
+        c3 = np.cov(p, rowvar=False)
+        c_nt = np.cov(n_proj, t_proj)
+        std = np.sqrt(np.r_[np.diag(c3), c_nt[0, 0], c_nt[1, 1]])
+        cov = np.array([c3[0, 1], c3[0, 2], c3[1, 2], c_nt[0, 1]])
+        rows.append((str(names[g]), factors[idx[0]], idx.size, mean, std, cov, np.ptp(p, 0) == 0))
+    cols = list(zip(*rows, strict=True))
+    return TargetStatistics(
+        targets=tuple(cols[0]),
+        factors=np.array(cols[1]),
+        n_touches=np.array(cols[2]),
+        mean=np.array(cols[3]),
+        std=np.array(cols[4]),
+        cov=np.array(cols[5]),
+        zero_variance=np.array(cols[6]),
+    )
+
+
+def _design(z: np.ndarray, degrees: tuple[int, ...]) -> np.ndarray:
+    """Columns 1, z_f, z_f², …, z_f^deg for each factor f (separable, no cross terms)."""
+    cols = [np.ones(z.shape[:-1])]
+    for f, deg in enumerate(degrees):
+        cols += [z[..., f] ** p for p in range(1, deg + 1)]
+    return np.stack(cols, axis=-1)
+
+
+@dataclass(frozen=True)
+class OutputFit:
+    """One fitted output (σ_X … cov(N,T)).
+
+    Attributes
+    ----------
+    name : str
+        One of :data:`STD_OUTPUTS` or :data:`COVARIANCE_OUTPUTS`.
+    coefficients, standard_uncertainties : (p,) ndarray
+        Coefficients on the normalised factors (mm for σ, mm² for covariances) and their
+        standard uncertainties s·√diag((AᵀA)⁻¹), s² = RSS/(n − p).
+    r_squared : float
+        1 − RSS/TSS on the fitted targets.
+    validation_max_relative_error : float or None
+        max |pred − meas| / |meas| over the held-out targets (None without them).
+    validation_max_abs_error : float or None
+        max |pred − meas| over the held-out targets (mm or mm²).
+    """
+
+    name: str
+    coefficients: np.ndarray
+    standard_uncertainties: np.ndarray
+    r_squared: float
+    validation_max_relative_error: float | None
+    validation_max_abs_error: float | None
+
+
+@dataclass(frozen=True)
+class RepeatabilityModel:
+    """Fitted repeatability models (eqs. 4-1 and 4-2) with their range of validity.
+
+    Attributes
+    ----------
+    factor_low, factor_high : (7,) ndarray
+        Range of each factor (rad, mm) mapped to [−1, 1].
+    fits : tuple of OutputFit
+        σ_X, σ_Y, σ_Z, σ_N, σ_T, cov(X,Y), cov(X,Z), cov(Y,Z), cov(N,T).
+    n_fit, n_validation : int
+        Targets used for fitting and held out for validation.
+    """
+
+    factor_low: np.ndarray
+    factor_high: np.ndarray
+    fits: tuple[OutputFit, ...]
+    n_fit: int
+    n_validation: int
+
+    def normalise(self, factors: np.ndarray, *, strict: bool = True) -> np.ndarray:
+        """Map factors (..., 7) to [−1, 1]; out of range → InputError (``strict``) or warning.
+
+        Raises
+        ------
+        InputError
+            ``strict`` and a factor outside the fitted range (the message names it).
+        """
+        f = np.asarray(factors, float)
+        if f.shape[-1:] != (7,) or not np.all(np.isfinite(f)):
+            raise InputError(f"pose factors: expected finite (..., 7) values {FACTORS}")
+        z = 2.0 * (f - self.factor_low) / (self.factor_high - self.factor_low) - 1.0
+        outside = np.abs(z) > 1.0 + _RANGE_SLACK
+        if np.any(outside):
+            k = int(np.flatnonzero(outside.reshape(-1, 7).any(axis=0))[0])
+            bad = f.reshape(-1, 7)[outside.reshape(-1, 7)[:, k], k][0]
+            unit = FACTOR_UNITS[k]
+            msg = (
+                f"pose factor {FACTORS[k]} = {from_internal(bad, unit):g} {unit} is outside the "
+                f"repeatability model's range [{from_internal(self.factor_low[k], unit):g}, "
+                f"{from_internal(self.factor_high[k], unit):g}] {unit}; refit with such poses"
+            )
+            if strict:
+                raise InputError(msg)
+            warnings.warn(msg, PoseRangeWarning, stacklevel=2)
+        return z
+
+    def predict(self, factors: np.ndarray, *, strict: bool = True) -> dict[str, np.ndarray]:
+        """Model values of every output at poses ``factors`` (..., 7): σ clipped at 0."""
+        z = self.normalise(factors, strict=strict)
+        out = {}
+        for fit in self.fits:
+            degrees = _STD_DEGREES if fit.name in STD_OUTPUTS else _COV_DEGREES
+            value = _design(z, degrees) @ fit.coefficients
+            out[fit.name] = np.maximum(value, 0.0) if fit.name in STD_OUTPUTS else value
+        return out
+
+    def covariance(self, factors: np.ndarray, *, strict: bool = True) -> np.ndarray:
+        """Positive-semidefinite 3×3 covariance of the X, Y, Z readings, mm².
+
+        Parameters
+        ----------
+        factors : (..., 7) array
+            Poses (φ, θ, B, C in rad; X_T, Y_T, Z_T in mm).
+        strict : bool
+            Refuse (True) or warn about (False) poses outside the fitted range.
+
+        Returns
+        -------
+        (..., 3, 3) ndarray
+            [σ_X², cov_XY, cov_XZ; ·, σ_Y², cov_YZ; ·, ·, σ_Z²] from the independent fits,
+            projected on the nearest PSD matrix (negative eigenvalues set to 0): the
+            separate fits do not guarantee a covariance matrix.
+        """
+        p = self.predict(factors, strict=strict)
+        sx, sy, sz = p["sigma_X"], p["sigma_Y"], p["sigma_Z"]
+        c = np.stack(
+            [
+                np.stack([sx**2, p["cov_XY"], p["cov_XZ"]], -1),
+                np.stack([p["cov_XY"], sy**2, p["cov_YZ"]], -1),
+                np.stack([p["cov_XZ"], p["cov_YZ"], sz**2], -1),
+            ],
+            -2,
+        )
+        w, v = np.linalg.eigh(c)
+        return (v * np.maximum(w, 0.0)[..., None, :]) @ np.swapaxes(v, -1, -2)
+
+    def covariance5(self, factors: np.ndarray, *, strict: bool = True) -> np.ndarray:
+        """(..., 5, 5) covariance v of the readings X, Y, Z, B, C: zero rotary rows, mm²."""
+        c3 = self.covariance(factors, strict=strict)
+        out = np.zeros((*c3.shape[:-2], 5, 5))
+        out[..., :3, :3] = c3
+        return out
+
+    def to_dict(self) -> dict:
+        """The ``repeatability-model`` JSON document (deg, mm, µm, µm²)."""
+        outputs = []
+        for fit in self.fits:
+            unit = "µm" if fit.name in STD_OUTPUTS else "µm²"
+            conv = _to_micrometres if unit == "µm" else _to_square_micrometres
+            outputs.append(
+                {
+                    "name": fit.name,
+                    "unit": unit,
+                    "equation": "4-1" if unit == "µm" else "4-2",
+                    "coefficients": conv(fit.coefficients).tolist(),
+                    "u": conv(fit.standard_uncertainties).tolist(),
+                    "r_squared": fit.r_squared,
+                    "validation_max_relative_error": fit.validation_max_relative_error,
+                    "validation_max_abs_error": None
+                    if fit.validation_max_abs_error is None
+                    else float(conv(fit.validation_max_abs_error)),
+                }
+            )
+        return {
+            "kind": "repeatability-model",
+            "version": 1,
+            "factors": [
+                {
+                    "name": n,
+                    "unit": u,
+                    "low": float(from_internal(lo, u)),
+                    "high": float(from_internal(hi, u)),
+                }
+                for n, u, lo, hi in zip(
+                    FACTORS, FACTOR_UNITS, self.factor_low, self.factor_high, strict=True
+                )
+            ],
+            "normalisation": "z = 2 (factor - low) / (high - low) - 1",
+            "n_fit": self.n_fit,
+            "n_validation": self.n_validation,
+            "outputs": outputs,
+        }
+
+
+def _to_micrometres(x):
+    return from_internal(np.asarray(x, float), "µm")
+
+
+def _to_square_micrometres(x):
+    return from_internal(from_internal(np.asarray(x, float), "µm"), "µm")
+
+
+def _check_levels(factors: np.ndarray) -> None:
+    for k, name in enumerate(FACTORS):
+        need = max(_STD_DEGREES[k], _COV_DEGREES[k]) + 1
+        levels = np.unique(factors[:, k]).size
+        if levels < need:
+            raise InputError(
+                f"pose factor {name} takes {levels} distinct values on the fitted targets; "
+                f"the degree-{need - 1} terms of eq. 4-2 need at least {need}"
+            )
+
+
+def fit_repeatability_model(
+    stats: TargetStatistics,
+    *,
+    holdout: float = 0.15,
+    seed: SeedLike = 0,
+    factor_ranges: tuple[np.ndarray, np.ndarray] | None = None,
+) -> RepeatabilityModel:
+    """Fit the standard-deviation (eq. 4-1) and covariance (eq. 4-2) models.
+
+    Parameters
+    ----------
+    stats : TargetStatistics
+        Per-target statistics (one row per pose).
+    holdout : float, default 0.15
+        Fraction of the targets held out (drawn at random with ``seed``) to report
+        validation errors; 0 fits on all.
+    seed : int or numpy.random.Generator
+        For the held-out draw.
+    factor_ranges : ((7,), (7,)) arrays, optional
+        Low and high of each factor (rad, mm) for the normalisation; the targets' range
+        by default. A pose outside it is refused (or warned about) at prediction.
+
+    Returns
+    -------
+    RepeatabilityModel
+
+    Raises
+    ------
+    InputError
+        Fewer than 37 fitting targets, a factor with too few distinct values, a target
+        outside ``factor_ranges`` or a holdout outside [0, 1).
+
+    Notes
+    -----
+    Separable polynomials without cross terms on z = 2(P − low)/(high − low) − 1
+    (Sepahi Boroujeni (2021), eqs. 4-1 and 4-2)::
+
+        σ   = α0 + α1 φ + β1 φ² + α2 θ + β2 θ² + γ2 θ³ + δ2 θ⁴
+              + Σ_{P ∈ X_T, Y_T, Z_T, B, C} (α P + β P² + γ P³)          22 coefficients
+        cov = α0 + Σ_{P ∈ all seven} (α P + β P² + γ P³ + δ P⁴ + ε P⁵)    36 coefficients
+
+    each fitted by ordinary least squares (the library's Gauss–Newton core, one step on
+    a linear model). Normalising keeps the Vandermonde columns of order one (θ⁵ in
+    degrees would be 6·10¹²).
+
+    Examples
+    --------
+    See ``mtm repeatability fit --help`` for the records file.
+    """
+    if not (0.0 <= holdout < 1.0):
+        raise InputError(f"holdout: must be in [0, 1), got {holdout}")
+    n = len(stats)
+    n_val = round(holdout * n)
+    p_max = _design(np.zeros((1, 7)), _COV_DEGREES).shape[1]
+    if n - n_val <= p_max:
+        raise InputError(
+            f"{n} targets ({n_val} held out): the covariance model (eq. 4-2) needs more than "
+            f"{p_max} fitting targets; probe more poses or lower the holdout"
+        )
+    rng = as_generator(seed)
+    val = np.zeros(n, bool)
+    val[rng.choice(n, n_val, replace=False)] = True
+    _check_levels(stats.factors[~val])
+    if factor_ranges is None:
+        low, high = stats.factors.min(axis=0), stats.factors.max(axis=0)
+    else:
+        low, high = (np.asarray(r, float) for r in factor_ranges)
+    empty = RepeatabilityModel(low, high, (), n - n_val, n_val)
+    z = empty.normalise(stats.factors)
+    measured = np.hstack([stats.std, stats.cov])
+    fits = []
+    for j, name in enumerate(STD_OUTPUTS + COVARIANCE_OUTPUTS):
+        degrees = _STD_DEGREES if name in STD_OUTPUTS else _COV_DEGREES
+        fits.append(_fit_output(name, _design(z, degrees), measured[:, j], val))
+    return RepeatabilityModel(low, high, tuple(fits), n - n_val, n_val)
+
+
+def _fit_output(name: str, a: np.ndarray, y: np.ndarray, val: np.ndarray) -> OutputFit:
+    a_fit, y_fit = a[~val], y[~val]
+    m, p = a_fit.shape
+    res = least_squares(lambda c: (a_fit @ c - y_fit, a_fit), np.zeros(p), require_full_rank=True)
+    rss = 2.0 * res.cost
+    s2 = rss / (m - p)
+    tss = float(np.sum((y_fit - y_fit.mean()) ** 2))
+    r2 = 1.0 - rss / tss if tss > 0 else 1.0
+    rel = absolute = None
+    if val.any():
+        pred = a[val] @ res.x
+        if name in STD_OUTPUTS:
+            pred = np.maximum(pred, 0.0)
+        diff = np.abs(pred - y[val])
+        absolute = float(diff.max())
+        nonzero = y[val] != 0
+        rel = float(np.max(diff[nonzero] / np.abs(y[val][nonzero]))) if nonzero.any() else None
+    u = np.sqrt(s2 * np.diag(res.covariance()))
+    return OutputFit(name, res.x, u, float(r2), rel, absolute)
+
+
+def factors_from_file_units(
+    phi: np.ndarray, theta: np.ndarray, b: np.ndarray, c: np.ndarray, x, y, z
+) -> np.ndarray:
+    """(m, 7) internal factors from deg (φ, θ, B, C) and mm (X_T, Y_T, Z_T)."""
+    return np.column_stack(
+        [
+            to_internal(np.asarray(v, float), u)
+            for v, u in zip((phi, theta, b, c, x, y, z), FACTOR_UNITS, strict=True)
+        ]
+    )
