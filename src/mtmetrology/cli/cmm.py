@@ -15,7 +15,13 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from mtmetrology.cli._common import print_json, user_errors
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    print_json,
+    user_errors,
+    write_report,
+)
 from mtmetrology.cmm.budget import ballplate_budget, load_budget
 from mtmetrology.cmm.calibrate import calibrate_ballplate, cross_validate
 from mtmetrology.cmm.files import load_plate, load_positions, load_probes, read_records
@@ -67,6 +73,27 @@ def _positive(value: float, name: str) -> float:
     return value
 
 
+def _report(ctx: typer.Context, title: str, inputs: list[Path], machine: str | None = None):
+    """A report with the command line and the input files (and the machine) as provenance.
+
+    Built before the JSON result is written, so that a failing renderer leaves nothing.
+    """
+    from mtmetrology.report import Report
+
+    provenance: dict = {"inputs": inputs}
+    if machine is not None:
+        provenance["machine"] = machine
+    return Report(title, command=command_line(ctx), provenance=provenance)
+
+
+def _add_result(report, result, **context) -> None:
+    """Append ``result`` to ``report`` with the CMM renderers registered."""
+    import mtmetrology.cmm.report  # noqa: F401  (registers the CMM renderers)
+    from mtmetrology.report.results import add_result as add
+
+    add(report, result, **context)
+
+
 def _inputs(records: Path, plate: Path, probes: Path):
     pl, pr = load_plate(plate), load_probes(probes)
     return read_records(records, pl, pr), pl, pr
@@ -106,6 +133,7 @@ def read_error_model(path: Path, machine: Machine):
 
 @user_errors
 def calibrate_ballplate_cmd(
+    ctx: typer.Context,
     records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
     machine: MachineOpt,
     plate: PlateOpt,
@@ -130,6 +158,7 @@ def calibrate_ballplate_cmd(
     sigma_um: SigmaOpt = 0.5,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the U2/U3 sample points.")] = 0,
     json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+    report_path: ReportOption = None,
 ) -> None:
     """Identify a CMM's error functions from ball-plate records (kinematic model).
 
@@ -155,7 +184,15 @@ def calibrate_ballplate_cmd(
         choice = parse_model(model, degrees)
     cal = calibrate_ballplate(m, rec, pl, pr, model=choice, sigma=sigma, seed=seed)
     doc = cal.to_document(selection)
+    report = None
+    if report_path is not None:
+        report = _report(
+            ctx, f"Ball-plate calibration: {records.name}", [records, plate, probes], machine
+        )
+        _add_result(report, cal, model_selection=selection)
     write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
     if json_out:
         print_json(doc)
     u = cal.summary
@@ -180,14 +217,22 @@ def calibrate_ballplate_cmd(
 
 @user_errors
 def budget_cmd(
+    ctx: typer.Context,
     budget: Annotated[Path, typer.Argument(help="Budget inputs (kind: ballplate-budget).")],
     output: OutOpt,
     json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+    report_path: ReportOption = None,
 ) -> None:
     """Uncertainty budget of a ball-plate length (15 items, Edlén refractive index, GUF)."""
     res = ballplate_budget(load_budget(budget))
     doc = {"kind": "ballplate-budget-result", "version": 1, **res.to_dict()}
+    report = None
+    if report_path is not None:
+        report = _report(ctx, f"Ball-plate length budget: {budget.name}", [budget])
+        _add_result(report, res)
     write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
     if json_out:
         print_json(doc)
     o = doc["outputs"][0]
@@ -249,6 +294,7 @@ def simulate_ballplate_cmd(
 @gp_app.command("fit")
 @user_errors
 def gp_fit(
+    ctx: typer.Context,
     records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
     machine: MachineOpt,
     plate: PlateOpt,
@@ -260,6 +306,7 @@ def gp_fit(
     kernel: Annotated[str, typer.Option("--kernel", help="rbf (squared exp.) or matern.")] = "rbf",
     sigma_um: SigmaOpt = 0.5,
     seed: Annotated[int, typer.Option("--seed", help="Optimiser random state.")] = 0,
+    report_path: ReportOption = None,
 ) -> None:
     """Fit a GP per error component (ML hyper-parameters), alternating with plate poses."""
     sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
@@ -280,7 +327,13 @@ def gp_fit(
         seed=seed,
     )
     doc = gp.to_document()
+    report = None
+    if report_path is not None:
+        report = _report(ctx, f"GP error model: {records.name}", [records, plate, probes], machine)
+        _add_result(report, gp)
     write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
     parts = ", ".join(
         f"{c['component']}: ℓ {c['length_scale_mm']:.0f} mm, s {c['amplitude_um']:.2g} µm, "
         f"noise {c['noise_um']:.2g} µm"
