@@ -17,9 +17,8 @@ import pytest
 import yaml
 from chromium import Chromium, find_chromium
 
-from mtmetrology.cmm.files import BallPlate, PositionSet, ProbeSet
+from mtmetrology.cmm.files import BallPlate, PositionSet, ProbeSet, write_records
 from mtmetrology.cmm.simulate import simulate_ballplate
-from mtmetrology.io.files import write_csv_table
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.samba import SambaSetup, probing_sequence
@@ -136,13 +135,7 @@ def _ballplate_inputs(d: Path) -> dict:
         machine, theta, BallPlate.model_validate(plate), positions,
         ProbeSet.model_validate(probes), sigma=0.0005, seed=3,
     )  # fmt: skip
-    r = campaign.records
-    write_csv_table(
-        d / "ballplate.csv",
-        ["position", "ball", "probe", "X", "Y", "Z"],
-        ([p, b, s, *(f"{v:.6f}" for v in q)]
-         for p, b, s, q in zip(r.positions, r.balls, r.probes, r.readings, strict=True)),
-    )  # fmt: skip
+    write_records(d / "ballplate.csv", campaign.records)
     return {
         "plate": d / "plate.yaml",
         "probes": d / "probes.yaml",

@@ -72,7 +72,9 @@ def test_every_figure_kind_renders(browser, artefacts, tmp_path):
     rep.figure(figures.error_map(grid_x, grid_y, np.hypot.outer(grid_y, grid_x) / 10))
     rep.figure(figures.singular_values([3.0, 1.2, 0.4, 0.05]))
     rep.figure(figures.convergence([[1.0, 1.8, 2.1, 2.2], [0.7, 1.9, 2.2]]))
-    check_page(browser, rep.write(tmp_path / "all.html"), 11, artefacts, "every-figure")
+    lengths = {"length_mm": [100.0, 200.0, 300.0], "error_um": [0.5, -2.5, 1.0], "u_um": [1, 1, 1]}
+    rep.figure(figures.length_errors({"kinematic": lengths, "GP": lengths}))
+    check_page(browser, rep.write(tmp_path / "all.html"), 12, artefacts, "every-figure")
 
 
 @pytest.mark.parametrize("command", sorted(COMMAND_FIGURES))

@@ -184,3 +184,16 @@ def test_model_comparison_renders_in_a_notebook():
     assert _figures(html) == 1
     assert _cells(html, "b")[-1] == "67 %"
     assert "b: 67 % within ±2u" in html  # the panel title, drawn as SVG text
+
+
+def test_gp_model_shows_in_a_notebook_what_its_report_shows(reports, command_reports):
+    """The GP model read back from its file renders the report's tables and figure."""
+    from mtmetrology.cmm.gp import GPErrorModel
+    from mtmetrology.kinematics import Machine
+
+    doc = json.loads(command_reports["gp-fit"][1].with_name("gp.json").read_text())
+    html = GPErrorModel.from_document(doc, Machine.load("cmm-moving-bridge"))._repr_html_()
+    _, page = reports["gp-fit"]
+    assert _figures(html) == _figures(page) == 1
+    for comp in ("x", "y", "z"):
+        assert _cells(html, comp) == _cells(page, comp)

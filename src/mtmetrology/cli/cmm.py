@@ -24,7 +24,13 @@ from mtmetrology.cli._common import (
 )
 from mtmetrology.cmm.budget import ballplate_budget, load_budget
 from mtmetrology.cmm.calibrate import calibrate_ballplate, cross_validate
-from mtmetrology.cmm.files import load_plate, load_positions, load_probes, read_records
+from mtmetrology.cmm.files import (
+    load_plate,
+    load_positions,
+    load_probes,
+    read_records,
+    write_records,
+)
 from mtmetrology.cmm.gp import KIND as GP_KIND
 from mtmetrology.cmm.gp import GPErrorModel, fit_gp
 from mtmetrology.cmm.models import parse_model
@@ -282,13 +288,8 @@ def simulate_ballplate_cmd(
         seed=seed,
         perturb_plate=not exact_plate,
     )
-    r = camp.records
-    rows = (
-        [p, b, s, *(f"{v:.6f}" for v in q)]
-        for p, b, s, q in zip(r.positions, r.balls, r.probes, r.readings, strict=True)
-    )
-    write_csv_table(output, ["position", "ball", "probe", "X", "Y", "Z"], rows)
-    typer.echo(f"wrote {len(r)} records to {output}", err=True)
+    write_records(output, camp.records)
+    typer.echo(f"wrote {len(camp.records)} records to {output}", err=True)
 
 
 @gp_app.command("fit")

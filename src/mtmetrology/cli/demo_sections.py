@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from mtmetrology.cli.demo import DemoContext, DemoSection
+from mtmetrology.cli.demo_cmm import cmm_section
 from mtmetrology.fitting.documents import fit_document
 from mtmetrology.fitting.least_squares import fit_sphere
 from mtmetrology.fitting.minimum_zone import sphericity
@@ -426,4 +427,5 @@ DEMO_SECTIONS: list[DemoSection] = [
     DemoSection("prediction", "Compensated coordinates", prediction_section),
     DemoSection("uncertainty", "GUM H.1: GUF and Monte Carlo", uncertainty_section),
     DemoSection("fitting", "Geometric elements", fitting_section),
+    DemoSection("cmm", "Bridge CMM: ball plate, kinematic and GP models", cmm_section),
 ]

@@ -40,7 +40,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from mtmetrology.io.documents import load_document
-from mtmetrology.io.files import InputFileError, read_csv_table
+from mtmetrology.io.files import InputFileError, read_csv_table, write_csv_table
 from mtmetrology.io.schema import describe_validation_error
 
 __all__ = [
@@ -55,6 +55,7 @@ __all__ = [
     "read_records",
     "rotation_matrix",
     "validate_records",
+    "write_records",
 ]
 
 #: Fewest balls per position: three non-collinear points fix a plate pose.
@@ -312,3 +313,21 @@ def read_records(
     if plate is not None and probes is not None:
         validate_records(rec, plate, probes, str(path))
     return rec
+
+
+#: Columns of a records CSV.
+RECORD_COLUMNS = ("position", "ball", "probe", "X", "Y", "Z")
+
+
+def write_records(path: str | Path, records: BallPlateRecords) -> None:
+    """Write records as ``position,ball,probe,X,Y,Z`` (mm, to 1 nm), atomically.
+
+    What :func:`read_records` reads back (readings rounded to 1 nm).
+    """
+    rows = (
+        [p, b, s, *(f"{v:.6f}" for v in q)]
+        for p, b, s, q in zip(
+            records.positions, records.balls, records.probes, records.readings, strict=True
+        )
+    )
+    write_csv_table(path, list(RECORD_COLUMNS), rows)
