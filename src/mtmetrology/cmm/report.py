@@ -74,8 +74,18 @@ def ball_residuals(cal) -> list[tuple[str, np.ndarray, np.ndarray, list[str]]]:
 def uncertainty_map(cal, plane: str, n: int = MAP_POINTS):
     """Standard uncertainty of the compensated point, ``sqrt(u_x² + u_y² + u_z²)`` in µm.
 
-    On a grid over the whole travel in ``plane`` (``"XY"``, ``"XZ"`` or ``"YZ"``), the
-    third axis at the middle of the measured region, with the probe of the U2/U3 summary.
+    On a grid over the whole travel in ``plane``, the third axis at the middle of the
+    measured region, with the probe of the U2/U3 summary; the covariance of each point is
+    ``J Σ_θ Jᵀ`` (:func:`~mtmetrology.cmm.calibrate.error_covariance`), the full
+    covariance of the error parameters, as for U2 and U3.
+
+    Parameters
+    ----------
+    cal : BallPlateCalibration
+    plane : {"XY", "XZ", "YZ"}
+        The two axes of the map.
+    n : int
+        Grid points per axis.
 
     Returns
     -------
