@@ -14,8 +14,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from chromium import Chromium, find_chromium
 
+from mtmetrology.cmm.files import BallPlate, PositionSet, ProbeSet, write_records
+from mtmetrology.cmm.simulate import simulate_ballplate
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.samba import SambaSetup, probing_sequence
@@ -55,7 +58,8 @@ def command_inputs(tmp_path_factory) -> dict[str, Path]:
         balls={"1": (-80, -40, 100), "2": (80, 120, 150)},
         scale_bar={"SB1": (-152.60525, 0, 30), "SB2": (152.60525, 0, 30)},
     )
-    pairs = [(b, c) for b in (-90, -45, 0, 45, 90) for c in range(0, 360, 60)]
+    # B within ±60°: at ±90° the scale-bar ends would need Z below its travel (-110 mm)
+    pairs = [(b, c) for b in (-60, -30, 0, 30, 60) for c in range(0, 360, 60)]
     ids, q = probing_sequence(m, setup, pairs)
     rows = zip(ids, m.readings_to_customary(q), strict=True)
     poses = d / "poses.csv"
@@ -73,6 +77,7 @@ def command_inputs(tmp_path_factory) -> dict[str, Path]:
     records = d / "records.csv"
     records.write_text("id,X,Y,Z,B,C\np1,-138.565,94.656,196.232,-42,-293\np2,10,20,30,15,40\n")
     return {
+        **_ballplate_inputs(d),
         "model": EXAMPLES / "gum-h1-end-gauge.yaml",
         "sphere": sphere,
         "poses": poses,
@@ -83,6 +88,64 @@ def command_inputs(tmp_path_factory) -> dict[str, Path]:
     }
 
 
+#: A small ball-plate campaign: 3 x 3 plate, four positions (horizontal, two vertical,
+#: tilted) probed with three styli; the errors of the seed model (µm, µrad).
+PLATE_POSITIONS = {
+    "H": ([330, 230, 150], [0, 0, 0]),
+    "VX": ([330, 500, 10], [90, 0, 0]),
+    "VY": ([600, 230, 10], [90, 0, 90]),
+    "T": ([330, 230, 120], [30, 0, 0]),
+}
+STYLI = {"P0": [0, 0, -150], "PX1": [50, 0, -150], "PY1": [0, 50, -150]}
+CMM_ERRORS = {"E_XX1": 6.0, "E_YY1": -4.0, "E_ZZ1": 3.0, "E_CX1": 8.0, "E_C0X": 10.0}
+BUDGET = {
+    "kind": "ballplate-budget", "length_mm": 532.0,
+    "observed": {"value_mm": 532.01797, "s_um": 2.0, "n": 6},
+    "verification_um": 1.0, "indication_resolution_um": 0.1, "probe_reproducibility_um": 0.5,
+    "air": {"temperature_C": 20.6, "pressure_Pa": 101325.0, "humidity_percent": 51.0},
+    "hygrometer_U_percent": 1.1, "humidity_resolution_percent": 1.0, "barometer_U_Pa": 20.0,
+    "pressure_resolution_Pa": 1.0, "air_thermometer_U_K": 0.02,
+    "air_thermometer_resolution_K": 0.01, "misalignment_um": 50.0, "part_temperature_C": 20.6,
+    "part_thermometer_U_K": 0.02, "temperature_spread_K": 0.5, "cte_per_K": 11.5e-6,
+    "cte_halfwidth_per_K": 1.0e-6,
+}  # fmt: skip
+
+
+def _ballplate_inputs(d: Path) -> dict:
+    """Plate, probe set, simulated records of a virtual bridge CMM, and a budget file."""
+    balls = [{"id": f"{3 * j + i:02d}", "x_mm": 266.0 * i, "y_mm": 266.0 * j, "z_mm": 0.0}
+             for j in range(3) for i in range(3)]  # fmt: skip
+    plate = {"kind": "ball-plate", "balls": balls, "u_mm": 0.0005}
+    probes = {"kind": "probe-set", "probes": [{"id": k, "offset_mm": v} for k, v in STYLI.items()]}
+    for name, doc in (("plate", plate), ("probes", probes), ("budget", BUDGET)):
+        (d / f"{name}.yaml").write_text(yaml.safe_dump(doc, allow_unicode=True), encoding="utf-8")
+    m = Machine.load("cmm-moving-bridge")
+    units = {"E_XX1": "µm", "E_YY1": "µm", "E_ZZ1": "µm", "E_CX1": "µrad", "E_C0X": "µrad"}
+    truth = {"kind": "parameter-set", "version": 1, "machine": m.name,
+             "parameters": [{"name": n, "value": v, "unit": units[n]}
+                            for n, v in CMM_ERRORS.items()]}  # fmt: skip
+    pset = ParameterSet.from_document(truth, m)
+    machine = pset.machine_for(m)
+    theta = pset.vector_for(machine)
+    positions = PositionSet(
+        kind="ballplate-positions",
+        positions=[{"id": k, "origin_mm": o, "rotation_deg": r, "probes": list(STYLI)}
+                   for k, (o, r) in PLATE_POSITIONS.items()],
+    )  # fmt: skip
+    campaign = simulate_ballplate(
+        machine, theta, BallPlate.model_validate(plate), positions,
+        ProbeSet.model_validate(probes), sigma=0.0005, seed=3,
+    )  # fmt: skip
+    write_records(d / "ballplate.csv", campaign.records)
+    return {
+        "plate": d / "plate.yaml",
+        "probes": d / "probes.yaml",
+        "ballplate": d / "ballplate.csv",
+        "budget": d / "budget.yaml",
+        "n_plate_positions": len(PLATE_POSITIONS),
+    }
+
+
 @pytest.fixture(scope="session")
 def report_commands(command_inputs):
     """``commands(out)``: one ``mtm`` argument list per command with ``--report`` into out."""
@@ -90,6 +153,8 @@ def report_commands(command_inputs):
 
 
 def _report_commands(inputs: dict, out: Path) -> dict[str, list[str]]:
+    CMM = ["--machine", "cmm-moving-bridge", "--plate", str(inputs["plate"]),
+           "--probes", str(inputs["probes"])]  # fmt: skip
     return {
         "uncertainty": ["uncertainty", "run", str(inputs["model"]), "--method", "both",
                         "--trials", "20000", "--seed", "4",
@@ -101,7 +166,34 @@ def _report_commands(inputs: dict, out: Path) -> dict[str, list[str]]:
         "predict": ["predict", "--machine", "five-axis-wcbxfzyst", "--params",
                     str(inputs["params"]), str(inputs["records"]), "-o", str(out / "xyz.csv"),
                     "--report", str(out / "predict.html")],
+        "ballplate": ["calibrate", "ballplate", str(inputs["ballplate"]), *CMM,
+                      "--model", "auto", "--candidates", "seed,full-1",
+                      "-o", str(out / "ballplate.json"), "--report", str(out / "ballplate.html")],
+        "ballplate-budget": ["calibrate", "ballplate-budget", str(inputs["budget"]),
+                             "-o", str(out / "budget.json"),
+                             "--report", str(out / "ballplate-budget.html")],
+        "gp-fit": ["gp", "fit", str(inputs["ballplate"]), *CMM, "-o", str(out / "gp.json"),
+                   "--report", str(out / "gp-fit.html")],
     }  # fmt: skip
+
+
+@pytest.fixture(scope="session")
+def command_reports(report_commands, tmp_path_factory):
+    """Every command run once with --report: ``{name: (result, report path)}``.
+
+    Shared by the structural checks and the browser checks, so each command (the ball-plate
+    report draws eight figures) runs once per session.
+    """
+    from typer.testing import CliRunner
+
+    from mtmetrology.cli import app
+
+    out = tmp_path_factory.mktemp("reports")
+    runner = CliRunner()
+    return {
+        name: (runner.invoke(app, args), out / f"{name}.html")
+        for name, args in report_commands(out).items()
+    }
 
 
 @pytest.fixture(scope="session")

@@ -11,13 +11,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from chromium import decode_png, ink_fraction
-from typer.testing import CliRunner
 
-from mtmetrology.cli import app
 from mtmetrology.report import Report, figures
 
 #: Figures each command's report holds (see test_report_cli.py).
-COMMAND_FIGURES = {"uncertainty": 2, "fit": 2, "identifiability": 1, "predict": 1}
+COMMAND_FIGURES = {
+    "uncertainty": 2,
+    "fit": 2,
+    "identifiability": 1,
+    "predict": 1,
+    # correlation, singular values, one residual map per plate position (4), uncertainty map
+    "ballplate": 7,
+    "ballplate-budget": 1,
+    "gp-fit": 1,
+}
 
 
 def check_page(browser, page, expected_figures: int, artefacts, name: str) -> None:
@@ -65,14 +72,15 @@ def test_every_figure_kind_renders(browser, artefacts, tmp_path):
     rep.figure(figures.error_map(grid_x, grid_y, np.hypot.outer(grid_y, grid_x) / 10))
     rep.figure(figures.singular_values([3.0, 1.2, 0.4, 0.05]))
     rep.figure(figures.convergence([[1.0, 1.8, 2.1, 2.2], [0.7, 1.9, 2.2]]))
-    check_page(browser, rep.write(tmp_path / "all.html"), 11, artefacts, "every-figure")
+    lengths = {"length_mm": [100.0, 200.0, 300.0], "error_um": [0.5, -2.5, 1.0], "u_um": [1, 1, 1]}
+    rep.figure(figures.length_errors({"kinematic": lengths, "GP": lengths}))
+    check_page(browser, rep.write(tmp_path / "all.html"), 12, artefacts, "every-figure")
 
 
 @pytest.mark.parametrize("command", sorted(COMMAND_FIGURES))
-def test_command_report_in_the_browser(browser, artefacts, report_commands, tmp_path, command):
-    result = CliRunner().invoke(app, report_commands(tmp_path)[command])
+def test_command_report_in_the_browser(browser, artefacts, command_reports, command):
+    result, page = command_reports[command]
     assert result.exit_code == 0, result.output
-    page = tmp_path / f"{command}.html"
     check_page(browser, page, COMMAND_FIGURES[command], artefacts, f"mtm-{command}")
 
 

@@ -26,14 +26,12 @@ def _cell_after(page: str, label: str) -> str:
 
 
 @pytest.fixture(scope="module")
-def reports(report_commands, tmp_path_factory):
+def reports(command_reports):
     """Every command run once with --report: {name: (result, page)}."""
-    out = tmp_path_factory.mktemp("reports")
     done = {}
-    for name, args in report_commands(out).items():
-        result = runner.invoke(app, args)
+    for name, (result, path) in command_reports.items():
         assert result.exit_code == 0, f"{name}: {result.output}"
-        done[name] = result, (out / f"{name}.html").read_text(encoding="utf-8")
+        done[name] = result, path.read_text(encoding="utf-8")
     return done
 
 
@@ -91,3 +89,111 @@ def test_unwritable_report_path_is_one_line_and_exit_2(command_inputs, tmp_path)
     )
     assert result.exit_code == 2
     assert result.stderr.startswith("error: ") and len(result.stderr.splitlines()) == 1
+
+
+# -- CMM ----------------------------------------------------------------------------------
+def _cells(page: str, label: str) -> list[str]:
+    """The cells of the table row whose first cell is ``label``."""
+    row = re.search(rf"<tr><td>{re.escape(label)}</td>(.*?)</tr>", page, re.S).group(1)
+    return re.findall(r"<td[^>]*>(.*?)</td>", row)
+
+
+def test_ballplate_report_shows_parameters_datum_residuals_and_selection(
+    reports, command_reports, command_inputs
+):
+    """Every figure (correlation, singular values, one residual map per position, the
+    uncertainty map), a parameter row per identified parameter, U1–U3 as in the JSON
+    result, the scores of --model auto with the model the JSON says was chosen."""
+    _, page = reports["ballplate"]
+    doc = json.loads(command_reports["ballplate"][1].with_suffix(".json").read_text())
+    n_positions = command_inputs["n_plate_positions"]
+    assert _figures(page) == 3 + n_positions
+    assert (
+        len(re.findall(r"<figcaption>Figure \d+\. Plate position \w+: residuals", page))
+        == n_positions
+    )
+    for p in doc["parameters"]:
+        assert re.search(rf"<tr><td>{re.escape(p['name'])}</td>", page), p["name"]
+    assert int(_cell_after(page, "rank")) == int(_cell_after(page, "unknowns"))
+    assert int(_cell_after(page, "unknowns")) == doc["fit"]["n_unknowns"]
+    for row, key in (("U1: ball centres", "U1_um"), ("U3: whole volume", "U3_um")):
+        shown = [float(v) for v in _cells(page, row)]
+        assert shown == pytest.approx(doc["uncertainty"][key], rel=5e-3)
+    chosen = doc["model_selection"]["chosen"]
+    assert re.search(rf"<h2[^>]*>Model selection: {re.escape(chosen)}</h2>", page)
+    for score in doc["model_selection"]["scores"]:
+        name = score["model"] + (" (chosen)" if score["model"] == chosen else "")
+        assert float(_cells(page, name)[0]) == pytest.approx(score["mean_rms_um"], rel=5e-3)
+    assert re.search(r"<h2[^>]*>Datum</h2>", page)
+
+
+def test_gp_fit_report_hyperparameters_and_training_residuals(reports, command_reports):
+    _, page = reports["gp-fit"]
+    doc = json.loads(command_reports["gp-fit"][1].with_name("gp.json").read_text())
+    assert _figures(page) == 1  # the training residual vectors
+    for comp in doc["components"]:
+        cells = _cells(page, comp["component"])  # first table with that label: hyper-parameters
+        assert float(cells[2]) == pytest.approx(comp["noise_um"], rel=5e-3)
+    # the residuals of a GP that fitted its noise are of the size of that noise
+    for comp in doc["components"]:
+        rows = re.findall(rf"<tr><td>{comp['component']}</td>(.*?)</tr>", page, re.S)
+        rms_residual = float(re.findall(r"<td[^>]*>(.*?)</td>", rows[1])[1])
+        assert 0.5 * comp["noise_um"] < rms_residual < 1.5 * comp["noise_um"]
+
+
+def test_ballplate_budget_report_has_its_bars(reports, command_reports):
+    _, page = reports["ballplate-budget"]
+    doc = json.loads(command_reports["ballplate-budget"][1].with_name("budget.json").read_text())
+    assert _figures(page) == 1  # the budget bars of l_x
+    assert re.search(r"<h2[^>]*>Uncertainty budget of l_x</h2>", page)
+    items = [b["input"] for b in doc["budget"]["l_x"]]
+    assert len(items) == 14  # 15 items; item 5 (refractive index) enters through 6–11
+    for item in items:
+        assert re.search(rf"<tr><td>{re.escape(item)}</td>", page), item
+
+
+def test_ballplate_bad_probe_writes_neither_result_nor_report(command_inputs, tmp_path):
+    bad = tmp_path / "bad.csv"
+    lines = command_inputs["ballplate"].read_text().splitlines()
+    lines[1] = lines[1].replace(",P0,", ",P9,").replace(",PX1,", ",P9,").replace(",PY1,", ",P9,")
+    bad.write_text("\n".join(lines) + "\n")
+    out, rep = tmp_path / "r.json", tmp_path / "r.html"
+    args = ["calibrate", "ballplate", str(bad), "--machine", "cmm-moving-bridge", "--plate",
+            str(command_inputs["plate"]), "--probes", str(command_inputs["probes"]),
+            "-o", str(out), "--report", str(rep)]  # fmt: skip
+    result = runner.invoke(app, args)
+    assert result.exit_code == 2 and not out.exists() and not rep.exists()
+    assert result.stderr.startswith("error: ") and len(result.stderr.splitlines()) == 1
+
+
+def test_model_comparison_renders_in_a_notebook():
+    """``_repr_html_`` of a comparison: its table and the length-error figure; coverage as
+    counted from the plot data (2 of 3 lengths of model b within ±2u)."""
+    from mtmetrology.cmm.compare import ModelComparison
+
+    plot = {
+        "a": {"length_mm": [100.0, 200.0, 300.0], "error_um": [0.1, -0.2, 0.3], "u_um": [1, 1, 1]},
+        "b": {"length_mm": [100.0, 200.0, 300.0], "error_um": [0.5, 3.0, -1.0], "u_um": [1, 1, 1]},
+    }
+    table = [
+        {"model": m, "n_lengths": 3, "rms_error_um": 1.0, "max_error_um": 1.0, "mean_u_um": 1.0,
+         "coverage": c, "coverage_factor": 2.0}
+        for m, c in (("a", 1.0), ("b", 2 / 3))
+    ]  # fmt: skip
+    html = ModelComparison(table, plot)._repr_html_()
+    assert _figures(html) == 1
+    assert _cells(html, "b")[-1] == "67 %"
+    assert "b: 67 % within ±2u" in html  # the panel title, drawn as SVG text
+
+
+def test_gp_model_shows_in_a_notebook_what_its_report_shows(reports, command_reports):
+    """The GP model read back from its file renders the report's tables and figure."""
+    from mtmetrology.cmm.gp import GPErrorModel
+    from mtmetrology.kinematics import Machine
+
+    doc = json.loads(command_reports["gp-fit"][1].with_name("gp.json").read_text())
+    html = GPErrorModel.from_document(doc, Machine.load("cmm-moving-bridge"))._repr_html_()
+    _, page = reports["gp-fit"]
+    assert _figures(html) == _figures(page) == 1
+    for comp in ("x", "y", "z"):
+        assert _cells(html, comp) == _cells(page, comp)

@@ -35,6 +35,13 @@ def test_demo_writes_inputs_results_and_report(demo_run):
         "prediction/gauge-xyz.csv",
         "uncertainty/gum-h1.yaml",
         "fitting/sphere.csv",
+        "cmm/plate.yaml",
+        "cmm/probes.yaml",
+        "cmm/positions.yaml",
+        "cmm/truth.yaml",
+        "cmm/records.csv",
+        "cmm/calibration.json",
+        "cmm/gp.json",
         "report.html",
         MARKER,
     ):
@@ -47,6 +54,30 @@ def test_demo_writes_inputs_results_and_report(demo_run):
     (guf_out,) = result["guf"]["outputs"]
     assert round(guf_out["u"]) == 32  # GUM H.1.6: u_c(l) = 32 nm
     assert not [p for p in out.parent.iterdir() if p.name.startswith(".")]  # no work folder
+
+
+def test_demo_cmm_section_compensates_the_held_out_position(demo_run):
+    """On the held-out diagonal, both models cut the rms length error of the virtual CMM
+    (about 3.2 µm) by more than half (the noise floor of a length is 0.5 µm · √2), and the
+    report shows the calibration, the comparison plot and the GP."""
+    out, stdout = demo_run
+    comparison = json.loads((out / "cmm" / "comparison.json").read_text(encoding="utf-8"))
+    rows = {r["model"].split()[0]: r for r in comparison["table"]}
+    assert set(rows) == {"uncompensated", "kinematic", "GP"}
+    for model in ("kinematic", "GP"):
+        assert rows[model]["rms_error_um"] < 0.5 * rows["uncompensated"]["rms_error_um"]
+        assert rows[model]["n_lengths"] == rows["uncompensated"]["n_lengths"] == 3 * 36
+    calibration = json.loads((out / "cmm" / "calibration.json").read_text(encoding="utf-8"))
+    assert calibration["kind"] == "ballplate-calibration"
+    assert calibration["fit"]["rank"] == calibration["fit"]["n_unknowns"]
+    page = (out / "report.html").read_text(encoding="utf-8")
+    for heading in (
+        "A bridge CMM calibrated on a ball plate",
+        "Kinematic and GP models on a held-out plate position",
+        "Training residuals",
+    ):
+        assert re.search(rf"<h2[^>]*>{heading}</h2>", page), heading
+    assert any(line.startswith("- CMM ball plate:") for line in stdout.splitlines())
 
 
 def test_demo_ends_with_the_report_path(demo_run):

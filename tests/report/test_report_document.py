@@ -116,6 +116,7 @@ def test_provenance_records_command_inputs_versions_and_date(tmp_path):
 
 def test_write_is_atomic_and_leaves_no_temporary_file(tmp_path):
     rep = Report("written").section("s", "text")
+    (tmp_path / "sub").mkdir()
     target = rep.write(tmp_path / "sub" / "r.html")
     assert target.read_text(encoding="utf-8") == rep.html()
     assert [p.name for p in target.parent.iterdir()] == ["r.html"]

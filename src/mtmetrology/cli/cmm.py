@@ -15,17 +15,29 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from mtmetrology.cli._common import print_json, user_errors
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    print_json,
+    user_errors,
+    write_report,
+)
 from mtmetrology.cmm.budget import ballplate_budget, load_budget
 from mtmetrology.cmm.calibrate import calibrate_ballplate, cross_validate
-from mtmetrology.cmm.files import load_plate, load_positions, load_probes, read_records
+from mtmetrology.cmm.files import (
+    load_plate,
+    load_positions,
+    load_probes,
+    read_records,
+    write_records,
+)
 from mtmetrology.cmm.gp import KIND as GP_KIND
 from mtmetrology.cmm.gp import GPErrorModel, fit_gp
 from mtmetrology.cmm.models import parse_model
 from mtmetrology.cmm.simulate import simulate_ballplate
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError, atomic_write, check_output, write_json
-from mtmetrology.io.tables import Table, read_csv_table, write_columns, write_csv_table
+from mtmetrology.io.tables import Table, read_csv_table, write_columns
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.units import from_internal, to_internal
@@ -68,6 +80,27 @@ def _positive(value: float, name: str) -> float:
     return value
 
 
+def _report(ctx: typer.Context, title: str, inputs: list[Path], machine: str | None = None):
+    """A report with the command line and the input files (and the machine) as provenance.
+
+    Built before the JSON result is written, so that a failing renderer leaves nothing.
+    """
+    from mtmetrology.report import Report
+
+    provenance: dict = {"inputs": inputs}
+    if machine is not None:
+        provenance["machine"] = machine
+    return Report(title, command=command_line(ctx), provenance=provenance)
+
+
+def _add_result(report, result, **context) -> None:
+    """Append ``result`` to ``report`` with the CMM renderers registered."""
+    import mtmetrology.cmm.report  # noqa: F401  (registers the CMM renderers)
+    from mtmetrology.report.results import add_result as add
+
+    add(report, result, **context)
+
+
 def _inputs(records: Path, plate: Path, probes: Path):
     pl, pr = load_plate(plate), load_probes(probes)
     return read_records(records, pl, pr), pl, pr
@@ -107,6 +140,7 @@ def read_error_model(path: Path, machine: Machine):
 
 @user_errors
 def calibrate_ballplate_cmd(
+    ctx: typer.Context,
     records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
     machine: MachineOpt,
     plate: PlateOpt,
@@ -131,6 +165,7 @@ def calibrate_ballplate_cmd(
     sigma_um: SigmaOpt = 0.5,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the U2/U3 sample points.")] = 0,
     json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+    report_path: ReportOption = None,
 ) -> None:
     """Identify a CMM's error functions from ball-plate records (kinematic model).
 
@@ -156,7 +191,15 @@ def calibrate_ballplate_cmd(
         choice = parse_model(model, degrees)
     cal = calibrate_ballplate(m, rec, pl, pr, model=choice, sigma=sigma, seed=seed)
     doc = cal.to_document(selection)
+    report = None
+    if report_path is not None:
+        report = _report(
+            ctx, f"Ball-plate calibration: {records.name}", [records, plate, probes], machine
+        )
+        _add_result(report, cal, model_selection=selection)
     write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
     if json_out:
         print_json(doc)
     u = cal.summary
@@ -181,14 +224,22 @@ def calibrate_ballplate_cmd(
 
 @user_errors
 def budget_cmd(
+    ctx: typer.Context,
     budget: Annotated[Path, typer.Argument(help="Budget inputs (kind: ballplate-budget).")],
     output: OutOpt,
     json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+    report_path: ReportOption = None,
 ) -> None:
     """Uncertainty budget of a ball-plate length (15 items, Edlén refractive index, GUF)."""
     res = ballplate_budget(load_budget(budget))
     doc = {"kind": "ballplate-budget-result", "version": 1, **res.to_dict()}
+    report = None
+    if report_path is not None:
+        report = _report(ctx, f"Ball-plate length budget: {budget.name}", [budget])
+        _add_result(report, res)
     write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
     if json_out:
         print_json(doc)
     o = doc["outputs"][0]
@@ -238,18 +289,14 @@ def simulate_ballplate_cmd(
         seed=seed,
         perturb_plate=not exact_plate,
     )
-    r = camp.records
-    rows = (
-        [p, b, s, *(f"{v:.6f}" for v in q)]
-        for p, b, s, q in zip(r.positions, r.balls, r.probes, r.readings, strict=True)
-    )
-    write_csv_table(output, ["position", "ball", "probe", "X", "Y", "Z"], rows)
-    typer.echo(f"wrote {len(r)} records to {output}", err=True)
+    write_records(output, camp.records)
+    typer.echo(f"wrote {len(camp.records)} records to {output}", err=True)
 
 
 @gp_app.command("fit")
 @user_errors
 def gp_fit(
+    ctx: typer.Context,
     records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
     machine: MachineOpt,
     plate: PlateOpt,
@@ -261,6 +308,7 @@ def gp_fit(
     kernel: Annotated[str, typer.Option("--kernel", help="rbf (squared exp.) or matern.")] = "rbf",
     sigma_um: SigmaOpt = 0.5,
     seed: Annotated[int, typer.Option("--seed", help="Optimiser random state.")] = 0,
+    report_path: ReportOption = None,
 ) -> None:
     """Fit a GP per error component (ML hyper-parameters), alternating with plate poses."""
     sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
@@ -281,7 +329,13 @@ def gp_fit(
         seed=seed,
     )
     doc = gp.to_document()
+    report = None
+    if report_path is not None:
+        report = _report(ctx, f"GP error model: {records.name}", [records, plate, probes], machine)
+        _add_result(report, gp)
     write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
     parts = ", ".join(
         f"{c['component']}: ℓ {c['length_scale_mm']:.0f} mm, s {c['amplitude_um']:.2g} µm, "
         f"noise {c['noise_um']:.2g} µm"

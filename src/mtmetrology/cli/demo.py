@@ -1,4 +1,4 @@
-"""``mtm demo``: the engines end to end on the built-in five-axis machine, no input files.
+"""``mtm demo``: the engines end to end on built-in virtual machines, no input files.
 
 The demo runs a sequence of sections (:data:`mtmetrology.cli.demo_sections.DEMO_SECTIONS`).
 Each section makes its input files, computes its results with the library, writes them
@@ -148,10 +148,11 @@ def demo(
     ),
     seed: Annotated[int, typer.Option(help="Root seed of every simulation.")] = DEFAULT_SEED,
 ) -> None:
-    """Run the engines end to end on the built-in five-axis machine and write a report.
+    """Run the engines end to end on built-in virtual machines and write a report.
 
     Simulated SAMBA set-up and calibration, compensated coordinates, GUM H.1 by GUF and
-    adaptive Monte Carlo, a sphere fit: input files, JSON results, report.html, and the
+    adaptive Monte Carlo, a sphere fit, a bridge CMM calibrated on a ball plate and
+    compared with a GP error model: input files, JSON results, report.html, and the
     commands that redo each step.
     """
     from mtmetrology.cli._common import command_line

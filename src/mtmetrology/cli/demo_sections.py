@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from mtmetrology.cli.demo import DemoContext, DemoSection
+from mtmetrology.cli.demo_cmm import cmm_section
 from mtmetrology.fitting.documents import fit_document
 from mtmetrology.fitting.least_squares import fit_sphere
 from mtmetrology.fitting.minimum_zone import sphericity
@@ -47,7 +48,7 @@ SETUP = SambaSetup(
         "1": (-80.0, -40.0, 100.0),
         "2": (80.0, -40.0, 150.0),
         "3": (80.0, 120.0, 75.0),
-        "4": (-80.0, 120.0, 175.0),
+        "4": (-80.0, 120.0, 125.0),
     },
     scale_bar={"SB1": (-152.60525, 0.0, 30.0), "SB2": (152.60525, 0.0, 30.0)},
 )
@@ -62,7 +63,8 @@ balls:
 scale_bar: {ends: [SB1, SB2], length_mm: 305.2105, u_mm: 0.0012}
 stylus_tip_diameter_mm: 5.925
 """
-GRID = [(b, c) for b in (-90, -45, 0, 45, 90) for c in range(0, 360, 60)]
+# B within ±45°: beyond it the scale-bar and corner balls leave the X and Z travel.
+GRID = [(b, c) for b in (-45, -20, 0, 20, 45) for c in range(0, 360, 60)]
 PROBING_SIGMA_UM = 1.0
 BAR_U_MM = 0.0012
 
@@ -426,4 +428,5 @@ DEMO_SECTIONS: list[DemoSection] = [
     DemoSection("prediction", "Compensated coordinates", prediction_section),
     DemoSection("uncertainty", "GUM H.1: GUF and Monte Carlo", uncertainty_section),
     DemoSection("fitting", "Geometric elements", fitting_section),
+    DemoSection("cmm", "Bridge CMM: ball plate, kinematic and GP models", cmm_section),
 ]

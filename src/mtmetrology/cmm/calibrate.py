@@ -71,6 +71,7 @@ from mtmetrology.cmm.models import (
     machine_for_model,
     parse_model,
 )
+from mtmetrology.cmm.notebook import CMMNotebookRepr
 from mtmetrology.cmm.problem import BallPlateProblem, kabsch
 from mtmetrology.errors import RankDeficientError
 from mtmetrology.identification.diagnostics import analyse_identifiability
@@ -118,7 +119,7 @@ def error_covariance(machine: Machine, theta, covariance, readings, tools) -> np
 
 
 @dataclass(frozen=True, eq=False)
-class BallPlateCalibration:
+class BallPlateCalibration(CMMNotebookRepr):
     """Result of :func:`calibrate_ballplate`.
 
     Attributes

@@ -29,6 +29,7 @@ import numpy as np
 from mtmetrology.cmm.calibrate import calibrate_ballplate
 from mtmetrology.cmm.files import BallPlate, ProbeSet
 from mtmetrology.cmm.gp import fit_gp
+from mtmetrology.cmm.notebook import CMMNotebookRepr
 from mtmetrology.cmm.simulate import SimulatedCampaign
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.units import from_internal
@@ -73,7 +74,7 @@ def length_errors(points, true_points, cov_xyz, sigma):
 
 
 @dataclass(frozen=True)
-class ModelComparison:
+class ModelComparison(CMMNotebookRepr):
     """Table and plot data of :func:`compare_models`.
 
     Attributes

@@ -42,7 +42,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError
 from mtmetrology.io.schema import describe_validation_error
-from mtmetrology.io.tables import read_csv_table
+from mtmetrology.io.tables import read_csv_table, write_csv_table
 
 __all__ = [
     "BallPlate",
@@ -56,6 +56,7 @@ __all__ = [
     "read_records",
     "rotation_matrix",
     "validate_records",
+    "write_records",
 ]
 
 #: Fewest balls per position: three non-collinear points fix a plate pose.
@@ -313,3 +314,21 @@ def read_records(
     if plate is not None and probes is not None:
         validate_records(rec, plate, probes, str(path))
     return rec
+
+
+#: Columns of a records CSV.
+RECORD_COLUMNS = ("position", "ball", "probe", "X", "Y", "Z")
+
+
+def write_records(path: str | Path, records: BallPlateRecords) -> None:
+    """Write records as ``position,ball,probe,X,Y,Z`` (mm, to 1 nm), atomically.
+
+    What :func:`read_records` reads back (readings rounded to 1 nm).
+    """
+    rows = (
+        [p, b, s, *(f"{v:.6f}" for v in q)]
+        for p, b, s, q in zip(
+            records.positions, records.balls, records.probes, records.readings, strict=True
+        )
+    )
+    write_csv_table(path, list(RECORD_COLUMNS), rows)

@@ -52,6 +52,7 @@ from threadpoolctl import threadpool_limits
 
 from mtmetrology.cmm.calibrate import calibrate_ballplate
 from mtmetrology.cmm.files import BallPlate, BallPlateRecords, ProbeSet
+from mtmetrology.cmm.notebook import CMMNotebookRepr
 from mtmetrology.cmm.problem import kabsch, skew
 from mtmetrology.errors import InputError
 from mtmetrology.io.files import InputFileError
@@ -83,7 +84,7 @@ def _fit(gpr: GaussianProcessRegressor, x: np.ndarray, y: np.ndarray):
 
 
 @dataclass(frozen=True, eq=False)
-class GPErrorModel:
+class GPErrorModel(CMMNotebookRepr):
     """A fitted GP error model (see the module notes).
 
     Attributes

@@ -33,6 +33,7 @@ __all__ = [
     "coverage_ellipses",
     "error_map",
     "histogram_vs_normal",
+    "length_errors",
     "parameter_table_columns",
     "parameter_table_rows",
     "point_deviations",
@@ -655,4 +656,58 @@ def convergence(
     ax.grid(True, alpha=0.3)
     if labels is not None or len(curves) > 1:
         ax.legend(fontsize=8)
+    return fig
+
+
+def length_errors(
+    models,
+    *,
+    coverage_factor: float = 2.0,
+    unit: str = "µm",
+    title: str | None = None,
+) -> Figure:
+    """Length errors of several error models against length, with their ±k·u bands.
+
+    One panel per model, sharing the error axis: each length is a point (its error) with
+    a bar of ±k u (the model's predicted standard uncertainty of that length); a point
+    outside its bar is a length the model's uncertainty does not cover. The fraction
+    covered is printed in the panel's title.
+
+    Parameters
+    ----------
+    models : mapping of str to mapping
+        ``{model: {"length_mm": (n,), "error_um": (n,), "u_um": (n,)}}``: reference
+        length (mm), error of the measured length and its standard uncertainty (in
+        ``unit``), as the ``plot`` of :class:`mtmetrology.cmm.compare.ModelComparison`.
+    coverage_factor : float
+        k of the bars.
+
+    Examples
+    --------
+    >>> fig = length_errors({"a": {"length_mm": [100, 200], "error_um": [1.0, -3.0],
+    ...                            "u_um": [1.0, 1.0]}})
+    >>> fig.axes[0].get_title()
+    'a: 50 % within ±2u'
+    """
+    names = list(models)
+    if not names:
+        raise ValueError("length_errors needs at least one model")
+    fig = _figure(3.4 * len(names) + 0.6, 3.6)
+    axes = fig.subplots(1, len(names), sharey=True, squeeze=False)[0]
+    for ax, name in zip(axes, names, strict=True):
+        d = models[name]
+        length, err, u = (np.asarray(d[k], dtype=float) for k in ("length_mm", "error_um", "u_um"))
+        if not (length.shape == err.shape == u.shape and length.ndim == 1):
+            raise ValueError(f"{name}: length_mm, error_um and u_um must be 1-D of one length")
+        inside = np.abs(err) <= coverage_factor * u
+        ax.errorbar(length, err, yerr=coverage_factor * u, fmt="none", ecolor=_GREY, elinewidth=0.8)
+        ax.plot(length[inside], err[inside], "o", color=_BLUE, ms=3)
+        ax.plot(length[~inside], err[~inside], "o", color=_RED, ms=3)
+        ax.axhline(0.0, color="black", lw=0.6)
+        share = 100.0 * float(np.mean(inside)) if inside.size else 0.0
+        ax.set_title(f"{name}: {share:.0f} % within ±{coverage_factor:g}u", fontsize=9)
+        ax.set_xlabel("length (mm)")
+        ax.grid(True, alpha=0.3)
+    axes[0].set_ylabel(_label("length error", unit))
+    fig.suptitle(title or "Length errors and ±k·u of each model", fontsize=10)
     return fig

@@ -1,0 +1,23 @@
+"""``_repr_html_`` for the CMM result objects (their report fragment in Jupyter).
+
+The renderers of the CMM results live in :mod:`mtmetrology.cmm.report`, which imports
+matplotlib; this mixin loads that module only when a notebook first displays a result, so
+that importing :mod:`mtmetrology.cmm` stays free of the plotting stack.
+"""
+
+from __future__ import annotations
+
+from mtmetrology.report.notebook import NotebookRepr
+
+__all__ = ["CMMNotebookRepr"]
+
+
+class CMMNotebookRepr(NotebookRepr):
+    """:class:`~mtmetrology.report.notebook.NotebookRepr` that registers the CMM renderers."""
+
+    __slots__ = ()
+
+    def _repr_html_(self) -> str:
+        import mtmetrology.cmm.report  # noqa: F401  (registers the renderers)
+
+        return super()._repr_html_()

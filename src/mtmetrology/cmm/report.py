@@ -1,0 +1,308 @@
+"""What a report shows for the CMM results (registered with the report layer's ``@renders``).
+
+- :class:`~mtmetrology.cmm.calibrate.BallPlateCalibration`: the fit, the parameter table
+  with u and U, their correlation, the datum, the rank diagnostics, the residual vectors
+  of the ball centres in each plate position, U1/U2/U3 and maps of the model uncertainty
+  over the volume, and (``model_selection=``) the leave-one-position-out scores;
+- :class:`~mtmetrology.cmm.gp.GPErrorModel`: hyper-parameters per component and the
+  training residuals;
+- :class:`~mtmetrology.cmm.compare.ModelComparison`: the held-out table and the length
+  errors of each model with their ±2u bars.
+
+The ball-plate budget is a :class:`~mtmetrology.uncertainty.GUFResult`, shown by the
+report layer's own renderer (budget bars).
+
+Values are in customary units (µm, µrad, µm/m); U = k u with k = 2.
+
+References
+----------
+Salacheep, P. (2016). *Error Compensation and Uncertainty Evaluation of CMMs Based on
+Kinematic Error Models and Gaussian Processes*. MPhil thesis, Brunel University London,
+§6.4 (U1, U2, U3), Ch. 7 (kinematic versus GP).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mtmetrology.report import figures
+from mtmetrology.report.document import Report
+from mtmetrology.report.results import add_result, renders
+from mtmetrology.units import from_internal
+
+__all__ = ["COVERAGE_FACTOR", "ball_residuals", "uncertainty_map"]
+
+#: k of the expanded uncertainties shown.
+COVERAGE_FACTOR = 2.0
+#: Correlation maps of the error parameters are drawn up to this many parameters.
+MAX_MAPPED = 80
+#: Grid of the uncertainty maps (points per axis).
+MAP_POINTS = 13
+
+
+def ball_residuals(cal) -> list[tuple[str, np.ndarray, np.ndarray, list[str]]]:
+    """Residual vectors of the ball centres, per plate position.
+
+    Parameters
+    ----------
+    cal : BallPlateCalibration
+
+    Returns
+    -------
+    list of (position, centres (m, 3) mm, residuals (m, 3) µm, ball ids)
+        For each position, the fitted machine-frame ball centres ``T_l(y_i)`` and the
+        indication residual ``p(q; θ̂, t) − T_l(y_i)`` averaged over the styli that
+        probed the ball.
+    """
+    prob, res = cal.problem, cal.identification
+    n = len(prob.readings)
+    _, poses, balls = prob.split(res.estimate)
+    centres = prob.plate_points(poses, balls)
+    r = from_internal(prob.sigma * res.residuals[: 3 * n].reshape(n, 3), "µm")
+    positions = np.asarray(prob.records.positions)
+    ball_ids = np.asarray(prob.records.balls)
+    out = []
+    for pid in prob.position_ids:
+        sel = positions == pid
+        ids = list(dict.fromkeys(ball_ids[sel]))
+        pts = np.array([centres[sel & (ball_ids == b)].mean(axis=0) for b in ids])
+        mean = np.array([r[sel & (ball_ids == b)].mean(axis=0) for b in ids])
+        out.append((pid, pts, mean, ids))
+    return out
+
+
+def uncertainty_map(cal, plane: str, n: int = MAP_POINTS):
+    """Standard uncertainty of the compensated point, ``sqrt(u_x² + u_y² + u_z²)`` in µm.
+
+    On a grid over the whole travel in ``plane``, the third axis at the middle of the
+    measured region, with the probe of the U2/U3 summary; the covariance of each point is
+    ``J Σ_θ Jᵀ`` (:func:`~mtmetrology.cmm.calibrate.error_covariance`), the full
+    covariance of the error parameters, as for U2 and U3.
+
+    Parameters
+    ----------
+    cal : BallPlateCalibration
+    plane : {"XY", "XZ", "YZ"}
+        The two axes of the map.
+    n : int
+        Grid points per axis.
+
+    Returns
+    -------
+    a, b : (n,) mm
+        Grid coordinates along the plane's two axes.
+    u : (n, n) µm
+        Indexed ``[b, a]``.
+    """
+    from mtmetrology.cmm.calibrate import error_covariance
+
+    summary, m = cal.summary, cal.machine
+    i, j = ("XYZ".index(plane[0]), "XYZ".index(plane[1]))
+    k = 3 - i - j
+    volume = np.asarray(summary["volume_mm"], dtype=float)  # [[lo x, y, z], [hi x, y, z]]
+    region = np.asarray(summary["region_mm"], dtype=float)
+    a = np.linspace(volume[0, i], volume[1, i], n)
+    b = np.linspace(volume[0, j], volume[1, j], n)
+    q = np.zeros((n * n, 3))
+    q[:, i] = np.tile(a, n)
+    q[:, j] = np.repeat(b, n)
+    q[:, k] = 0.5 * (region[0, k] + region[1, k])
+    cov = error_covariance(
+        m, cal.theta, cal.parameters.covariance, q, np.asarray(summary["probe_offset_mm"])
+    )
+    u = np.sqrt(np.clip(np.trace(cov, axis1=1, axis2=2), 0.0, None))
+    return a, b, from_internal(u, "µm").reshape(n, n)
+
+
+def _correlation(covariance) -> np.ndarray:
+    u = np.sqrt(np.diag(covariance))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.nan_to_num(covariance / np.outer(u, u))
+
+
+@renders("mtmetrology.cmm.calibrate.BallPlateCalibration", "Ball-plate calibration of a CMM")
+def _calibration(rep: Report, cal, *, model_selection: dict | None = None, **_) -> None:
+    """``model_selection``: the scores of ``cross_validate`` (``--model auto``)."""
+    doc = cal.to_document(model_selection)
+    fit = doc["fit"]
+    rep.section(
+        f"Ball-plate calibration: model {cal.model}",
+        cal.identification.message,
+    )
+    rep.table(
+        ["quantity", "value"],
+        [
+            ["status", fit["status"]],
+            ["iterations", fit["iterations"]],
+            ["indications", fit["n_indications"]],
+            ["plate positions", ", ".join(fit["positions"])],
+            ["unknowns", fit["n_unknowns"]],
+            ["rank", fit["rank"]],
+            ["condition number (columns scaled)", f"{fit['condition_scaled']:.4g}"],
+            ["σ of a reading (µm)", fit["sigma_um"]],
+            ["rms residual (µm)", f"{fit['rms_residual_um']:.3g}"],
+            ["variance factor", "—" if fit["variance_factor"] is None else fit["variance_factor"]],
+            ["χ² p-value", "—" if fit["chi2_p_value"] is None else f"{fit['chi2_p_value']:.3g}"],
+        ],
+    )
+    if model_selection is not None:
+        _model_selection(rep, model_selection)
+    pset = cal.parameters
+    rep.section("Error parameters", f"{len(pset.names)} parameters of model {cal.model}")
+    rep.table(
+        figures.parameter_table_columns(COVERAGE_FACTOR),
+        figures.parameter_table_rows(pset, coverage_factor=COVERAGE_FACTOR),
+    )
+    if pset.covariance is not None and 1 < len(pset.names) <= MAX_MAPPED:
+        rep.figure(
+            figures.correlation_heatmap(pset.names, _correlation(pset.covariance)),
+            caption="Correlation of the identified error parameters (plate poses and ball "
+            "centres marginalised).",
+        )
+    datum = doc["datum"]
+    rep.section("Datum", datum["rule"])
+    rep.table(
+        ["term left out", "a combination of (with the plate poses)"],
+        [[d["name"], ", ".join(d["combination_of"]) or "the plate poses"] for d in datum["dropped"]]
+        or [["—", "no term left out"]],
+    )
+    add_result(rep, cal.identification.diagnostics)
+    rep.section(
+        "Residual vectors of the ball centres",
+        "Indication minus fitted plate point, averaged over the styli, for each plate "
+        "position (machine frame).",
+    )
+    for pid, pts, r, ids in ball_residuals(cal):
+        rep.figure(
+            figures.residual_vectors(pts, r, unit="µm", labels=ids, title=f"Position {pid}"),
+            caption=f"Plate position {pid}: residuals of the {len(ids)} ball centres.",
+        )
+    _uncertainty(rep, cal)
+
+
+def _model_selection(rep: Report, selection: dict) -> None:
+    rep.section(
+        f"Model selection: {selection['chosen']}",
+        f"{selection['method']}; the candidate with the lowest mean held-out RMS is chosen. "
+        "A candidate that is rank deficient without some position has no score.",
+    )
+    scores = selection["scores"]
+    n_folds = max((len(s["rms_um"]) for s in scores if s["rms_um"] is not None), default=0)
+    rows = []
+    for s in scores:
+        folds = s["rms_um"] or []
+        mean = s["mean_rms_um"]
+        rows.append(
+            [
+                s["model"] + (" (chosen)" if s["model"] == selection["chosen"] else ""),
+                "rank deficient" if mean is None else f"{mean:.3g}",
+                *([f"{v:.3g}" for v in folds] + ["—"] * (n_folds - len(folds))),
+            ]
+        )
+    rep.table(
+        ["model", "mean RMS (µm)", *[f"fold {i + 1}" for i in range(n_folds)]],
+        rows,
+        caption="RMS of the held-out indications after compensation and a rigid fit, µm",
+    )
+
+
+def _uncertainty(rep: Report, cal) -> None:
+    s = cal.summary
+    rep.section(
+        "Uncertainty of the compensated coordinates: U1, U2, U3",
+        f"Mean standard uncertainty per axis at the ball centres (U1), over the measured "
+        f"region (U2) and over the whole volume (U3), from the {s['method']}; U2 and U3 "
+        f"are averages over {s['n_points']} random points.",
+    )
+    rep.table(
+        ["quantity", "x (µm)", "y (µm)", "z (µm)"],
+        [
+            ["U1: ball centres", *(f"{v:.3g}" for v in s["U1_um"])],
+            ["U2: measured region", *(f"{v:.3g}" for v in s["U2_um"])],
+            ["U3: whole volume", *(f"{v:.3g}" for v in s["U3_um"])],
+        ],
+    )
+    region = np.round(np.asarray(s["region_mm"]), 1).tolist()
+    a, b, u = uncertainty_map(cal, "XY")
+    rep.figure(
+        figures.error_map(
+            a, b, u, name="u of the compensated point", title="Model uncertainty over the XY travel"
+        ),
+        caption=f"sqrt(u_x² + u_y² + u_z²) over the XY travel, Z at the middle of the measured "
+        f"region {region[0]} to {region[1]} mm: U2 inside that region, U3 beyond it.",
+    )
+
+
+@renders("mtmetrology.cmm.gp.GPErrorModel", "Gaussian-process error model of a CMM")
+def _gp(rep: Report, gp, **_) -> None:
+    doc = gp.to_document()
+    mean = "zero mean" if gp.mean is None else f"kinematic mean ({gp.mean.model})"
+    rep.section(
+        f"Gaussian-process error model ({gp.kernel} kernel, {mean})",
+        f"One GP per error component on the axis readings, hyper-parameters by maximum "
+        f"likelihood; {len(gp.inputs)} training indications.",
+    )
+    rep.table(
+        ["component", "amplitude s (µm)", "length-scale ℓ (mm)", "noise σ (µm)", "log ML"],
+        [
+            [
+                c["component"],
+                f"{c['amplitude_um']:.3g}",
+                f"{c['length_scale_mm']:.4g}",
+                f"{c['noise_um']:.3g}",
+                f"{c['log_marginal_likelihood']:.4g}",
+            ]
+            for c in doc["components"]
+        ],
+    )
+    fitted = np.column_stack([g.predict(gp.inputs) for g in gp.regressors])
+    resid = gp.targets_um - fitted
+    rep.section(
+        "Training residuals",
+        "Errors seen at the training indications minus the GP mean there (µm): of the "
+        "size of the fitted noise σ when the GP neither under- nor over-fits.",
+    )
+    rep.table(
+        ["component", "rms of the errors (µm)", "rms residual (µm)", "largest |residual| (µm)"],
+        [
+            [
+                c,
+                f"{np.sqrt(np.mean(gp.targets_um[:, k] ** 2)):.3g}",
+                f"{np.sqrt(np.mean(resid[:, k] ** 2)):.3g}",
+                f"{np.max(np.abs(resid[:, k])):.3g}",
+            ]
+            for k, c in enumerate("xyz")
+        ],
+    )
+    rep.figure(
+        figures.residual_vectors(gp.inputs, resid, unit="µm", title="GP training residuals"),
+        caption="Training residuals at the axis readings of the indications.",
+    )
+
+
+@renders("mtmetrology.cmm.compare.ModelComparison", "Kinematic versus GP error model")
+def _comparison(rep: Report, comp, **_) -> None:
+    k = comp.table[0]["coverage_factor"] if comp.table else COVERAGE_FACTOR
+    rep.section(
+        "Kinematic and GP models on a held-out plate position",
+        "Lengths between the balls of a position neither model saw, against the true "
+        f"lengths; coverage is the fraction of lengths with |error| ≤ {k:g} u.",
+    )
+    rep.table(
+        ["model", "lengths", "rms error (µm)", "max |error| (µm)", "mean u (µm)", "coverage"],
+        [
+            [
+                r["model"],
+                r["n_lengths"],
+                f"{r['rms_error_um']:.3g}",
+                f"{r['max_error_um']:.3g}",
+                f"{r['mean_u_um']:.3g}",
+                f"{100 * r['coverage']:.0f} %",
+            ]
+            for r in comp.table
+        ],
+    )
+    rep.figure(
+        figures.length_errors(comp.plot, coverage_factor=k),
+        caption=f"Length error of each model with its ±{k:g}u bar; red points are not covered.",
+    )
