@@ -10,14 +10,16 @@ Convention (docs/contributing.md): in every page under ``docs/``,
   ``error:`` means the command must fail with exit code 2 and an ``error:`` line on
   stderr.
 
-Each page runs in a fresh temporary folder, its blocks in order; every other command
-must exit with code 0.
+Each page runs in a fresh temporary folder, holding a copy of the repository's
+``examples/`` folder (input files a tutorial may name as ``examples/...``), its blocks in
+order; every other command must exit with code 0.
 """
 
 from __future__ import annotations
 
 import re
 import shlex
+import shutil
 from pathlib import Path, PurePosixPath
 
 import pytest
@@ -25,7 +27,9 @@ from typer.testing import CliRunner
 
 from mtmetrology.cli import app
 
-DOCS = Path(__file__).resolve().parents[2] / "docs"
+ROOT = Path(__file__).resolve().parents[2]
+DOCS = ROOT / "docs"
+EXAMPLES = ROOT / "examples"
 FENCE = re.compile(r"^```([\w-]*)([^\n]*)\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
 TITLE = re.compile(r'title="([^"]+)"')
 
@@ -65,6 +69,7 @@ def pages_with_commands() -> list[Path]:
 
 @pytest.mark.parametrize("page", pages_with_commands(), ids=lambda p: str(p.relative_to(DOCS)))
 def test_page_commands_run(page: Path, tmp_path: Path, monkeypatch) -> None:
+    shutil.copytree(EXAMPLES, tmp_path / "examples")
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("COLUMNS", "100")
     runner = CliRunner()
