@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 
 __all__ = ["SambaSetup", "probing_sequence"]
@@ -80,7 +81,7 @@ def probing_sequence(
     readings : ndarray, shape (n, n_axes), internal units
     """
     if not {"B", "C"} <= set(machine.axis_names):
-        raise ValueError(f"{machine.name}: a SAMBA sequence needs rotary axes B and C")
+        raise InputError(f"{machine.name}: a SAMBA sequence needs rotary axes B and C")
     items: list[tuple[str, np.ndarray, float, float, float]] = []
     first = setup.spindle_ball or next(iter(setup.balls))
     for bid, c in setup.balls.items():
