@@ -75,6 +75,14 @@ def test_a_seed_sequence_root_gives_the_same_streams_on_every_call():
     expected = np.random.Generator(np.random.PCG64(np.random.SeedSequence(99).spawn(2)[1]))
     np.testing.assert_array_equal(first, expected.random(3))
     np.testing.assert_array_equal(second, first)
+    # the pool size of the root is kept
+    wide = np.random.SeedSequence(99, pool_size=8)
+    np.testing.assert_array_equal(
+        chunk_generators(wide, 2)[1].random(3),
+        np.random.Generator(
+            np.random.PCG64(np.random.SeedSequence(99, pool_size=8).spawn(2)[1])
+        ).random(3),
+    )
     # a child sequence (non-empty spawn key) roots its own streams
     child = np.random.SeedSequence(99).spawn(3)[2]
     grandchild = np.random.SeedSequence(99).spawn(3)[2].spawn(2)[1]

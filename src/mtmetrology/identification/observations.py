@@ -3,11 +3,12 @@
 A probing of ball i at axis readings q gives a *ball-centre indication*: the readings
 that put the stylus centre at the ball centre.  With machine errors θ, tool-vector
 correction Δt and the (unknown, uncalibrated) ball centre d_i in the workpiece frame,
-the residual is (seed 000 eqs 5-1…5-3, seed 004 eq. 5.2)::
+the residual is (Sepahi Boroujeni (2021), eqs 5-1…5-3; Alami Mchichi (2018), eq. 5.2)::
 
     r_k = p(q_k; θ, t0 + Δt) − d_i(k)                 3 rows per indication
 
-and a calibrated scale bar between balls a and b adds (seed 000 §3.4, seed 004 §3.6)::
+and a calibrated scale bar between balls a and b adds (Sepahi Boroujeni (2021), Ch. 5;
+Alami Mchichi (2018), Ch. 5)::
 
     r_L = ‖d_a − d_b‖ − L                              1 row per bar
 
@@ -175,7 +176,7 @@ class BallCentreProblem:
 
     def initial(self, params: np.ndarray | None = None) -> np.ndarray:
         """Starting point: given (or zero) errors, each ball at the mean of its nominal
-        predicted positions (seed 000 §3.4), zero tool correction."""
+        predicted positions (Sepahi Boroujeni (2021), Ch. 5), zero tool correction."""
         theta = np.zeros(self.n_params) if params is None else np.asarray(params, dtype=float)
         pos = self.machine.forward(self.readings, theta, senses=self.senses)
         centres = np.zeros((self.n_balls, 3))

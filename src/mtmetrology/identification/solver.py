@@ -4,7 +4,7 @@ Any problem object exposing ``names``, ``n_rows`` and ``evaluate(x, jacobian=Tru
 J)`` (weighted residuals and their Jacobian), optionally ``initial()`` and
 ``residual_rounding``, is solved by the project's least-squares core
 (:func:`mtmetrology.optimize.least_squares`: Gauss–Newton with column scaling and a
-Levenberg–Marquardt safeguard; seed 004 §3.6, seed 000 eqs 5-4…5-6)::
+Levenberg–Marquardt safeguard; Alami Mchichi (2018), Ch. 5; Sepahi Boroujeni (2021), eqs 5-4…5-6)::
 
     J_s = J · D⁻¹,   D = diag(‖J_:,j‖)         (unit-norm columns)
     Δx  = −D⁻¹ · J_s⁺ r                          (least-squares step, SVD)
@@ -12,11 +12,11 @@ Levenberg–Marquardt safeguard; seed 004 §3.6, seed 000 eqs 5-4…5-6)::
 A rank-deficient Jacobian is refused with a :class:`~mtmetrology.errors.RankDeficientError`
 that names the unidentifiable combinations, unless the minimum-norm solution is asked
 for explicitly (then it is flagged in the result).  The covariance of the estimate is
-``(JᵀJ)⁻¹`` of the weighted problem (the weights carry the input uncertainties; seed 000
-eq. 5-6); the a-posteriori variance factor ``s² = ‖r‖²/(m − n)`` is reported beside it when
-the problem has redundancy (m > n).  The SVD of the last accepted iterate serves the step,
-the rank, the condition number, the observability indices and the covariance: it is
-computed once per accepted point, never again for the diagnostics.
+``(JᵀJ)⁻¹`` of the weighted problem (the weights carry the input uncertainties; Sepahi
+Boroujeni (2021), eq. 5-6); the a-posteriori variance factor ``s² = ‖r‖²/(m − n)`` is
+reported beside it when the problem has redundancy (m > n).  The SVD of the last accepted
+iterate serves the step, the rank, the condition number, the observability indices and the
+covariance: it is computed once per accepted point, never again for the diagnostics.
 
 References
 ----------
@@ -113,7 +113,8 @@ class IdentificationResult:
         """The machine's error parameters with their covariance (nuisance unknowns dropped).
 
         Dropping the ball and tool unknowns does not change the statistics of the
-        parameters (seed 000 §5: the 13 of 31 outputs keep their covariance block).
+        parameters (Sepahi Boroujeni (2021), Ch. 5: the 13 of 31 outputs keep their covariance
+        block).
         """
         missing = [n for n in machine.parameter_names if n not in self.names]
         if missing:

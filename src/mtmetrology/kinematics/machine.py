@@ -7,7 +7,7 @@ Examples
 >>> m.axis_names
 ('X', 'Y', 'Z', 'B', 'C', 'S')
 >>> q = m.readings_from_customary({"X": 10.0, "Y": 0.0, "Z": 0.0, "B": 90.0, "C": 0.0})
->>> np.round(m.forward(q), 9)      # R_z(C) R_y(B) (x, y, z), digest 000 §3.2.2
+>>> np.round(m.forward(q), 9)      # R_z(C) R_y(B) (x, y, z)
 array([  0.,   0., -10.])
 """
 
@@ -444,7 +444,8 @@ class Machine:
         readings are solved for.  The nominal chain is affine in the linear readings, so
         the first Newton step from any start is the nominal closed form; with errors the
         iteration converges quadratically (and in one step whenever the error model is
-        affine in the linear axes, e.g. the 13-parameter model of seed 000).
+        affine in the linear axes, e.g. the 13-parameter model of Sepahi Boroujeni (2021),
+        Table 5-1).
 
         Parameters
         ----------
@@ -456,7 +457,7 @@ class Machine:
             As in :meth:`evaluate`.
         snap : bool
             Round the linear readings to each axis's resolution afterwards
-            (seed 000 Ch. 9 recommendation).
+            (Sepahi Boroujeni (2021), Ch. 9 recommendation).
         tol : float
             Convergence tolerance on the position, mm.
 
