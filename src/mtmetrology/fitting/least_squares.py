@@ -25,6 +25,23 @@ It drops the terms ``Σ d_i ∂²d_i/∂β²`` and ``Σ d_i ∂²d_i/∂β∂P``
 a zero-residual fit and has a relative error of the order of (form error / element
 size) otherwise, the usual GUF linearisation.  The second term carries the dependence of
 the reported reference point (foot of the centroid) on the centroid.
+
+References
+----------
+A. B. Forbes, *Least-squares best-fit geometric elements*, NPL Report DITC 140/89,
+National Physical Laboratory, Teddington, 1989 (revised 1991).
+C. M. Shakarji, "Least-squares fitting algorithms of the NIST algorithm testing system",
+J. Res. Natl. Inst. Stand. Technol. 103 (1998) 633–641.
+A. Al-Sharadqah, N. Chernov, "Error analysis for circle fitting algorithms", Electron. J.
+Stat. 3 (2009) 886–911.
+ISO 10360-6:2001, *Geometrical Product Specifications (GPS) — Acceptance and reverification
+tests for coordinate measuring machines (CMM) — Part 6: Estimation of errors in computing
+Gaussian associated features*.
+Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine Tool
+Metrology*. PhD thesis, Polytechnique Montréal, Ch. 5 and 6.
+Mutilba, U., Gomez-Acedo, E., Sandá, A., Vega, I., Yagüe-Fabra, J. A. (2019). Uncertainty
+assessment for on-machine tool measurement: an alternative approach to the ISO 15530-3
+technical specification. IK4-Tekniker / Universidad de Zaragoza.
 """
 
 from __future__ import annotations
