@@ -198,3 +198,33 @@ def test_predict_with_backlash_needs_sense_columns(tmp_path):
     table = read_csv_table(out, required=["x", "y", "z"])
     up, down = np.column_stack([table.floats(k) for k in "xyz"])
     assert np.linalg.norm(up - down) > 1e-4  # 2 x 5 µrad over ~50 mm
+
+
+@pytest.mark.parametrize(
+    ("preset", "model"),
+    [
+        ("five-axis-wcbxfzyst", "13"),
+        ("five-axis-wcbxfzyst", "84"),
+        ("three-axis-xfyz", None),
+        ("cmm-moving-bridge", None),
+    ],
+)
+def test_show_states_each_parameters_convention(preset, model):
+    """Per parameter: name, unit, what a positive value does, where it is referred to
+    (the same fields the table prints), for every preset and model."""
+    args = ["machine", "show", preset, "--json"] + (["--model", model] if model else [])
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.output)
+    m = Machine.load(preset, model)
+    assert [p["name"] for p in doc["parameters"]] == list(m.parameter_names)
+    for p, unit in zip(doc["parameters"], m.parameter_units, strict=True):
+        assert p["unit"] == unit
+        assert f"+{p['name']}" in p["positive"]
+        if p["kind"] == "location":  # the axis line moves or turns in the machine frame
+            assert f"axis {p['axis']}" in p["positive"] and "machine frame" in p["positive"]
+        else:  # error motions: ISO 230-1, the tool relative to the workpiece
+            assert p["positive"].startswith(("the tool deviates by +", "the tool turns by +"))
+            assert p["positive"].count("relative to the workpiece") == 1
+        assert p["side"] in ("tool", "workpiece")
+        assert len(p["reference_point_mm"]) == 3 and p["reference"]
