@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mtmetrology.errors import RankDeficientError
+from mtmetrology.errors import InputError, RankDeficientError
 from mtmetrology.identification.diagnostics import IdentifiabilityReport, analyse_identifiability
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -120,7 +120,7 @@ class IdentificationResult:
         """
         missing = [n for n in machine.parameter_names if n not in self.names]
         if missing:
-            raise ValueError(f"the identification has no unknown {', '.join(missing)}")
+            raise InputError(f"the identification has no unknown {', '.join(missing)}")
         idx = [self.names.index(n) for n in machine.parameter_names]
         return ParameterSet(
             machine.parameter_names,
