@@ -39,9 +39,14 @@ def state(m: Machine, seed: int, n: int = 3, size: float = 50.0):
 SEEDS = st.integers(min_value=0, max_value=2**32 - 1)
 
 
-@pytest.mark.parametrize("key", PRESETS, ids=[f"{p}-{m}" for p, m in PRESETS])
-@settings(max_examples=8, deadline=None)
-@given(seed=SEEDS)
+def every_preset(test):
+    """Run a property test on every preset and model, over 8 random states each."""
+    test = given(seed=SEEDS)(test)
+    test = settings(max_examples=8, deadline=None)(test)
+    return pytest.mark.parametrize("key", PRESETS, ids=[f"{p}-{m}" for p, m in PRESETS])(test)
+
+
+@every_preset
 def test_parameter_jacobian_is_the_derivative(key, seed):
     m = MACHINES[key]
     q, theta, senses, tool = state(m, seed)
@@ -57,9 +62,7 @@ def test_parameter_jacobian_is_the_derivative(key, seed):
     assert np.abs(fd - jac).max() <= 1e-7 * scale
 
 
-@pytest.mark.parametrize("key", PRESETS, ids=[f"{p}-{m}" for p, m in PRESETS])
-@settings(max_examples=8, deadline=None)
-@given(seed=SEEDS)
+@every_preset
 def test_axis_jacobian_is_the_derivative(key, seed):
     m = MACHINES[key]
     q, theta, senses, tool = state(m, seed)
@@ -76,9 +79,7 @@ def test_axis_jacobian_is_the_derivative(key, seed):
         assert np.abs(fd - jac[..., k]).max() <= 1e-7 * max(np.abs(jac[..., k]).max(), 1.0)
 
 
-@pytest.mark.parametrize("key", PRESETS, ids=[f"{p}-{m}" for p, m in PRESETS])
-@settings(max_examples=8, deadline=None)
-@given(seed=SEEDS)
+@every_preset
 def test_evaluate_returns_what_forward_and_the_jacobians_return(key, seed):
     m = MACHINES[key]
     q, theta, senses, tool = state(m, seed)
@@ -93,9 +94,7 @@ def test_evaluate_returns_what_forward_and_the_jacobians_return(key, seed):
     np.testing.assert_allclose(moved, ev.position + ev.d_tool @ d, atol=1e-9)
 
 
-@pytest.mark.parametrize("key", PRESETS, ids=[f"{p}-{m}" for p, m in PRESETS])
-@settings(max_examples=5, deadline=None)
-@given(seed=SEEDS)
+@every_preset
 def test_inverse_undoes_forward(key, seed):
     """inverse(forward(q)) returns the linear readings that were used, with the same
     errors, senses and tool; rotary readings are held."""
