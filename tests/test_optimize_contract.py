@@ -230,3 +230,94 @@ def test_chord_counts_costs_and_start():
     assert np.all(res.nit >= 1) and res.nit.max() == len(calls) - 1
     one = chord_batch(residuals, x0, jac0, xtol=1e-12, max_iter=1)
     assert np.all(one.nit == 1) and np.all(one.status == Status.ITERATION_LIMIT)
+
+
+def line_normal_equations(y, t):
+    """Stacked normal equations of straight-line fits y_k ≈ a_k + b_k t (linear)."""
+    design = np.column_stack([np.ones_like(t), t])
+
+    def normal_equations(x, index):
+        r = x @ design.T - y[index]
+        a = np.broadcast_to(design.T @ design, (index.size, 2, 2)).copy()
+        return a, r @ design, np.einsum("km,km->k", r, r), t.size
+
+    return normal_equations
+
+
+def test_batch_with_a_singular_system_first_still_solves_the_others():
+    """The batched Cholesky fails on problem 0 (all-zero design); the others are solved
+    one by one and reach numpy's lstsq solution."""
+    t = np.linspace(0.0, 1.0, 6)
+    rng = np.random.default_rng(8)
+    y = rng.normal(size=(5, 6))
+    regular = line_normal_equations(y, t)
+
+    def normal_equations(x, index):
+        a, g, rr, m = regular(x, index)
+        a[index == 0] = 0.0
+        g[index == 0] = 0.0
+        return a, g, rr, m
+
+    res = least_squares_batch(normal_equations, np.zeros((5, 2)), xtol=1e-12)
+    assert res.status[0] == Status.NOT_FINITE
+    design = np.column_stack([np.ones_like(t), t])
+    for k in range(1, 5):
+        assert res.status[k] > 0
+        np.testing.assert_allclose(res.x[k], np.linalg.lstsq(design, y[k], rcond=None)[0])
+
+
+def test_batch_default_tolerance_on_exact_data():
+    """With the default xtol = 0, exact data stop every problem on the exact solution (a
+    zero step, or the rounding level), in a few iterations."""
+    t = np.linspace(0.0, 1.0, 8)
+    truth = np.array([[1.0, 2.0], [-3.0, 0.5], [0.25, -1.0]])
+    y = truth @ np.vstack([np.ones_like(t), t])
+    res = least_squares_batch(
+        line_normal_equations(y, t), np.zeros((3, 2)), residual_rounding=1e-15
+    )
+    assert res.success.all() and res.nit.max() < 10
+    np.testing.assert_allclose(res.x, truth, atol=1e-12)
+
+
+def test_batch_retraction_is_used_and_can_refuse_a_step():
+    """The retraction sees the problems' indices; a problem whose every trial is refused
+    keeps its start and ends at the damping limit, the others converge."""
+    t = np.linspace(0.0, 1.0, 6)
+    y = np.array([1.0 + 2.0 * t, 3.0 - t, 0.5 * t])
+    seen = []
+
+    def retract(x, steps, index):
+        seen.append(np.array(index))
+        return x + steps, [k != 1 for k in index]
+
+    x0 = np.zeros((3, 2))
+    res = least_squares_batch(line_normal_equations(y, t), x0, retract=retract, xtol=1e-12)
+    assert seen and all(s.dtype.kind == "i" for s in seen) and 1 in seen[0]
+    assert res.status[1] == Status.DAMPING_LIMIT
+    np.testing.assert_array_equal(res.x[1], [0.0, 0.0])
+    np.testing.assert_allclose(res.x[[0, 2]], [[1.0, 2.0], [0.0, 0.5]], atol=1e-12)
+
+
+def test_chord_default_tolerance_reaches_each_trials_solution():
+    """With the default xtol (1e-8 in units of the residuals) every trial moves from the
+    shared start to its own least-squares solution."""
+    t = np.linspace(0.0, 2.0, 15)
+    x_hat = np.array([3.0, -0.7])
+    y0 = 3.0 * np.exp(-0.7 * t)
+    jac0 = np.column_stack([np.exp(-0.7 * t), 3.0 * t * np.exp(-0.7 * t)])
+    ys = y0 + 1e-3 * np.random.default_rng(4).normal(size=(3, 15))
+
+    def residuals(x, index):
+        return x[:, :1] * np.exp(x[:, 1:] * t) - ys[index]
+
+    res = chord_batch(residuals, np.tile(x_hat, (3, 1)), jac0)
+    assert res.success.all()
+    for k in range(3):
+
+        def fun(x, k=k):
+            e = np.exp(x[1] * t)
+            return x[0] * e - ys[k], np.column_stack([e, x[0] * t * e])
+
+        exact = least_squares(fun, x_hat, xtol=1e-12).x
+        assert np.abs(res.x[k] - x_hat).max() > 1e-5  # it moved
+        np.testing.assert_allclose(res.x[k], exact, atol=1e-6)

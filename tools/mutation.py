@@ -156,7 +156,11 @@ def score(codes: dict[str, int | None], names: list[str] | None) -> dict:
     }
 
 
-def run_group(group: str, sample: int | None, seed: int, max_children: int, tree: Path) -> dict:
+def run_group(
+    group: str, sample: int | None, seed: int, max_children: int, tree: Path, rerun: bool = False
+) -> dict:
+    if rerun:
+        return rerun_survivors(group, max_children, tree)
     work = prepare(group, tree)
     if sample is None:
         _mutmut(work, [], max_children)
@@ -175,6 +179,37 @@ def run_group(group: str, sample: int | None, seed: int, max_children: int, tree
     return result
 
 
+def rerun_survivors(group: str, max_children: int, tree: Path) -> dict:
+    """Run only the survivors of the group's last run against today's tests.
+
+    Tests are only ever added, and the source must be unchanged (checked against the
+    mutant names), so a mutant killed before stays killed: the new score is the old kills
+    plus the new ones over the same mutants.
+    """
+    work = ROOT / "build" / "mutation" / group
+    previous = json.loads((work / "scores.json").read_text())
+    survivors = previous["survived"]
+    prepare(group, tree)
+    _mutmut(work, ["__nothing__"], max_children, check=False)
+    known = set(exit_codes(work))
+    if not set(survivors) <= known:
+        raise SystemExit(f"{group}: the sources changed since the last run; run it whole")
+    _mutmut(work, survivors, max_children)
+    codes = exit_codes(work)
+    still = sorted(k for k in survivors if not (codes[k] in KILLED or codes[k] in TIMEOUT))
+    killed = previous["killed"] + len(survivors) - len(still)
+    low, high = wilson(killed, previous["run"])
+    result = {
+        **previous,
+        "killed": killed,
+        "score": killed / previous["run"],
+        "interval_95": [low, high],
+        "survived": still,
+    }
+    (work / "scores.json").write_text(json.dumps(result, indent=1))
+    return result
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("groups", nargs="*", help=f"groups (default all): {', '.join(GROUPS)}")
@@ -182,6 +217,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0, help="seed of the sample")
     parser.add_argument("--max-children", type=int, default=2)
     parser.add_argument("--list", action="store_true", help="list the groups and exit")
+    parser.add_argument(
+        "--rerun-survivors",
+        action="store_true",
+        help="re-test only the survivors of the group's last run (after adding tests)",
+    )
     parser.add_argument(
         "--tree",
         type=Path,
@@ -197,7 +237,14 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         parser.error(f"unknown group(s) {', '.join(unknown)}; --list shows them")
     for group in args.groups or list(GROUPS):
-        r = run_group(group, args.sample, args.seed, args.max_children, args.tree.resolve())
+        r = run_group(
+            group,
+            args.sample,
+            args.seed,
+            args.max_children,
+            args.tree.resolve(),
+            args.rerun_survivors,
+        )
         low, high = r["interval_95"]
         kind = f"sample of {r['run']}" if r["sampled"] else f"all {r['run']}"
         print(
