@@ -321,3 +321,28 @@ def test_chord_default_tolerance_reaches_each_trials_solution():
         exact = least_squares(fun, x_hat, xtol=1e-12).x
         assert np.abs(res.x[k] - x_hat).max() > 1e-5  # it moved
         np.testing.assert_allclose(res.x[k], exact, atol=1e-6)
+
+
+def test_rank_and_condition_of_small_and_orthogonal_problems():
+    """One unknown: rank 1, condition 1.  Orthogonal unit columns (s_max = 1): full rank.
+    A full-rank problem passes the full-rank requirement."""
+    one = least_squares(lambda x: (np.array([x[0] - 2.0, x[0] + 1.0]), np.ones((2, 1))), [0.0])
+    assert one.rank == 1 and one.condition == 1.0 and one.success
+    assert one.x[0] == pytest.approx(0.5)
+    eye = least_squares(lambda x: (x - 1.0, np.eye(3)), np.zeros(3), require_full_rank=True)
+    assert eye.rank == 3 and eye.condition == pytest.approx(1.0) and eye.success
+    np.testing.assert_allclose(eye.x, 1.0)
+
+
+def test_a_non_finite_jacobian_is_caught_at_the_start_and_at_trials():
+    start = least_squares(lambda x: (x - 1.0, np.full((2, 2), np.nan)), np.zeros(2))
+    assert start.status == Status.NOT_FINITE and start.nit == 0
+
+    def fun(x):  # finite residuals everywhere, a Jacobian that fails away from the start
+        jac = np.eye(2) if np.all(x == 0.0) else np.full((2, 2), np.nan)
+        return x - 1.0, jac
+
+    res = least_squares(fun, np.zeros(2))
+    assert res.status == Status.DAMPING_LIMIT
+    np.testing.assert_array_equal(res.x, [0.0, 0.0])
+    np.testing.assert_array_equal(res.jacobian, np.eye(2))
