@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 # Material for MkDocs prints a banner about MkDocs 2.0 on every build; it is not a warning.
 export NO_MKDOCS_2_WARNING := 1
 
-.PHONY: demo test docs lint format bench fuzz clean
+.PHONY: demo test docs lint format bench fuzz mutation clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -44,6 +44,12 @@ fuzz: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e ".[test,bench]"
 	$(BIN)/python bench/run_all.py
+
+# Mutation testing on demand, not in CI (tests/MUTATION.md): `make mutation`, or
+# `make mutation GROUPS="units optimize" MUTATION_ARGS="--sample 300"`.
+mutation: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[test,mutation]"
+	nice -n 19 $(BIN)/python tools/mutation.py $(GROUPS) $(MUTATION_ARGS)
 
 clean:
 	rm -rf $(VENV) build dist site src/*.egg-info .pytest_cache .ruff_cache .hypothesis

@@ -250,6 +250,33 @@ def least_squares(
     See the module notes for the step and the stopping rules.  The returned point is the
     last accepted one, so ``residuals``, ``jacobian`` and the SVD all belong to ``x``; a
     converged step (below ``xtol`` or at the rounding level) is not applied.
+
+    References
+    ----------
+    D. W. Marquardt, "An algorithm for least-squares estimation of nonlinear parameters",
+    J. SIAM 11 (1963) 431–441.
+    J. J. Moré, "The Levenberg–Marquardt algorithm: implementation and theory", in Numerical
+    Analysis, Lecture Notes in Mathematics 630, Springer, 1978, 105–116.
+    NIST Statistical Reference Datasets, Nonlinear Regression, "Misra1a" (D. Misra, NIST,
+    1978; certified values computed in 128-bit arithmetic), lower difficulty.
+
+    Examples
+    --------
+    The NIST StRD problem Misra1a, ``y = b1·(1 − exp(−b2·x))``, from its first start
+    (500, 1e-4): the certified values are b1 = 2.3894212918E+02, b2 = 5.5015643181E-04 and
+    the residual sum of squares 1.2455138894E-01.
+
+    >>> import numpy as np
+    >>> x = np.array([77.6, 114.9, 141.1, 190.8, 239.9, 289.0, 332.8, 378.4, 434.8, 477.3,
+    ...               536.8, 593.1, 689.1, 760.0])
+    >>> y = np.array([10.07, 14.73, 17.94, 23.93, 29.61, 35.18, 40.02, 44.82, 50.76, 55.05,
+    ...               61.01, 66.40, 75.47, 81.78])
+    >>> def misra1a(b):
+    ...     e = np.exp(-b[1] * x)
+    ...     return b[0] * (1.0 - e) - y, np.column_stack([1.0 - e, b[0] * x * e])
+    >>> res = least_squares(misra1a, np.array([500.0, 1e-4]))
+    >>> Status(res.status).name, f"{res.x[0]:.8f}", f"{res.x[1]:.10e}", f"{2 * res.cost:.10e}"
+    ('STEP_TOLERANCE', '238.94212918', '5.5015643181e-04', '1.2455138894e-01')
     """
     move = retract if retract is not None else (lambda x, step: x + step)
     x = x0

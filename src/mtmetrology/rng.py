@@ -27,8 +27,18 @@ def as_generator(seed: SeedLike = None) -> np.random.Generator:
 def chunk_generators(seed: SeedLike, n_chunks: int) -> list[np.random.Generator]:
     """``n_chunks`` independent generators, the k-th depending only on (seed, k).
 
-    A Generator passed as ``seed`` is used to draw the root entropy, so a call with
-    the same Generator state is reproducible too.
+    The k-th stream is the one ``SeedSequence(seed).spawn(n)[k]`` gives for any
+    ``n > k``, built from (entropy, spawn key, k) rather than by ``spawn()``: spawning
+    is stateful, and a second call with the same SeedSequence object must give the same
+    streams.  A Generator passed as ``seed`` is used to draw the root entropy, so a call
+    with the same Generator state is reproducible too.
+
+    Examples
+    --------
+    >>> a = chunk_generators(2024, 2)[1].random()
+    >>> b = chunk_generators(2024, 8)[1].random()
+    >>> a == b
+    True
     """
     if isinstance(seed, np.random.Generator):
         root = np.random.SeedSequence(int(seed.integers(2**63)))
@@ -36,4 +46,13 @@ def chunk_generators(seed: SeedLike, n_chunks: int) -> list[np.random.Generator]
         root = seed
     else:
         root = np.random.SeedSequence(seed)
-    return [np.random.Generator(np.random.PCG64(s)) for s in root.spawn(n_chunks)]
+    return [
+        np.random.Generator(
+            np.random.PCG64(
+                np.random.SeedSequence(
+                    root.entropy, spawn_key=(*root.spawn_key, k), pool_size=root.pool_size
+                )
+            )
+        )
+        for k in range(n_chunks)
+    ]

@@ -35,7 +35,6 @@ __all__ = [
     "UnitError",
     "convert",
     "from_internal",
-    "internal_unit",
     "parse_unit",
     "to_internal",
 ]
@@ -95,15 +94,6 @@ _SIMPLE: dict[str, tuple[str, float]] = {
     "Pa": ("pressure", 1.0),
     "hPa": ("pressure", 100.0),
     "kPa": ("pressure", 1000.0),
-}
-
-_INTERNAL = {
-    "length": "mm",
-    "angle": "rad",
-    "ratio": "1",
-    "temperature": "°C",
-    "time": "s",
-    "pressure": "Pa",
 }
 
 
@@ -171,17 +161,6 @@ def parse_unit(symbol: str) -> Unit:
         f"unknown unit {symbol!r}; expected one of {sorted(k for k in _SIMPLE if k)} "
         "or a quotient such as 'µm/m'"
     )
-
-
-def internal_unit(dimension: str) -> str:
-    """The internal unit symbol for a dimension (``"length"`` -> ``"mm"``)."""
-    if dimension in _INTERNAL:
-        return _INTERNAL[dimension]
-    if "/" in dimension:
-        num, _, den = dimension.partition("/")
-        num_u = "" if num == "1" else _INTERNAL.get(num, num)
-        return f"{num_u}/{_INTERNAL.get(den, den)}"
-    raise UnitError(f"unknown dimension {dimension!r}")
 
 
 def to_internal(value: float | np.ndarray, unit: str | Unit) -> float | np.ndarray:

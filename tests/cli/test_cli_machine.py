@@ -7,6 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from mtmetrology.cli import app
+from mtmetrology.io import read_csv_table
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.samba import SambaSetup, probing_sequence
@@ -145,13 +146,27 @@ def test_predict_writes_compensated_coordinates(tmp_path):
         ],
     )
     assert result.exit_code == 0, result.output
-    header, row = out.read_text().splitlines()
-    assert header == "id,X,Y,Z,B,C,x,y,z"
-    xyz = np.array(row.split(",")[-3:], dtype=float)
+    table = read_csv_table(out)
+    assert table.header == ("id", "X", "Y", "Z", "B", "C", "x", "y", "z")
+    assert table.strings("id") == ["p1"]
+    xyz = np.column_stack([table.floats(c) for c in "xyz"])
     q = m.readings_from_customary({"X": -138.565, "Y": 94.656, "Z": 196.232, "B": -42, "C": -293})
-    np.testing.assert_allclose(xyz, m.forward(q, values), atol=1e-6)
-    nominal = runner.invoke(app, ["predict", "--machine", "five-axis-wcbxfzyst", str(rec)])
-    assert "-178.671288,-178.669635,53.110713" in nominal.output
+    np.testing.assert_allclose(xyz[0], m.forward(q, values), atol=1e-6)
+    plain = tmp_path / "nominal.csv"
+    nominal = runner.invoke(
+        app, ["predict", "--machine", "five-axis-wcbxfzyst", str(rec), "-o", str(plain)]
+    )
+    assert nominal.exit_code == 0, nominal.output
+    table = read_csv_table(plain)
+    # the nominal chain written out by hand: the table carries X (sign -1), B and C (sign
+    # -1), so the stylus at (X, Y, Z) in the machine frame is Rz(C)·Ry(B)·(X, Y, Z) in the
+    # workpiece frame (6 decimals as printed)
+    b, c = np.deg2rad(-42.0), np.deg2rad(-293.0)
+    rz = np.array([[np.cos(c), -np.sin(c), 0], [np.sin(c), np.cos(c), 0], [0, 0, 1]])
+    ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+    expected = rz @ ry @ np.array([-138.565, 94.656, 196.232])
+    got = [table.floats(k)[0] for k in "xyz"]
+    np.testing.assert_allclose(got, expected, atol=1e-6)
 
 
 def test_predict_bad_input_names_file_and_column(tmp_path):
@@ -178,7 +193,39 @@ def test_predict_with_backlash_needs_sense_columns(tmp_path):
     result = runner.invoke(app, [*args, str(rec)])
     assert result.exit_code == 2 and "sense_B" in result.output
     rec.write_text("X,Y,Z,B,C,sense_B\n10,20,30,45,90,1\n10,20,30,45,90,-1\n")
-    result = runner.invoke(app, [*args, str(rec)])
+    out = tmp_path / "out.csv"
+    result = runner.invoke(app, [*args, str(rec), "-o", str(out)])
     assert result.exit_code == 0, result.output
-    up, down = (np.array(r.split(",")[-3:], dtype=float) for r in result.output.split()[1:3])
+    table = read_csv_table(out, required=["x", "y", "z"])
+    up, down = np.column_stack([table.floats(k) for k in "xyz"])
     assert np.linalg.norm(up - down) > 1e-4  # 2 x 5 µrad over ~50 mm
+
+
+@pytest.mark.parametrize(
+    ("preset", "model"),
+    [
+        ("five-axis-wcbxfzyst", "13"),
+        ("five-axis-wcbxfzyst", "84"),
+        ("three-axis-xfyz", None),
+        ("cmm-moving-bridge", None),
+    ],
+)
+def test_show_states_each_parameters_convention(preset, model):
+    """Per parameter: name, unit, what a positive value does, where it is referred to
+    (the same fields the table prints), for every preset and model."""
+    args = ["machine", "show", preset, "--json"] + (["--model", model] if model else [])
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.output)
+    m = Machine.load(preset, model)
+    assert [p["name"] for p in doc["parameters"]] == list(m.parameter_names)
+    for p, unit in zip(doc["parameters"], m.parameter_units, strict=True):
+        assert p["unit"] == unit
+        assert f"+{p['name']}" in p["positive"]
+        if p["kind"] == "location":  # the axis line moves or turns in the machine frame
+            assert f"axis {p['axis']}" in p["positive"] and "machine frame" in p["positive"]
+        else:  # error motions: ISO 230-1, the tool relative to the workpiece
+            assert p["positive"].startswith(("the tool deviates by +", "the tool turns by +"))
+            assert p["positive"].count("relative to the workpiece") == 1
+        assert p["side"] in ("tool", "workpiece")
+        assert len(p["reference_point_mm"]) == 3 and p["reference"]

@@ -29,7 +29,8 @@ def test_zero_column_is_reported_not_observable():
 
 
 def test_observability_indices_follow_their_definitions():
-    """Seed 004 eqs 5.9-5.13 on a Jacobian with known singular values (unit-norm columns)."""
+    """Alami Mchichi (2018), eqs 5.9-5.13, on a Jacobian with known singular values
+    (unit-norm columns)."""
     s = np.array([4.0, 2.0, 1.0])
     u, _ = np.linalg.qr(np.random.default_rng(1).standard_normal((12, 3)))
     j = u * s  # orthogonal columns of norms 4, 2, 1 -> scaled singular values are all 1

@@ -76,7 +76,7 @@ _LEAST_SQUARES = {
     ElementName.cone: fit_cone,
 }
 
-_CHEBYSHEV = {
+_ZONE_FITS = {
     (ElementName.plane, Method.minimum_zone): minimum_zone.flatness,
     (ElementName.circle, Method.minimum_zone): minimum_zone.roundness,
     (ElementName.circle, Method.inscribed): minimum_zone.inscribed_circle,
@@ -116,12 +116,12 @@ def _least_squares(element: ElementName, points: np.ndarray) -> tuple[Line, FitR
     return result.element, result
 
 
-def _chebyshev(element: ElementName, method: Method, points: np.ndarray):
+def _zone_fit(element: ElementName, method: Method, points: np.ndarray):
     if element is ElementName.line and method is Method.minimum_zone:
         normal = (0.0, 0.0, 1.0) if _line_in_plane(points) else None
         return minimum_zone.straightness(points, plane_normal=normal)
     try:
-        solve = _CHEBYSHEV[element, method]
+        solve = _ZONE_FITS[element, method]
     except KeyError:
         raise _UsageError(
             f"--method {method.value} is not available for a {element.value}: "
@@ -224,7 +224,7 @@ def fit(
                 message=result.message,
             )
         else:
-            zone = _chebyshev(element, method, points)
+            zone = _zone_fit(element, method, points)
             fitted, residuals, form_error = zone.element, zone.residuals, zone.form_error
             extra.update(
                 least_squares_form_error={

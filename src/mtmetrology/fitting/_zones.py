@@ -1,6 +1,6 @@
-"""Shared pieces of the Chebyshev-type fits: the result object and input checks.
+"""Shared pieces of the minimax (Chebyshev-norm) fits: the result object and input checks.
 
-Used by :mod:`.minimum_zone` (exact hull methods) and :mod:`.chebyshev` (sequential
+Used by :mod:`.minimum_zone` (exact hull methods) and :mod:`.minimax` (sequential
 linear programming); see :mod:`mtmetrology.fitting.minimum_zone` for the definitions.
 """
 

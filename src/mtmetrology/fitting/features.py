@@ -1,15 +1,15 @@
 """Features (GD&T characteristics) of probed point sets, for the uncertainty engine.
 
 A feature maps the stylus-centre points of one measurement task, ``(n, 3)`` mm, to one
-or more values (digest 000 §3.12: "feature = g(points (3n)) → scalar or vector").  Every
-feature offers
+or more values (Sepahi Boroujeni (2021), Ch. 6: a feature is a function of the 3n point
+coordinates).  Every feature offers
 
 * ``value(points)`` for points ``(..., n, 3)``, vectorised over the leading (Monte Carlo
   trial) axes through the batched fits of :mod:`mtmetrology.fitting.batch`; it returns
   ``(...,)`` for a scalar feature and ``(..., k)`` for ``k`` outputs;
 * ``jacobian(points)`` for one point set ``(n, 3)``: the analytic ``(k, 3n)`` matrix
   ``∂g/∂q`` with the coordinates flattened point by point (x1, y1, z1, x2, ...), for GUF
-  propagation ``U_g = G U_q Gᵀ`` (digest 000 §3.12, "Propagation to the feature").
+  propagation ``U_g = G U_q Gᵀ`` (Sepahi Boroujeni (2021), Ch. 6; JCGM 102:2011, §6.2).
 
 Jacobians of fitted features come from the least-squares fits' first-order
 implicit-function derivatives (:mod:`mtmetrology.fitting.least_squares`), exact at
@@ -92,10 +92,10 @@ def _peak_to_valley_jacobian(fit: FitResult) -> np.ndarray:
 
 @dataclass(frozen=True)
 class GaugeLength:
-    """Bipoint length ``l = ‖q2 − q1‖ − d_tip`` (digest 000 §3.12, thesis eq. 6-20).
+    """Bipoint length ``l = ‖q2 − q1‖ − d_tip`` (Sepahi Boroujeni (2021), eq. 6-20).
 
-    Points ``(..., 2, 3)``: the stylus-centre points probed on the two faces.  Seed 000
-    Table 7-1 gives 499.9966 mm with ``d_tip`` = 5.925 mm.
+    Points ``(..., 2, 3)``: the stylus-centre points probed on the two faces.  Sepahi
+    Boroujeni (2021), Table 7-1, gives 499.9966 mm with ``d_tip`` = 5.925 mm.
 
     Examples
     --------
@@ -136,7 +136,8 @@ class SphereDiameter:
     """Least-squares sphere diameter with tip compensation: ``2R ∓ d_tip``.
 
     ``inner=False`` (a ball probed from outside): ``D = 2 R_fit − d_tip``;
-    ``inner=True`` (a spherical cavity): ``D = 2 R_fit + d_tip`` (digest 000 §3.12 [R]).
+    ``inner=True`` (a spherical cavity): ``D = 2 R_fit + d_tip`` (the tip correction the
+    thesis leaves implicit).
     """
 
     tip_diameter: float = 0.0
@@ -165,7 +166,8 @@ class SphereDiameter:
 
 @dataclass(frozen=True)
 class Sphericity:
-    """Least-squares sphericity: max − min residual of the LS sphere (digest 000 §3.12)."""
+    """Least-squares sphericity: max − min residual of the LS sphere (Sepahi Boroujeni
+    (2021), Ch. 6)."""
 
     name: str = "sphericity"
     unit: str = "mm"
@@ -187,7 +189,7 @@ class CircleDiameter:
     """Least-squares circle diameter (in the LS plane) with tip compensation.
 
     ``inner=True`` (bore, ring gauge probed from inside): ``D = 2 R_fit + d_tip``;
-    ``inner=False`` (a shaft): ``D = 2 R_fit − d_tip`` (digest 001-003 §B2.2).
+    ``inner=False`` (a shaft): ``D = 2 R_fit − d_tip`` (Mutilba et al. (2019), eq. 4).
     """
 
     inner: bool = True
@@ -253,7 +255,7 @@ class Flatness:
 @dataclass(frozen=True)
 class BallCentre:
     """Ball centre (x, y, z) from probed points: LS sphere, or centre only with a known
-    radius (SAMBA: ball radius + effective tip radius; digest 000 §3.4, §3.12)."""
+    radius (SAMBA: ball radius + effective tip radius; Sepahi Boroujeni (2021), Ch. 5 and 6)."""
 
     radius: float | None = None
     name: str = "ball_centre"

@@ -25,6 +25,23 @@ It drops the terms ``Σ d_i ∂²d_i/∂β²`` and ``Σ d_i ∂²d_i/∂β∂P``
 a zero-residual fit and has a relative error of the order of (form error / element
 size) otherwise, the usual GUF linearisation.  The second term carries the dependence of
 the reported reference point (foot of the centroid) on the centroid.
+
+References
+----------
+A. B. Forbes, *Least-squares best-fit geometric elements*, NPL Report DITC 140/89,
+National Physical Laboratory, Teddington, 1989 (revised 1991).
+C. M. Shakarji, "Least-squares fitting algorithms of the NIST algorithm testing system",
+J. Res. Natl. Inst. Stand. Technol. 103 (1998) 633–641.
+A. Al-Sharadqah, N. Chernov, "Error analysis for circle fitting algorithms", Electron. J.
+Stat. 3 (2009) 886–911.
+ISO 10360-6:2001, *Geometrical Product Specifications (GPS) — Acceptance and reverification
+tests for coordinate measuring machines (CMM) — Part 6: Estimation of errors in computing
+Gaussian associated features*.
+Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine Tool
+Metrology*. PhD thesis, Polytechnique Montréal, Ch. 5 and 6.
+Mutilba, U., Gomez-Acedo, E., Sandá, A., Vega, I., Yagüe-Fabra, J. A. (2019). Uncertainty
+assessment for on-machine tool measurement: an alternative approach to the ISO 15530-3
+technical specification. IK4-Tekniker / Universidad de Zaragoza.
 """
 
 from __future__ import annotations
@@ -189,9 +206,9 @@ def fit_plane(points: object) -> FitResult:
     Notes
     -----
     The normal is the right singular vector of the smallest singular value of the centred
-    points (Forbes, NPL DITC 140/89, §4.3).  Digest 001-003 §B2.2 warns that the paper's
-    algebraic form ``p·x + 1 = 0`` is singular for planes through the origin; this
-    orthogonal fit has no such restriction.
+    points (Forbes, NPL DITC 140/89, §4.3).  The algebraic form ``p·x + 1 = 0`` of Mutilba et
+    al. (2019) is singular for planes through the origin; this orthogonal fit has no such
+    restriction.
     """
     p = _check_points(points, "plane", (3,), 3)
     x, centroid, _ = _centred(p)
@@ -272,7 +289,7 @@ def fit_sphere(points: object, radius: float | None = None) -> FitResult:
         undetermined; with a known radius the centre has two mirror images).
     radius : float, mm, optional
         Known radius (e.g. the SAMBA master ball radius plus the effective tip radius,
-        digest 000 §3.12 "ball centre from 5 points").  The fitted radius is then this
+        Sepahi Boroujeni (2021), Ch. 5: ball centre from 5 points).  The fitted radius is then this
         value and its row of the parameter Jacobian is zero.
 
     Returns
@@ -287,8 +304,8 @@ def fit_sphere(points: object, radius: float | None = None) -> FitResult:
 
     Notes
     -----
-    Minimises ``Σ (‖p_i − c‖ − r)²`` (digest 000 §3.12; Forbes §4.6) from the algebraic
-    hyper fit.  Coplanar points leave the free radius undetermined and a known-radius
+    Minimises ``Σ (‖p_i − c‖ − r)²`` (Sepahi Boroujeni (2021), Ch. 6; Forbes §4.6) from the
+    algebraic hyper fit.  Coplanar points leave the free radius undetermined and a known-radius
     centre ambiguous (two mirror images), so both raise.
 
     Examples
@@ -358,7 +375,7 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
     Notes
     -----
     Minimises ``Σ (ρ_i − r)²`` with ``ρ_i`` the in-plane distance of point i from the
-    centre (digest 001-003 §B2.2 eq. 4; Forbes §4.5: plane first, then circle in it).
+    centre (Mutilba et al. (2019), eq. 4; Forbes §4.5: plane first, then circle in it).
     For the 3-D fit without a given plane, the parameter Jacobian includes the
     dependence on the fitted plane (two-stage chain rule).
 

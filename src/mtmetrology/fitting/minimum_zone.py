@@ -57,7 +57,9 @@ from mtmetrology.fitting._zones import (
     _require_spread,
     _size,
 )
-from mtmetrology.fitting.chebyshev import (
+from mtmetrology.fitting.elements import Line, Plane
+from mtmetrology.fitting.least_squares import FitError, fit_line, fit_plane
+from mtmetrology.fitting.minimax import (
     _AxisModel,
     _sequential_lp,
     circumscribed_circle,
@@ -70,8 +72,6 @@ from mtmetrology.fitting.chebyshev import (
     roundness,
     sphericity,
 )
-from mtmetrology.fitting.elements import Line, Plane
-from mtmetrology.fitting.least_squares import FitError, fit_line, fit_plane
 
 __all__ = [
     "ZoneResult",

@@ -12,9 +12,9 @@ stylus-centre points gives an element offset from the surface by ``r_tip``:
   and its apex moves along the axis by ``r_tip / sin ψ``.
 
 The effective tip diameter is calibrated on a reference sphere of calibrated diameter
-``D_cal``: ``d_tip = 2 R_fit − D_cal`` (digest 000 §3.12: five points at B = C = 0 give
-5.925 mm on the Ø 19.05 mm precision sphere).  It absorbs the probe's pre-travel, so it
-is smaller than the nominal 6 mm ball.
+``D_cal``: ``d_tip = 2 R_fit − D_cal`` (Sepahi Boroujeni (2021), Ch. 6: five points at
+B = C = 0 give 5.925 mm on the Ø 19.05 mm precision sphere).  It absorbs the probe's
+pre-travel, so it is smaller than the nominal 6 mm ball.
 """
 
 from __future__ import annotations
@@ -199,11 +199,11 @@ def effective_tip_diameter(
     ----------
     points : (n, 3) array, mm
         Stylus-centre points probed on the reference sphere (n ≥ 4, e.g. the five-point
-        pattern at B = C = 0 of digest 000 §3.12).
+        pattern at B = C = 0 of Sepahi Boroujeni (2021), Ch. 6).
     calibrated_diameter : float, mm
-        Calibrated diameter ``D_cal`` of the sphere (19.05 mm in seed 000).
+        Calibrated diameter ``D_cal`` of the sphere (19.05 mm in Sepahi Boroujeni (2021)).
     u_calibrated : float, mm
-        Standard uncertainty of ``D_cal`` (seed 000: U = 0.5 µm, k = 2 → 0.25 µm).
+        Standard uncertainty of ``D_cal`` (Sepahi Boroujeni (2021): U = 0.5 µm, k = 2 → 0.25 µm).
     sigma_points : float, mm, optional
         Standard deviation of each probed coordinate (probing repeatability); gives
         ``u(R_fit)`` through the fit's parameter covariance.
@@ -222,7 +222,7 @@ def effective_tip_diameter(
 
     Notes
     -----
-    ``d_tip = 2 R_fit − D_cal`` (digest 000 §3.12, thesis Ch. 6: 5.925 mm).  The GUM
+    ``d_tip = 2 R_fit − D_cal`` (Sepahi Boroujeni (2021), Ch. 6: 5.925 mm).  The GUM
     law of propagation for uncorrelated R_fit and D_cal gives
     ``u²(d_tip) = 2² u²(R_fit) + u²(D_cal)`` (JCGM 100:2008, 5.1.2).
     """

@@ -2,8 +2,8 @@
 
 For a Jacobian ``J`` (rows: observations, columns: unknowns) the report gives the rank,
 the singular values, the condition number raw (in the units of the unknowns) and with
-every column scaled to unit 2-norm, the observability indices O1–O5 (digest 004 §3.8),
-and the unidentifiable combinations written in parameter names.
+every column scaled to unit 2-norm, the observability indices O1–O5 (Alami Mchichi (2018),
+eqs 5.9–5.13), and the unidentifiable combinations written in parameter names.
 
 Notes
 -----
@@ -21,8 +21,8 @@ at perturbed errors exact null singular values become small but non-zero
 References
 ----------
 Driels & Pathre 1990 (O2), Borm & Menq 1989 (O1), Nahvi & Hollerbach 1996 (O3, O4),
-Sun & Hollerbach 2008 (O5), as quoted in seed 004 eqs 5.9–5.13; O5 sums over the
-unknowns, not the measurements (digest 004 §7 item 19).
+Sun & Hollerbach 2008 (O5), as quoted in Alami Mchichi (2018), eqs 5.9–5.13; O5 sums over the
+unknowns, not the measurements (as Sun & Hollerbach define it; the thesis's eq. 5.13 does not say).
 """
 
 from __future__ import annotations

@@ -3,11 +3,12 @@
 A probing of ball i at axis readings q gives a *ball-centre indication*: the readings
 that put the stylus centre at the ball centre.  With machine errors θ, tool-vector
 correction Δt and the (unknown, uncalibrated) ball centre d_i in the workpiece frame,
-the residual is (seed 000 eqs 5-1…5-3, seed 004 eq. 5.2)::
+the residual is (Sepahi Boroujeni (2021), eqs 5-1…5-3; Alami Mchichi (2018), eq. 5.2)::
 
     r_k = p(q_k; θ, t0 + Δt) − d_i(k)                 3 rows per indication
 
-and a calibrated scale bar between balls a and b adds (seed 000 §3.4, seed 004 §3.6)::
+and a calibrated scale bar between balls a and b adds (Sepahi Boroujeni (2021), Ch. 5;
+Alami Mchichi (2018), Ch. 5)::
 
     r_L = ‖d_a − d_b‖ − L                              1 row per bar
 
@@ -29,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 
 __all__ = ["BallCentreProblem", "ScaleBar", "senses_from_sequence"]
@@ -54,11 +56,11 @@ class ScaleBar:
 
     def __post_init__(self):
         if not (self.length > 0 and np.isfinite(self.length)):
-            raise ValueError(f"scale bar length must be positive, got {self.length}")
+            raise InputError(f"scale bar length must be positive, got {self.length}")
         if not (self.u > 0 and np.isfinite(self.u)):
-            raise ValueError(f"scale bar uncertainty u must be positive, got {self.u}")
+            raise InputError(f"scale bar uncertainty u must be positive, got {self.u}")
         if self.ends[0] == self.ends[1]:
-            raise ValueError(f"scale bar ends must be two different balls, got {self.ends}")
+            raise InputError(f"scale bar ends must be two different balls, got {self.ends}")
 
 
 def senses_from_sequence(readings: np.ndarray, initial: float = 1.0) -> np.ndarray:
@@ -66,7 +68,7 @@ def senses_from_sequence(readings: np.ndarray, initial: float = 1.0) -> np.ndarr
 
     The sense of axis k at probing i is the sign of the last non-zero move of that axis
     before (or at) i; ``initial`` before the first move.  Reversal terms need both senses
-    in the data to be identifiable (identifiability-check Q2).
+    in the data to be identifiable.
 
     Parameters
     ----------
@@ -131,14 +133,14 @@ class BallCentreProblem:
     ):
         q = np.asarray(readings, dtype=float)
         if q.ndim != 2 or q.shape[1] != machine.n_axes:
-            raise ValueError(
+            raise InputError(
                 f"readings must be (n, {machine.n_axes}) for axes {''.join(machine.axis_names)}"
             )
         balls = [str(b) for b in balls]
         if len(balls) != q.shape[0]:
-            raise ValueError(f"{len(balls)} ball ids for {q.shape[0]} indications")
+            raise InputError(f"{len(balls)} ball ids for {q.shape[0]} indications")
         if not (sigma > 0):
-            raise ValueError(f"sigma must be positive, got {sigma}")
+            raise InputError(f"sigma must be positive, got {sigma}")
         self.machine = machine
         self.readings = q
         self.senses = None if senses is None else np.asarray(senses, dtype=float)
@@ -147,7 +149,7 @@ class BallCentreProblem:
         for bar in scale_bars:
             for end in bar.ends:
                 if end not in self.ball_ids:
-                    raise ValueError(f"scale bar end {end!r} is not among the probed balls")
+                    raise InputError(f"scale bar end {end!r} is not among the probed balls")
         self.scale_bars = tuple(scale_bars)
         self.estimate_tool = estimate_tool
         self.sigma = float(sigma)
@@ -297,7 +299,7 @@ class BallCentreProblem:
 
     def initial(self, params: np.ndarray | None = None) -> np.ndarray:
         """Starting point: given (or zero) errors, each ball at the mean of its nominal
-        predicted positions (seed 000 §3.4), zero tool correction."""
+        predicted positions (Sepahi Boroujeni (2021), Ch. 5), zero tool correction."""
         theta = np.zeros(self.n_params) if params is None else np.asarray(params, dtype=float)
         pos = self.machine.forward(self.readings, theta, senses=self.senses)
         centres = np.zeros((self.n_balls, 3))

@@ -4,7 +4,7 @@ Any problem object exposing ``names``, ``n_rows`` and ``evaluate(x, jacobian=Tru
 J)`` (weighted residuals and their Jacobian), optionally ``initial()`` and
 ``residual_rounding``, is solved by the project's least-squares core
 (:func:`mtmetrology.optimize.least_squares`: Gauss–Newton with column scaling and a
-Levenberg–Marquardt safeguard; seed 004 §3.6, seed 000 eqs 5-4…5-6)::
+Levenberg–Marquardt safeguard; Alami Mchichi (2018), Ch. 5; Sepahi Boroujeni (2021), eqs 5-4…5-6)::
 
     J_s = J · D⁻¹,   D = diag(‖J_:,j‖)         (unit-norm columns)
     Δx  = −D⁻¹ · J_s⁺ r                          (least-squares step, SVD)
@@ -12,18 +12,20 @@ Levenberg–Marquardt safeguard; seed 004 §3.6, seed 000 eqs 5-4…5-6)::
 A rank-deficient Jacobian is refused with a :class:`~mtmetrology.errors.RankDeficientError`
 that names the unidentifiable combinations, unless the minimum-norm solution is asked
 for explicitly (then it is flagged in the result).  The covariance of the estimate is
-``(JᵀJ)⁻¹`` of the weighted problem (the weights carry the input uncertainties; seed 000
-eq. 5-6); the a-posteriori variance factor ``s² = ‖r‖²/(m − n)`` is reported beside it when
-the problem has redundancy (m > n).  The SVD of the last accepted iterate serves the step,
-the rank, the condition number, the observability indices and the covariance: it is
-computed once per accepted point, never again for the diagnostics.
+``(JᵀJ)⁻¹`` of the weighted problem (the weights carry the input uncertainties; Sepahi
+Boroujeni (2021), eq. 5-6); the a-posteriori variance factor ``s² = ‖r‖²/(m − n)`` is
+reported beside it when the problem has redundancy (m > n).  The SVD of the last accepted
+iterate serves the step, the rank, the condition number, the observability indices and the
+covariance: it is computed once per accepted point, never again for the diagnostics.
 
 References
 ----------
-S. Sepahi-Boroujeni, *Uncertainty of form and size measurement with on-machine tool
-metrology*, PhD thesis, Polytechnique Montréal, 2021, eqs 5-4–5-6 (SAMBA Gauss–Newton).
-I. Alami Mchichi, *Calibration of five-axis machine tools with the SAMBA method: optimized
-artefact layout and measurement sequence*, Polytechnique Montréal, 2018, §3.6.
+Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine
+Tool Metrology*. PhD thesis, Polytechnique Montréal, eqs 5-4–5-6 (SAMBA Gauss–Newton).
+Alami Mchichi, N. (2018). *Étalonnage des machines-outils à cinq axes : configuration
+optimisée des artefacts et de la séquence de mesure de la méthode SAMBA en vue d'une
+estimation efficace des erreurs géométriques*. PhD thesis, École Polytechnique de
+Montréal, Ch. 5.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mtmetrology.errors import RankDeficientError
+from mtmetrology.errors import InputError, RankDeficientError
 from mtmetrology.identification.diagnostics import IdentifiabilityReport, analyse_identifiability
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -114,11 +116,12 @@ class IdentificationResult(NotebookRepr):
         """The machine's error parameters with their covariance (nuisance unknowns dropped).
 
         Dropping the ball and tool unknowns does not change the statistics of the
-        parameters (seed 000 §5: the 13 of 31 outputs keep their covariance block).
+        parameters (Sepahi Boroujeni (2021), Ch. 5: the 13 of 31 outputs keep their covariance
+        block).
         """
         missing = [n for n in machine.parameter_names if n not in self.names]
         if missing:
-            raise ValueError(f"the identification has no unknown {', '.join(missing)}")
+            raise InputError(f"the identification has no unknown {', '.join(missing)}")
         idx = [self.names.index(n) for n in machine.parameter_names]
         return ParameterSet(
             machine.parameter_names,
@@ -192,6 +195,37 @@ def gauss_newton(
     >>> res = gauss_newton(Line())
     >>> res.success, np.round(res.estimate, 12).tolist(), res.dof
     (True, [1.0, 2.0], 1)
+
+    The NIST StRD problem Misra1a from its second start (250, 5e-4), unweighted: the
+    certified residual standard deviation is 1.0187876330E-01 and the standard deviation of
+    b1 is 2.7070075241E+00 (``s·sqrt((JᵀJ)⁻¹)``, s² the variance factor).
+
+    >>> class Misra1a:
+    ...     names = ("b1", "b2")
+    ...     x = np.array([77.6, 114.9, 141.1, 190.8, 239.9, 289.0, 332.8, 378.4, 434.8,
+    ...                   477.3, 536.8, 593.1, 689.1, 760.0])
+    ...     y = np.array([10.07, 14.73, 17.94, 23.93, 29.61, 35.18, 40.02, 44.82, 50.76,
+    ...                   55.05, 61.01, 66.40, 75.47, 81.78])
+    ...     def initial(self):
+    ...         return np.array([250.0, 5e-4])
+    ...     def evaluate(self, b, jacobian=True):
+    ...         e = np.exp(-b[1] * self.x)
+    ...         return b[0] * (1 - e) - self.y, np.column_stack([1 - e, b[0] * self.x * e])
+    >>> res = gauss_newton(Misra1a())
+    >>> s = np.sqrt(res.variance_factor)
+    >>> f"{res.estimate[0]:.8f}", f"{s:.10e}", f"{s * res.standard_uncertainty[0]:.10e}"
+    ('238.94212918', '1.0187876330e-01', '2.7070075241e+00')
+
+    References
+    ----------
+    Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine
+    Tool Metrology*. PhD thesis, Polytechnique Montréal, eqs 5-4–5-6.
+    Alami Mchichi, N. (2018). *Étalonnage des machines-outils à cinq axes : configuration
+    optimisée des artefacts et de la séquence de mesure de la méthode SAMBA en vue d'une
+    estimation efficace des erreurs géométriques*. PhD thesis, École Polytechnique de
+    Montréal, Ch. 5.
+    NIST Statistical Reference Datasets, Nonlinear Regression, "Misra1a" (D. Misra, NIST,
+    1978).
     """
     names = tuple(problem.names)
     start = np.array(problem.initial() if x0 is None else x0, dtype=float)

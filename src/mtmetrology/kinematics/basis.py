@@ -6,12 +6,12 @@ of the model definition:
 ``monomial``
     ``φ_d(q) = q**d`` in internal units of the axis position (mm or rad) unless the
     travel is normalised; ``E_XX1`` is then a slope (µm/m), as in the sources'
-    13-parameter model (digest 000 §3.3; digest 004 eq. 4.1).
+    13-parameter model (Sepahi Boroujeni (2021), Table 5-1; Alami Mchichi (2018), eq. 4.1).
 ``legendre``, ``chebyshev``
     ``φ_d(q) = P_d(u)`` or ``T_d(u)`` on the normalised travel
     ``u = (q − centre)/half_range`` ∈ [−1, 1]; coefficients carry the unit of the error
     itself (µm or µrad).  Orthogonal bases decouple the degree-0/2 and 1/3 terms that
-    the ordinary polynomial mixes (digest 004 §3.3; Kruth 1994; Mir 2003).
+    the ordinary polynomial mixes (Alami Mchichi (2018), eqs 4.1, 5.1, 8.1; Kruth 1994; Mir 2003).
 
 Recurrences (Abramowitz & Stegun 22.7):
 

@@ -22,7 +22,6 @@ from dataclasses import dataclass
 
 from mtmetrology.errors import InputError
 from mtmetrology.kinematics.topology import LINEAR_AXES, Topology
-from mtmetrology.units import parse_unit
 
 __all__ = [
     "COMPONENTS",
@@ -128,11 +127,6 @@ def coefficient_unit(param: ErrorParameter, *, normalised: bool) -> str:
         return err
     pos = "m" if param.axis in LINEAR_AXES else "rad"
     return f"{err}/{pos}" if param.degree == 1 else f"{err}/{pos}^{param.degree}"
-
-
-def coefficient_scale(unit: str) -> float:
-    """Factor from the customary unit to internal units."""
-    return parse_unit(unit).factor
 
 
 def catalogue(topology: Topology, max_degree: int = 3) -> list[ErrorParameter]:

@@ -1,5 +1,7 @@
-"""Radial Chebyshev elements by sequential linear programming.
+"""Minimax (Chebyshev-norm, L∞) radial elements by sequential linear programming.
 
+"Chebyshev" here is the norm (the largest absolute deviation is minimised), not the
+Chebyshev polynomials of the error-motion bases (:mod:`mtmetrology.kinematics.basis`).
 Roundness, sphericity, cylindricity, the spatial straightness cylinder, and the maximum
 inscribed / minimum circumscribed circle, sphere and cylinder, solved from the
 least-squares element as described in :mod:`mtmetrology.fitting.minimum_zone` (which
