@@ -38,6 +38,7 @@ from mtmetrology.report import figures
 from mtmetrology.report.format import format_uncertainty, format_value
 from mtmetrology.report.results import add_result
 from mtmetrology.samba import (
+    SambaSetup,
     calibrate,
     evaluate_uncertainty,
     indication_inputs,
@@ -63,7 +64,8 @@ GAUGE_PAIRS = 30
 GAUGE_TOLERANCE = f"{GAUGE_LENGTH_MM},-0.010,0.010"
 
 
-def _balls_yaml(setup) -> str:
+def _balls_yaml(setup: SambaSetup) -> str:
+    """The true ball centres (``samba-balls`` document) of the set-up."""
     rows = [
         f'  - {{id: "{b}", centre_mm: [{", ".join(f"{v:g}" for v in c)}]}}'
         for b, c in {**setup.balls, **setup.scale_bar}.items()
@@ -79,11 +81,19 @@ def _poses_csv(ctx: DemoContext, m: Machine, ids, q) -> None:
     write_csv_table(ctx.path("samba", "poses.csv"), ["ball", "B", "C", "S"], rows)
 
 
-def samba_calibration_section(ctx: DemoContext, *, preset, setup, plan, truth) -> None:
+def samba_calibration_section(
+    ctx: DemoContext,
+    *,
+    preset: str,
+    setup: SambaSetup,
+    plan: tuple[list[str], np.ndarray],
+    truth: ParameterSet,
+) -> None:
     """Simulate a SAMBA campaign, calibrate with GUF and adaptive MCM, check a length.
 
-    ``plan`` is (ball ids, readings) of the probing sequence; ``truth`` the
-    :class:`ParameterSet` of the virtual machine.
+    ``plan`` is (ball ids, readings) of the probing sequence (its artefact file,
+    ``samba/samba.yaml``, is written by the identifiability section); ``truth`` the
+    error parameters of the virtual machine.
     """
     m = Machine.load(preset)
     files = {n: ctx.path("samba", n) for n in ("truth.json", "balls.yaml", "samba.yaml")}
@@ -98,19 +108,19 @@ def samba_calibration_section(ctx: DemoContext, *, preset, setup, plan, truth) -
         shown["samba.yaml"], "--balls", shown["balls.yaml"], "--poses", shown["poses.csv"],
         "--noise-um", f"{NOISE_UM:g}", "--seed", str(seed_sim),
     ]  # fmt: skip
+    artefact = load_artefact(files["samba.yaml"])
     with ctx.step(f"simulate the SAMBA campaign ({NOISE_UM:g} µm probing noise)"):
         simulate_records(
             m,
             truth.vector_for(m),
             load_balls(files["balls.yaml"]).centres(),
             read_poses(ctx.path("samba", "poses.csv")),
-            load_artefact(files["samba.yaml"]),
+            artefact,
             noise=float(to_internal(NOISE_UM, "µm")),
             seed=seed_sim,
         ).write(ctx.path("samba", "indications.csv"))
     ctx.command("simulate the campaign", "simulate", "samba", *simulate,
                 "-o", shown["indications.csv"])  # fmt: skip
-    artefact = load_artefact(files["samba.yaml"])
     records = read_records(ctx.path("samba", "indications.csv"), m, artefact)
     sigma = float(to_internal(NOISE_UM, "µm"))
     described = f"probing noise {NOISE_UM:g} µm per reading"
