@@ -31,6 +31,14 @@ def test_demo_writes_inputs_results_and_report(demo_run):
         "samba/samba.yaml",
         "samba/indications.csv",
         "samba/params.json",
+        "samba/truth.json",
+        "samba/balls.yaml",
+        "samba/poses.csv",
+        "gauge/gauge.csv",
+        "gauge/length-check.json",
+        "task/gauge-pair.csv",
+        "task/unexplained.json",
+        "task/gauge-length.json",
         "prediction/gauge.csv",
         "prediction/gauge-xyz.csv",
         "uncertainty/gum-h1.yaml",
@@ -47,13 +55,50 @@ def test_demo_writes_inputs_results_and_report(demo_run):
     ):
         assert (out / name).is_file(), name
     params = json.loads((out / "samba" / "params.json").read_text(encoding="utf-8"))
-    assert params["kind"] == "parameter-set" and len(params["parameters"]) == 13
+    assert params["kind"] == "samba-calibration" and len(params["parameters"]) == 13
     assert "covariance" in params
     result = json.loads((out / "uncertainty" / "gum-h1-result.json").read_text(encoding="utf-8"))
     assert result["kind"] == "uncertainty-result" and "validation" in result
     (guf_out,) = result["guf"]["outputs"]
     assert round(guf_out["u"]) == 32  # GUM H.1.6: u_c(l) = 32 nm
     assert not [p for p in out.parent.iterdir() if p.name.startswith(".")]  # no work folder
+
+
+def test_demo_samba_calibration_is_validated_and_covers_the_truth(demo_run):
+    """The SAMBA section: GUF and adaptive MCM agree (JCGM 102), and the simulated truth
+    lies inside the 95 % Monte Carlo intervals for at least 10 of the 13 parameters (for
+    13 independent 95 % intervals P(at most 9 covered) = 0.3 %; the seed is fixed)."""
+    out, stdout = demo_run
+    result = json.loads((out / "samba" / "params.json").read_text(encoding="utf-8"))
+    truth = json.loads((out / "samba" / "truth.json").read_text(encoding="utf-8"))
+    true = {p["name"]: p["value"] for p in truth["parameters"]}
+    assert result["kind"] == "samba-calibration"
+    assert result["uncertainty"]["validation"]["passed"] is True
+    mcm = result["uncertainty"]["mcm"]["outputs"]
+    assert len(mcm) == 13 and {o["unit"] for o in mcm} == {"µm", "µrad", "µm/m"}
+    covered = sum(o["interval"][0] <= true[o["name"]] <= o["interval"][1] for o in mcm)
+    assert covered >= 10
+    assert any(f"{covered}/13 true parameters" in line for line in stdout.splitlines())
+
+
+def test_demo_gauge_block_and_task_decision(demo_run):
+    """Compensation cuts the gauge-block RMS length error (about 27 µm nominal) by more than
+    five; the task decision is the ISO 14253-1 rule applied to the reported value and U."""
+    out, _ = demo_run
+    check = json.loads((out / "gauge" / "length-check.json").read_text(encoding="utf-8"))
+    assert check["compensated"]["rms"] < check["nominal"]["rms"] / 5
+    task = json.loads((out / "task" / "gauge-length.json").read_text(encoding="utf-8"))
+    (length,) = task["outputs"]
+    decision = task["decision"]
+    limits = decision["tolerance"]
+    low, high = limits["lower_limit"] + length["U"], limits["upper_limit"] - length["U"]
+    expected = "conformance" if low <= length["value"] <= high else None
+    if expected is None:
+        outside = length["value"] < limits["lower_limit"] - length["U"]
+        outside |= length["value"] > limits["upper_limit"] + length["U"]
+        expected = "non-conformance" if outside else "undecided"
+    assert decision["decision"] == expected
+    assert abs(length["value"] - limits["nominal"]) < 3 * length["U"]  # the truth is nominal
 
 
 def test_demo_cmm_section_compensates_the_held_out_position(demo_run):

@@ -150,8 +150,10 @@ def demo(
 ) -> None:
     """Run the engines end to end on built-in virtual machines and write a report.
 
-    Simulated SAMBA set-up and calibration, compensated coordinates, GUM H.1 by GUF and
-    adaptive Monte Carlo, a sphere fit, a bridge CMM calibrated on a ball plate and
+    A simulated SAMBA campaign calibrated with GUF and adaptive Monte Carlo (JCGM 102
+    validation), a gauge block before and after compensation, its task uncertainty and
+    ISO 14253-1 decision, compensated coordinates, GUM H.1 by GUF and adaptive Monte
+    Carlo, a sphere fit, a bridge CMM calibrated on a ball plate and
     compared with a GP error model: input files, JSON results, report.html, and the
     commands that redo each step.
     """

@@ -21,6 +21,7 @@ import numpy as np
 
 from mtmetrology.cli.demo import DemoContext, DemoSection
 from mtmetrology.cli.demo_cmm import cmm_section
+from mtmetrology.cli.demo_samba import samba_calibration_section, task_section
 from mtmetrology.fitting.documents import fit_document
 from mtmetrology.fitting.least_squares import fit_sphere
 from mtmetrology.fitting.minimum_zone import sphericity
@@ -28,14 +29,11 @@ from mtmetrology.identification import (
     BallCentreProblem,
     ScaleBar,
     analyse_identifiability,
-    gauss_newton,
 )
-from mtmetrology.io.tables import write_csv_table
+from mtmetrology.io.tables import format_decimal, write_csv_table
 from mtmetrology.kinematics.conventions import describe_parameters
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
-from mtmetrology.report import figures
-from mtmetrology.report.format import format_uncertainty, format_value
 from mtmetrology.report.results import add_fit_document, add_result
 from mtmetrology.samba import SambaSetup, probing_sequence
 from mtmetrology.units import from_internal, to_internal
@@ -202,86 +200,20 @@ def identifiability_section(ctx: DemoContext) -> None:
 
 def calibration_section(ctx: DemoContext) -> None:
     m = Machine.load(PRESET)
-    truth = _truth(m)
-    rng = _rng(ctx, 1)
-    sigma = float(to_internal(PROBING_SIGMA_UM, "µm"))
-    with ctx.step("simulate the SAMBA campaign on the true machine (1 µm probing noise)"):
-        ids, q = probing_sequence(m, SETUP, GRID, params=truth)
-        linear = [m.axis_names.index(a) for a in m.linear_axes]
-        q[:, linear] += sigma * rng.standard_normal((len(ids), len(linear)))
-        bar_length = SETUP.scale_bar_length + BAR_U_MM * rng.standard_normal()
-    _indications_csv(ctx, m, ids, q, "samba", "indications.csv")
-    ParameterSet(
+    truth = ParameterSet(
         m.parameter_names,
-        truth,
+        _truth(m),
         m.parameter_units,
         machine=m.name,
         model=m.model_name,
         provenance={"source": "mtm demo: the simulated truth"},
-    ).save(ctx.path("samba", "truth.json"))
-    bar = ScaleBar(("SB1", "SB2"), bar_length, u=BAR_U_MM)
-    problem = BallCentreProblem(m, q, ids, scale_bars=[bar], estimate_tool=True, sigma=sigma)
-    with ctx.step("identify 13 parameters, 18 ball coordinates and the tool offset"):
-        result = gauss_newton(problem)
-    pset = result.parameter_set(
-        m, {"source": "mtm demo, simulated SAMBA campaign", "seed": ctx.seed}
     )
-    pset.save(ctx.path("samba", "params.json"))
-    est, u = pset.values, pset.standard_uncertainty
-    normalised = (est - truth) / u
-    rows = []
-    for i, (name, unit) in enumerate(zip(m.parameter_names, m.parameter_units, strict=True)):
-        uu = float(from_internal(u[i], unit))
-        rows.append(
-            [
-                name,
-                unit,
-                TRUE_ERRORS[name],
-                format_value(float(from_internal(est[i], unit)), uu),
-                format_uncertainty(uu),
-                f"{normalised[i]:+.2f}",
-            ]
-        )
-    covered = int(np.sum(np.abs(normalised) <= 2.0))
-    ctx.report.section(
-        "Simulated SAMBA calibration",
-        f"{len(ids)} ball-centre indications with {PROBING_SIGMA_UM:g} µm noise and a scale bar "
-        f"of u = {float(from_internal(BAR_U_MM, 'µm')):g} µm; Gauss–Newton identification "
-        f"({result.message}). "
-        f"{covered} of {m.n_params} parameters lie within U = 2u of the truth (about 95 % are "
-        "expected when the covariance is right).",
-    )
-    ctx.report.table(
-        ["parameter", "unit", "true", "identified", "u", "(identified − true)/u"], rows
-    )
-    add_result(ctx.report, pset)
-    _, centres, _ = problem.split(result.estimate)
-    index = np.array([problem.ball_ids.index(b) for b in ids])
-    residual = result.residuals[: 3 * len(ids)].reshape(-1, 3) * PROBING_SIGMA_UM  # µm
-    ctx.report.figure(
-        figures.residual_vectors(
-            centres[index],
-            residual,
-            labels=list(ids),
-            title="Residuals of the ball-centre indications",
-        ),
-        caption="Measured minus modelled ball centres after identification (µm), on the "
-        "artefact seen in three projections.",
-    )
-    ctx.command(
-        "identifiability of the measured campaign",
-        "machine",
-        "identifiability",
-        PRESET,
-        ctx.shown("samba", "indications.csv"),
-        "--artefact",
-        ctx.shown("samba", "samba.yaml"),
-    )
-    x0c = m.parameter_names.index("E_X0C")
-    ctx.summary.append(
-        f"calibration (simulated): {covered}/{m.n_params} parameters within U (k = 2) of the "
-        f"truth; E_X0C = {rows[x0c][3]} ± {rows[x0c][4]} µm (true {TRUE_ERRORS['E_X0C']} µm)"
-    )
+    plan = probing_sequence(m, SETUP, GRID)
+    samba_calibration_section(ctx, preset=PRESET, setup=SETUP, plan=plan, truth=truth)
+
+
+def task_uncertainty_section(ctx: DemoContext) -> None:
+    task_section(ctx, preset=PRESET)
 
 
 def prediction_section(ctx: DemoContext) -> None:
@@ -294,7 +226,9 @@ def prediction_section(ctx: DemoContext) -> None:
     rows = [[f"p{i + 1}", *(f"{GAUGE_READINGS[a][i]:g}" for a in GAUGE_READINGS)] for i in range(2)]
     write_csv_table(ctx.path("prediction", "gauge.csv"), header, rows)
     nominal, identified, true = (m.forward(q, theta) for theta in (None, pset.values, _truth(m)))
-    xyz_rows = [[*r, *(f"{v:.6f}" for v in p)] for r, p in zip(rows, identified, strict=True)]
+    # written as `mtm predict -o` writes them, so that its rerun rewrites the same file
+    xyz = [format_decimal(identified[:, k], 6).to_pylist() for k in range(3)]
+    xyz_rows = [[*r, *(c[i] for c in xyz)] for i, r in enumerate(rows)]
     write_csv_table(ctx.path("prediction", "gauge-xyz.csv"), [*header, "x", "y", "z"], xyz_rows)
     lengths = [float(np.linalg.norm(p[1] - p[0])) for p in (nominal, identified, true)]
     error_um = float(from_internal(lengths[1] - lengths[2], "µm"))
@@ -424,8 +358,9 @@ def fitting_section(ctx: DemoContext) -> None:
 DEMO_SECTIONS: list[DemoSection] = [
     DemoSection("machine", "The five-axis machine", machine_section),
     DemoSection("samba", "SAMBA plan: identifiability", identifiability_section),
-    DemoSection("calibration", "Simulated SAMBA calibration", calibration_section),
+    DemoSection("calibration", "SAMBA calibration and a gauge block", calibration_section),
     DemoSection("prediction", "Compensated coordinates", prediction_section),
+    DemoSection("task", "Task uncertainty and conformity", task_uncertainty_section),
     DemoSection("uncertainty", "GUM H.1: GUF and Monte Carlo", uncertainty_section),
     DemoSection("fitting", "Geometric elements", fitting_section),
     DemoSection("cmm", "Bridge CMM: ball plate, kinematic and GP models", cmm_section),
