@@ -1,0 +1,23 @@
+"""``_repr_html_`` for the SAMBA result objects (their report fragment in Jupyter).
+
+The renderers of the SAMBA results live in :mod:`mtmetrology.samba.report`, which imports
+matplotlib; this mixin loads that module only when a notebook first displays a result, so
+that importing :mod:`mtmetrology.samba` stays free of the plotting stack.
+"""
+
+from __future__ import annotations
+
+from mtmetrology.report.notebook import NotebookRepr
+
+__all__ = ["SambaNotebookRepr"]
+
+
+class SambaNotebookRepr(NotebookRepr):
+    """:class:`~mtmetrology.report.notebook.NotebookRepr` that registers the SAMBA renderers."""
+
+    __slots__ = ()
+
+    def _repr_html_(self) -> str:
+        import mtmetrology.samba.report  # noqa: F401  (registers the renderers)
+
+        return super()._repr_html_()
