@@ -16,8 +16,4 @@ class SambaNotebookRepr(NotebookRepr):
     """:class:`~mtmetrology.report.notebook.NotebookRepr` that registers the SAMBA renderers."""
 
     __slots__ = ()
-
-    def _repr_html_(self) -> str:
-        import mtmetrology.samba.report  # noqa: F401  (registers the renderers)
-
-        return super()._repr_html_()
+    _renderer_module = "mtmetrology.samba.report"
