@@ -78,6 +78,7 @@ def command_inputs(tmp_path_factory) -> dict[str, Path]:
     records.write_text("id,X,Y,Z,B,C\np1,-138.565,94.656,196.232,-42,-293\np2,10,20,30,15,40\n")
     return {
         **_ballplate_inputs(d),
+        **_samba_inputs(d),
         "model": EXAMPLES / "gum-h1-end-gauge.yaml",
         "sphere": sphere,
         "poses": poses,
@@ -85,6 +86,38 @@ def command_inputs(tmp_path_factory) -> dict[str, Path]:
         "artefact": d / "artefact.yaml",
         "params": d / "params.json",
         "records": records,
+    }
+
+
+SAMBA_EXAMPLES = EXAMPLES / "samba"
+SAMBA_MACHINE = "five-axis-wcbxfzyst"
+#: The gauge length of the SAMBA length check: the diagonal of a 200 mm square.
+GAUGE_LENGTH_MM = float(np.hypot(200.0, 200.0))
+
+
+def _samba_inputs(d: Path) -> dict:
+    """SAMBA records (13-parameter model, 0.5 µm noise) and gauge-length readings of the
+    example machine, simulated with the CLI from the files of examples/samba."""
+    from typer.testing import CliRunner
+
+    from mtmetrology.cli import app
+
+    runner = CliRunner()
+    common = ["--machine", SAMBA_MACHINE, "--truth", str(SAMBA_EXAMPLES / "truth.json")]
+    samba = [*common, "--model", "13", "--artefact", str(SAMBA_EXAMPLES / "artefact.yaml"),
+             "--balls", str(SAMBA_EXAMPLES / "balls.yaml"),
+             "--poses", str(SAMBA_EXAMPLES / "poses.csv"), "--noise-um", "0.5", "--seed", "1",
+             "-o", str(d / "samba.csv")]  # fmt: skip
+    gauge = [*common, "--end-a", "-100,-100,40", "--end-b", "100,100,40", "--pairs", "8",
+             "--seed", "5", "-o", str(d / "gauge.csv")]  # fmt: skip
+    for args in (["simulate", "samba", *samba], ["simulate", "length", *gauge]):
+        result = runner.invoke(app, args)
+        assert result.exit_code == 0, result.output
+    return {
+        "samba_records": d / "samba.csv",
+        "samba_artefact": SAMBA_EXAMPLES / "artefact.yaml",
+        "gauge": d / "gauge.csv",
+        "gauge_pairs": 8,
     }
 
 
@@ -172,6 +205,16 @@ def _report_commands(inputs: dict, out: Path) -> dict[str, list[str]]:
         "ballplate-budget": ["calibrate", "ballplate-budget", str(inputs["budget"]),
                              "-o", str(out / "budget.json"),
                              "--report", str(out / "ballplate-budget.html")],
+        # before samba-verify-length, which reads its RESULT.json
+        "samba-calibrate": ["calibrate", "samba", str(inputs["samba_records"]),
+                            "--machine", SAMBA_MACHINE, "--artefact", str(inputs["samba_artefact"]),
+                            "--estimate-tool", "--uncertainty", "both", "--trials", "1000",
+                            "--seed", "3", "-o", str(out / "samba.json"),
+                            "--report", str(out / "samba-calibrate.html")],
+        "samba-verify-length": ["verify", "length", str(inputs["gauge"]),
+                                "--machine", SAMBA_MACHINE, "--params", str(out / "samba.json"),
+                                "--length", f"{GAUGE_LENGTH_MM:.9f}", "-o", str(out / "gauge.json"),
+                                "--report", str(out / "samba-verify-length.html")],
         "gp-fit": ["gp", "fit", str(inputs["ballplate"]), *CMM, "-o", str(out / "gp.json"),
                    "--report", str(out / "gp-fit.html")],
     }  # fmt: skip

@@ -24,6 +24,9 @@ COMMAND_FIGURES = {
     "ballplate": 7,
     "ballplate-budget": 1,
     "gp-fit": 1,
+    # correlation, singular values, residual vectors, one MC histogram per parameter (13)
+    "samba-calibrate": 16,
+    "samba-verify-length": 1,  # errors per pair before/after compensation
 }
 
 

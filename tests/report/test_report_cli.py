@@ -197,3 +197,88 @@ def test_gp_model_shows_in_a_notebook_what_its_report_shows(reports, command_rep
     assert _figures(html) == _figures(page) == 1
     for comp in ("x", "y", "z"):
         assert _cells(html, comp) == _cells(page, comp)
+
+
+def _tables(page: str) -> list[tuple[list[str], list[list[str]]]]:
+    """Every table of a page as (column headers, body rows of cell texts)."""
+    out = []
+    for table in re.findall(r"<table class=\"mtm-table\">(.*?)</table>", page, re.S):
+        heads = re.findall(r"<th scope=\"col\">(.*?)</th>", table)
+        body = re.search(r"<tbody>(.*?)</tbody>", table, re.S).group(1)
+        rows = [re.findall(r"<td[^>]*>(.*?)</td>", r) for r in re.findall(r"<tr>(.*?)</tr>", body)]
+        out.append((heads, rows))
+    return out
+
+
+def _table(page: str, *heads: str) -> list[list[str]]:
+    """Body rows of the one table whose headers start with ``heads``."""
+    (rows,) = [rows for h, rows in _tables(page) if tuple(h[: len(heads)]) == heads]
+    return rows
+
+
+def test_samba_calibration_report_shows_parameters_uncertainty_and_validation(
+    reports, command_reports
+):
+    _, page = reports["samba-calibrate"]
+    path = command_reports["samba-calibrate"][1]
+    doc = json.loads((path.parent / "samba.json").read_text(encoding="utf-8"))
+    names = [p["name"] for p in doc["parameters"]]
+    # correlation map, singular values, residual vectors, one MC histogram per parameter
+    assert _figures(page) == 3 + len(names)
+    assert _provenance(page, "seed") == "3"
+    assert int(_cell_after(page, "rank")) == doc["identification"]["rank"]
+    rows = {r[0]: r for r in _table(page, "parameter", "value", "unit", "u")}
+    assert list(rows) == names
+    for p in doc["parameters"]:  # u and U = 2u, rounded to two significant digits
+        assert rows[p["name"]][2] == p["unit"]
+        assert float(rows[p["name"]][3]) == pytest.approx(p["u"], rel=0.05)
+        assert float(rows[p["name"]][4]) == pytest.approx(2 * p["u"], rel=0.05)
+    conventions = _table(page, "parameter", "unit", "axis", "positive value")
+    assert [r[0] for r in conventions] == [c["name"] for c in doc["conventions"]]
+    assert [r[3] for r in conventions] == [c["positive"] for c in doc["conventions"]]
+    validation = doc["uncertainty"]["validation"]
+    verdict = "validated" if validation["passed"] else "NOT validated"
+    assert f"JCGM 102 validation of the GUF by Monte Carlo: {verdict}</h2>" in page
+    table = _table(page, "parameter", "unit", "value GUF", "value MCM")
+    assert [r[0] for r in table] == [t["name"] for t in validation["table"]]
+    assert [r[-1] == "yes" for r in table] == [t["validated"] for t in validation["table"]]
+    guf, mcm = _tables_with(page, "parameter", "value", "u", "U", "k")
+    assert [r[0] for r in guf] == [r[0] for r in mcm] == names
+
+
+def _tables_with(page: str, *heads: str) -> list[list[list[str]]]:
+    return [rows for h, rows in _tables(page) if tuple(h[: len(heads)]) == heads]
+
+
+def test_samba_length_report_errors_before_and_after(reports, command_reports, command_inputs):
+    _, page = reports["samba-verify-length"]
+    path = command_reports["samba-verify-length"][1]
+    doc = json.loads((path.parent / "gauge.json").read_text(encoding="utf-8"))
+    assert _figures(page) == 1
+    pairs = _table(page, "pair", "error, nominal (µm)")
+    assert len(pairs) == command_inputs["gauge_pairs"] == len(doc["pairs"])
+    for row, p in zip(pairs, doc["pairs"], strict=True):
+        assert float(row[1]) == pytest.approx(p["error_nominal_um"], rel=5e-3, abs=1e-3)
+        assert float(row[2]) == pytest.approx(p["error_compensated_um"], rel=5e-3, abs=1e-3)
+    stats = {r[0]: r for r in _table(page, "model", "mean", "rms")}
+    for name in ("nominal", "compensated"):
+        assert float(stats[name][2]) == pytest.approx(doc[name]["rms"], rel=5e-3)
+    # compensation helps: the compensated RMS is below 5 % of the nominal one
+    assert float(stats["compensated"][2]) < 0.05 * float(stats["nominal"][2])
+
+
+def test_samba_failing_renderer_writes_neither_report_nor_result(
+    command_inputs, report_commands, tmp_path, monkeypatch
+):
+    import mtmetrology.samba.report as samba_report
+
+    def broken(cal):
+        raise RuntimeError("renderer failure")
+
+    monkeypatch.setattr(samba_report, "indication_residuals", broken)
+    args = report_commands(tmp_path)["samba-calibrate"]
+    args[args.index("--uncertainty") + 1] = "none"
+    result = runner.invoke(app, args)
+    assert result.exit_code != 0
+    assert not (tmp_path / "samba.json").exists()
+    assert not (tmp_path / "samba-calibrate.html").exists()

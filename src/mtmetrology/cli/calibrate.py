@@ -8,7 +8,14 @@ from typing import Annotated, Literal
 import typer
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from mtmetrology.cli._common import fail, print_json, user_errors
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    fail,
+    print_json,
+    user_errors,
+    write_report,
+)
 from mtmetrology.errors import ConvergenceError, InputError
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError, write_json
@@ -102,9 +109,33 @@ def _machine(machine: str, model: str | None, params_only: str | None) -> Machin
     return m
 
 
+def samba_report(ctx: typer.Context, title: str, inputs: list, result, **context):
+    """A report of a SAMBA ``result`` with the command line and inputs as provenance.
+
+    Built before the JSON result is written, so that a failing renderer leaves nothing.
+    ``inputs`` are the input files (and a machine preset name); ``context`` goes to the
+    renderer (:mod:`mtmetrology.samba.report`).
+    """
+    import mtmetrology.samba.report  # noqa: F401  (registers the SAMBA renderers)
+    from mtmetrology.report import Report
+    from mtmetrology.report.results import add_result
+
+    files = [p for p in inputs if isinstance(p, Path)]
+    names = [p for p in inputs if not isinstance(p, Path)]
+    provenance: dict = {"inputs": files}
+    if names:
+        provenance["machine"] = ", ".join(names)
+    seed = ctx.params.get("seed")
+    if seed is not None:
+        provenance["seed"] = seed
+    report = Report(title, command=command_line(ctx), provenance=provenance)
+    return add_result(report, result, **context)
+
+
 @app.command("samba", help=CALIBRATE_HELP)
 @user_errors
 def samba(
+    ctx: typer.Context,
     records: Annotated[Path, typer.Argument(help="RECORDS.csv (see the formats above).")],
     machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
     artefact: Annotated[Path, typer.Option("--artefact", help="ARTEFACT.yaml.")],
@@ -148,6 +179,7 @@ def samba(
     ] = False,
     json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
+    report_path: ReportOption = None,
 ) -> None:
     if uncertainty not in ("none", "guf", "mcm", "both"):
         raise InputError(f"--uncertainty must be none, guf, mcm or both, got {uncertainty!r}")
@@ -199,8 +231,18 @@ def samba(
         except ConvergenceError as err:
             fail(str(err))
     doc = cal.to_dict(unc, described)
+    report = None
+    if report_path is not None:
+        inputs = [records, artefact, machine if not Path(machine).is_file() else Path(machine)]
+        if repeatability is not None:
+            inputs.append(repeatability)
+        report = samba_report(
+            ctx, f"SAMBA calibration: {records.name}", inputs, cal, uncertainty=unc
+        )
     if output is not None:
         write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
     if json:
         print_json(doc)
     else:

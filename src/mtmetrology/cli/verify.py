@@ -7,7 +7,8 @@ from typing import Annotated
 
 import typer
 
-from mtmetrology.cli._common import print_json, user_errors
+from mtmetrology.cli._common import ReportOption, print_json, user_errors, write_report
+from mtmetrology.cli.calibrate import samba_report
 from mtmetrology.errors import InputError
 from mtmetrology.io.files import write_json
 from mtmetrology.kinematics.machine import Machine
@@ -32,6 +33,7 @@ length-check document, -o writes it.
 @app.command("length", help=LENGTH_HELP)
 @user_errors
 def length(
+    ctx: typer.Context,
     readings: Annotated[Path, typer.Argument(help="READINGS.csv: pair,end,X,Y,Z,B,C[,S].")],
     machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
     length_mm: Annotated[float, typer.Option("--length", help="Calibrated length L, mm.")],
@@ -47,6 +49,7 @@ def length(
     ] = None,
     json: Annotated[bool, typer.Option("--json", help="Print the JSON document.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
+    report_path: ReportOption = None,
 ) -> None:
     if u_length is not None and not u_length >= 0:
         raise InputError(f"--u-length must be >= 0, got {u_length}")
@@ -66,8 +69,16 @@ def length(
         u_length=u_length,
     )
     doc = check.to_dict()
+    report = None
+    if report_path is not None:
+        inputs = [readings, machine if not Path(machine).is_file() else Path(machine)]
+        if params is not None:
+            inputs.append(params)
+        report = samba_report(ctx, f"Gauge-length check: {readings.name}", inputs, check)
     if output is not None:
         write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
     if json:
         print_json(doc)
         return

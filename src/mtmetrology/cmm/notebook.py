@@ -16,8 +16,4 @@ class CMMNotebookRepr(NotebookRepr):
     """:class:`~mtmetrology.report.notebook.NotebookRepr` that registers the CMM renderers."""
 
     __slots__ = ()
-
-    def _repr_html_(self) -> str:
-        import mtmetrology.cmm.report  # noqa: F401  (registers the renderers)
-
-        return super()._repr_html_()
+    _renderer_module = "mtmetrology.cmm.report"

@@ -45,6 +45,7 @@ from mtmetrology.kinematics.conventions import describe_parameters
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.samba.artefact import SambaArtefact
+from mtmetrology.samba.notebook import SambaNotebookRepr
 from mtmetrology.samba.records import SambaRecords
 from mtmetrology.units import from_internal
 
@@ -58,7 +59,7 @@ XTOL = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
-class SambaCalibration:
+class SambaCalibration(SambaNotebookRepr):
     """Result of :func:`calibrate`.
 
     Attributes

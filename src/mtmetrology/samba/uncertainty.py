@@ -79,6 +79,7 @@ from mtmetrology.identification import BallCentreProblem
 from mtmetrology.optimize import chord_batch, least_squares
 from mtmetrology.rng import SeedLike
 from mtmetrology.samba.calibrate import SambaCalibration
+from mtmetrology.samba.notebook import SambaNotebookRepr
 from mtmetrology.uncertainty import (
     GUFResult,
     InputQuantity,
@@ -381,7 +382,7 @@ def joint_coverage(m: int, p: float = 0.95) -> dict:
 
 
 @dataclass(frozen=True, eq=False)
-class SambaUncertainty:
+class SambaUncertainty(SambaNotebookRepr):
     """GUF and/or MCM of the identified errors, with the JCGM 102 validation when both ran.
 
     Attributes

@@ -37,6 +37,7 @@ from mtmetrology.io.files import InputFileError
 from mtmetrology.io.tables import read_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.rng import SeedLike, as_generator
+from mtmetrology.samba.notebook import SambaNotebookRepr
 from mtmetrology.samba.records import check_travel
 from mtmetrology.units import from_internal
 
@@ -117,7 +118,7 @@ def error_statistics(errors: np.ndarray) -> dict:
 
 
 @dataclass(frozen=True, eq=False)
-class LengthCheck:
+class LengthCheck(SambaNotebookRepr):
     """Result of :func:`verify_length` (internal units: mm).
 
     Attributes

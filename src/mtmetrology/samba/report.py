@@ -1,0 +1,294 @@
+"""What a report shows for the SAMBA results (registered with the report layer's ``@renders``).
+
+- :class:`~mtmetrology.samba.calibrate.SambaCalibration` (``uncertainty=`` a
+  :class:`~mtmetrology.samba.uncertainty.SambaUncertainty` when one ran): the fit, the
+  parameter table with u and U, their correlation, the sign conventions and reference
+  points of the parameters, the identifiability indices (rank, condition numbers, O1–O5),
+  the unexplained and nominal volumetric error and the residual vector of every
+  ball-centre indication on the artefact;
+- :class:`~mtmetrology.samba.uncertainty.SambaUncertainty`: the GUF and Monte Carlo
+  outputs, the Monte Carlo histograms against the GUF normals and the JCGM 102
+  validation table (Sepahi Boroujeni (2021), Tables 5-2 and 5-3 layout);
+- :class:`~mtmetrology.samba.verify.LengthCheck`: the gauge-length errors of each pair
+  before and after compensation and their statistics.
+
+Values are in customary units (µm, µrad, µm/m, mm); U = k u with k = 2 in the parameter
+table (the GUF/MCM tables give their own k).
+
+References
+----------
+Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine
+Tool Metrology*. PhD thesis, Polytechnique Montréal, Tables 5-2, 5-3 and 7-1.
+
+Alami Mchichi, N. (2018). *Étalonnage des machines-outils à cinq axes : configuration
+optimisée des artefacts et de la séquence de mesure de la méthode SAMBA en vue d'une
+estimation efficace des erreurs géométriques*. PhD thesis, École Polytechnique de
+Montréal, §3 (the SAMBA method, unexplained volumetric error).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from mtmetrology.report import figures
+from mtmetrology.report.document import Report
+from mtmetrology.report.format import format_uncertainty, format_value
+from mtmetrology.report.results import add_result, renders
+from mtmetrology.units import from_internal
+
+__all__ = ["COVERAGE_FACTOR", "indication_residuals", "length_error_bars"]
+
+#: k of the expanded uncertainties of the parameter table.
+COVERAGE_FACTOR = 2.0
+#: Correlation maps of the error parameters are drawn up to this many parameters.
+MAX_MAPPED = 90
+
+
+def indication_residuals(cal) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """Residual vector of every ball-centre indication, placed at its ball on the artefact.
+
+    Parameters
+    ----------
+    cal : SambaCalibration
+
+    Returns
+    -------
+    centres : (n, 3) ndarray, mm
+        Identified centre (workpiece frame) of the ball of each indication.
+    residuals : (n, 3) ndarray, µm
+        Unexplained volumetric error of each indication (indication minus model).
+    balls : list of str
+        Ball id of each indication.
+    """
+    centres = cal.ball_centres()
+    balls = list(cal.records.balls)
+    points = np.array([centres[b] for b in balls])
+    return points, from_internal(cal.residual_vectors, "µm"), balls
+
+
+def _correlation(covariance) -> np.ndarray:
+    cov = np.asarray(covariance, dtype=float)
+    u = np.sqrt(np.diag(cov))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.nan_to_num(cov / np.outer(u, u))
+
+
+@renders("mtmetrology.samba.calibrate.SambaCalibration", "SAMBA calibration")
+def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
+    """``uncertainty``: the SambaUncertainty that sets the parameter covariance."""
+    doc = cal.to_dict(uncertainty)
+    ident, rec, vol = doc["identification"], doc["records"], doc["volumetric_error"]
+    rep.section(f"SAMBA calibration of {cal.machine.name}", ident["message"])
+    rep.table(
+        ["quantity", "value"],
+        [
+            ["status", ident["status"]],
+            ["iterations", ident["iterations"]],
+            ["records", f"{rec['form']} ({rec['source']})"],
+            ["indications", rec["indications"]],
+            ["σ of a reading (µm)", f"{rec['sigma_um']:.3g}"],
+            ["unknowns", ident["unknowns"]],
+            ["minimum-norm solution", ident["minimum_norm"]],
+            ["tool vector (mm)", ", ".join(f"{v:.4f}" for v in doc["tool_mm"])],
+            ["tool estimated", doc["tool_estimated"]],
+            ["unexplained volumetric error, mean (µm)", f"{vol['unexplained']['mean_um']:.3g}"],
+            ["unexplained volumetric error, max (µm)", f"{vol['unexplained']['max_um']:.3g}"],
+            ["nominal-model volumetric error, mean (µm)", f"{vol['nominal_model']['mean_um']:.3g}"],
+            ["nominal-model volumetric error, max (µm)", f"{vol['nominal_model']['max_um']:.3g}"],
+        ],
+    )
+    rep.section(
+        "Error parameters",
+        f"{len(doc['parameters'])} parameters; covariance from {doc['covariance_source']}.",
+    )
+    rep.table(
+        figures.parameter_table_columns(COVERAGE_FACTOR),
+        figures.parameter_table_rows(doc, coverage_factor=COVERAGE_FACTOR),
+    )
+    cov = doc.get("covariance")
+    if cov is not None and 1 < len(cov["names"]) <= MAX_MAPPED:
+        rep.figure(
+            figures.correlation_heatmap(cov["names"], _correlation(cov["matrix"])),
+            caption="Correlation of the identified error parameters (ball centres and tool "
+            "vector marginalised).",
+        )
+    rep.section(
+        "Sign conventions and reference points",
+        "What a positive value of each parameter does and the point it is referred to.",
+    )
+    rep.table(
+        ["parameter", "unit", "axis", "positive value", "referred to", "reference point (mm)"],
+        [
+            [
+                c["name"],
+                c["unit"],
+                c["axis"],
+                c["positive"],
+                c["reference"],
+                ", ".join(f"{v:g}" for v in c["reference_point_mm"]),
+            ]
+            for c in doc["conventions"]
+        ],
+    )
+    add_result(rep, cal.identification.diagnostics)
+    if ident["confounded"]:
+        rep.table(["confounded combination"], [[", ".join(g)] for g in ident["confounded"]])
+    points, res, balls = indication_residuals(cal)
+    rep.section(
+        "Residual vectors of the ball-centre indications",
+        "Unexplained volumetric error of each indication, drawn at its ball's identified "
+        "centre on the artefact (workpiece frame).",
+    )
+    rep.figure(
+        figures.residual_vectors(points, res, unit="µm", title="Unexplained volumetric error"),
+        caption=f"{len(balls)} indications on {len(set(balls))} balls: mean norm "
+        f"{vol['unexplained']['mean_um']:.3g} µm, max {vol['unexplained']['max_um']:.3g} µm.",
+    )
+    if uncertainty is not None:
+        add_result(rep, uncertainty)
+
+
+@renders("mtmetrology.samba.uncertainty.SambaUncertainty", "SAMBA uncertainty")
+def _uncertainty(rep: Report, unc, **_) -> None:
+    doc = unc.to_dict()
+    g, mc = unc.guf, unc.mcm
+    for name, r in (("GUF", g), ("Monte Carlo", mc)):
+        if r is None:
+            continue
+        rep.section(
+            f"{name} uncertainty of the error parameters, p = {r.p:g}",
+            f"Indication covariance: {unc.source}."
+            + ("" if name == "GUF" else f" {r.trials} trials; {r.message}"),
+        )
+        rep.table(
+            ["parameter", "value", "u", "U", "k", "interval", "unit"],
+            [
+                [
+                    o.name,
+                    format_value(o.value, o.u),
+                    format_uncertainty(o.u),
+                    format_uncertainty(o.U),
+                    "—" if o.k is None else f"{o.k:.3f}",
+                    f"[{format_value(o.interval[0], o.u)}, {format_value(o.interval[1], o.u)}]",
+                    o.unit,
+                ]
+                for o in r.outputs
+            ],
+        )
+    if mc is not None:
+        rep.section(
+            "Monte Carlo distributions",
+            "Histogram of each parameter's Monte Carlo values"
+            + (" against the GUF normal." if g is not None else "."),
+        )
+        for j, name in enumerate(mc.names):
+            mean, u = float(mc.estimate[j]), float(mc.standard_uncertainty[j])
+            g_interval = None
+            if g is not None:
+                mean, u, g_interval = (
+                    float(g.estimate[j]),
+                    float(g.standard_uncertainty[j]),
+                    (g.interval[j]),
+                )
+            rep.figure(
+                figures.histogram_vs_normal(
+                    mc.histogram(j),
+                    mean,
+                    u,
+                    name,
+                    mc.units[j],
+                    interval=mc.interval[j],
+                    guf_interval=g_interval,
+                )
+            )
+    if unc.validation is not None:
+        v = doc["validation"]
+        verdict = "validated" if v["passed"] else "NOT validated"
+        rep.section(f"JCGM 102 validation of the GUF by Monte Carlo: {verdict}", v["message"])
+        rep.table(
+            ["parameter", "unit", "value GUF", "value MCM", "u GUF", "u MCM", "δ", "validated"],
+            [
+                [
+                    t["name"],
+                    t["unit"],
+                    f"{t['value_guf']:.6g}",
+                    f"{t['value_mcm']:.6g}",
+                    "—" if "u_guf" not in t else f"{t['u_guf']:.4g}",
+                    "—" if "u_mcm" not in t else f"{t['u_mcm']:.4g}",
+                    f"{t['tolerance']:.3g}",
+                    t["validated"],
+                ]
+                for t in v["table"]
+            ],
+            caption="Per parameter (Sepahi Boroujeni (2021), Table 5-2 layout) and jointly "
+            "(Table 5-3): largest eigenvalue of the covariance and the joint coverage factor.",
+        )
+    if g is not None:
+        jc = doc["guf"]["joint_coverage"]
+        rows = [[k.replace("_", " "), f"{jc[k]:.4g}"] for k in ("m", "p", "hyper_ellipsoid")]
+        rows.append(["hyper-rectangle (Bonferroni)", f"{jc['hyper_rectangle_bonferroni']:.4g}"])
+        if mc is not None:
+            rows.append(["Monte Carlo hyper-ellipsoid", f"{mc.region_coverage_factor:.4g}"])
+        rep.table(["joint coverage factor", "value"], rows, caption=jc["note"])
+
+
+def length_error_bars(pairs, nominal_um, compensated_um) -> Figure:
+    """Gauge-length error of each pair before and after compensation, µm.
+
+    Parameters
+    ----------
+    pairs : sequence of str
+    nominal_um, compensated_um : (n,) array_like, µm
+
+    Examples
+    --------
+    >>> fig = length_error_bars(["1", "2"], [10.0, -8.0], [0.5, -0.2])
+    >>> len(fig.axes[0].patches)
+    4
+    """
+    en, ec = np.asarray(nominal_um, float), np.asarray(compensated_um, float)
+    x = np.arange(len(pairs))
+    fig = Figure(figsize=(6.4, 3.4), layout="constrained")
+    ax = fig.add_subplot()
+    ax.bar(x - 0.2, en, width=0.4, color="#8c959f", label="nominal model")
+    ax.bar(x + 0.2, ec, width=0.4, color="#2a5d8f", label="compensated")
+    ax.axhline(0.0, color="black", lw=0.8)
+    ax.set_xticks(x, list(pairs), fontsize=7)
+    ax.set_xlabel("pair")
+    ax.set_ylabel("length error (µm)")
+    ax.legend(fontsize=8)
+    ax.set_title("Gauge-length error before and after compensation")
+    return fig
+
+
+@renders("mtmetrology.samba.verify.LengthCheck", "Gauge-length check")
+def _length(rep: Report, check, **_) -> None:
+    doc = check.to_dict()
+    u = "" if check.u_length is None else f", u(L) = {check.u_length:g} mm"
+    rep.section(
+        f"Gauge-length check, L = {check.length:g} mm{u}",
+        f"{len(check.pairs)} pairs; error = measured length − L (tip radius "
+        f"{check.tip_radius:g} mm), µm.",
+    )
+    stats = ("mean", "rms", "std", "range", "max_abs")
+    rep.table(
+        ["model", *[s.replace("_", " ") for s in stats]],
+        [[name, *(f"{doc[name][s]:.3g}" for s in stats)] for name in ("nominal", "compensated")],
+        caption="errors in µm",
+    )
+    rep.table(
+        ["pair", "error, nominal (µm)", "error, compensated (µm)"],
+        [
+            [p["pair"], f"{p['error_nominal_um']:.3g}", f"{p['error_compensated_um']:.3g}"]
+            for p in doc["pairs"]
+        ],
+    )
+    rep.figure(
+        length_error_bars(
+            [p["pair"] for p in doc["pairs"]],
+            [p["error_nominal_um"] for p in doc["pairs"]],
+            [p["error_compensated_um"] for p in doc["pairs"]],
+        ),
+        caption="Error of each pair with the nominal model and after compensation.",
+    )
