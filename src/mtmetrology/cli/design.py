@@ -63,6 +63,17 @@ def _artefact_yaml(design, ball_diameter_mm: float) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _balls_yaml(doc: dict) -> str:
+    """The chosen balls and the scale-bar ends as ``samba-balls`` (nominal centres, mm)."""
+    bar = doc["scale_bar"]
+    placed = [(b["id"], b["centre_mm"]) for b in doc["balls"]]
+    placed += list(zip(bar["ends"], bar["centres_mm"], strict=True))
+    lines = ["kind: samba-balls", "balls:"]
+    for ball_id, (x, y, z) in placed:
+        lines.append(f'  - {{id: "{ball_id}", centre_mm: [{x:.6f}, {y:.6f}, {z:.6f}]}}')
+    return "\n".join(lines) + "\n"
+
+
 @app.command("samba")
 @user_errors
 def samba(
@@ -128,13 +139,21 @@ def samba(
         Path | None,
         typer.Option("--artefact-out", help="Also write the samba-artefact YAML (scale bar)."),
     ] = None,
+    balls_out: Annotated[
+        Path | None,
+        typer.Option(
+            "--balls-out", help="Also write the samba-balls YAML (nominal centres, for simulate)."
+        ),
+    ] = None,
     json: Annotated[bool, typer.Option("--json", help="Print the design as JSON.")] = False,
 ) -> None:
     """Choose SAMBA balls and (B, C) indexations by DETMAX; write the probing programme.
 
     The programme CSV has columns ball,B,C,S,X,Y,Z (+ sense_B,sense_C for models with
     backlash): X,Y,Z are the nominal readings at the ball centre, so `mtm machine
-    identifiability MACHINE PROGRAMME.csv --artefact ARTEFACT.yaml` reads it as is.
+    identifiability MACHINE PROGRAMME.csv --artefact ARTEFACT.yaml` reads it as is, and
+    `mtm simulate samba --poses PROGRAMME.csv --balls BALLS.yaml --artefact ARTEFACT.yaml`
+    (with the files of --balls-out and --artefact-out) simulates the planned test.
     """
     _positive(sigma_um, "--sigma-um")
     _positive(k, "--k")
@@ -184,8 +203,11 @@ def samba(
     if artefact_out is not None:
         with atomic_write(artefact_out) as fh:
             fh.write(_artefact_yaml(design, rule.ball_diameter_mm))
-    write_csv_table(output, header, rows)
     doc = design.to_dict(minutes_per_measurement, minutes_per_indexation)
+    if balls_out is not None:
+        with atomic_write(balls_out) as fh:
+            fh.write(_balls_yaml(doc))
+    write_csv_table(output, header, rows)
     if json:
         print_json(doc)
         return
