@@ -24,6 +24,7 @@ COMMAND_FIGURES = {
     "ballplate": 7,
     "ballplate-budget": 1,
     "gp-fit": 1,
+    "design": 2,  # DETMAX convergence of step 1 (balls) and step 2 (indexations)
 }
 
 

@@ -10,7 +10,13 @@ import typer
 from rich.console import Console
 from rich.table import Table as RichTable
 
-from mtmetrology.cli._common import print_json, user_errors
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    print_json,
+    user_errors,
+    write_report,
+)
 from mtmetrology.design.accessibility import AccessibilityRule, load_accessibility_rule
 from mtmetrology.design.counts import COUNT_RULES, MINUTES_PER_MEASUREMENT
 from mtmetrology.design.criteria import CRITERIA
@@ -77,6 +83,7 @@ def _balls_yaml(doc: dict) -> str:
 @app.command("samba")
 @user_errors
 def samba(
+    ctx: typer.Context,
     machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML file.")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Programme CSV to write.")],
     model: Annotated[str | None, typer.Option("--model", help="Error model (e.g. 13, 84).")] = None,
@@ -146,6 +153,7 @@ def samba(
         ),
     ] = None,
     json: Annotated[bool, typer.Option("--json", help="Print the design as JSON.")] = False,
+    report_path: ReportOption = None,
 ) -> None:
     """Choose SAMBA balls and (B, C) indexations by DETMAX; write the probing programme.
 
@@ -208,10 +216,27 @@ def samba(
         with atomic_write(balls_out) as fh:
             fh.write(_balls_yaml(doc))
     write_csv_table(output, header, rows)
+    if report_path is not None:
+        inputs = [machine, balls, balls_from, indexations, accessibility]
+        _design_report(design, command_line(ctx), inputs, report_path, doc)
     if json:
         print_json(doc)
         return
     _print(doc, output)
+
+
+def _design_report(design, command: str, inputs: list, path: Path, doc: dict) -> None:
+    import mtmetrology.design.report  # noqa: F401  (registers the plan renderer)
+    from mtmetrology.report import Report
+    from mtmetrology.report.results import add_result
+
+    provenance = {"inputs": [str(p) for p in inputs if p is not None and Path(p).is_file()]}
+    report = Report("SAMBA calibration plan", command=command, provenance=provenance)
+    timing = {
+        "minutes_per_measurement": doc["minutes_per_measurement"],
+        "minutes_per_indexation": doc["minutes_per_indexation"],
+    }
+    write_report(add_result(report, design, **timing), path)
 
 
 def _print(doc: dict, output: Path) -> None:
