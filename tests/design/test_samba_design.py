@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from conftest import LAB_CENTRES, LAB_IDS
+from lab_balls import LAB_CENTRES, LAB_IDS
 
 from mtmetrology.cli.design import SEED004_GRID
 from mtmetrology.design.accessibility import AccessibilityRule

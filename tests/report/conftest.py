@@ -76,6 +76,7 @@ def command_inputs(tmp_path_factory) -> dict[str, Path]:
     )
     records = d / "records.csv"
     records.write_text("id,X,Y,Z,B,C\np1,-138.565,94.656,196.232,-42,-293\np2,10,20,30,15,40\n")
+    (d / "ball-grid.yaml").write_text(BALL_GRID)
     return {
         **_ballplate_inputs(d),
         **_samba_inputs(d),
@@ -86,6 +87,7 @@ def command_inputs(tmp_path_factory) -> dict[str, Path]:
         "artefact": d / "artefact.yaml",
         "params": d / "params.json",
         "records": records,
+        "ball_grid": d / "ball-grid.yaml",
     }
 
 
@@ -119,6 +121,14 @@ def _samba_inputs(d: Path) -> dict:
         "gauge": d / "gauge.csv",
         "gauge_pairs": 8,
     }
+
+
+#: Candidate balls of the design report: 3 x 2 positions, two stems.
+BALL_GRID = """kind: samba-ball-grid
+x_mm: [-80, 0, 80]
+y_mm: [-40, 40]
+stems_mm: [75, 150]
+"""
 
 
 #: A small ball-plate campaign: 3 x 3 plate, four positions (horizontal, two vertical,
@@ -215,6 +225,11 @@ def _report_commands(inputs: dict, out: Path) -> dict[str, list[str]]:
                                 "--machine", SAMBA_MACHINE, "--params", str(out / "samba.json"),
                                 "--length", f"{GAUGE_LENGTH_MM:.9f}", "-o", str(out / "gauge.json"),
                                 "--report", str(out / "samba-verify-length.html")],
+        "design": ["design", "samba", "--machine", "five-axis-wcbxfzyst", "--model", "13",
+                   "--balls-from", str(inputs["ball_grid"]), "--n-balls", "2", "--k", "3",
+                   "--criterion", "D", "--starts", "2", "--seed", "5",
+                   "--b-grid", "-90:90:15", "--c-grid", "0:330:30",
+                   "-o", str(out / "programme.csv"), "--report", str(out / "design.html")],
         "gp-fit": ["gp", "fit", str(inputs["ballplate"]), *CMM, "-o", str(out / "gp.json"),
                    "--report", str(out / "gp-fit.html")],
     }  # fmt: skip

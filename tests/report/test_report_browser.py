@@ -27,6 +27,7 @@ COMMAND_FIGURES = {
     # correlation, singular values, residual vectors, one MC histogram per parameter (13)
     "samba-calibrate": 16,
     "samba-verify-length": 1,  # errors per pair before/after compensation
+    "design": 2,  # DETMAX convergence of step 1 (balls) and step 2 (indexations)
 }
 
 

@@ -282,3 +282,28 @@ def test_samba_failing_renderer_writes_neither_report_nor_result(
     assert result.exit_code != 0
     assert not (tmp_path / "samba.json").exists()
     assert not (tmp_path / "samba-calibrate.html").exists()
+
+
+def test_design_report_shows_the_plan_it_wrote(reports, tmp_path_factory):
+    """The page states the programme's counts, the plan's rank and the predicted u of
+    every parameter that --json gives for the same command and seed."""
+    _, page = reports["design"]
+    assert _figures(page) == 2  # DETMAX convergence of step 1 and step 2
+    assert "--seed 5" in _provenance(page, "command")
+    d = tmp_path_factory.mktemp("design-json")
+    grid = re.search(r"--balls-from (\S+)", _provenance(page, "command")).group(1)
+    args = ["design", "samba", "--machine", "five-axis-wcbxfzyst", "--model", "13",
+            "--balls-from", grid, "--n-balls", "2", "--k", "3", "--criterion", "D",
+            "--starts", "2", "--seed", "5", "--b-grid", "-90:90:15", "--c-grid", "0:330:30",
+            "-o", str(d / "programme.csv"), "--json"]  # fmt: skip
+    doc = json.loads(runner.invoke(app, args).stdout)
+    assert int(_cell_after(page, "indexations chosen")) == doc["n_indexations"]
+    assert int(_cell_after(page, "ball measurements M_T")) == doc["n_measurements"]
+    assert int(_cell_after(page, "rank")) == doc["rank"] == int(_cell_after(page, "unknowns"))
+    assert float(_cell_after(page, "estimated duration, h")) == pytest.approx(
+        doc["duration_h"], rel=1e-3
+    )
+    for p in doc["parameters"]:
+        shown = re.search(rf"<td>{p['name']}</td><td[^>]*>(.*?)</td>", page).group(1)
+        assert float(shown) == pytest.approx(p["u"], rel=1e-3), p["name"]
+    assert all(b["id"] in page for b in doc["balls"])

@@ -10,7 +10,13 @@ import typer
 from rich.console import Console
 from rich.table import Table as RichTable
 
-from mtmetrology.cli._common import print_json, user_errors
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    print_json,
+    user_errors,
+    write_report,
+)
 from mtmetrology.design.accessibility import AccessibilityRule, load_accessibility_rule
 from mtmetrology.design.counts import COUNT_RULES, MINUTES_PER_MEASUREMENT
 from mtmetrology.design.criteria import CRITERIA
@@ -63,9 +69,21 @@ def _artefact_yaml(design, ball_diameter_mm: float) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _balls_yaml(doc: dict) -> str:
+    """The chosen balls and the scale-bar ends as ``samba-balls`` (nominal centres, mm)."""
+    bar = doc["scale_bar"]
+    placed = [(b["id"], b["centre_mm"]) for b in doc["balls"]]
+    placed += list(zip(bar["ends"], bar["centres_mm"], strict=True))
+    lines = ["kind: samba-balls", "balls:"]
+    for ball_id, (x, y, z) in placed:
+        lines.append(f'  - {{id: "{ball_id}", centre_mm: [{x:.6f}, {y:.6f}, {z:.6f}]}}')
+    return "\n".join(lines) + "\n"
+
+
 @app.command("samba")
 @user_errors
 def samba(
+    ctx: typer.Context,
     machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML file.")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Programme CSV to write.")],
     model: Annotated[str | None, typer.Option("--model", help="Error model (e.g. 13, 84).")] = None,
@@ -128,13 +146,22 @@ def samba(
         Path | None,
         typer.Option("--artefact-out", help="Also write the samba-artefact YAML (scale bar)."),
     ] = None,
+    balls_out: Annotated[
+        Path | None,
+        typer.Option(
+            "--balls-out", help="Also write the samba-balls YAML (nominal centres, for simulate)."
+        ),
+    ] = None,
     json: Annotated[bool, typer.Option("--json", help="Print the design as JSON.")] = False,
+    report_path: ReportOption = None,
 ) -> None:
     """Choose SAMBA balls and (B, C) indexations by DETMAX; write the probing programme.
 
     The programme CSV has columns ball,B,C,S,X,Y,Z (+ sense_B,sense_C for models with
     backlash): X,Y,Z are the nominal readings at the ball centre, so `mtm machine
-    identifiability MACHINE PROGRAMME.csv --artefact ARTEFACT.yaml` reads it as is.
+    identifiability MACHINE PROGRAMME.csv --artefact ARTEFACT.yaml` reads it as is, and
+    `mtm simulate samba --poses PROGRAMME.csv --balls BALLS.yaml --artefact ARTEFACT.yaml`
+    (with the files of --balls-out and --artefact-out) simulates the planned test.
     """
     _positive(sigma_um, "--sigma-um")
     _positive(k, "--k")
@@ -184,12 +211,32 @@ def samba(
     if artefact_out is not None:
         with atomic_write(artefact_out) as fh:
             fh.write(_artefact_yaml(design, rule.ball_diameter_mm))
-    write_csv_table(output, header, rows)
     doc = design.to_dict(minutes_per_measurement, minutes_per_indexation)
+    if balls_out is not None:
+        with atomic_write(balls_out) as fh:
+            fh.write(_balls_yaml(doc))
+    write_csv_table(output, header, rows)
+    if report_path is not None:
+        inputs = [machine, balls, balls_from, indexations, accessibility]
+        _design_report(design, command_line(ctx), inputs, report_path, doc)
     if json:
         print_json(doc)
         return
     _print(doc, output)
+
+
+def _design_report(design, command: str, inputs: list, path: Path, doc: dict) -> None:
+    import mtmetrology.design.report  # noqa: F401  (registers the plan renderer)
+    from mtmetrology.report import Report
+    from mtmetrology.report.results import add_result
+
+    provenance = {"inputs": [str(p) for p in inputs if p is not None and Path(p).is_file()]}
+    report = Report("SAMBA calibration plan", command=command, provenance=provenance)
+    timing = {
+        "minutes_per_measurement": doc["minutes_per_measurement"],
+        "minutes_per_indexation": doc["minutes_per_indexation"],
+    }
+    write_report(add_result(report, design, **timing), path)
 
 
 def _print(doc: dict, output: Path) -> None:
