@@ -306,3 +306,26 @@ def test_repeatability_file_is_strict(records, tmp_path):
     )
     assert result.exit_code == 0, result.output
     assert "repeatability" in json.loads(result.stdout)["records"]["input_covariance"]
+
+
+def test_noise_of_k_campaigns_is_the_noise_of_their_mean(tmp_path):
+    """--noise-um σ with K campaigns: the indications are means, so the probing part of
+    u(θ) scales as σ/√K; the scale gains keep the share of the scale bar's u, which no
+    repetition averages."""
+    common = (*SIMULATE, "--seed", "4")
+    one, four = tmp_path / "one.csv", tmp_path / "four.csv"
+    assert mtm("simulate", "samba", *common, "-o", one).exit_code == 0
+    assert mtm("simulate", "samba", *common, "--campaigns", "4", "-o", four).exit_code == 0
+    u = {}
+    for name, path in (("one", one), ("four", four)):
+        result = calibrate_samba(path, "--noise-um", "0.5", "--uncertainty", "guf", "--json")
+        assert result.exit_code == 0, result.output
+        doc = json.loads(result.stdout)
+        u[name] = {p["name"]: p["u"] for p in doc["parameters"]}
+    gains = {"E_XX1", "E_YY1", "E_ZZ1"}
+    for name, u_one in u["one"].items():
+        ratio = u["four"][name] / u_one
+        if name in gains:
+            assert 0.5 < ratio < 1.0, name
+        else:
+            assert abs(ratio - 0.5) < 0.01, name

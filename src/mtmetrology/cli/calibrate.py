@@ -148,7 +148,11 @@ def samba(
     ] = None,
     noise_um: Annotated[
         float | None,
-        typer.Option("--noise-um", help="Standard uncertainty of every reading, µm [0.5]."),
+        typer.Option(
+            "--noise-um",
+            help="Standard uncertainty of every reading, µm [0.5]; with K campaigns, of each "
+            "campaign's readings (their mean gets σ/√K).",
+        ),
     ] = None,
     repeatability: Annotated[
         Path | None, typer.Option("--repeatability", help="REPEATABILITY.json (per-axis u).")
@@ -195,16 +199,24 @@ def samba(
     noise = repeat = campaigns = None
     if repeatability is not None:
         repeat = load_repeatability(repeatability)
-        sigma = float(sum(u * u for u in repeat) / 3) ** 0.5
         described = f"repeatability model {repeatability}"
+        if rec.campaigns is not None:
+            # the indications are means of K campaigns: u of a mean is u/√K
+            repeat = tuple(u / rec.n_campaigns**0.5 for u in repeat)
+            described += f", of the mean of {rec.n_campaigns} campaigns (/√{rec.n_campaigns})"
+        sigma = float(sum(u * u for u in repeat) / 3) ** 0.5
     elif noise_um is None and rec.campaigns is not None:
         campaigns = rec.campaigns
         sigma = pooled_sigma(campaigns)
         described = f"sample covariance of {rec.n_campaigns} campaigns / {rec.n_campaigns}"
     else:
         noise = float(to_internal(0.5 if noise_um is None else noise_um, "µm"))
-        sigma = noise
         described = f"probing noise {from_internal(noise, 'µm'):g} µm per reading"
+        if rec.campaigns is not None:
+            # the indications are means of K campaigns: u of a mean is σ/√K
+            noise /= rec.n_campaigns**0.5
+            described += f", of the mean of {rec.n_campaigns} campaigns (/√{rec.n_campaigns})"
+        sigma = noise
     try:
         cal = calibrate(
             m, rec, art, sigma=sigma, estimate_tool=estimate_tool, minimum_norm=min_norm
