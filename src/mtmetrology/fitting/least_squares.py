@@ -233,13 +233,7 @@ def _fit_round(
         r0 = radius
 
     def evaluate(state: tuple[np.ndarray, float]) -> tuple[np.ndarray, np.ndarray]:
-        c, r = state
-        v = x - c  # (n, d)
-        rho = np.linalg.norm(v, axis=1)
-        u = v / rho[:, None]
-        if radius is None:
-            return rho - r, np.column_stack([-u, -np.ones(len(rho))])
-        return rho - r, -u
+        return _round_residuals(x, *state, radius is None)
 
     def retract(state: tuple[np.ndarray, float], step: np.ndarray):
         c, r = state
@@ -252,13 +246,32 @@ def _fit_round(
     return c, r, solve
 
 
+def _round_residuals(
+    x: np.ndarray, c: np.ndarray, r: float, free_radius: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """Distances ``‖x_i − c‖ − r`` (n,) and their Jacobian ``[−u_i, −1]`` (n, d + 1), or
+    ``−u_i`` (n, d) with the radius fixed (``u_i`` the outward unit vectors).
+
+    Written into the two output arrays only: no (n, d) temporaries, so a fit to millions
+    of points holds little more than its Jacobian.
+    """
+    n, d = x.shape
+    jac = np.empty((n, d + 1 if free_radius else d))
+    v = jac[:, :d]
+    np.subtract(c, x, out=v)  # −(x − c)
+    distances = np.sqrt(np.einsum("ij,ij->i", v, v))
+    v /= distances[:, None]  # −u
+    if free_radius:
+        jac[:, d] = -1.0
+    distances -= r
+    return distances, jac
+
+
 def _round_local(x: np.ndarray, c: np.ndarray, fixed_radius: bool):
     """Jacobian pieces of ‖p − c‖ − r: β = (δc, δr) or δc; returns j (n,1,p), g, dβ/dP."""
-    v = x - c
-    u = v / np.linalg.norm(v, axis=1)[:, None]  # (n, d) outward unit vectors
-    j = -u if fixed_radius else np.column_stack([-u, -np.ones(len(u))])
-    j = j[:, None, :]
-    g = u[:, None, :]
+    d = x.shape[1]
+    j = _round_residuals(x, c, 0.0, not fixed_radius)[1][:, None, :]
+    g = -j[:, :, :d]  # (n, 1, d) outward unit vectors
     return j, g, _local_to_points(j, g)
 
 
@@ -317,8 +330,11 @@ def fit_sphere(points: object, radius: float | None = None) -> FitResult:
     j, g, dbeta = _round_local(x, c, fixed)
     _check_conditioning(kind, j[:, 0, :], "centre" if fixed else "centre and radius")
     sphere = Sphere(c + centroid, r)
-    jac = np.zeros((4, p.shape[0], 3))
-    jac[: dbeta.shape[0]] = dbeta
+    if fixed:  # the known radius has a zero row
+        jac = np.zeros((4, p.shape[0], 3))
+        jac[:3] = dbeta
+    else:  # (δc, δr) are the parameters themselves: share the (4, n, 3) array
+        jac = dbeta
     residuals = np.linalg.norm(x - c, axis=1) - r
     rms = float(np.sqrt(np.mean(residuals**2)))
     return _result(
