@@ -267,11 +267,15 @@ def _round_residuals(
     return distances, jac
 
 
-def _round_local(x: np.ndarray, c: np.ndarray, fixed_radius: bool):
-    """Jacobian pieces of ‖p − c‖ − r: β = (δc, δr) or δc; returns j (n,1,p), g, dβ/dP."""
-    d = x.shape[1]
-    j = _round_residuals(x, c, 0.0, not fixed_radius)[1][:, None, :]
-    g = -j[:, :, :d]  # (n, 1, d) outward unit vectors
+def _round_local(solve: LeastSquaresResult, d: int):
+    """Jacobian pieces of ‖p − c‖ − r at a solved fit: β = (δc, δr) or δc.
+
+    The solver's Jacobian ``[−u, −1]`` or ``−u`` (n, p) belongs to its final point, so it
+    is reused rather than evaluated again.  Returns j (n, 1, p), g (n, 1, d) the outward
+    unit vectors, dβ/dP (p, n, d).
+    """
+    j = solve.jacobian[:, None, :]
+    g = -j[:, :, :d]
     return j, g, _local_to_points(j, g)
 
 
@@ -320,6 +324,7 @@ def fit_sphere(points: object, radius: float | None = None) -> FitResult:
         if not np.isfinite(r_known) or r_known <= 0:
             raise FitError(f"{kind}: radius must be a positive finite number, got {radius!r}")
     x, centroid, scale = _centred(p)
+    del p  # only the centred copy is needed from here (one (n, 3) array less at the peak)
     hint = (
         "; the mirror-image centres cannot be told apart"
         if fixed
@@ -327,15 +332,15 @@ def fit_sphere(points: object, radius: float | None = None) -> FitResult:
     )
     _require_spread(kind, x, 3, "coplanar", hint)
     c, r, solve = _fit_round(x, scale, r_known, kind)
-    j, g, dbeta = _round_local(x, c, fixed)
+    j, g, dbeta = _round_local(solve, 3)
     _check_conditioning(kind, j[:, 0, :], "centre" if fixed else "centre and radius")
     sphere = Sphere(c + centroid, r)
+    residuals = solve.residuals  # ‖x_i − c‖ − r at the solution
     if fixed:  # the known radius has a zero row
-        jac = np.zeros((4, p.shape[0], 3))
+        jac = np.zeros((4, x.shape[0], 3))
         jac[:3] = dbeta
     else:  # (δc, δr) are the parameters themselves: share the (4, n, 3) array
         jac = dbeta
-    residuals = np.linalg.norm(x - c, axis=1) - r
     rms = float(np.sqrt(np.mean(residuals**2)))
     return _result(
         sphere,
@@ -390,9 +395,9 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
     if dim == 2:
         _require_spread("circle", x, 2, "collinear")
         c, r, solve = _fit_round(x, scale, None, "circle")
-        j, g, dbeta = _round_local(x, c, False)
+        j, g, dbeta = _round_local(solve, 2)
         _check_conditioning("circle", j[:, 0, :], "centre and radius")
-        residuals = np.linalg.norm(x - c, axis=1) - r
+        residuals = solve.residuals
         rms = float(np.sqrt(np.mean(residuals**2)))
         return _result(
             Circle(c + centroid, r),
@@ -421,7 +426,7 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
     uv_mean = uv.mean(axis=0)
     c2, r, solve = _fit_round(uv - uv_mean, scale, None, "circle")
     c2 = c2 + uv_mean
-    jc, gc2, dbc = _round_local(uv, c2, False)  # local β_c = (δuc, δvc, δr)
+    jc, gc2, dbc = _round_local(solve, 2)  # local β_c = (δuc, δvc, δr)
     _check_conditioning("circle", jc[:, 0, :], "centre and radius")
     centre = origin + c2[0] * e1 + c2[1] * e2
     residuals = np.linalg.norm(uv - c2, axis=1) - r
