@@ -12,7 +12,10 @@ Three entry points:
     One problem ``fun(x) -> (r, J)``.  Column scaling ``J_s = J D⁻¹``, ``D = diag‖J_:,j‖``
     (unit-norm columns); one SVD ``J_s = U S Vᵀ`` per accepted point serves the
     Gauss–Newton step, the Levenberg–Marquardt steps (Moré's scaling is the identity in
-    scaled coordinates), the rank, the condition number and the covariance.
+    scaled coordinates), the rank, the condition number and the covariance.  For tall
+    problems (many more residuals than unknowns: element fits to millions of points) the
+    SVD is taken of the R factor of a QR accumulated over row blocks, which has the same
+    ``S`` and ``V`` and needs no (m, n) factor in memory.
 :func:`least_squares_batch`
     K independent problems of a few unknowns (batched element fits): the problem supplies
     the stacked normal equations ``JᵀJ, Jᵀr, rᵀr``; damping, acceptance and convergence are
