@@ -197,3 +197,35 @@ def test_chord_final_step_applied_costs_no_evaluation_and_tightens_the_solution(
     err_loose = np.abs(loose.x - tight.x).max()
     err_final = np.abs(final.x - tight.x).max()
     assert err_final < 1e-3 * err_loose
+
+
+@pytest.mark.parametrize("rank_deficient", [False, True])
+def test_tall_problems_factorised_by_block_qr_agree_with_the_thin_svd(monkeypatch, rank_deficient):
+    """Above the tall-problem threshold the solver uses a block-accumulated QR instead of
+    the thin SVD: status, solution, singular values, rank, condition and covariance agree
+    with the SVD path to rounding (a quadratic model, so the solution is exact)."""
+    import mtmetrology.optimize as optimize
+
+    rng = np.random.default_rng(7)
+    t = rng.uniform(-1.0, 1.0, 50_000)
+    basis = np.column_stack([np.ones_like(t), t, 1e3 * t**2, t if rank_deficient else t**3])
+    y = basis @ np.array([1.0, -2.0, 0.5e-3, 0.25]) + rng.normal(scale=1e-3, size=t.size)
+
+    def fun(x):
+        return basis @ x - y, basis
+
+    def solve():
+        return least_squares(fun, np.zeros(4), residual_rounding=1e-16, xtol=1e-12)
+
+    assert optimize._tall(basis)
+    lean = solve()
+    monkeypatch.setattr(optimize, "_TALL_ROWS", 10 * t.size)
+    assert not optimize._tall(basis)
+    thin = solve()
+    assert lean.status == thin.status and lean.status > 0
+    assert lean.rank == thin.rank == (3 if rank_deficient else 4)
+    np.testing.assert_allclose(lean.singular_values, thin.singular_values, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(lean.x, thin.x, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(lean.covariance(), thin.covariance(), rtol=1e-9, atol=1e-15)
+    if not rank_deficient:
+        assert lean.condition == pytest.approx(thin.condition, rel=1e-10)

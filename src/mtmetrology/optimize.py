@@ -12,7 +12,10 @@ Three entry points:
     One problem ``fun(x) -> (r, J)``.  Column scaling ``J_s = J D⁻¹``, ``D = diag‖J_:,j‖``
     (unit-norm columns); one SVD ``J_s = U S Vᵀ`` per accepted point serves the
     Gauss–Newton step, the Levenberg–Marquardt steps (Moré's scaling is the identity in
-    scaled coordinates), the rank, the condition number and the covariance.
+    scaled coordinates), the rank, the condition number and the covariance.  For tall
+    problems (many more residuals than unknowns: element fits to millions of points) the
+    SVD is taken of the R factor of a QR accumulated over row blocks, which has the same
+    ``S`` and ``V`` and needs no (m, n) factor in memory.
 :func:`least_squares_batch`
     K independent problems of a few unknowns (batched element fits): the problem supplies
     the stacked normal equations ``JᵀJ, Jᵀr, rᵀr``; damping, acceptance and convergence are
@@ -193,11 +196,51 @@ class LeastSquaresResult:
         return (v.T / s**2) @ v
 
 
+#: From this many residuals on (and at least :data:`_TALL_RATIO` per unknown),
+#: :func:`least_squares` factorises the column-scaled Jacobian by a QR accumulated over
+#: row blocks of :data:`_BLOCK_ROWS` instead of a thin SVD, so that no (m, n) factor is held.
+_TALL_ROWS = 20_000
+_TALL_RATIO = 16
+_BLOCK_ROWS = 32_768
+
+
 def _scaled_svd(jac: np.ndarray):
     norms = np.linalg.norm(jac, axis=0)
     norms = np.where(norms > 0, norms, 1.0)
     u, s, vt = np.linalg.svd(jac / norms, full_matrices=False)
     return norms, u, s, vt
+
+
+def _tall(jac: np.ndarray) -> bool:
+    m, n = jac.shape
+    return m >= _TALL_ROWS and m >= _TALL_RATIO * max(n, 1)
+
+
+def _projected(jac: np.ndarray, r: np.ndarray):
+    """The scaled SVD pieces the iteration uses, with ``Uᵀr`` in place of ``U``.
+
+    Small problems: the thin SVD of ``J_s = J D⁻¹``.  Tall ones: the R factor of the
+    augmented ``[J_s | r] = Q [[R, Qᵀr], [0, ρ]]``, accumulated block by block (each block
+    is stacked under the R so far and re-factorised: a sequential QR, Björck 1996); then
+    ``R = U_R S Vᵀ`` gives the singular values and ``Vᵀ`` of ``J_s``, and
+    ``Uᵀr = U_Rᵀ (Qᵀr)``.  Both are backward stable, so the steps agree to rounding, and
+    memory stays at one block instead of the (m, n) factor ``U``.
+    """
+    norms = np.linalg.norm(jac, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    if not _tall(jac):
+        u, s, vt = np.linalg.svd(jac / norms, full_matrices=False)
+        return norms, u.T @ r, s, vt
+    m, n = jac.shape
+    tri = np.zeros((0, n + 1))
+    for start in range(0, m, _BLOCK_ROWS):
+        stop = min(start + _BLOCK_ROWS, m)
+        block = np.empty((stop - start, n + 1))
+        np.divide(jac[start:stop], norms, out=block[:, :n])
+        block[:, n] = r[start:stop]
+        tri = np.linalg.qr(np.vstack([tri, block]), mode="r")[: n + 1]
+    u_r, s, vt = np.linalg.svd(tri[:n, :n])
+    return norms, u_r.T @ tri[:n, n], s, vt
 
 
 def _finite(*arrays) -> bool:
@@ -285,7 +328,7 @@ def least_squares(
     if not _finite(r, jac):
         return _result(x, r, jac, None, Status.NOT_FINITE, nfev, njev, 0, rank_rtol)
     m = r.size
-    svd = _scaled_svd(jac)
+    svd = _projected(jac, r)
     if require_full_rank and _rank(svd[2], rank_rtol, jac.shape[1]) < jac.shape[1]:
         return _result(x, r, jac, svd, Status.RANK_DEFICIENT, nfev, njev, 0, rank_rtol)
     rr = float(r @ r)
@@ -295,8 +338,7 @@ def least_squares(
     nit = 0
     while nit < max_iter:
         nit += 1
-        norms, u, s, vt = svd
-        ur = u.T @ r
+        norms, ur, s, vt = svd
         keep = s > rank_rtol * s[0] if s.size and s[0] > 0 else np.zeros(s.shape, bool)
         # Convergence is judged on the undamped (Gauss–Newton) step: its size, and the
         # decrease it would achieve, ‖P_J r‖²; a heavily damped step is small whatever the
@@ -323,7 +365,7 @@ def least_squares(
                 rr_t = float(r_t @ r_t)
                 if rr_t <= (rr * (1.0 + _NEAR_SLACK) if near else rr):
                     x, r, jac, rr = trial, r_t, jac_t, rr_t
-                    svd = _scaled_svd(jac)
+                    svd = _projected(jac, r)
                     previous = size if near else np.inf
                     lam = 0.0 if lam <= 1e-6 else lam / 10.0
                     accepted = True

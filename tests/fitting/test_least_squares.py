@@ -666,3 +666,31 @@ def test_an_iteration_limit_is_reported_by_status_not_hidden():
     finally:
         odr._MAX_ITER = limit
     assert fit.status == Status.ITERATION_LIMIT and not fit.success and fit.nit == 1
+
+
+def test_large_sphere_fit_matches_the_thin_svd_path(monkeypatch):
+    """200 000 points: the block-QR (memory-lean) solver path gives the centre and radius
+    of the thin-SVD path to 1e-9 mm, and the parameter Jacobian equals −J⁺·u computed
+    directly with numpy's pseudo-inverse."""
+    import mtmetrology.optimize as optimize
+
+    rng = np.random.default_rng(2009)
+    n = 200_000
+    u = rng.normal(size=(n, 3))
+    centre, radius = np.array([101.0, -52.0, 33.0]), 12.5
+    pts = centre + radius * u / np.linalg.norm(u, axis=1, keepdims=True)
+    pts += rng.normal(scale=2e-3, size=pts.shape)
+    assert optimize._tall(np.empty((n, 4)))
+    lean = fit_sphere(pts)
+    monkeypatch.setattr(optimize, "_TALL_ROWS", 10 * n)
+    assert not optimize._tall(np.empty((n, 4)))
+    svd = fit_sphere(pts)
+    assert lean.status > 0 and svd.status > 0
+    np.testing.assert_allclose(lean.element.centre, svd.element.centre, rtol=0, atol=TOL_MM)
+    assert abs(lean.element.radius - svd.element.radius) <= TOL_MM
+    # dβ/dP = −J⁺ ∂d/∂P with J = [−u, −1] and ∂d_i/∂P_i = u_i (first-order form)
+    v = pts - lean.element.centre
+    unit = v / np.linalg.norm(v, axis=1, keepdims=True)
+    jac = np.column_stack([-unit, -np.ones(n)])
+    expected = -np.linalg.pinv(jac)[:, :, None] * unit[None, :, :]
+    np.testing.assert_allclose(lean.parameter_jacobian, expected, rtol=0, atol=1e-15)

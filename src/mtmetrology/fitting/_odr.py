@@ -180,9 +180,15 @@ def _local_to_points(j: np.ndarray, g: np.ndarray) -> np.ndarray:
     j : (n, q, p) Jacobian of the q residuals of each point w.r.t. local parameters β.
     g : (n, q, dim) derivative of each residual w.r.t. its own point.
     Returns (p, n, dim).
+
+    ``J⁺ = R⁺R⁺ᵀJᵀ`` with R the triangular factor of ``J = QR`` (so ``R⁺R⁺ᵀ = (JᵀJ)⁺``):
+    the pseudo-inverse of the small R instead of a thin SVD of J, whose (n·q, p) factor
+    would double the memory of a fit to millions of points.
     """
     n, q, p = j.shape
-    a = -np.linalg.pinv(j.reshape(n * q, p)).reshape(p, n, q)
+    flat = j.reshape(n * q, p)
+    tri_pinv = np.linalg.pinv(np.linalg.qr(flat, mode="r"))
+    a = (-(tri_pinv @ tri_pinv.T) @ flat.T).reshape(p, n, q)
     return np.einsum("pnq,nqd->pnd", a, g)
 
 
@@ -267,7 +273,7 @@ def _result(
 def _centred(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     centroid = points.mean(axis=0)
     x = points - centroid
-    scale = float(np.sqrt(np.mean(np.sum(x * x, axis=1))))
+    scale = float(np.sqrt(np.einsum("ij,ij->", x, x) / x.shape[0]))
     return x, centroid, scale
 
 
@@ -279,10 +285,13 @@ def _hyper_fit(x: np.ndarray) -> tuple[np.ndarray, float]:
     Stat. 3 (2009) 886), which has no essential bias; used only as a starting value.
     """
     n, d = x.shape
-    scale = float(np.sqrt(np.mean(np.sum(x * x, axis=1))))
-    y = x / scale
-    z = np.sum(y * y, axis=1)
-    zmat = np.column_stack([z, y, np.ones(n)])  # (n, d + 2)
+    scale = float(np.sqrt(np.einsum("ij,ij->", x, x) / n))
+    zmat = np.empty((n, d + 2))  # columns ‖y‖², y, 1 for y = x / scale
+    y = zmat[:, 1 : d + 1]
+    np.divide(x, scale, out=y)
+    z = zmat[:, 0]
+    np.einsum("ij,ij->i", y, y, out=z)
+    zmat[:, d + 1] = 1.0
     m = zmat.T @ zmat / n
     nmat = np.zeros((d + 2, d + 2))
     nmat[0, 0] = 8.0 * z.mean()

@@ -250,13 +250,7 @@ def _fit_round(
         r0 = radius
 
     def evaluate(state: tuple[np.ndarray, float]) -> tuple[np.ndarray, np.ndarray]:
-        c, r = state
-        v = x - c  # (n, d)
-        rho = np.linalg.norm(v, axis=1)
-        u = v / rho[:, None]
-        if radius is None:
-            return rho - r, np.column_stack([-u, -np.ones(len(rho))])
-        return rho - r, -u
+        return _round_residuals(x, *state, radius is None)
 
     def retract(state: tuple[np.ndarray, float], step: np.ndarray):
         c, r = state
@@ -269,13 +263,36 @@ def _fit_round(
     return c, r, solve
 
 
-def _round_local(x: np.ndarray, c: np.ndarray, fixed_radius: bool):
-    """Jacobian pieces of ‖p − c‖ − r: β = (δc, δr) or δc; returns j (n,1,p), g, dβ/dP."""
-    v = x - c
-    u = v / np.linalg.norm(v, axis=1)[:, None]  # (n, d) outward unit vectors
-    j = -u if fixed_radius else np.column_stack([-u, -np.ones(len(u))])
-    j = j[:, None, :]
-    g = u[:, None, :]
+def _round_residuals(
+    x: np.ndarray, c: np.ndarray, r: float, free_radius: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """Distances ``‖x_i − c‖ − r`` (n,) and their Jacobian ``[−u_i, −1]`` (n, d + 1), or
+    ``−u_i`` (n, d) with the radius fixed (``u_i`` the outward unit vectors).
+
+    Written into the two output arrays only: no (n, d) temporaries, so a fit to millions
+    of points holds little more than its Jacobian.
+    """
+    n, d = x.shape
+    jac = np.empty((n, d + 1 if free_radius else d))
+    v = jac[:, :d]
+    np.subtract(c, x, out=v)  # −(x − c)
+    distances = np.sqrt(np.einsum("ij,ij->i", v, v))
+    v /= distances[:, None]  # −u
+    if free_radius:
+        jac[:, d] = -1.0
+    distances -= r
+    return distances, jac
+
+
+def _round_local(solve: LeastSquaresResult, d: int):
+    """Jacobian pieces of ‖p − c‖ − r at a solved fit: β = (δc, δr) or δc.
+
+    The solver's Jacobian ``[−u, −1]`` or ``−u`` (n, p) belongs to its final point, so it
+    is reused rather than evaluated again.  Returns j (n, 1, p), g (n, 1, d) the outward
+    unit vectors, dβ/dP (p, n, d).
+    """
+    j = solve.jacobian[:, None, :]
+    g = -j[:, :, :d]
     return j, g, _local_to_points(j, g)
 
 
@@ -324,6 +341,7 @@ def fit_sphere(points: object, radius: float | None = None) -> FitResult:
         if not np.isfinite(r_known) or r_known <= 0:
             raise FitError(f"{kind}: radius must be a positive finite number, got {radius!r}")
     x, centroid, scale = _centred(p)
+    del p  # only the centred copy is needed from here (one (n, 3) array less at the peak)
     hint = (
         "; the mirror-image centres cannot be told apart"
         if fixed
@@ -331,12 +349,15 @@ def fit_sphere(points: object, radius: float | None = None) -> FitResult:
     )
     _require_spread(kind, x, 3, "coplanar", hint)
     c, r, solve = _fit_round(x, scale, r_known, kind)
-    j, g, dbeta = _round_local(x, c, fixed)
+    j, g, dbeta = _round_local(solve, 3)
     _check_conditioning(kind, j[:, 0, :], "centre" if fixed else "centre and radius")
     sphere = Sphere(c + centroid, r)
-    jac = np.zeros((4, p.shape[0], 3))
-    jac[: dbeta.shape[0]] = dbeta
-    residuals = np.linalg.norm(x - c, axis=1) - r
+    residuals = solve.residuals  # ‖x_i − c‖ − r at the solution
+    if fixed:  # the known radius has a zero row
+        jac = np.zeros((4, x.shape[0], 3))
+        jac[:3] = dbeta
+    else:  # (δc, δr) are the parameters themselves: share the (4, n, 3) array
+        jac = dbeta
     rms = float(np.sqrt(np.mean(residuals**2)))
     return _result(
         sphere,
@@ -391,9 +412,9 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
     if dim == 2:
         _require_spread("circle", x, 2, "collinear")
         c, r, solve = _fit_round(x, scale, None, "circle")
-        j, g, dbeta = _round_local(x, c, False)
+        j, g, dbeta = _round_local(solve, 2)
         _check_conditioning("circle", j[:, 0, :], "centre and radius")
-        residuals = np.linalg.norm(x - c, axis=1) - r
+        residuals = solve.residuals
         rms = float(np.sqrt(np.mean(residuals**2)))
         return _result(
             Circle(c + centroid, r),
@@ -422,7 +443,7 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
     uv_mean = uv.mean(axis=0)
     c2, r, solve = _fit_round(uv - uv_mean, scale, None, "circle")
     c2 = c2 + uv_mean
-    jc, gc2, dbc = _round_local(uv, c2, False)  # local β_c = (δuc, δvc, δr)
+    jc, gc2, dbc = _round_local(solve, 2)  # local β_c = (δuc, δvc, δr)
     _check_conditioning("circle", jc[:, 0, :], "centre and radius")
     centre = origin + c2[0] * e1 + c2[1] * e2
     residuals = np.linalg.norm(uv - c2, axis=1) - r
