@@ -149,3 +149,22 @@ def test_three_points_for_a_length_are_refused(tmp_path):
     (d / "points.csv").write_text(POINTS + "p3,0,0,0,0,0,1,0,0,2\n", encoding="utf-8")
     result = _run(d, "--unexplained", str(d / "E.json"))
     assert result.exit_code == 2 and result.stderr.startswith("error: ")
+
+
+def test_report_shows_the_result_budget_and_decision(tmp_path):
+    """--report: value and U as in the JSON, one budget figure, one conformity figure."""
+    d = _files(tmp_path)
+    first = json.loads(_run(d, "--unexplained", str(d / "E.json"), "--json").stdout)
+    value = first["outputs"][0]["value"]
+    report = d / "task.html"
+    result = _run(
+        d, "--unexplained", str(d / "E.json"), "--tolerance", f"{value},-0.1,0.1",
+        "--json", "--report", str(report),
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    html = report.read_text(encoding="utf-8")
+    assert html.count("<svg") == 2  # budget bars and conformity zones
+    assert f"{doc['outputs'][0]['value']:.6f}" in html
+    assert doc["decision"]["decision"] == "conformance"
+    assert "Conformity decision (ISO 14253-1:2017)" in html

@@ -17,7 +17,15 @@ import numpy as np
 import typer
 
 from mtmetrology.budgets.conformity import Tolerance, decide
-from mtmetrology.cli._common import print_json, readings_from_table, senses_from_table, user_errors
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    print_json,
+    readings_from_table,
+    senses_from_table,
+    user_errors,
+    write_report,
+)
 from mtmetrology.errors import InputError
 from mtmetrology.fitting.features import GaugeLength, SphereDiameter
 from mtmetrology.io import read_csv_table, write_json
@@ -69,6 +77,7 @@ def _points(path: Path, machine: Machine, feature: FeatureName, need_approach: b
 @app.command("uncertainty")
 @user_errors
 def uncertainty(
+    ctx: typer.Context,
     points_csv: Annotated[
         Path, typer.Argument(help="Probed readings: point,X,Y,Z,B,C[,i,j,k][,end].")
     ],
@@ -96,6 +105,7 @@ def uncertainty(
     p: Annotated[float, typer.Option("--p", help="Coverage probability.")] = 0.95,
     json_output: Annotated[bool, typer.Option("--json", help="Print the result document.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="Write it here.")] = None,
+    report_path: ReportOption = None,
 ) -> None:
     """Value, u, U, budget and ISO 14253-1 decision of a feature probed on the machine.
 
@@ -149,12 +159,70 @@ def uncertainty(
         )
     document = result.to_dict()
     document["source"] = {"points": str(points_csv), "params": str(params)}
+    if report_path is not None:
+        inputs = [points_csv, params, *(f for f in (repeatability, unexplained) if f is not None)]
+        _write_report(report_path, result, command_line(ctx), inputs)
     if output is not None:
         write_json(output, document)
     if json_output:
         print_json(document)
     else:
         _print(result)
+
+
+def _write_report(path: Path, result: TaskResult, command: str, inputs: list[Path]) -> None:
+    """Value with u and U, the budget by source, and the ISO 14253-1 decision."""
+    from mtmetrology.report import Report, figures
+
+    g = result.guf
+    name, value = g.names[0], float(g.estimate[0])
+    u, big_u = float(g.standard_uncertainty[0]), float(g.expanded_uncertainty[0])
+    rep = Report(f"Task uncertainty: {name}", command=command, provenance={"inputs": inputs})
+    rep.section(
+        "Result",
+        "GUF of the compensated points through the feature (full-covariance method of "
+        "Sepahi Boroujeni (2021), Ch. 6): repeatability, machine parameters and unexplained "
+        "volumetric errors; the machine-parameter share cancels to first order.",
+    )
+    rep.table(
+        ["feature", "value", "u", "U", "k", "p", "interval", "unit"],
+        [
+            [
+                name,
+                f"{value:.6f}",
+                f"{from_internal(u, 'µm'):.3g} µm",
+                f"{from_internal(big_u, 'µm'):.3g} µm",
+                f"{float(g.coverage_factor[0]):.3f}",
+                g.p,
+                f"[{g.interval[0][0]:.6f}, {g.interval[0][1]:.6f}]",
+                "mm",
+            ]
+        ],
+    )
+    sources = list(result.shares)
+    shares = [float(result.shares[k][0]) for k in sources]
+    rep.section("Budget by source")
+    rep.table(
+        ["source", "share of u²"],
+        [[k.replace("_", " "), f"{100 * v:.1f} %"] for k, v in zip(sources, shares, strict=True)],
+    )
+    rep.figure(
+        figures.budget_bars(
+            [k.replace("_", " ") for k in sources],
+            [float(from_internal(u, "µm")) * max(v, 0.0) ** 0.5 for v in shares],
+            unit="µm",
+            title=f"Uncertainty budget of {name}",
+        ),
+        caption="Contribution of each source, u·√share (the squares add to u²).",
+    )
+    if result.decision is not None:
+        d = result.decision.to_dict()
+        tol = result.decision.tolerance
+        lower = tol.lower_limit if np.isfinite(tol.lower_limit) else None
+        upper = tol.upper_limit if np.isfinite(tol.upper_limit) else None
+        rep.section("Conformity decision (ISO 14253-1:2017)", str(d["decision"]))
+        rep.figure(figures.conformity_zones(value, big_u, lower, upper, name=name, unit="mm"))
+    write_report(rep, path)
 
 
 def _print(result: TaskResult) -> None:
