@@ -244,3 +244,18 @@ def test_budget_command(files):
     path.write_text(yaml.safe_dump(spec))
     res = runner.invoke(app, ["calibrate", "ballplate-budget", str(path), "-o", str(out) + "x"])
     assert res.exit_code == 2 and "cte_per_K" in res.output
+
+
+def test_predict_knows_the_gp_kind_without_importing_the_gp_machinery():
+    """mtm predict checks a file's kind before importing scikit-learn: the kind it checks
+    is the one GP model files carry."""
+    import subprocess
+    import sys
+
+    from mtmetrology.cli.predict import GP_KIND
+    from mtmetrology.cmm.gp import KIND
+
+    assert GP_KIND == KIND
+    code = "import sys, mtmetrology.cli.predict; print('sklearn' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

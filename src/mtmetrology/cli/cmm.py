@@ -31,7 +31,6 @@ from mtmetrology.cmm.files import (
     read_records,
     write_records,
 )
-from mtmetrology.cmm.gp import KIND as GP_KIND
 from mtmetrology.cmm.gp import GPErrorModel, fit_gp
 from mtmetrology.cmm.models import parse_model
 from mtmetrology.cmm.simulate import simulate_ballplate
@@ -42,7 +41,7 @@ from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.units import from_internal, to_internal
 
-__all__ = ["gp_app", "probe_tools", "read_error_model", "register"]
+__all__ = ["gp_app", "probe_tools", "register"]
 
 AUTO_CANDIDATES = ("seed", "full-1", "full-2", "full-3")
 
@@ -122,20 +121,6 @@ def probe_tools(probes, table: Table) -> np.ndarray:
                 f"({', '.join(probes.ids)})"
             )
     return probes.offsets(ids)
-
-
-def read_error_model(path: Path, machine: Machine):
-    """A parameter set or a GP model file: ``(machine, theta, gp, parameter_set)``.
-
-    Exactly one of ``gp`` (a GP model file) and ``parameter_set`` is not None.
-    """
-    doc = load_document(path, "error model")
-    if isinstance(doc, dict) and doc.get("kind") == GP_KIND:
-        gp = GPErrorModel.from_document(doc, machine, str(path))
-        return gp.machine, None, gp, None
-    pset = ParameterSet.from_document(doc, machine, str(path))
-    m = pset.machine_for(machine)
-    return m, pset.vector_for(m), None, pset
 
 
 @user_errors

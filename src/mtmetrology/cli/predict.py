@@ -17,8 +17,6 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
-from mtmetrology.cli.cmm import probe_tools, read_error_model
-from mtmetrology.cmm.files import load_probes
 from mtmetrology.io import (
     InputFileError,
     atomic_write,
@@ -26,7 +24,9 @@ from mtmetrology.io import (
     read_csv_table,
     write_columns,
 )
+from mtmetrology.io.documents import load_document
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
 
 
 def add_compensation(report, machine: Machine, xyz: np.ndarray, nominal: np.ndarray) -> None:
@@ -54,6 +54,28 @@ def add_compensation(report, machine: Machine, xyz: np.ndarray, nominal: np.ndar
         figures.residual_vectors(xyz, correction, title="Corrections"),
         caption="Correction of each point (compensated minus nominal position).",
     )
+
+
+#: ``kind`` of a Gaussian-process error-model file (``mtm gp fit``): checked before
+#: anything of :mod:`mtmetrology.cmm` (scikit-learn) is imported, so that compensating with a
+#: parameter set starts small and fast.
+GP_KIND = "gp-error-model"
+
+
+def read_error_model(path: Path, machine: Machine):
+    """A parameter set or a GP model file: ``(machine, theta, gp, parameter_set)``.
+
+    Exactly one of ``gp`` (a GP model file) and ``parameter_set`` is not None.
+    """
+    doc = load_document(path, "error model")
+    if isinstance(doc, dict) and doc.get("kind") == GP_KIND:
+        from mtmetrology.cmm.gp import GPErrorModel
+
+        gp = GPErrorModel.from_document(doc, machine, str(path))
+        return gp.machine, None, gp, None
+    pset = ParameterSet.from_document(doc, machine, str(path))
+    m = pset.machine_for(machine)
+    return m, pset.vector_for(m), None, pset
 
 
 #: Rows evaluated at once: bounds the memory of the kinematic chain on large records.
@@ -102,7 +124,12 @@ def predict(
         raise InputFileError(
             f"{readings}: column(s) {', '.join(clash)} already present; predict appends x, y, z"
         )
-    tools = probe_tools(load_probes(probes), table) if probes is not None else None
+    tools = None
+    if probes is not None:
+        from mtmetrology.cli.cmm import probe_tools
+        from mtmetrology.cmm.files import load_probes
+
+        tools = probe_tools(load_probes(probes), table)
     q = readings_from_table(m, table)
     senses = senses_from_table(m, table)
     reversal = [p.name for p in m.parameters if p.kind == "reversal"]
