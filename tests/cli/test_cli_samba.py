@@ -329,3 +329,46 @@ def test_noise_of_k_campaigns_is_the_noise_of_their_mean(tmp_path):
             assert 0.5 < ratio < 1.0, name
         else:
             assert abs(ratio - 0.5) < 0.01, name
+
+
+def test_tool_prior_is_recorded_and_pulls_the_tool_towards_the_nominal(records, tmp_path):
+    """``--tool-prior-um`` as one value and as a per-axis triple: RESULT.json lists the
+    prior (value = the machine's nominal tool, u in mm) and the tool estimate moves towards
+    the nominal; a 1 mm prior (Alami Mchichi 2018) leaves the tool as the data give it."""
+    docs = {}
+    for prior in (None, "0.05", "0.1,0.1,0.05", "1000"):
+        out = tmp_path / f"result-{prior}.json"
+        extra = () if prior is None else ("--tool-prior-um", prior)
+        result = calibrate_samba(records, "--noise-um", "0.5", "--estimate-tool", *extra, "-o", out)
+        assert result.exit_code == 0, result.output
+        docs[prior] = json.loads(out.read_text(encoding="utf-8"))
+    nominal = np.array([p["value"] for p in docs["0.05"]["priors"]])
+    assert docs[None]["priors"] == []
+    assert [p["u"] for p in docs["0.1,0.1,0.05"]["priors"]] == pytest.approx([1e-4, 1e-4, 5e-5])
+    assert [p["name"] for p in docs["1000"]["priors"]] == ["tool x", "tool y", "tool z"]
+    free = np.array(docs[None]["tool_mm"]) - nominal
+    for prior in ("0.05", "0.1,0.1,0.05"):
+        pulled = np.array(docs[prior]["tool_mm"]) - nominal
+        assert np.all(np.abs(pulled) < np.abs(free))
+    np.testing.assert_allclose(docs["1000"]["tool_mm"], docs[None]["tool_mm"], rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [
+        ("--estimate-tool", "--tool-prior-um", "0"),
+        ("--estimate-tool", "--tool-prior-um", "-1"),
+        ("--estimate-tool", "--tool-prior-um", "nan"),
+        ("--estimate-tool", "--tool-prior-um", "1,2"),
+        ("--estimate-tool", "--tool-prior-um", "one"),
+        ("--tool-prior-um", "1000"),
+    ],
+    ids=["zero", "negative", "nan", "two-values", "not-a-number", "without-estimate-tool"],
+)
+def test_bad_tool_prior_is_one_line_exit_2_and_no_result(records, tmp_path, extra):
+    out = tmp_path / "RESULT.json"
+    result = calibrate_samba(records, *extra, "-o", out)
+    assert result.exit_code == 2
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: --tool-prior-um")
+    assert not out.exists()

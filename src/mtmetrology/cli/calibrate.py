@@ -70,6 +70,13 @@ condition numbers, O1-O5, the parameter sign conventions and, with --uncertainty
 GUF and MCM outputs [{name, value, unit, u, U, k, p, interval}], the JCGM 102
 validation table and the joint coverage factors.
 
+--tool-prior-um U (or UX,UY,UZ) with --estimate-tool: the tool vector is known a priori
+to U µm (standard uncertainty of each component) about the machine's nominal tool
+vector; entered as weighted pseudo-observations (t - t0)/U, the prior's value an
+uncertain input of the GUF and the Monte Carlo, and recorded in RESULT.json 'priors'
+[{name, value, unit, u}] (mm).  Alami Mchichi (2018) takes the tool length as known
+with u = 1 mm: --tool-prior-um 1000.
+
 A rank-deficient test is refused, naming the confounded parameters and what to add;
 --min-norm returns the minimum-norm solution instead, flagged in the result.
 """
@@ -95,6 +102,32 @@ def load_repeatability(path: Path) -> tuple[float, float, float]:
     if min(u) <= 0:
         raise InputFileError(f"{path}: u_um: every standard uncertainty must be positive")
     return u
+
+
+def parse_tool_prior(text: str | None, estimate_tool: bool) -> tuple[float, ...] | None:
+    """Standard uncertainties (mm) of ``--tool-prior-um U`` or ``UX,UY,UZ`` (µm).
+
+    Examples
+    --------
+    >>> parse_tool_prior("1000", True)
+    (1.0,)
+    >>> parse_tool_prior(None, False) is None
+    True
+    """
+    if text is None:
+        return None
+    if not estimate_tool:
+        raise InputError("--tool-prior-um needs --estimate-tool (the prior is on the tool vector)")
+    parts = [t.strip() for t in text.split(",")]
+    try:
+        values = [float(t) for t in parts]
+    except ValueError:
+        raise InputError(f"--tool-prior-um: give U or UX,UY,UZ in µm, got {text!r}") from None
+    if len(values) not in (1, 3):
+        raise InputError(f"--tool-prior-um: give one value or three (x, y, z), got {text!r}")
+    if not all(v > 0 and v < float("inf") for v in values):
+        raise InputError(f"--tool-prior-um: every u must be positive and finite, got {text!r}")
+    return tuple(float(to_internal(v, "µm")) for v in values)
 
 
 def _machine(machine: str, model: str | None, params_only: str | None) -> Machine:
@@ -178,6 +211,14 @@ def samba(
     estimate_tool: Annotated[
         bool, typer.Option("--estimate-tool", help="Identify the tool vector too (needs S).")
     ] = False,
+    tool_prior_um: Annotated[
+        str | None,
+        typer.Option(
+            "--tool-prior-um",
+            help="Prior u of each tool-vector component about the nominal, µm: U or UX,UY,UZ "
+            "(with --estimate-tool).",
+        ),
+    ] = None,
     min_norm: Annotated[
         bool, typer.Option("--min-norm", help="Minimum-norm solution if rank deficient.")
     ] = False,
@@ -193,6 +234,7 @@ def samba(
         raise InputError(f"--noise-um must be positive, got {noise_um}")
     if trials is not None and adaptive:
         raise InputError("give --trials or --adaptive, not both")
+    tool_prior = parse_tool_prior(tool_prior_um, estimate_tool)
     m = _machine(machine, model, params_only)
     art = load_artefact(artefact)
     rec = read_records(records, m, art)
@@ -219,7 +261,13 @@ def samba(
         sigma = noise
     try:
         cal = calibrate(
-            m, rec, art, sigma=sigma, estimate_tool=estimate_tool, minimum_norm=min_norm
+            m,
+            rec,
+            art,
+            sigma=sigma,
+            estimate_tool=estimate_tool,
+            tool_prior=tool_prior,
+            minimum_norm=min_norm,
         )
     except ConvergenceError as err:
         fail(str(err))

@@ -12,12 +12,21 @@ Alami Mchichi (2018), Ch. 5)::
 
     r_L = ‖d_a − d_b‖ − L                              1 row per bar
 
+and an optional prior on the tool vector (the stylus length known a priori with
+u = 1 mm, Alami Mchichi (2018) §5.3.4) adds weighted pseudo-observations::
+
+    r_t = t0 + Δt − t̄                                 3 rows, weight 1/u_t
+
+where t̄ is the prior's value (the nominal tool vector of the machine), an uncertain input
+like the readings, so that propagation through the identification carries it.
+
 Rows are weighted by the standard uncertainty of each kind (coordinates σ, bar u_L), so
 the problem is the weighted least squares the identification engine solves.
 
 The *inputs* of the problem, for uncertainty propagation, are the linear-axis readings of
 every indication (X, Y, Z in the order of the machine's linear axes, mm) followed by the
-calibrated bar lengths (mm): :meth:`BallCentreProblem.input_estimate`,
+calibrated bar lengths (mm) and, with a tool prior, its value t̄ (mm):
+:meth:`BallCentreProblem.input_estimate`,
 :meth:`~BallCentreProblem.input_jacobian` (∂r/∂z for the GUF) and
 :meth:`~BallCentreProblem.residuals_batch` (exact residuals of K perturbed copies, for the
 batched Monte Carlo re-solve of :func:`mtmetrology.optimize.chord_batch`).
@@ -111,6 +120,12 @@ class BallCentreProblem:
         Standard uncertainty of one indication coordinate, mm (row weight 1/σ); required,
         because it sets the weight of the indications against the scale bar and the scale
         of the covariance.
+    tool_prior : float or (3,) floats, optional
+        Standard uncertainty u_t (mm) of each component of the tool vector about its
+        prior value (one value for the three components, or x, y, z); needs
+        ``estimate_tool``.  Adds the rows ``(t0 + Δt − t̄)/u_t`` and the inputs t̄.
+    tool_prior_value : (3,) floats, optional
+        The prior's value t̄ of the tool vector, mm; the machine's nominal tool by default.
 
     Attributes
     ----------
@@ -130,6 +145,8 @@ class BallCentreProblem:
         scale_bars: Sequence[ScaleBar] = (),
         estimate_tool: bool = False,
         sigma: float,
+        tool_prior=None,
+        tool_prior_value=None,
     ):
         q = np.asarray(readings, dtype=float)
         if q.ndim != 2 or q.shape[1] != machine.n_axes:
@@ -153,6 +170,9 @@ class BallCentreProblem:
         self.scale_bars = tuple(scale_bars)
         self.estimate_tool = estimate_tool
         self.sigma = float(sigma)
+        self.tool_prior, self.tool_prior_value = _tool_prior(
+            machine, estimate_tool, tool_prior, tool_prior_value
+        )
         self.n_params = machine.n_params
         self.n_balls = len(self.ball_ids)
         self._linear = np.array(
@@ -167,8 +187,13 @@ class BallCentreProblem:
         return len(self.names)
 
     @property
+    def n_prior(self) -> int:
+        """Rows (and inputs) of the tool prior: 3 with a prior, else 0."""
+        return 0 if self.tool_prior is None else 3
+
+    @property
     def n_rows(self) -> int:
-        return 3 * self.readings.shape[0] + len(self.scale_bars)
+        return 3 * self.readings.shape[0] + len(self.scale_bars) + self.n_prior
 
     @property
     def residual_rounding(self) -> float:
@@ -179,13 +204,21 @@ class BallCentreProblem:
 
     @property
     def n_inputs(self) -> int:
-        """Linear-axis readings of every indication plus the bar lengths."""
-        return self.readings.shape[0] * self._linear.size + len(self.scale_bars)
+        """Linear-axis readings of every indication, the bar lengths, the tool prior's value."""
+        return self.readings.shape[0] * self._linear.size + len(self.scale_bars) + self.n_prior
 
     def input_estimate(self) -> np.ndarray:
-        """The inputs z (n_inputs,): linear readings (indication-major, mm), bar lengths (mm)."""
+        """The inputs z (n_inputs,): linear readings (indication-major, mm), bar lengths (mm),
+        the tool prior's value t̄ (mm, with a prior)."""
         lengths = [bar.length for bar in self.scale_bars]
-        return np.concatenate([self.readings[:, self._linear].ravel(), lengths])
+        prior = [] if self.tool_prior is None else self.tool_prior_value
+        return np.concatenate([self.readings[:, self._linear].ravel(), lengths, prior])
+
+    def input_uncertainties(self) -> np.ndarray:
+        """Standard uncertainties (mm) of the inputs after the readings: bar lengths, then
+        the tool prior's components."""
+        prior = [] if self.tool_prior is None else self.tool_prior
+        return np.concatenate([[bar.u for bar in self.scale_bars], prior])
 
     def input_names(self) -> list[str]:
         """Names of the inputs, e.g. ``indication 3 (ball 2) Y`` and ``scale bar SB1-SB2``."""
@@ -195,13 +228,15 @@ class BallCentreProblem:
             for k, b in enumerate(self._ball_index)
             for a in axes
         ]
-        return names + [f"scale bar {bar.ends[0]}-{bar.ends[1]}" for bar in self.scale_bars]
+        names += [f"scale bar {bar.ends[0]}-{bar.ends[1]}" for bar in self.scale_bars]
+        return names + ([f"tool prior {c}" for c in "xyz"] if self.n_prior else [])
 
     def input_jacobian(self, x: np.ndarray) -> np.ndarray:
         """∂r/∂z (n_rows, n_inputs) of the weighted residuals with respect to the inputs.
 
         Block diagonal: ``∂p/∂q_lin / σ`` (3×3, the machine's axis Jacobian) for each
-        indication, ``−1/u_L`` for each bar length.
+        indication, ``−1/u_L`` for each bar length, ``−1/u_t`` for each component of the
+        tool prior's value.
         """
         theta, _, dtool = self.split(np.asarray(x, dtype=float))
         d_axes = self.machine.evaluate(
@@ -214,10 +249,14 @@ class BallCentreProblem:
         jac[rows, cols] = d_axes / self.sigma
         for k, bar in enumerate(self.scale_bars):
             jac[3 * n + k, n * nl + k] = -1.0 / bar.u
+        if self.n_prior:
+            rows = self.n_rows - 3 + np.arange(3)
+            jac[rows, self.n_inputs - 3 + np.arange(3)] = -1.0 / self.tool_prior
         return jac
 
     def with_inputs(self, inputs: np.ndarray) -> BallCentreProblem:
-        """The same problem with other inputs z (n_inputs,): linear readings, bar lengths."""
+        """The same problem with other inputs z (n_inputs,): linear readings, bar lengths,
+        tool prior's value."""
         z = np.asarray(inputs, dtype=float)
         if z.shape != (self.n_inputs,):
             raise ValueError(f"inputs must have shape ({self.n_inputs},), got {z.shape}")
@@ -235,6 +274,8 @@ class BallCentreProblem:
             scale_bars=bars,
             estimate_tool=self.estimate_tool,
             sigma=self.sigma,
+            tool_prior=self.tool_prior,
+            tool_prior_value=z[self.n_inputs - 3 :] if self.n_prior else None,
         )
 
     def residuals_batch(self, x: np.ndarray, inputs: np.ndarray | None = None) -> np.ndarray:
@@ -287,6 +328,8 @@ class BallCentreProblem:
             a, b = (self.ball_ids.index(e) for e in bar.ends)
             dist = np.linalg.norm(centres[:, a] - centres[:, b], axis=1)
             r[:, 3 * n + j] = (dist - lengths[:, j]) / bar.u
+        if self.n_prior:
+            r[:, -3:] = (tool - z[:, -3:]) / self.tool_prior
         return r
 
     def split(self, x: np.ndarray):
@@ -327,7 +370,10 @@ class BallCentreProblem:
         for k, bar in enumerate(self.scale_bars):
             a, b = (self.ball_ids.index(e) for e in bar.ends)
             r_bar[k] = (np.linalg.norm(centres[a] - centres[b]) - bar.length) / bar.u
-        r = np.concatenate([r_coord.ravel(), r_bar])
+        r_prior = []
+        if self.n_prior:
+            r_prior = (self.machine.tool + dtool - self.tool_prior_value) / self.tool_prior
+        r = np.concatenate([r_coord.ravel(), r_bar, r_prior])
         if not jacobian:
             return r, None
         jac = np.zeros((self.n_rows, self.n_unknowns))
@@ -344,4 +390,26 @@ class BallCentreProblem:
             unit = diff / np.linalg.norm(diff)
             jac[3 * n + k, p + 3 * a : p + 3 * a + 3] = unit / bar.u
             jac[3 * n + k, p + 3 * b : p + 3 * b + 3] = -unit / bar.u
+        if self.n_prior:
+            jac[-3:, -3:] = np.diag(1.0 / self.tool_prior)
         return r, jac
+
+
+def _tool_prior(machine: Machine, estimate_tool: bool, u, value):
+    """Validated (u_t (3,), t̄ (3,)) of a tool prior, mm; (None, None) without one."""
+    if u is None:
+        if value is not None:
+            raise InputError("tool_prior_value needs tool_prior (its standard uncertainty)")
+        return None, None
+    if not estimate_tool:
+        raise InputError("a tool prior needs the tool vector among the unknowns (estimate_tool)")
+    u = np.asarray(u, dtype=float).ravel()
+    if u.size not in (1, 3):
+        raise InputError(f"tool prior: give one standard uncertainty or three (x, y, z), got {u}")
+    u = np.broadcast_to(u, (3,)).copy()
+    if not np.all(np.isfinite(u) & (u > 0)):
+        raise InputError(f"tool prior standard uncertainties must be positive and finite, got {u}")
+    t = machine.tool if value is None else np.asarray(value, dtype=float)
+    if t.shape != (3,) or not np.all(np.isfinite(t)):
+        raise InputError(f"tool prior value must be 3 finite coordinates (mm), got {t}")
+    return u, np.array(t, dtype=float)

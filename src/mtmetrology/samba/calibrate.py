@@ -109,6 +109,18 @@ class SambaCalibration(SambaNotebookRepr):
         _, _, dtool = self.problem.split(self.identification.estimate)
         return self.machine.tool + dtool
 
+    def priors(self) -> list[dict]:
+        """Prior knowledge entered as pseudo-observations: ``[{name, value, unit, u}]`` of
+        each tool-vector component (the prior's value and standard uncertainty, mm);
+        empty without a prior."""
+        prob = self.problem
+        if prob.tool_prior is None:
+            return []
+        return [
+            {"name": f"tool {c}", "value": float(v), "unit": "mm", "u": float(s)}
+            for c, v, s in zip("xyz", prob.tool_prior_value, prob.tool_prior, strict=True)
+        ]
+
     def parameter_indices(self) -> np.ndarray:
         """Positions of the machine's error parameters among the unknowns."""
         names = self.identification.names
@@ -180,6 +192,7 @@ class SambaCalibration(SambaNotebookRepr):
         ]
         doc["tool_mm"] = [float(v) for v in self.tool]
         doc["tool_estimated"] = self.problem.estimate_tool
+        doc["priors"] = self.priors()
         doc["residuals"] = [
             {
                 "indication": k + 1,
@@ -262,6 +275,7 @@ def calibrate(
     *,
     sigma: float,
     estimate_tool: bool = False,
+    tool_prior=None,
     minimum_norm: bool = False,
 ) -> SambaCalibration:
     """Identify a machine's errors from SAMBA records.
@@ -279,6 +293,11 @@ def calibrate(
         indications against the scale bar.
     estimate_tool : bool
         Add the tool-vector correction to the unknowns (needs spindle indexing).
+    tool_prior : float or (3,) floats, optional
+        Standard uncertainty (mm) of each tool-vector component about the machine's
+        nominal tool vector (one value, or x, y, z): weighted pseudo-observations
+        ``(t − t0)/u_t`` (Alami Mchichi (2018) §5.3.4 takes the tool length as known with
+        u = 1 mm).  Needs ``estimate_tool``.
     minimum_norm : bool
         Solve a rank-deficient problem by its minimum-norm solution (flagged) instead of
         refusing it.
@@ -291,13 +310,16 @@ def calibrate(
     ------
     RankDeficientError
         Naming the confounded combinations and what to add; ``confounded`` lists them.
+    InputError
+        If a tool prior is given without ``estimate_tool`` or with a u that is not positive.
     ConvergenceError
         If the Gauss–Newton iteration stops without converging.
 
     Notes
     -----
     Residuals ``r_k = p(q_k; θ, t) − d_i(k)`` (3 rows per indication, weight 1/σ) and
-    ``r_L = ‖d_a − d_b‖ − L`` (weight 1/u_L); Gauss–Newton with column scaling on the
+    ``r_L = ‖d_a − d_b‖ − L`` (weight 1/u_L), with a tool prior ``r_t = t − t0`` (weight
+    1/u_t, the prior's value t0 an uncertain input); Gauss–Newton with column scaling on the
     project's least-squares core (Sepahi Boroujeni (2021), eqs 5-4 to 5-6).
     """
     problem = BallCentreProblem(
@@ -308,6 +330,7 @@ def calibrate(
         scale_bars=artefact.scale_bars(),
         estimate_tool=estimate_tool,
         sigma=sigma,
+        tool_prior=tool_prior,
     )
     report = [*machine.parameter_names, "tool x", "tool y", "tool z"]
     try:
@@ -334,6 +357,7 @@ def calibrate(
         scale_bars=artefact.scale_bars(),
         estimate_tool=estimate_tool,
         sigma=sigma,
+        tool_prior=tool_prior,
     )
     nominal = gauss_newton(nominal_problem, minimum_norm=True)
     provenance = {

@@ -92,6 +92,7 @@ def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
             ["minimum-norm solution", ident["minimum_norm"]],
             ["tool vector (mm)", ", ".join(f"{v:.4f}" for v in doc["tool_mm"])],
             ["tool estimated", doc["tool_estimated"]],
+            ["tool prior u (mm)", ", ".join(f"{p['u']:.4g}" for p in doc["priors"]) or "none"],
             ["unexplained volumetric error, mean (µm)", f"{vol['unexplained']['mean_um']:.3g}"],
             ["unexplained volumetric error, max (µm)", f"{vol['unexplained']['max_um']:.3g}"],
             ["nominal-model volumetric error, mean (µm)", f"{vol['nominal_model']['mean_um']:.3g}"],

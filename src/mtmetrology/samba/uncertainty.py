@@ -19,7 +19,9 @@ U_z (:func:`indication_inputs`) is one of
   Monte Carlo draws ``z̄ + Σ_k ζ_k (z_k − z̄)/√(K(K − 1))`` (ζ ~ N(0, 1)), whose
   covariance is exactly S/K;
 
-plus u_L² of the scale-bar length (the artefact file).
+plus u_L² of the scale-bar length (the artefact file) and, with a prior on the tool
+vector, u_t² of each component of its value (Alami Mchichi (2018) §5.3.4: the stylus length
+known to 1 mm), so both the GUF and every Monte Carlo trial carry the prior.
 
 GUF (JCGM 102:2011, 6.2.2; Alami Mchichi (2018) eq. 5.15)
 ----------------------------------------------------------
@@ -104,8 +106,10 @@ __all__ = [
     "identification_guf",
     "identification_mcm",
     "indication_inputs",
+    "input_sensitivities",
     "joint_coverage",
     "pooled_sigma",
+    "unknowns_covariance",
     "validate",
 ]
 
@@ -142,7 +146,7 @@ def indication_inputs(
     Returns
     -------
     InputSet
-        Normal inputs in mm, the bar lengths with their u.
+        Normal inputs in mm, the bar lengths and the tool prior's value with their u.
 
     Raises
     ------
@@ -158,16 +162,16 @@ def indication_inputs(
     names = problem.input_names()
     z = problem.input_estimate()
     n = problem.readings.shape[0]
-    bars_u = [bar.u for bar in problem.scale_bars]
+    others_u = problem.input_uncertainties()  # scale bars, tool prior
     if campaigns is not None:
         k = campaigns.shape[0]
         dev = (campaigns - campaigns.mean(axis=0)).reshape(k, -1)
         cov = np.zeros((z.size, z.size))
         cov[: 3 * n, : 3 * n] = dev.T @ dev / ((k - 1) * k)  # covariance of the mean
-        cov[3 * n :, 3 * n :] = np.diag(np.square(bars_u))
+        cov[3 * n :, 3 * n :] = np.diag(np.square(others_u))
         return InputSet.from_covariance(names, z, cov, units=["mm"] * z.size)
     u = np.full(3 * n, noise) if noise is not None else np.tile(repeatability, n)
-    u = np.concatenate([u, bars_u])
+    u = np.concatenate([u, others_u])
     if np.any(u <= 0) or not np.all(np.isfinite(u)):
         raise InputError("the indication standard uncertainties must be positive and finite")
     return InputSet(
@@ -248,6 +252,39 @@ class IdentificationModel:
         return res.x
 
 
+def input_sensitivities(calibration: SambaCalibration) -> np.ndarray:
+    """C = ∂x̂/∂z (n_unknowns, n_inputs) of all unknowns (internal units) to the inputs (mm).
+
+    ``C = −J⁺ ∂r/∂z`` with the column-scaled pseudo-inverse of the full weighted Jacobian
+    (the minimum-norm solution when rank deficient; JCGM 102:2011, 6.2.2).
+    """
+    ident = calibration.identification
+    jz = calibration.problem.input_jacobian(ident.estimate)  # (m_rows, N)
+    jac = ident.jacobian
+    norms = np.linalg.norm(jac, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    return -np.linalg.pinv(jac / norms, rcond=1e-8) @ jz / norms[:, None]
+
+
+def unknowns_covariance(calibration: SambaCalibration, inputs: InputSet) -> np.ndarray:
+    """GUF covariance ``U_x = C U_z Cᵀ`` (n_unknowns, n_unknowns) of *all* unknowns
+    (machine errors, ball centres, tool), internal units (mm, rad).
+
+    Parameters
+    ----------
+    calibration : SambaCalibration
+    inputs : InputSet
+        From :func:`indication_inputs`.
+
+    Returns
+    -------
+    ndarray, shape (n_unknowns, n_unknowns)
+        In the order of ``calibration.identification.names``.
+    """
+    sens = input_sensitivities(calibration)
+    return sens @ inputs.covariance @ sens.T
+
+
 def identification_guf(
     calibration: SambaCalibration, inputs: InputSet, p: float = 0.95
 ) -> GUFResult:
@@ -271,14 +308,7 @@ def identification_guf(
     ``C = −J⁺ ∂r/∂z`` over all unknowns, the machine-error rows kept (see the module
     notes); ``U_θ = C U_z Cᵀ`` (JCGM 102:2011, 6.2.2).
     """
-    ident = calibration.identification
-    problem = calibration.problem
-    jz = problem.input_jacobian(ident.estimate)  # (m_rows, N)
-    jac = ident.jacobian
-    norms = np.linalg.norm(jac, axis=0)
-    norms = np.where(norms > 0, norms, 1.0)
-    # column-scaled pseudo-inverse: the minimum-norm solution when rank deficient
-    sens_all = -np.linalg.pinv(jac / norms, rcond=1e-8) @ jz / norms[:, None]
+    sens_all = input_sensitivities(calibration)
     index = calibration.parameter_indices()
     scales = calibration.machine.parameter_scales
     sens = sens_all[index] / scales[:, None]
