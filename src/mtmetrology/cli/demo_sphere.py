@@ -35,6 +35,7 @@ from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.omm.task import task_uncertainty
 from mtmetrology.omm.unexplained import load_unexplained_covariance
+from mtmetrology.report import figures
 from mtmetrology.samba import simulate_records
 from mtmetrology.samba.artefact import SambaArtefact
 from mtmetrology.samba.simulate import ProbingProgramme
@@ -117,7 +118,7 @@ def _simulate_sphere(ctx: DemoContext, m: Machine, truth: np.ndarray, seed: int)
     names = []
     for k, (b, c) in enumerate(SPHERE_BC):
         rows = [r[2:] for r in records.rows if r[0] == str(k + 1)]
-        name = f"sphere-B{b:+d}-C{c:03d}.csv"
+        name = f"sphere-B{b:+03d}-C{c:03d}.csv"
         write_csv_table(
             ctx.path("task", name), header, ([str(n + 1), *r] for n, r in enumerate(rows))
         )
@@ -146,7 +147,7 @@ def sphere_task_section(ctx: DemoContext, *, preset: str) -> None:
     unexplained = load_unexplained_covariance(ctx.path("task", "unexplained.json"))
     tolerance = Tolerance.parse(SPHERE_TOLERANCE)
     sphere = SphereDiameter(2.0 * m.tip_radius)
-    rows, intervals = [], []
+    rows, intervals, big_u_um = [], [], []
     with ctx.step(
         f"a {SPHERE_DIAMETER_MM:g} mm sphere at {len(SPHERE_BC)} (B, C): task uncertainty"
     ):
@@ -165,10 +166,11 @@ def sphere_task_section(ctx: DemoContext, *, preset: str) -> None:
             intervals.append(
                 (stem, value, big_u, float(g.coverage_factor[0]), g.p, SPHERE_DIAMETER_MM)
             )
+            big_u_um.append(float(from_internal(big_u, "µm")))
             rows.append([
                 f"{b:+d}", f"{c:d}", f"{value:.6f}",
                 f"{from_internal(g.standard_uncertainty[0], 'µm'):.2f}",
-                f"{from_internal(big_u, 'µm'):.2f}",
+                f"{big_u_um[-1]:.2f}",
                 f"{from_internal(value - SPHERE_DIAMETER_MM, 'µm'):+.2f}",
                 decision.decision.value,
             ])  # fmt: skip
@@ -196,10 +198,23 @@ def sphere_task_section(ctx: DemoContext, *, preset: str) -> None:
     ctx.report.table(
         ["B (°)", "C (°)", "diameter (mm)", "u (µm)", "U (µm)", "error (µm)", "decision"], rows
     )
+    worst = max(intervals, key=lambda t: abs(t[1] - SPHERE_DIAMETER_MM))
+    ctx.report.figure(
+        figures.conformity_zones(
+            worst[1],
+            worst[2],
+            tolerance.lower_limit,
+            tolerance.upper_limit,
+            name=f"sphere diameter ({worst[0]})",
+            unit="mm",
+        ),
+        caption="The orientation farthest from the nominal diameter: value ± U against the "
+        "tolerance and its ISO 14253-1 conformance zone.",
+    )
     coverage = _coverage(ctx, m, pset, unexplained, intervals)
     ctx.summary.append(
         f"sphere {SPHERE_DIAMETER_MM:g} mm at {len(SPHERE_BC)} (B, C): U = "
-        f"{min(float(r[4]) for r in rows):.2f}–{max(float(r[4]) for r in rows):.2f} µm; "
+        f"{min(big_u_um):.2f}–{max(big_u_um):.2f} µm; "
         f"ISO 14253-1: {decisions.count('conformance')} conformance of {len(decisions)}"
     )
     ctx.summary.append(
