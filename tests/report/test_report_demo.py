@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import re
 import shlex
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -139,6 +140,15 @@ def test_demo_sphere_at_several_orientations(demo_run):
         if "$ mtm task uncertainty" in line and "--feature sphere" in line
     ]
     assert len(sphere_commands) == 1
+    # the printed command, written elsewhere, gives the demo's value, U and decision
+    argv = shlex.split(sphere_commands[0].split("$ mtm ", 1)[1])
+    written = argv[argv.index("-o") + 1]
+    rerun = out.parent / "sphere-rerun.json"
+    argv[argv.index("-o") + 1] = str(rerun)
+    assert runner.invoke(app, argv).exit_code == 0
+    demo, again = (json.loads(Path(f).read_text(encoding="utf-8")) for f in (written, rerun))
+    assert (again["outputs"], again["decision"]) == (demo["outputs"], demo["decision"])
+    rerun.unlink()
 
 
 def test_demo_task_intervals_cover_the_truth(demo_run):
