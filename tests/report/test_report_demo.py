@@ -181,6 +181,12 @@ def test_demo_task_intervals_cover_the_truth(demo_run):
     assert any(
         line.startswith(f"- coverage: {covered}/{len(tasks)} ") for line in stdout.splitlines()
     )
+    page = (out / "report.html").read_text(encoding="utf-8")
+    for heading in (
+        "A sphere measured at several orientations",
+        "Coverage of the task intervals against the truth",
+    ):
+        assert re.search(rf"<h2[^>]*>{heading}</h2>", page), heading
 
 
 def test_demo_cmm_section_compensates_the_held_out_position(demo_run):
