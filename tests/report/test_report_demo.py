@@ -5,8 +5,11 @@ from __future__ import annotations
 import json
 import re
 import shlex
+from pathlib import Path
 
+import numpy as np
 import pytest
+from scipy.stats import binom
 from test_report_browser import check_page
 from typer.testing import CliRunner
 
@@ -39,6 +42,7 @@ def test_demo_writes_inputs_results_and_report(demo_run):
         "task/gauge-pair.csv",
         "task/unexplained.json",
         "task/gauge-length.json",
+        "task/coverage.json",
         "prediction/gauge.csv",
         "prediction/gauge-xyz.csv",
         "uncertainty/gum-h1.yaml",
@@ -81,6 +85,15 @@ def test_demo_samba_calibration_is_validated_and_covers_the_truth(demo_run):
     assert any(f"{covered}/13 true parameters" in line for line in stdout.splitlines())
 
 
+def _iso_14253_decision(value: float, big_u: float, limits: dict) -> str:
+    """ISO 14253-1:2017 with guard bands of U: conformance inside the limits shrunk by U,
+    non-conformance outside the limits widened by U, undecided between."""
+    if limits["lower_limit"] + big_u <= value <= limits["upper_limit"] - big_u:
+        return "conformance"
+    outside = value < limits["lower_limit"] - big_u or value > limits["upper_limit"] + big_u
+    return "non-conformance" if outside else "undecided"
+
+
 def test_demo_gauge_block_and_task_decision(demo_run):
     """Compensation cuts the gauge-block RMS length error (about 27 µm nominal) by more than
     five; the task decision is the ISO 14253-1 rule applied to the reported value and U."""
@@ -91,14 +104,89 @@ def test_demo_gauge_block_and_task_decision(demo_run):
     (length,) = task["outputs"]
     decision = task["decision"]
     limits = decision["tolerance"]
-    low, high = limits["lower_limit"] + length["U"], limits["upper_limit"] - length["U"]
-    expected = "conformance" if low <= length["value"] <= high else None
-    if expected is None:
-        outside = length["value"] < limits["lower_limit"] - length["U"]
-        outside |= length["value"] > limits["upper_limit"] + length["U"]
-        expected = "non-conformance" if outside else "undecided"
-    assert decision["decision"] == expected
+    assert decision["decision"] == _iso_14253_decision(length["value"], length["U"], limits)
     assert abs(length["value"] - limits["nominal"]) < 3 * length["U"]  # the truth is nominal
+
+
+def test_demo_sphere_at_several_orientations(demo_run):
+    """One points file per (B, C) in the ``mtm task uncertainty`` format (25 points with
+    approach directions), one result per file whose decision is the ISO 14253-1 rule
+    applied to its value and U, and a printed ``--feature sphere`` command."""
+    out, stdout = demo_run
+    csvs = sorted((out / "task").glob("sphere-*.csv"))
+    assert len(csvs) >= 3
+    orientations = set()
+    for path in csvs:
+        lines = path.read_text(encoding="utf-8").splitlines()
+        header = lines[0].split(",")
+        assert header[0] == "point" and {"X", "Y", "Z", "B", "C", "i", "j", "k"} <= set(header)
+        rows = [line.split(",") for line in lines[1:]]
+        assert len(rows) == 25
+        b, c = (header.index(a) for a in ("B", "C"))
+        assert len({(r[b], r[c]) for r in rows}) == 1  # one orientation per file
+        orientations.add((rows[0][b], rows[0][c]))
+        ijk = np.array([[float(r[header.index(a)]) for a in "ijk"] for r in rows])
+        np.testing.assert_allclose(np.linalg.norm(ijk, axis=1), 1.0, atol=1e-6)
+        result = json.loads(path.with_suffix(".json").read_text(encoding="utf-8"))
+        (diameter,) = result["outputs"]
+        assert diameter["name"] == "sphere_diameter" and diameter["unit"] == "mm"
+        limits = result["decision"]["tolerance"]
+        expected = _iso_14253_decision(diameter["value"], diameter["U"], limits)
+        assert result["decision"]["decision"] == expected
+    assert len(orientations) == len(csvs)
+    sphere_commands = [
+        line
+        for line in stdout.splitlines()
+        if "$ mtm task uncertainty" in line and "--feature sphere" in line
+    ]
+    assert len(sphere_commands) == 1
+    # the printed command, written elsewhere, gives the demo's value, U and decision
+    argv = shlex.split(sphere_commands[0].split("$ mtm ", 1)[1])
+    written = argv[argv.index("-o") + 1]
+    rerun = out.parent / "sphere-rerun.json"
+    argv[argv.index("-o") + 1] = str(rerun)
+    assert runner.invoke(app, argv).exit_code == 0
+    demo, again = (json.loads(Path(f).read_text(encoding="utf-8")) for f in (written, rerun))
+    assert (again["outputs"], again["decision"]) == (demo["outputs"], demo["decision"])
+    rerun.unlink()
+
+
+def test_demo_task_intervals_cover_the_truth(demo_run):
+    """The coverage document counts the intervals value ± U that contain the simulated
+    truth (25 mm sphere; the gauge block's end-face distance); recount from its fields.
+    Binomial test at the 1 % level (fixed seed): fail when P(at most the count covered)
+    < 1 % for independent 95 % intervals; with 16 tasks, 12 or fewer covered fails."""
+    out, stdout = demo_run
+    doc = json.loads((out / "task" / "coverage.json").read_text(encoding="utf-8"))
+    assert doc["kind"] == "task-coverage" and doc["unit"] == "mm"
+    tasks = doc["tasks"]
+    assert doc["n_tasks"] == len(tasks) >= 10
+    spheres = [t for t in tasks if t["feature"].startswith("sphere-")]
+    gauges = [t for t in tasks if t["feature"].startswith("gauge-pair-")]
+    assert len(spheres) + len(gauges) == len(tasks) and spheres and gauges
+    assert {t["true"] for t in spheres} == {25.0}
+    gauge_length = float(np.linalg.norm(np.array([200.0, 200.0, 0.0])))  # ends ±(100, 100)
+    assert all(t["true"] == pytest.approx(gauge_length, abs=1e-9) for t in gauges)
+    for t in spheres:  # the counted interval is the one of the written result
+        result = json.loads((out / "task" / f"{t['feature']}.json").read_text(encoding="utf-8"))
+        (diameter,) = result["outputs"]
+        assert (t["value"], t["U"]) == (diameter["value"], diameter["U"])
+    covered = sum(abs(t["value"] - t["true"]) <= t["U"] for t in tasks)
+    assert [t["covered"] for t in tasks] == [abs(t["value"] - t["true"]) <= t["U"] for t in tasks]
+    assert doc["covered"] == covered
+    p = doc["coverage_probability"]
+    assert p == pytest.approx(0.95)
+    assert doc["binomial_p_at_most_covered"] == pytest.approx(binom.cdf(covered, len(tasks), p))
+    assert binom.cdf(covered, len(tasks), p) >= 0.01
+    assert any(
+        line.startswith(f"- coverage: {covered}/{len(tasks)} ") for line in stdout.splitlines()
+    )
+    page = (out / "report.html").read_text(encoding="utf-8")
+    for heading in (
+        "A sphere measured at several orientations",
+        "Coverage of the task intervals against the truth",
+    ):
+        assert re.search(rf"<h2[^>]*>{heading}</h2>", page), heading
 
 
 def test_demo_cmm_section_compensates_the_held_out_position(demo_run):

@@ -22,6 +22,7 @@ import numpy as np
 from mtmetrology.cli.demo import DemoContext, DemoSection
 from mtmetrology.cli.demo_cmm import cmm_section
 from mtmetrology.cli.demo_samba import samba_calibration_section, task_section
+from mtmetrology.cli.demo_sphere import sphere_task_section
 from mtmetrology.fitting.documents import fit_document
 from mtmetrology.fitting.least_squares import fit_sphere
 from mtmetrology.fitting.minimum_zone import sphericity
@@ -216,6 +217,10 @@ def task_uncertainty_section(ctx: DemoContext) -> None:
     task_section(ctx, preset=PRESET)
 
 
+def sphere_section(ctx: DemoContext) -> None:
+    sphere_task_section(ctx, preset=PRESET)
+
+
 def prediction_section(ctx: DemoContext) -> None:
     from mtmetrology.cli.predict import add_compensation
 
@@ -361,6 +366,7 @@ DEMO_SECTIONS: list[DemoSection] = [
     DemoSection("calibration", "SAMBA calibration and a gauge block", calibration_section),
     DemoSection("prediction", "Compensated coordinates", prediction_section),
     DemoSection("task", "Task uncertainty and conformity", task_uncertainty_section),
+    DemoSection("sphere", "A sphere at several B/C; coverage", sphere_section),
     DemoSection("uncertainty", "GUM H.1: GUF and Monte Carlo", uncertainty_section),
     DemoSection("fitting", "Geometric elements", fitting_section),
     DemoSection("cmm", "Bridge CMM: ball plate, kinematic and GP models", cmm_section),

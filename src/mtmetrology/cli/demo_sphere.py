@@ -1,0 +1,263 @@
+"""The sphere section of ``mtm demo``: a 25 mm sphere probed at several (B, C), its
+diameter with u, U and an ISO 14253-1 decision, and the coverage of the task intervals.
+
+The probed points come from the SAMBA simulator (:func:`mtmetrology.samba.simulate_records`
+with raw points: the inverse kinematics of the *true* machine puts the stylus centre on
+the sphere, then 1 µm of noise per linear reading), so the same kinematic engine serves
+the simulation and the evaluation. Each orientation is one ``mtm task uncertainty
+--feature sphere`` run on a file the demo writes, and its command is printed.
+
+Coverage: the simulation knows the true sphere diameter and the true gauge length, so
+the fraction of the task intervals (value ± U) that contain the truth can be counted over
+the sphere orientations and the gauge-block indexations.
+
+References
+----------
+Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine
+Tool Metrology*. PhD thesis, Polytechnique Montréal, ch. 6–7. ISO 14253-1:2017.
+JCGM 100:2008 (GUM), §6.2–6.3 (expanded uncertainty, coverage probability).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import binom
+
+from mtmetrology.budgets.conformity import Tolerance, decide
+from mtmetrology.cli._common import readings_from_table
+from mtmetrology.cli.demo import DemoContext
+from mtmetrology.fitting.features import GaugeLength, SphereDiameter
+from mtmetrology.io import read_csv_table
+from mtmetrology.io.tables import write_csv_table
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.omm.task import task_uncertainty
+from mtmetrology.omm.unexplained import load_unexplained_covariance
+from mtmetrology.report import figures
+from mtmetrology.samba import simulate_records
+from mtmetrology.samba.artefact import SambaArtefact
+from mtmetrology.samba.simulate import ProbingProgramme
+from mtmetrology.units import from_internal, to_internal
+
+__all__ = ["sphere_task_section"]
+
+SPHERE_DIAMETER_MM = 25.0
+SPHERE_CENTRE_MM = (20.0, 30.0, 60.0)  # workpiece frame
+SPHERE_POINTS = 25  # 24 on the equator and the pole (machine axes)
+# The orientations of the sphere measurement, degrees.
+SPHERE_BC = ((-40, 30), (-20, 150), (0, 0), (0, 270), (20, 90), (40, 210))
+SPHERE_TOLERANCE = f"{SPHERE_DIAMETER_MM},-0.008,0.008"
+NOISE_UM = 1.0
+# The gauge-block indexations (of gauge/gauge.csv) evaluated for the coverage check.
+COVERAGE_PAIRS = 10
+# The end-face centres of the demo's gauge block (workpiece frame, mm).
+GAUGE_ENDS = (np.array([-100.0, -100.0, 40.0]), np.array([100.0, 100.0, 40.0]))
+
+
+@dataclass(frozen=True)
+class Coverage:
+    """How many task intervals contain the true value.
+
+    Attributes
+    ----------
+    n : int
+        Number of tasks.
+    covered : int
+        Intervals ``[y − U, y + U]`` that contain the truth.
+    p : float
+        The coverage probability the intervals claim.
+    p_at_most : float
+        Binomial probability of at most ``covered`` successes in ``n`` trials at ``p``.
+    tasks : tuple of dict
+        Per task: ``feature``, ``value``, ``U``, ``k``, ``true`` (mm) and ``covered``.
+    """
+
+    n: int
+    covered: int
+    p: float
+    p_at_most: float
+    tasks: tuple[dict, ...]
+
+    def to_dict(self) -> dict:
+        return {
+            "kind": "task-coverage",
+            "version": 1,
+            "n_tasks": self.n,
+            "covered": self.covered,
+            "coverage_probability": self.p,
+            "binomial_p_at_most_covered": self.p_at_most,
+            "unit": "mm",
+            "tasks": list(self.tasks),
+        }
+
+
+def _simulate_sphere(ctx: DemoContext, m: Machine, truth: np.ndarray, seed: int) -> list[str]:
+    """The sphere probed at every orientation on the true machine; one CSV per
+    orientation in the ``mtm task uncertainty`` format. Returns their file names."""
+    artefact = SambaArtefact(
+        balls=[{"id": "S", "diameter_mm": SPHERE_DIAMETER_MM}],
+        stylus_tip_diameter_mm=2.0 * m.tip_radius,
+    )
+    bc = np.array(SPHERE_BC, dtype=float)
+    programme = ProbingProgramme(("S",) * len(bc), bc[:, 0], bc[:, 1], np.zeros(len(bc)))
+    records = simulate_records(
+        m,
+        truth,
+        {"S": np.array(SPHERE_CENTRE_MM)},
+        programme,
+        artefact,
+        noise=float(to_internal(NOISE_UM, "µm")),
+        raw_points=True,
+        points_per_ball=SPHERE_POINTS,
+        seed=seed,
+    )
+    # measurement,ball,axes...,i,j,k -> point,axes...,i,j,k
+    header = ["point", *records.header[2:]]
+    names = []
+    for k, (b, c) in enumerate(SPHERE_BC):
+        rows = [r[2:] for r in records.rows if r[0] == str(k + 1)]
+        name = f"sphere-B{b:+03d}-C{c:03d}.csv"
+        write_csv_table(
+            ctx.path("task", name), header, ([str(n + 1), *r] for n, r in enumerate(rows))
+        )
+        names.append(name)
+    return names
+
+
+def _evaluate(m: Machine, pset: ParameterSet, readings, feature, unexplained):
+    """GUF of a feature over the compensation and the unexplained volumetric error."""
+    return task_uncertainty(
+        m,
+        readings,
+        pset.vector_for(m),
+        pset.covariance,
+        feature,
+        unexplained_covariance=unexplained,
+    )
+
+
+def sphere_task_section(ctx: DemoContext, *, preset: str) -> None:
+    """Sphere diameter at each (B, C) with u, U, decision; coverage over sphere and gauge."""
+    base = Machine.load(preset)
+    truth = ParameterSet.load(ctx.path("samba", "truth.json"), base).vector_for(base)
+    pset = ParameterSet.load(ctx.path("samba", "params.json"), base)
+    m = pset.machine_for(base)
+    unexplained = load_unexplained_covariance(ctx.path("task", "unexplained.json"))
+    tolerance = Tolerance.parse(SPHERE_TOLERANCE)
+    sphere = SphereDiameter(2.0 * m.tip_radius)
+    rows, intervals, big_u_um = [], [], []
+    with ctx.step(
+        f"a {SPHERE_DIAMETER_MM:g} mm sphere at {len(SPHERE_BC)} (B, C): task uncertainty"
+    ):
+        names = _simulate_sphere(ctx, base, truth, ctx.seed + 4)
+        for name, (b, c) in zip(names, SPHERE_BC, strict=True):
+            readings = readings_from_table(
+                m, read_csv_table(ctx.path("task", name), required=("point",))
+            )
+            result = _evaluate(m, pset, readings, sphere, unexplained)
+            g = result.guf
+            value, big_u = float(g.estimate[0]), float(g.expanded_uncertainty[0])
+            decision = decide(value, big_u, tolerance, unit="mm")
+            document = {**result.to_dict(), "decision": decision.to_dict()}
+            stem = name.removesuffix(".csv")
+            ctx.write_json(document, "task", f"{stem}.json")
+            intervals.append(
+                (stem, value, big_u, float(g.coverage_factor[0]), g.p, SPHERE_DIAMETER_MM)
+            )
+            big_u_um.append(float(from_internal(big_u, "µm")))
+            rows.append([
+                f"{b:+d}", f"{c:d}", f"{value:.6f}",
+                f"{from_internal(g.standard_uncertainty[0], 'µm'):.2f}",
+                f"{big_u_um[-1]:.2f}",
+                f"{from_internal(value - SPHERE_DIAMETER_MM, 'µm'):+.2f}",
+                decision.decision.value,
+            ])  # fmt: skip
+    first = names[0].removesuffix(".csv")
+    ctx.command(
+        f"the sphere diameter at B = {SPHERE_BC[0][0]}°, C = {SPHERE_BC[0][1]}° with its "
+        "ISO 14253-1 decision",
+        "task", "uncertainty", ctx.shown("task", names[0]), "--machine", preset,
+        "--params", ctx.shown("samba", "params.json"), "--feature", "sphere",
+        "--unexplained", ctx.shown("task", "unexplained.json"),
+        "--tolerance", SPHERE_TOLERANCE, "-o", ctx.shown("task", f"{first}.json"),
+    )  # fmt: skip
+    decisions = [r[-1] for r in rows]
+    ctx.report.section(
+        "A sphere measured at several orientations",
+        f"A {SPHERE_DIAMETER_MM:g} mm precision sphere centred at "
+        f"({', '.join(f'{v:g}' for v in SPHERE_CENTRE_MM)}) mm on the table, probed with "
+        f"{SPHERE_POINTS} points (24 on the equator of the machine axes and the pole, "
+        "with their approach directions) at each (B, C) on the virtual machine with its "
+        f"true errors and {NOISE_UM:g} µm noise per linear reading. The diameter is "
+        "compensated with the calibrated parameters, its uncertainty is the full-covariance "
+        "GUF of the task section, and the decision follows ISO 14253-1:2017 with guard "
+        f"bands of U: tolerance {tolerance.lower_limit:.3f} to {tolerance.upper_limit:.3f} mm.",
+    )
+    ctx.report.table(
+        ["B (°)", "C (°)", "diameter (mm)", "u (µm)", "U (µm)", "error (µm)", "decision"], rows
+    )
+    worst = max(intervals, key=lambda t: abs(t[1] - SPHERE_DIAMETER_MM))
+    ctx.report.figure(
+        figures.conformity_zones(
+            worst[1],
+            worst[2],
+            tolerance.lower_limit,
+            tolerance.upper_limit,
+            name=f"sphere diameter ({worst[0]})",
+            unit="mm",
+        ),
+        caption="The orientation farthest from the nominal diameter: value ± U against the "
+        "tolerance and its ISO 14253-1 conformance zone.",
+    )
+    coverage = _coverage(ctx, m, pset, unexplained, intervals)
+    ctx.summary.append(
+        f"sphere {SPHERE_DIAMETER_MM:g} mm at {len(SPHERE_BC)} (B, C): U = "
+        f"{min(big_u_um):.2f}–{max(big_u_um):.2f} µm; "
+        f"ISO 14253-1: {decisions.count('conformance')} conformance of {len(decisions)}"
+    )
+    ctx.summary.append(
+        f"coverage: {coverage.covered}/{coverage.n} task intervals contain the truth "
+        f"(expected {100 * coverage.p:.1f} %; P(≤ {coverage.covered}) = "
+        f"{coverage.p_at_most:.2f} for independent intervals)"
+    )
+
+
+def _coverage(ctx: DemoContext, m, pset, unexplained, intervals) -> Coverage:
+    """Count the gauge and sphere intervals that contain the truth; report and write it."""
+    table = read_csv_table(ctx.path("gauge", "gauge.csv"), required=("pair", "end"))
+    readings = readings_from_table(m, table)
+    gauge = GaugeLength(tip_diameter=2.0 * m.tip_radius)
+    true_length = float(np.linalg.norm(GAUGE_ENDS[1] - GAUGE_ENDS[0]))
+    pairs = table.strings("pair")
+    with ctx.step(f"coverage: {COVERAGE_PAIRS} gauge-length tasks against the truth"):
+        for pair in range(1, COVERAGE_PAIRS + 1):
+            rows = [k for k, p in enumerate(pairs) if p == str(pair)]
+            g = _evaluate(m, pset, readings[rows], gauge, unexplained).guf
+            value, big_u = float(g.estimate[0]), float(g.expanded_uncertainty[0])
+            k = float(g.coverage_factor[0])
+            intervals.append((f"gauge-pair-{pair}", value, big_u, k, g.p, true_length))
+    fields = ("feature", "value", "U", "k", "p", "true")
+    tasks = [dict(zip(fields, t, strict=True)) for t in intervals]
+    for t in tasks:
+        t["covered"] = bool(abs(t["value"] - t["true"]) <= t["U"])
+    n, covered = len(tasks), sum(t["covered"] for t in tasks)
+    p = float(np.mean([t.pop("p") for t in tasks]))
+    k = float(np.mean([t["k"] for t in tasks]))
+    coverage = Coverage(n, covered, p, float(binom.cdf(covered, n, p)), tuple(tasks))
+    ctx.write_json(coverage.to_dict(), "task", "coverage.json")
+    ctx.report.section(
+        "Coverage of the task intervals against the truth",
+        f"{n} simulated tasks ({len(SPHERE_BC)} sphere diameters, {COVERAGE_PAIRS} gauge "
+        f"lengths): {covered} intervals value ± U (k = {k:.2f}) contain the true "
+        f"value; expected rate {100 * p:.1f} %. For {n} independent intervals the binomial "
+        f"probability of at most {covered} covered is {coverage.p_at_most:.3f}. The tasks "
+        "share one calibration (its parameter errors are common to all), so they are not "
+        "independent: the count is a check, not a test of the coverage probability.",
+    )
+    ctx.report.table(
+        ["tasks", "covered", "expected rate", "P(at most covered)"],
+        [[n, covered, f"{100 * p:.1f} %", f"{coverage.p_at_most:.3f}"]],
+    )
+    return coverage
