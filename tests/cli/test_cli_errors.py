@@ -79,7 +79,19 @@ def test_sigint_during_start_up_is_one_line_and_130(tmp_path):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
     )
-    time.sleep(0.15)  # Python is up; the command line is still being imported
+    # Signal once numpy is mapped: the interpreter is up and the entry point's handler is in
+    # place (it runs before any import of the command line), which is still start-up. A
+    # fixed sleep is not enough on a loaded machine: a signal before the interpreter has
+    # started kills it (return code -2), a window no Python program can close.
+    maps = Path(f"/proc/{process.pid}/maps")
+    deadline = time.monotonic() + 60
+    while process.poll() is None and time.monotonic() < deadline:
+        try:
+            if "_multiarray_umath" in maps.read_text():
+                break
+        except OSError:
+            break
+        time.sleep(0.005)
     process.send_signal(signal.SIGINT)
     _, stderr = process.communicate(timeout=60)
     if process.returncode == 0:  # pragma: no cover - a very fast machine finished first

@@ -234,7 +234,7 @@ def _print(result: TaskResult) -> None:
         f"U = {big_u_um:.2f} µm (k = {g.coverage_factor[0]:.2f}, p = {g.p})"
     )
     shares = ", ".join(
-        f"{k.replace('_', ' ')} {100 * v[0]:.1f} %" for k, v in result.shares.items()
+        f"{k.replace('_', ' ')} {100 * v[0] + 0.0:.1f} %" for k, v in result.shares.items()
     )
     typer.echo(f"budget: {shares}")
     if result.decision is not None:
