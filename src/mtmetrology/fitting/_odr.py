@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from functools import cached_property
+from typing import Any, NamedTuple
 
 import numpy as np
 import scipy.linalg
@@ -33,6 +34,20 @@ _MAX_ITER = 200
 
 class FitError(InputError):
     """A point set from which the requested element cannot be fitted."""
+
+
+class Sensitivities(NamedTuple):
+    """First-order sensitivities of a fit to its points (see :class:`FitResult`).
+
+    ``jacobian`` (n_params, n, dim) is dθ/dP; residual i depends on its own point through
+    ``direct`` (n, dim) and on the local parameters through ``local`` (n, p), whose
+    derivatives with respect to the points are ``local_jacobian`` (p, n, dim).
+    """
+
+    jacobian: np.ndarray
+    direct: np.ndarray
+    local: np.ndarray
+    local_jacobian: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -58,7 +73,9 @@ class FitResult(NotebookRepr):
     message : str
     parameter_jacobian : (n_params, n, dim) array
         dθ/dP of ``element.parameters`` with respect to the point coordinates
-        (first-order implicit-function form, see the module notes).
+        (first-order implicit-function form, see the module notes).  Computed on first
+        access and kept: at a million points it is the largest array of a fit (96 MB for
+        a sphere), and most callers want only the element and the residuals.
     """
 
     element: Element
@@ -69,12 +86,17 @@ class FitResult(NotebookRepr):
     nit: int
     nfev: int
     message: str
-    parameter_jacobian: np.ndarray = field(repr=False)
-    # Residual sensitivities: d_i depends on its own point through direct (n, dim) and on
-    # the local parameters through local (n, p) whose derivatives are local_jacobian.
-    _direct: np.ndarray = field(repr=False)
-    _local: np.ndarray = field(repr=False)
-    _local_jacobian: np.ndarray = field(repr=False)
+    # Computes the Sensitivities from the fit's own arrays (captured at fit time, so
+    # later changes to the caller's points do not reach it); called at most once.
+    _sensitivities: Callable[[], Sensitivities] = field(repr=False)
+
+    @cached_property
+    def _computed(self) -> Sensitivities:
+        return self._sensitivities()
+
+    @property
+    def parameter_jacobian(self) -> np.ndarray:
+        return self._computed.jacobian
 
     @property
     def success(self) -> bool:
@@ -114,9 +136,10 @@ class FitResult(NotebookRepr):
 
         Form errors (max − min residual) differentiate through it.
         """
-        out = np.einsum("ip,pjd->ijd", self._local, self._local_jacobian)
+        s = self._computed
+        out = np.einsum("ip,pjd->ijd", s.local, s.local_jacobian)
         idx = np.arange(out.shape[0])
-        out[idx, idx, :] += self._direct
+        out[idx, idx, :] += s.direct
         return out
 
 
@@ -246,10 +269,7 @@ def _result(
     residuals: np.ndarray,
     solve: LeastSquaresResult | None,
     message: str,
-    jacobian: np.ndarray,
-    direct: np.ndarray,
-    local: np.ndarray,
-    local_jacobian: np.ndarray,
+    sensitivities: Callable[[], Sensitivities],
     form_error: float | None = None,
 ) -> FitResult:
     rms = float(np.sqrt(np.mean(residuals**2)))
@@ -263,10 +283,7 @@ def _result(
         nit=0 if solve is None else solve.nit,
         nfev=0 if solve is None else solve.nfev,
         message=message,
-        parameter_jacobian=jacobian,
-        _direct=direct,
-        _local=local,
-        _local_jacobian=local_jacobian,
+        _sensitivities=sensitivities,
     )
 
 

@@ -14,6 +14,7 @@ from scipy.spatial import cKDTree
 from mtmetrology.fitting._odr import (
     FitError,
     FitResult,
+    Sensitivities,
     _better,
     _canonical,
     _centred,
@@ -169,28 +170,25 @@ def fit_cylinder(points: object, direction: object = None) -> FitResult:
     a_canon = _canonical(a)
     rho, j, g, e1, e2 = _cylinder_local(x, x0, a_canon)
     _check_conditioning(kind, j, "axis and radius")
-    dbeta = _local_to_points(j[:, None, :], g[:, None, :])  # (5, n, 3)
-    t = np.zeros((7, 5))
-    t[0:3, 0], t[0:3, 1], t[3:6, 2], t[3:6, 3], t[6, 4] = e1, e2, e1, e2, 1.0
-    # Reported point = foot of the centroid c̄: d x0 = dq + a (da·(c̄ − x0)) + a aᵀ dc̄.
-    wvec = -x0  # c̄ − x0 in centred coordinates
-    t[0:3, 2] += a_canon * (e1 @ wvec)
-    t[0:3, 3] += a_canon * (e2 @ wvec)
-    direct = np.zeros((7, p.shape[0], 3))
-    direct[0:3] = (np.outer(a_canon, a_canon) / p.shape[0])[:, None, :]
-    jac = np.einsum("tb,bnd->tnd", t, dbeta) + direct
+    n = p.shape[0]
+
+    def cylinder() -> Sensitivities:
+        dbeta = _local_to_points(j[:, None, :], g[:, None, :])  # (5, n, 3)
+        t = np.zeros((7, 5))
+        t[0:3, 0], t[0:3, 1], t[3:6, 2], t[3:6, 3], t[6, 4] = e1, e2, e1, e2, 1.0
+        # Reported point = foot of the centroid c̄: d x0 = dq + a (da·(c̄ − x0)) + a aᵀ dc̄.
+        wvec = -x0  # c̄ − x0 in centred coordinates
+        t[0:3, 2] += a_canon * (e1 @ wvec)
+        t[0:3, 3] += a_canon * (e2 @ wvec)
+        direct = np.zeros((7, n, 3))
+        direct[0:3] = (np.outer(a_canon, a_canon) / n)[:, None, :]
+        jac = np.einsum("tb,bnd->tnd", t, dbeta) + direct
+        return Sensitivities(jac, g, j, dbeta)
+
     residuals = rho - r
     rms = float(np.sqrt(np.mean(residuals**2)))
-    return _result(
-        Cylinder(x0 + centroid, a_canon, r),
-        residuals,
-        best,
-        _message(kind, best, rms),
-        jac,
-        g,
-        j,
-        dbeta,
-    )
+    element = Cylinder(x0 + centroid, a_canon, r)
+    return _result(element, residuals, best, _message(kind, best, rms), cylinder)
 
 
 def _cone_local(x: np.ndarray, x0: np.ndarray, a: np.ndarray, psi: float, s: float):
@@ -319,25 +317,19 @@ def fit_cone(points: object, direction: object = None) -> FitResult:
     x0, a, psi, s = best.x
     d, j, g, e1, e2 = _cone_local(x, x0, a, psi, s)
     _check_conditioning(kind, j, "axis, half-angle and size")
-    dbeta = _local_to_points(j[:, None, :], g[:, None, :])  # (6, n, 3)
     sp, cp = np.sin(psi), np.cos(psi)
-    t = np.zeros((7, 6))
-    # apex = q − (s / sin ψ) a
-    t[0:3, 0], t[0:3, 1] = e1, e2
-    t[0:3, 2], t[0:3, 3] = -(s / sp) * e1, -(s / sp) * e2
-    t[0:3, 4] = (s * cp / sp**2) * a
-    t[0:3, 5] = -a / sp
-    t[3:6, 2], t[3:6, 3], t[6, 4] = e1, e2, 1.0
-    jac = np.einsum("tb,bnd->tnd", t, dbeta)
+
+    def cone() -> Sensitivities:
+        dbeta = _local_to_points(j[:, None, :], g[:, None, :])  # (6, n, 3)
+        t = np.zeros((7, 6))
+        # apex = q − (s / sin ψ) a
+        t[0:3, 0], t[0:3, 1] = e1, e2
+        t[0:3, 2], t[0:3, 3] = -(s / sp) * e1, -(s / sp) * e2
+        t[0:3, 4] = (s * cp / sp**2) * a
+        t[0:3, 5] = -a / sp
+        t[3:6, 2], t[3:6, 3], t[6, 4] = e1, e2, 1.0
+        return Sensitivities(np.einsum("tb,bnd->tnd", t, dbeta), g, j, dbeta)
+
     apex = x0 - (s / sp) * a + centroid
     rms = float(np.sqrt(np.mean(d**2)))
-    return _result(
-        Cone(apex, a, psi),
-        d,
-        best,
-        _message(kind, best, rms),
-        jac,
-        g,
-        j,
-        dbeta,
-    )
+    return _result(Cone(apex, a, psi), d, best, _message(kind, best, rms), cone)

@@ -52,6 +52,7 @@ from mtmetrology.fitting._odr import (
     _DEGENERATE,
     FitError,
     FitResult,
+    Sensitivities,
     _canonical,
     _centred,
     _check_conditioning,
@@ -123,16 +124,18 @@ def fit_line(points: object) -> FitResult:
         # Local parameters β = (δy, δa): point += δy·nrm, direction += δa·nrm.
         j = np.stack([-np.ones(n), -along], axis=1)[:, None, :]  # (n, 1, 2)
         g = np.broadcast_to(nrm, (n, 1, 2))
-        dbeta = _local_to_points(j, g)  # (2, n, 2)
-        t = np.zeros((4, 2))
-        t[0:2, 0] = nrm
-        t[2:4, 1] = nrm
-        direct = np.zeros((4, n, 2))
-        direct[0:2] = (np.outer(a, a) / n)[:, None, :]
-        jac = np.einsum("tb,bnd->tnd", t, dbeta) + direct
-        return _result(
-            line, y, None, "line: closed-form SVD fit", jac, g[:, 0, :], j[:, 0, :], dbeta
-        )
+
+        def line_2d() -> Sensitivities:
+            dbeta = _local_to_points(j, g)  # (2, n, 2)
+            t = np.zeros((4, 2))
+            t[0:2, 0] = nrm
+            t[2:4, 1] = nrm
+            direct = np.zeros((4, n, 2))
+            direct[0:2] = (np.outer(a, a) / n)[:, None, :]
+            jac = np.einsum("tb,bnd->tnd", t, dbeta) + direct
+            return Sensitivities(jac, g[:, 0, :], j[:, 0, :], dbeta)
+
+        return _result(line, y, None, "line: closed-form SVD fit", line_2d)
     e1, e2 = vt[1], vt[2]
     u, v = x @ e1, x @ e2  # (n,) components of the perpendicular offsets
     rho = np.hypot(u, v)
@@ -146,25 +149,23 @@ def fit_line(points: object) -> FitResult:
         axis=1,
     )  # (n, 2, 4)
     g = np.broadcast_to(np.stack([e1, e2]), (n, 2, 3))
-    dbeta = _local_to_points(j, g)  # (4, n, 3)
-    t = np.zeros((6, 4))
-    t[0:3, 0], t[0:3, 1], t[3:6, 2], t[3:6, 3] = e1, e2, e1, e2
-    direct = np.zeros((6, n, 3))
-    direct[0:3] = (np.outer(a, a) / n)[:, None, :]
-    jac = np.einsum("tb,bnd->tnd", t, dbeta) + direct
-    # The distance ρ = ‖(u, v)‖ differentiates along the unit offset (u, v)/ρ.
-    with np.errstate(invalid="ignore", divide="ignore"):
-        w = np.where(rho[:, None] > 0, np.stack([u, v], axis=1) / rho[:, None], 0.0)
+
+    def line_3d() -> Sensitivities:
+        dbeta = _local_to_points(j, g)  # (4, n, 3)
+        t = np.zeros((6, 4))
+        t[0:3, 0], t[0:3, 1], t[3:6, 2], t[3:6, 3] = e1, e2, e1, e2
+        direct = np.zeros((6, n, 3))
+        direct[0:3] = (np.outer(a, a) / n)[:, None, :]
+        jac = np.einsum("tb,bnd->tnd", t, dbeta) + direct
+        # The distance ρ = ‖(u, v)‖ differentiates along the unit offset (u, v)/ρ.
+        with np.errstate(invalid="ignore", divide="ignore"):
+            w = np.where(rho[:, None] > 0, np.stack([u, v], axis=1) / rho[:, None], 0.0)
+        return Sensitivities(
+            jac, np.einsum("nq,nqd->nd", w, g), np.einsum("nq,nqp->np", w, j), dbeta
+        )
+
     return _result(
-        line,
-        rho,
-        None,
-        "line: closed-form SVD fit",
-        jac,
-        np.einsum("nq,nqd->nd", w, g),
-        np.einsum("nq,nqp->np", w, j),
-        dbeta,
-        form_error=float(2.0 * rho.max()),
+        line, rho, None, "line: closed-form SVD fit", line_3d, form_error=float(2.0 * rho.max())
     )
 
 
@@ -215,23 +216,18 @@ def fit_plane(points: object) -> FitResult:
     n = p.shape[0]
     _require_spread("plane", x, 2, "collinear")
     e1, e2, nrm = _plane_core(x)
-    j, g, dbeta = _plane_local(x, e1, e2, nrm)
-    t = np.zeros((6, 3))
-    t[0:3, 0] = nrm
-    t[3:6, 1], t[3:6, 2] = -e1, -e2
-    direct = np.zeros((6, n, 3))
-    direct[0:3] = ((np.eye(3) - np.outer(nrm, nrm)) / n)[:, None, :]
-    jac = np.einsum("tb,bnd->tnd", t, dbeta) + direct
-    return _result(
-        Plane(centroid, nrm),
-        x @ nrm,
-        None,
-        "plane: closed-form SVD fit",
-        jac,
-        g[:, 0, :],
-        j[:, 0, :],
-        dbeta,
-    )
+
+    def plane() -> Sensitivities:
+        j, g, dbeta = _plane_local(x, e1, e2, nrm)
+        t = np.zeros((6, 3))
+        t[0:3, 0] = nrm
+        t[3:6, 1], t[3:6, 2] = -e1, -e2
+        direct = np.zeros((6, n, 3))
+        direct[0:3] = ((np.eye(3) - np.outer(nrm, nrm)) / n)[:, None, :]
+        jac = np.einsum("tb,bnd->tnd", t, dbeta) + direct
+        return Sensitivities(jac, g[:, 0, :], j[:, 0, :], dbeta)
+
+    return _result(Plane(centroid, nrm), x @ nrm, None, "plane: closed-form SVD fit", plane)
 
 
 # ---------------------------------------------------------------- circle and sphere
@@ -284,16 +280,15 @@ def _round_residuals(
     return distances, jac
 
 
-def _round_local(solve: LeastSquaresResult, d: int):
+def _round_local(j: np.ndarray, d: int) -> tuple[np.ndarray, np.ndarray]:
     """Jacobian pieces of ‖p − c‖ − r at a solved fit: β = (δc, δr) or δc.
 
-    The solver's Jacobian ``[−u, −1]`` or ``−u`` (n, p) belongs to its final point, so it
-    is reused rather than evaluated again.  Returns j (n, 1, p), g (n, 1, d) the outward
-    unit vectors, dβ/dP (p, n, d).
+    ``j`` (n, 1, p) is the solver's Jacobian ``[−u, −1]`` or ``−u`` at its final point,
+    reused rather than evaluated again.  Returns g (n, 1, d) the outward unit vectors and
+    dβ/dP (p, n, d).
     """
-    j = solve.jacobian[:, None, :]
     g = -j[:, :, :d]
-    return j, g, _local_to_points(j, g)
+    return g, _local_to_points(j, g)
 
 
 def fit_sphere(points: object, radius: float | None = None) -> FitResult:
@@ -349,26 +344,23 @@ def fit_sphere(points: object, radius: float | None = None) -> FitResult:
     )
     _require_spread(kind, x, 3, "coplanar", hint)
     c, r, solve = _fit_round(x, scale, r_known, kind)
-    j, g, dbeta = _round_local(solve, 3)
+    n = x.shape[0]
+    del x  # the sensitivities need only the solver's Jacobian
+    j = solve.jacobian[:, None, :]
     _check_conditioning(kind, j[:, 0, :], "centre" if fixed else "centre and radius")
-    sphere = Sphere(c + centroid, r)
     residuals = solve.residuals  # ‖x_i − c‖ − r at the solution
-    if fixed:  # the known radius has a zero row
-        jac = np.zeros((4, x.shape[0], 3))
-        jac[:3] = dbeta
-    else:  # (δc, δr) are the parameters themselves: share the (4, n, 3) array
-        jac = dbeta
+
+    def sphere() -> Sensitivities:
+        g, dbeta = _round_local(j, 3)
+        if fixed:  # the known radius has a zero row
+            jac = np.zeros((4, n, 3))
+            jac[:3] = dbeta
+        else:  # (δc, δr) are the parameters themselves: share the (4, n, 3) array
+            jac = dbeta
+        return Sensitivities(jac, g[:, 0, :], j[:, 0, :], dbeta)
+
     rms = float(np.sqrt(np.mean(residuals**2)))
-    return _result(
-        sphere,
-        residuals,
-        solve,
-        _message(kind, solve, rms),
-        jac,
-        g[:, 0, :],
-        j[:, 0, :],
-        dbeta,
-    )
+    return _result(Sphere(c + centroid, r), residuals, solve, _message(kind, solve, rms), sphere)
 
 
 def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
@@ -412,20 +404,17 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
     if dim == 2:
         _require_spread("circle", x, 2, "collinear")
         c, r, solve = _fit_round(x, scale, None, "circle")
-        j, g, dbeta = _round_local(solve, 2)
+        j = solve.jacobian[:, None, :]
         _check_conditioning("circle", j[:, 0, :], "centre and radius")
+
+        def circle_2d() -> Sensitivities:
+            g, dbeta = _round_local(j, 2)
+            return Sensitivities(dbeta, g[:, 0, :], j[:, 0, :], dbeta)
+
         residuals = solve.residuals
         rms = float(np.sqrt(np.mean(residuals**2)))
-        return _result(
-            Circle(c + centroid, r),
-            residuals,
-            solve,
-            _message("circle", solve, rms),
-            dbeta,
-            g[:, 0, :],
-            j[:, 0, :],
-            dbeta,
-        )
+        message = _message("circle", solve, rms)
+        return _result(Circle(c + centroid, r), residuals, solve, message, circle_2d)
     if plane is not None:
         if not isinstance(plane, Plane):
             raise FitError(f"circle: plane must be a Plane, got {type(plane).__name__}")
@@ -443,21 +432,22 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
     uv_mean = uv.mean(axis=0)
     c2, r, solve = _fit_round(uv - uv_mean, scale, None, "circle")
     c2 = c2 + uv_mean
-    jc, gc2, dbc = _round_local(solve, 2)  # local β_c = (δuc, δvc, δr)
+    jc = solve.jacobian[:, None, :]  # local β_c = (δuc, δvc, δr)
     _check_conditioning("circle", jc[:, 0, :], "centre and radius")
     centre = origin + c2[0] * e1 + c2[1] * e2
     residuals = np.linalg.norm(uv - c2, axis=1) - r
     rms = float(np.sqrt(np.mean(residuals**2)))
-    cu = gc2[:, 0, :]  # (n, 2) in-plane unit radial vectors
-    g3 = cu[:, 0:1] * e1 + cu[:, 1:2] * e2  # (n, 3) direct derivative of ρ_i − r
-    jc_flat = jc[:, 0, :]
-    if plane is not None:
-        dbeta = _local_to_points(jc, g3[:, None, :])  # (3, n, 3)
-        t = np.zeros((7, 3))
-        t[0:3, 0], t[0:3, 1], t[6, 2] = e1, e2, 1.0
-        jac = np.einsum("tb,bnd->tnd", t, dbeta)
-        local, local_jac = jc_flat, dbeta
-    else:
+
+    def circle_3d() -> Sensitivities:
+        cu = _round_local(jc, 2)[0][:, 0, :]  # (n, 2) in-plane unit radial vectors
+        g3 = cu[:, 0:1] * e1 + cu[:, 1:2] * e2  # (n, 3) direct derivative of ρ_i − r
+        jc_flat = jc[:, 0, :]
+        if plane is not None:
+            dbeta = _local_to_points(jc, g3[:, None, :])  # (3, n, 3)
+            t = np.zeros((7, 3))
+            t[0:3, 0], t[0:3, 1], t[6, 2] = e1, e2, 1.0
+            jac = np.einsum("tb,bnd->tnd", t, dbeta)
+            return Sensitivities(jac, g3, jc_flat, dbeta)
         # Stage 1, plane β_p = (δz, δa, δb); stage 2, circle in the tilted plane, whose
         # in-plane coordinates move as u_i += δa w_i, v_i += δb w_i (w_i = height).
         w = x @ nrm
@@ -474,14 +464,7 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
         t[3:6, 1], t[3:6, 2] = -e1, -e2
         t[6, 5] = 1.0
         jac = np.einsum("tb,bnd->tnd", t, dbeta)
-        local, local_jac = np.column_stack([s_plane, jc_flat]), dbeta
-    return _result(
-        Circle(centre, r, nrm),
-        residuals,
-        solve,
-        _message("circle", solve, rms),
-        jac,
-        g3,
-        local,
-        local_jac,
-    )
+        return Sensitivities(jac, g3, np.column_stack([s_plane, jc_flat]), dbeta)
+
+    message = _message("circle", solve, rms)
+    return _result(Circle(centre, r, nrm), residuals, solve, message, circle_3d)
