@@ -226,12 +226,19 @@ def _projected(jac: np.ndarray, r: np.ndarray):
     ``Uᵀr = U_Rᵀ (Qᵀr)``.  Both are backward stable, so the steps agree to rounding, and
     memory stays at one block instead of the (m, n) factor ``U``.
     """
-    norms = np.linalg.norm(jac, axis=0)
-    norms = np.where(norms > 0, norms, 1.0)
     if not _tall(jac):
+        norms = np.linalg.norm(jac, axis=0)
+        norms = np.where(norms > 0, norms, 1.0)
         u, s, vt = np.linalg.svd(jac / norms, full_matrices=False)
         return norms, u.T @ r, s, vt
     m, n = jac.shape
+    # column norms block by block too: np.linalg.norm would square the whole (m, n) matrix
+    squares = np.zeros(n)
+    for start in range(0, m, _BLOCK_ROWS):
+        block = jac[start : start + _BLOCK_ROWS]
+        squares += np.einsum("ij,ij->j", block, block)
+    norms = np.sqrt(squares)
+    norms = np.where(norms > 0, norms, 1.0)
     tri = np.zeros((0, n + 1))
     for start in range(0, m, _BLOCK_ROWS):
         stop = min(start + _BLOCK_ROWS, m)
