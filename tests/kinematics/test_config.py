@@ -6,6 +6,7 @@ import pytest
 
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics.config import MachineFileError, load_machine_spec, parse_machine_spec
+from mtmetrology.kinematics.conventions import describe_parameter, machine_description
 from mtmetrology.units import from_internal
 
 BASE = {"kind": "machine", "version": 1, "name": "m", "topology": "WXFYZT"}
@@ -287,3 +288,54 @@ def test_load_machine_spec_from_a_file(tmp_path):
     with pytest.raises(MachineFileError) as err:
         load_machine_spec(path)
     assert str(err.value).startswith(f"{path}: invalid machine definition: size:")
+
+
+def test_the_description_of_a_minimal_machine():
+    spec = parse_machine_spec(
+        {**BASE, "axes": {"Y": {"offset_mm": [1, 2, 3]}, "Z": {"offset_mm": [0, 0, 10]}}}
+    )
+    d = machine_description(Machine.from_spec(spec))
+    assert (d["model"], d["models"], d["tip_radius_mm"]) == (None, [], 0.0)
+    x, y, z = d["axes"]
+    assert (x["travel"], x["resolution"], x["unit"], x["basis"]) == (None, None, "mm", "monomial")
+    # the reference point is the sum of the offsets from the frame F out to the axis
+    assert x["reference_point_mm"] == [0.0, 0.0, 0.0]
+    assert y["reference_point_mm"] == [1.0, 2.0, 3.0]
+    assert z["reference_point_mm"] == [1.0, 2.0, 13.0]
+
+
+def test_a_rotation_location_error_states_the_right_hand_rule():
+    m = Machine.load("five-axis-wcbxfzyst")
+    assert describe_parameter(m, "E_A0B").positive == (
+        "turns the average line of axis B, with what it carries, by +E_A0B about +X "
+        "(right-hand rule, machine frame)"
+    )
+    assert describe_parameter(m, "E_X0C").positive == (
+        "moves the average line of axis C, with what it carries, by +E_X0C along +X (machine frame)"
+    )
+
+
+def test_errors_after_loading_a_file_name_the_file(tmp_path):
+    path = tmp_path / "m.yaml"
+    path.write_text("name: m\ntopology: WXFYZT\n", encoding="utf-8")
+    with pytest.raises(MachineFileError) as err:
+        Machine.load(path, model="c")
+    assert str(err.value) == f"{path}: no error model 'c' (models: none)"
+    with pytest.raises(MachineFileError) as err:
+        Machine.load(tmp_path / "none.yaml")
+    assert str(err.value).startswith(f"{tmp_path / 'none.yaml'}: neither a machine file nor a")
+
+
+def test_readings_with_the_wrong_number_of_columns():
+    m = Machine.load("three-axis-xfyz")
+    with pytest.raises(ValueError) as err:
+        m.readings_from_customary(np.zeros((2, 4, 5)))
+    assert str(err.value) == "readings have 5 columns; this machine has axes XYZ"
+
+
+def test_inverse_that_runs_out_of_iterations_raises():
+    m = Machine.load("five-axis-wcbxfzyst")
+    q0 = np.zeros(m.n_axes)
+    with pytest.raises(ValueError) as err:
+        m.inverse([[10.0, 20.0, 30.0]], q0, max_iter=1)
+    assert str(err.value).startswith("inverse kinematics did not converge (residual ")

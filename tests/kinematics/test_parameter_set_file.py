@@ -257,6 +257,7 @@ def test_a_calibration_result_is_read_as_its_parameter_set(machine):
     doc = {**HEADER, "kind": "samba-calibration", "parameters": [X0C], "residuals": [1, 2]}
     pset = ParameterSet.from_document(doc, machine)
     assert pset.names == ("E_X0C",) and pset.values[0] == 1e-3
+    assert pset.covariance is None and pset.standard_uncertainty is None
     doc["kind"] = "ballplate-calibration"
     assert ParameterSet.from_document(doc, machine).names == ("E_X0C",)
 

@@ -52,3 +52,10 @@ def test_units_follow_the_basis():
     # 75 µm/m is 75e-6 internally (ARCHITECTURE.md, units)
     assert to_internal(75.0, "µm/m") == pytest.approx(75e-6)
     assert to_internal(1.0, "µm/m^2") == pytest.approx(1e-9)
+
+
+def test_the_catalogue_agrees_with_the_name_parser():
+    """Every catalogue entry is what parsing its own name gives (axis, kind, component,
+    degree), so the catalogue cannot attach a parameter to the wrong axis."""
+    for p in catalogue(parse_topology("WCBXFZYST"), max_degree=2):
+        assert parse_parameter(p.name) == p
