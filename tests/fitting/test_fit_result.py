@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from mtmetrology.fitting.elements import Plane, Sphere
-from mtmetrology.fitting.least_squares import fit_plane, fit_sphere
+from mtmetrology.fitting.elements import Cone, Line, Plane, Sphere
+from mtmetrology.fitting.least_squares import fit_cone, fit_line, fit_plane, fit_sphere
 from mtmetrology.optimize import Status
 
 # the six points (±R, 0, 0), (0, ±R, 0), (0, 0, ±R) on a sphere of radius 10 about (1, 2, 3)
@@ -45,3 +45,48 @@ def test_parameter_covariance_refuses_a_bad_sigma(sigma):
     with pytest.raises(ValueError) as err:
         fit_sphere(OCTAHEDRON).parameter_covariance(sigma)
     assert str(err.value) == f"sigma must be a non-negative finite number, got {sigma!r}"
+
+
+def test_points_on_a_spatial_line_have_finite_sensitivities():
+    # every residual is 0, so every radial direction is undefined: the residuals'
+    # sensitivities are still finite (the undefined directions get weight 0)
+    fit = fit_line([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [3.0, 0.0, 0.0]])
+    assert fit.form_error == 0.0
+    assert np.all(np.isfinite(fit.parameter_jacobian))
+    assert np.all(np.isfinite(fit.residual_jacobian()))
+
+
+@pytest.mark.parametrize(
+    ("build", "message"),
+    [
+        (
+            lambda: Cone(apex=[1.0, 2.0], direction=[0.0, 0.0, 1.0], half_angle=0.5),
+            "cone apex must be a vector of length 3, got shape (2,)",
+        ),
+        (
+            lambda: Line(point=[0.0, 0.0, 0.0], direction=[0.0, 0.0, 0.0]),
+            "line direction must be a non-zero vector",
+        ),
+        (
+            lambda: Plane(point=[0.0, 0.0], normal=[0.0, 0.0, 1.0]),
+            "plane point must be a vector of length 3, got shape (2,)",
+        ),
+        (
+            lambda: fit_cone(
+                [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [2, 1, 0], [3, 3, 0], [5, 1, 0]]
+            ),
+            "cone: the 7 points are coplanar (relative singular value 0.0e+00 of the centred "
+            "points); a cone needs points off one plane",
+        ),
+    ],
+)
+def test_element_refusals_name_the_element_and_its_part(build, message):
+    with pytest.raises(ValueError) as err:
+        build()
+    assert str(err.value) == message
+
+
+def test_a_cone_stores_its_apex_as_a_float_array():
+    cone = Cone(apex=[1, 2, 3], direction=[0, 0, 2], half_angle=0.5)
+    assert isinstance(cone.apex, np.ndarray) and cone.apex.dtype == float
+    np.testing.assert_array_equal(cone.parameters, [1.0, 2.0, 3.0, 0.0, 0.0, 1.0, 0.5])
