@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from mtmetrology.fitting._odr import FitError
 from mtmetrology.fitting.elements import Cone, Line, Plane, Sphere
 from mtmetrology.fitting.least_squares import fit_cone, fit_line, fit_plane, fit_sphere
 from mtmetrology.optimize import Status
@@ -90,3 +91,27 @@ def test_a_cone_stores_its_apex_as_a_float_array():
     cone = Cone(apex=[1, 2, 3], direction=[0, 0, 2], half_angle=0.5)
     assert isinstance(cone.apex, np.ndarray) and cone.apex.dtype == float
     np.testing.assert_array_equal(cone.parameters, [1.0, 2.0, 3.0, 0.0, 0.0, 1.0, 0.5])
+
+
+@pytest.mark.parametrize(
+    ("radius", "message"),
+    [
+        (
+            10.0,
+            "sphere (known radius): the 4 points are coplanar (relative singular value "
+            "0.0e+00 of the centred points); the mirror-image centres cannot be told apart",
+        ),
+        (
+            None,
+            "sphere: the 4 points are coplanar (relative singular value 0.0e+00 of the "
+            "centred points); a sphere needs points off one plane (give the radius only if "
+            "they are not)",
+        ),
+        (-1.0, "sphere (known radius): radius must be a positive finite number, got -1.0"),
+    ],
+)
+def test_sphere_refusals_say_which_fit(radius, message):
+    ring = [[10.0, 0.0, 0.0], [0.0, 10.0, 0.0], [-10.0, 0.0, 0.0], [0.0, -10.0, 0.0]]
+    with pytest.raises(FitError) as err:
+        fit_sphere(ring, radius=radius)
+    assert str(err.value) == message
