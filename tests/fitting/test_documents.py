@@ -65,12 +65,18 @@ def test_fit_document_layout_and_units():
     assert "status" not in fit_document("circle", "ls", "r", circle, residuals, 0.0)
 
 
-def test_every_element_names_its_iso_form_error():
-    assert FORM_NAMES == {
-        "line": "straightness",
-        "plane": "flatness",
-        "circle": "roundness",
-        "sphere": "sphericity",
-        "cylinder": "cylindricity",
-        "cone": "conicity",
-    }
+@pytest.mark.parametrize(
+    ("element", "form"),
+    # ISO 12780-1 straightness, ISO 12781-1 flatness, ISO 12181-1 roundness,
+    # ISO 12180-1 cylindricity; sphericity and conicity by analogy
+    [
+        ("line", "straightness"),
+        ("plane", "flatness"),
+        ("circle", "roundness"),
+        ("sphere", "sphericity"),
+        ("cylinder", "cylindricity"),
+        ("cone", "conicity"),
+    ],
+)
+def test_every_element_names_its_iso_form_error(element, form):
+    assert FORM_NAMES[element] == form
