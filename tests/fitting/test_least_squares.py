@@ -563,7 +563,20 @@ def test_parameter_jacobian_first_order_error_scales_with_form_error(name):
     assert np.abs(analytic - numeric).max() <= 2e-3 * np.abs(numeric).max()
 
 
-@pytest.mark.parametrize("name", ["sphere", "circle_3d", "cylinder", "cone", "plane", "line_2d"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "sphere",
+        "sphere_known_radius",
+        "circle_2d",
+        "circle_3d",
+        "circle_in_plane",
+        "cylinder",
+        "cone",
+        "plane",
+        "line_2d",
+    ],
+)
 def test_residual_jacobian_matches_central_differences(name):
     fit, pts = _jacobian_cases(0.0)[name]
     analytic = fit(pts).residual_jacobian()

@@ -3,6 +3,7 @@
 import pytest
 
 from mtmetrology.kinematics.parameters import (
+    MAX_DEGREE,
     ParameterNameError,
     catalogue,
     coefficient_unit,
@@ -52,3 +53,29 @@ def test_units_follow_the_basis():
     # 75 µm/m is 75e-6 internally (ARCHITECTURE.md, units)
     assert to_internal(75.0, "µm/m") == pytest.approx(75e-6)
     assert to_internal(1.0, "µm/m^2") == pytest.approx(1e-9)
+
+
+def test_the_catalogue_agrees_with_the_name_parser():
+    """Every catalogue entry is what parsing its own name gives (axis, kind, component,
+    degree), so the catalogue cannot attach a parameter to the wrong axis."""
+    for p in catalogue(parse_topology("WCBXFZYST"), max_degree=2):
+        assert parse_parameter(p.name) == p
+
+
+def test_the_highest_degree_is_accepted_and_the_next_refused():
+    assert parse_parameter("E_XX12").degree == MAX_DEGREE == 12
+    with pytest.raises(ParameterNameError) as err:
+        parse_parameter("E_XX13")
+    assert str(err.value) == (
+        "'E_XX13': degree 13 is beyond the highest error-motion degree supported (12)"
+    )
+
+
+def test_an_unknown_name_is_refused_with_the_three_forms():
+    with pytest.raises(ParameterNameError) as err:
+        parse_parameter("E_QQ1")
+    assert str(err.value) == (
+        "'E_QQ1' is not an ISO 230-1 error name: expected a location error such as "
+        "'E_X0C', an error-motion coefficient such as 'E_XX1', or a reversal term such as "
+        "'E_BBb'"
+    )

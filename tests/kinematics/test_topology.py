@@ -49,3 +49,12 @@ def test_parent_and_side():
 def test_bad_topologies_say_what_is_wrong(text, message):
     with pytest.raises(TopologyError, match=message):
         parse_topology(text)
+
+
+def test_unknown_letters_are_all_listed():
+    with pytest.raises(TopologyError) as err:
+        parse_topology("WQXFYJT")
+    assert str(err.value) == (
+        "topology 'WQXFYJT': unknown letter(s) 'J', 'Q'; use W (workpiece), F (frame), "
+        "T (tool), X Y Z (linear), A B C (rotary), S (spindle)"
+    )

@@ -196,10 +196,9 @@ class Machine:
             wrong = ("travel_deg", "resolution_deg") if linear else ("travel_mm", "resolution_mm")
             for f in wrong:
                 if getattr(ax, f) is not None:
-                    kind = "linear" if linear else "rotary"
-                    raise MachineFileError(
-                        f"{path}.{f}: a {kind} axis takes {f[:-4]}_{'mm' if linear else 'deg'}"
-                    )
+                    kind, unit = ("linear", "mm") if linear else ("rotary", "deg")
+                    quantity = f.rsplit("_", 1)[0]
+                    raise MachineFileError(f"{path}.{f}: a {kind} axis takes {quantity}_{unit}")
         default_sign = -1.0 if topology.side(a) == "workpiece" else 1.0
         sign = float(ax.sign) if ax is not None and ax.sign is not None else default_sign
         scale = 1.0 if linear else _DEG
