@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import re
 import shlex
@@ -37,6 +38,9 @@ def test_demo_writes_inputs_results_and_report(demo_run):
         "samba/truth.json",
         "samba/balls.yaml",
         "samba/poses.csv",
+        "planning/ball-grid.yaml",
+        "planning/programme.csv",
+        "planning/plan.json",
         "gauge/gauge.csv",
         "gauge/length-check.json",
         "task/gauge-pair.csv",
@@ -66,6 +70,23 @@ def test_demo_writes_inputs_results_and_report(demo_run):
     (guf_out,) = result["guf"]["outputs"]
     assert round(guf_out["u"]) == 32  # GUM H.1.6: u_c(l) = 32 nm
     assert not [p for p in out.parent.iterdir() if p.name.startswith(".")]  # no work folder
+
+
+def test_demo_plan_is_full_rank_and_its_programme_matches_the_plan(demo_run):
+    """The planning section: two balls of the grid, full rank, and a programme CSV whose
+    rows are the plan's (the printed `mtm design samba` rewrites it: see the rerun test)."""
+    out, _ = demo_run
+    plan = json.loads((out / "planning" / "plan.json").read_text(encoding="utf-8"))
+    assert plan["kind"] == "samba-design" and len(plan["balls"]) == 2
+    assert plan["rank"] == plan["n_unknowns"]
+    assert (
+        plan["criterion"] == "D"
+        and plan["step2"]["best_value"] >= plan["step2"]["best_start_value"]
+    )  # DETMAX never lowers its criterion
+    with (out / "planning" / "programme.csv").open(encoding="utf-8") as fh:
+        rows = list(csv.reader(fh))
+    assert rows[0] == plan["programme"]["columns"]
+    assert len(rows) - 1 == plan["n_measurements"] == len(plan["programme"]["rows"])
 
 
 def test_demo_samba_calibration_is_validated_and_covers_the_truth(demo_run):

@@ -21,6 +21,7 @@ import numpy as np
 
 from mtmetrology.cli.demo import DemoContext, DemoSection
 from mtmetrology.cli.demo_cmm import cmm_section
+from mtmetrology.cli.demo_planning import planning_section
 from mtmetrology.cli.demo_samba import samba_calibration_section, task_section
 from mtmetrology.cli.demo_sphere import sphere_task_section
 from mtmetrology.fitting.documents import fit_document
@@ -363,6 +364,7 @@ def fitting_section(ctx: DemoContext) -> None:
 DEMO_SECTIONS: list[DemoSection] = [
     DemoSection("machine", "The five-axis machine", machine_section),
     DemoSection("samba", "SAMBA plan: identifiability", identifiability_section),
+    DemoSection("planning", "Planning a SAMBA test by DETMAX", planning_section),
     DemoSection("calibration", "SAMBA calibration and a gauge block", calibration_section),
     DemoSection("prediction", "Compensated coordinates", prediction_section),
     DemoSection("task", "Task uncertainty and conformity", task_uncertainty_section),
