@@ -1,0 +1,54 @@
+"""Targeted tests that pin exact messages and fields left open by the mutation sample."""
+
+import pytest
+
+from mtmetrology.uncertainty.dimensions import check_output_units
+from mtmetrology.uncertainty.distributions import make_distribution
+from mtmetrology.uncertainty.expressions import CompiledModel, ModelFileError
+
+
+def test_bounded_refuses_low_high_mixed_with_half_width():
+    with pytest.raises(ValueError) as info:
+        make_distribution("rectangular", low=0, high=1, a=0.5)
+    assert str(info.value) == (
+        "distribution 'rectangular' takes parameters (low, high) or (x, a); "
+        "got ['a', 'high', 'low']"
+    )
+
+
+def test_bounded_refuses_centre_half_width_mixed_with_high():
+    with pytest.raises(ValueError) as info:
+        make_distribution("rectangular", x=0, a=1, high=2)
+    assert str(info.value) == (
+        "distribution 'rectangular' takes parameters (low, high) or (x, a); got ['a', 'high', 'x']"
+    )
+
+
+def test_normal_accepts_coverage_factor_below_one():
+    assert make_distribution("normal", x=0.0, U=0.1, k=0.5).u == pytest.approx(0.2)
+
+
+def _units_error(inputs, expression, input_units, output_unit=None):
+    model = CompiledModel(inputs, [("y", expression)])
+    with pytest.raises(ModelFileError) as info:
+        check_output_units(model, input_units, [output_unit], "m.yaml")
+    return str(info.value)
+
+
+def test_dimensioned_exponent_message():
+    msg = _units_error(["a", "b"], "a ** b", ["m", "m"])
+    assert msg.startswith("m.yaml: outputs.0 ('y'): an exponent must be dimensionless, not a ")
+    assert msg.endswith(" quantity; check the input units")
+
+
+def test_sqrt_halves_and_abs_keeps_dimension():
+    model = CompiledModel(["a"], [("y", "sqrt(a * a)"), ("z", "abs(a)")])
+    check_output_units(model, ["m"], ["m", "m"], "m.yaml")
+    with pytest.raises(ModelFileError):
+        check_output_units(model, ["m"], ["mm", "s"], "m.yaml")
+
+
+def test_output_identifier_message_names_output():
+    with pytest.raises(ModelFileError) as info:
+        CompiledModel(["a"], [("class", "a")], source="m.yaml")
+    assert str(info.value) == "m.yaml: output name 'class' is not a valid identifier"
