@@ -52,3 +52,29 @@ def test_output_identifier_message_names_output():
     with pytest.raises(ModelFileError) as info:
         CompiledModel(["a"], [("class", "a")], source="m.yaml")
     assert str(info.value) == "m.yaml: output name 'class' is not a valid identifier"
+
+
+def _expression_error(expression):
+    with pytest.raises(ModelFileError) as info:
+        CompiledModel(["a"], [("y", expression)], source="m.yaml")
+    return str(info.value)
+
+
+def test_syntax_error_shows_expression_of_exactly_sixty_characters():
+    expression = "a + " + "b" * 54 + " +"
+    assert len(expression) == 60
+    assert _expression_error(expression) == (
+        f"m.yaml: output 'y': syntax error in {expression!r}: invalid syntax"
+    )
+
+
+def test_too_deep_expression_message():
+    assert _expression_error("-" * 206 + "a") == (
+        "m.yaml: output 'y': nested 208 levels deep, more than 200; define intermediate outputs"
+    )
+
+
+def test_forbidden_binary_operator_message_has_column():
+    assert _expression_error("a % 2") == (
+        "m.yaml: output 'y': operator in 'a % 2' is not allowed (use + - * / **) (column 1)"
+    )
