@@ -69,7 +69,7 @@ def test_syntax_error_shows_expression_of_exactly_sixty_characters():
 
 
 def test_too_deep_expression_message():
-    assert _expression_error("-" * 206 + "a") == (
+    assert _expression_error("-" * 205 + "a") == (
         "m.yaml: output 'y': nested 208 levels deep, more than 200; define intermediate outputs"
     )
 
