@@ -1,5 +1,6 @@
 """Targeted tests that pin exact messages and fields left open by the mutation sample."""
 
+import numpy as np
 import pytest
 
 from mtmetrology.uncertainty.dimensions import check_output_units
@@ -78,3 +79,35 @@ def test_forbidden_binary_operator_message_has_column():
     assert _expression_error("a % 2") == (
         "m.yaml: output 'y': operator in 'a % 2' is not allowed (use + - * / **) (column 1)"
     )
+
+
+def test_welch_satterthwaite_correlated_finite_dof_message():
+    from mtmetrology.uncertainty.guf import welch_satterthwaite
+
+    with pytest.raises(Exception) as info:
+        welch_satterthwaite(np.ones(2), [[1, 0.5], [0.5, 1]], [5, np.inf], names=["a", "b"])
+    assert str(info.value) == (
+        "inputs 'a' and 'b' are correlated and one has finite degrees of freedom (5, inf) "
+        "outside a common ensemble; Welch–Satterthwaite (JCGM 100 G.4.1) then does not "
+        "apply: declare them an ensemble (estimated from the same observations), give "
+        "them infinite dof, or use Monte Carlo"
+    )
+
+
+def test_numerical_tolerance_non_finite_message():
+    from mtmetrology.uncertainty.mcm import numerical_tolerance
+
+    with pytest.raises(ValueError) as info:
+        numerical_tolerance(float("nan"))
+    assert str(info.value) == "cannot derive a tolerance from a non-finite value nan"
+
+
+def test_guf_budget_rows_carry_contribution():
+    from mtmetrology.uncertainty.guf import guf
+    from mtmetrology.uncertainty.inputs import InputSet
+
+    s = InputSet.from_observations(["a", "b"], [[1, 2], [1.1, 2.2], [0.9, 2.1]], ["m", "m"])
+    rows = guf(lambda x: x[..., 0] + 2 * x[..., 1], s).to_dict()["budget"]["y"]
+    assert [r["input"] for r in rows] == ["a", "b"]
+    assert rows[0]["contribution"] == pytest.approx(0.1 / np.sqrt(3))
+    assert rows[1]["contribution"] == pytest.approx(2 * 0.1 / np.sqrt(3))
