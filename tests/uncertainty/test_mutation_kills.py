@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from mtmetrology.uncertainty.dimensions import check_output_units
-from mtmetrology.uncertainty.distributions import make_distribution
+from mtmetrology.uncertainty.distributions import Normal, make_distribution
 from mtmetrology.uncertainty.expressions import CompiledModel, ModelFileError
 
 
@@ -111,3 +111,65 @@ def test_guf_budget_rows_carry_contribution():
     assert [r["input"] for r in rows] == ["a", "b"]
     assert rows[0]["contribution"] == pytest.approx(0.1 / np.sqrt(3))
     assert rows[1]["contribution"] == pytest.approx(2 * 0.1 / np.sqrt(3))
+
+
+def _sum_inputs():
+    from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
+
+    return InputSet(
+        [
+            InputQuantity(n, Normal(x, u))
+            for n, x, u in zip("abc", [1.0, 2.0, -1.0], [0.1, 0.2, 0.3], strict=True)
+        ]
+    )
+
+
+PAIR = np.array([[1.0, 1.0, 0.0], [0.0, 1.0, 1.0]])
+
+
+def test_mcm_to_dict_tolerance_and_check_fields():
+    from mtmetrology.uncertainty.mcm import monte_carlo
+
+    r = monte_carlo(lambda x: x @ PAIR.T, _sum_inputs(), adaptive=True, digits=1, seed=23)
+    d = r.to_dict()
+    assert d["tolerance"] == {"output": [0.05, 0.05], "eigenvalue": 0.5, "coverage_factor": 0.5}
+    assert [(c["quantity"], c["output"]) for c in d["checks"][:2]] == [
+        ("estimate", 0),
+        ("estimate", 1),
+    ]
+    assert (
+        d["message"] == "converged after 2 sequences of 10000 trials (2·s/√h ≤ δ (JCGM 101 7.9.4))"
+    )
+
+
+def test_mcm_strict_rule_message_and_minimum_sequences():
+    from mtmetrology.uncertainty.mcm import monte_carlo
+
+    r = monte_carlo(
+        lambda x: x.sum(axis=-1),
+        _sum_inputs(),
+        adaptive=True,
+        digits=1,
+        seed=22,
+        criterion="strict",
+    )
+    assert r.sequences == 10
+    assert r.message == "converged after 10 sequences of 10000 trials (s ≤ δ (strict))"
+
+
+def test_mcm_fixed_message_plural_and_default_trials():
+    from mtmetrology.uncertainty.mcm import monte_carlo
+
+    r = monte_carlo(lambda x: x @ PAIR.T, _sum_inputs(), trials=1000, seed=23)
+    assert r.message == "1000 trials, 2 outputs"
+    r = monte_carlo(lambda x: x.sum(axis=-1), _sum_inputs(), seed=1)
+    assert r.trials == 1_000_000
+    assert r.message == "1000000 trials, 1 output (scalar model)"
+
+
+def test_mcm_refuses_inputs_without_sample():
+    from mtmetrology.uncertainty.mcm import monte_carlo
+
+    with pytest.raises(TypeError) as info:
+        monte_carlo(lambda x: x, object(), trials=10)
+    assert str(info.value) == "inputs must have a sample(rng, size) -> (size, N) method"
