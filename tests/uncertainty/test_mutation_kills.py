@@ -173,3 +173,69 @@ def test_mcm_refuses_inputs_without_sample():
     with pytest.raises(TypeError) as info:
         monte_carlo(lambda x: x, object(), trials=10)
     assert str(info.value) == "inputs must have a sample(rng, size) -> (size, N) method"
+
+
+def _unit_normal_mcm():
+    from mtmetrology.uncertainty.inputs import InputSet
+    from mtmetrology.uncertainty.mcm import monte_carlo
+
+    inputs = InputSet.from_covariance(["x0"], [0.0], [[1.0]])
+    return monte_carlo(lambda x: x[:, 0], inputs, trials=10_000, seed=3)
+
+
+def test_validation_failed_message_text_and_rich_table():
+    from rich.console import Console
+
+    from mtmetrology.uncertainty.validation import validate_guf
+
+    report = validate_guf(0.3, 1.0, _unit_normal_mcm(), tolerance=0.05)
+    message = (
+        "GUF not validated at p = 0.95: Y interval low (601 %), Y interval high (583 %) "
+        "outside tolerance"
+    )
+    assert report.message == message
+    assert report.to_text().splitlines() == [
+        "output  quantity       GUF     MCM     |difference|  tolerance  ratio",
+        "Y       interval low   -1.660  -1.961  0.301         0.05       601 %  FAIL",
+        "Y       interval high  2.260   1.968   0.292         0.05       583 %  FAIL",
+        message,
+    ]
+    table = report.to_rich()
+    assert [c.header for c in table.columns] == [
+        "output",
+        "quantity",
+        "GUF",
+        "MCM",
+        "|difference|",
+        "tolerance",
+        "ratio",
+    ]
+    console = Console(width=200, record=True)
+    console.print(table)
+    lines = console.export_text().splitlines()
+    assert (
+        "│ Y      │ interval low  │ -1.660 │ -1.961 │        0.301 │      0.05 │ 601 % │" in lines
+    )
+
+
+def test_validation_passing_rows_say_ok():
+    from mtmetrology.uncertainty.validation import validate_guf
+
+    report = validate_guf(0.0, 1.0, _unit_normal_mcm(), tolerance=0.5)
+    assert report.to_text().splitlines()[1:3] == [
+        "Y       interval low   -1.96  -1.96  0.00066       0.5        0 %    ok",
+        "Y       interval high  1.96   1.97   0.0084        0.5        2 %    ok",
+    ]
+
+
+def test_result_document_source_and_output_names():
+    from mtmetrology.uncertainty.guf import guf
+    from mtmetrology.uncertainty.inputs import InputSet
+    from mtmetrology.uncertainty.outputs import result_document
+
+    inputs = InputSet.from_covariance(["x0"], [0.0], [[1.0]])
+    g = guf(lambda x: x[..., 0], inputs, output_names=["s"], output_units=["µm"])
+    document = result_document(g, model="m", source="f.yaml")
+    assert document["model"] == "m" and document["source"] == "f.yaml"
+    assert document["outputs"][0]["name"] == "s"
+    assert g.outputs[0].name == "s"
