@@ -239,3 +239,23 @@ def test_result_document_source_and_output_names():
     assert document["model"] == "m" and document["source"] == "f.yaml"
     assert document["outputs"][0]["name"] == "s"
     assert g.outputs[0].name == "s"
+
+
+@pytest.mark.parametrize("tail", [1, 2, 50, 250, 500, 6000, 7000])
+def test_column_tails_are_the_exact_order_statistics(tail):
+    from mtmetrology.uncertainty.regions import _column_tails
+
+    values = np.random.default_rng(5).normal(size=10_000)
+    ordered = np.sort(values)
+    low, high, counts, edges = _column_tails(values, tail, None)
+    assert np.array_equal(np.sort(low), ordered[:tail])
+    assert np.array_equal(np.sort(high), ordered[10_000 - tail :])
+    assert counts is None and edges is None
+
+
+def test_intervals_and_histograms_default_has_100_bins():
+    from mtmetrology.uncertainty.regions import intervals_and_histograms
+
+    values = np.random.default_rng(5).normal(size=(10_000, 1))
+    _, _, histograms = intervals_and_histograms(values)
+    assert histograms[0].values.shape == (100,) and histograms[0].edges.shape == (101,)
