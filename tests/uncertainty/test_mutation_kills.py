@@ -259,3 +259,31 @@ def test_intervals_and_histograms_default_has_100_bins():
     values = np.random.default_rng(5).normal(size=(10_000, 1))
     _, _, histograms = intervals_and_histograms(values)
     assert histograms[0].values.shape == (100,) and histograms[0].edges.shape == (101,)
+
+
+def test_guf_names_the_non_finite_estimate():
+    from types import SimpleNamespace
+
+    from mtmetrology.uncertainty.guf import guf
+
+    inputs = SimpleNamespace(
+        estimate=np.array([1.0, np.nan]),
+        covariance=np.eye(2),
+        names=["a", "b"],
+        units=["m", "m"],
+        dof=np.array([np.inf, np.inf]),
+        ensemble=None,
+    )
+    with pytest.raises(Exception) as info:
+        guf(lambda x: x.sum(axis=-1), inputs)
+    assert str(info.value) == "input estimates must be finite; NaN/inf for ['b']"
+
+
+def test_sequence_statistics_largest_eigenvalue_of_three_outputs():
+    from mtmetrology.uncertainty.mcm import _sequence_statistics
+
+    values = np.random.default_rng(1).normal(size=(1000, 3))
+    values[:, 1] += values[:, 0]
+    stats = _sequence_statistics(values, 0.95)
+    assert stats.shape == (14,)
+    assert stats[12] == pytest.approx(np.linalg.eigvalsh(np.corrcoef(values.T))[-1])
