@@ -287,3 +287,14 @@ def test_sequence_statistics_largest_eigenvalue_of_three_outputs():
     stats = _sequence_statistics(values, 0.95)
     assert stats.shape == (14,)
     assert stats[12] == pytest.approx(np.linalg.eigvalsh(np.corrcoef(values.T))[-1])
+
+
+def test_derivative_drops_multiplication_by_one():
+    from mtmetrology.uncertainty.expressions import Call
+
+    model = CompiledModel(["a"], [("y", "exp(a)")])
+    program = model._jacobian_program()
+    root = program.steps[program.roots[0]][0]
+    assert isinstance(root, Call) and root.func == "exp"
+    assert len(program.steps) == 2
+    assert model.jacobian(np.array([0.0]))[..., 0, 0] == pytest.approx(1.0)
