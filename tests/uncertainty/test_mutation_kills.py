@@ -298,3 +298,12 @@ def test_derivative_drops_multiplication_by_one():
     assert isinstance(root, Call) and root.func == "exp"
     assert len(program.steps) == 2
     assert model.jacobian(np.array([0.0]))[..., 0, 0] == pytest.approx(1.0)
+
+
+def test_evaluate_chunk_counts_are_integers_when_all_finite():
+    from mtmetrology.uncertainty.mcm import _ChunkTask, _evaluate_chunk
+
+    task = _ChunkTask(lambda x: x[:, 0], _sum_inputs(), np.random.default_rng(0), 8)
+    out = _evaluate_chunk(task)
+    assert out.bad_trials.dtype.kind == "i"
+    assert out.bad_trials.tolist() == [0] and out.first_bad_input is None
