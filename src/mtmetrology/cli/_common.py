@@ -40,6 +40,7 @@ from mtmetrology.errors import (
 from mtmetrology.io import InputFileError, Table
 from mtmetrology.io.files import committed
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.units import from_internal
 
 __all__ = [
@@ -248,3 +249,18 @@ def write_report(report, path: Path) -> None:
     except OSError as exc:
         fail(f"{path}: cannot write the report ({exc.strerror or exc})")
     typer.echo(f"report written to {path}", err=True)
+
+
+def machine_with_parameters(machine: str, params: Path | None):
+    """The machine of a preset or file with the errors of an optional parameter set.
+
+    Returns ``(machine, theta)``: the machine restricted to the set's parameters
+    (:meth:`ParameterSet.machine_for`) and their values, or the machine and None (zero
+    errors) without a set.
+    """
+    m = Machine.load(machine)
+    if params is None:
+        return m, None
+    pset = ParameterSet.load(params, m)
+    m = pset.machine_for(m)
+    return m, pset.vector_for(m)

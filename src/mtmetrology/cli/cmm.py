@@ -18,6 +18,7 @@ import typer
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
+    machine_with_parameters,
     print_json,
     user_errors,
     write_report,
@@ -38,7 +39,6 @@ from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError, atomic_write, check_output, write_json
 from mtmetrology.io.tables import Table, read_csv_table, write_columns
 from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.units import from_internal, to_internal
 
 __all__ = ["gp_app", "probe_tools", "register"]
@@ -256,12 +256,7 @@ def simulate_ballplate_cmd(
     """Simulate ball-plate records (position,ball,probe,X,Y,Z) of a virtual CMM."""
     if not (np.isfinite(sigma_um) and sigma_um >= 0):
         raise InputFileError(f"--sigma-um: must be >= 0, got {sigma_um}")
-    m = Machine.load(machine)
-    theta = None
-    if params is not None:
-        pset = ParameterSet.load(params, m)
-        m = pset.machine_for(m)
-        theta = pset.vector_for(m)
+    m, theta = machine_with_parameters(machine, params)
     pl, pr = load_plate(plate), load_probes(probes)
     pos = load_positions(positions, pr)
     camp = simulate_ballplate(

@@ -7,12 +7,16 @@ from typing import Annotated
 
 import typer
 
-from mtmetrology.cli._common import ReportOption, print_json, user_errors, write_report
+from mtmetrology.cli._common import (
+    ReportOption,
+    machine_with_parameters,
+    print_json,
+    user_errors,
+    write_report,
+)
 from mtmetrology.cli.calibrate import samba_report
 from mtmetrology.errors import InputError
 from mtmetrology.io.files import write_json
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.samba import read_length_readings, verify_length
 
 app = typer.Typer(help="Independent checks of a calibrated machine.", no_args_is_help=True)
@@ -53,12 +57,7 @@ def length(
 ) -> None:
     if u_length is not None and not u_length >= 0:
         raise InputError(f"--u-length must be >= 0, got {u_length}")
-    m = Machine.load(machine)
-    theta = None
-    if params is not None:
-        pset = ParameterSet.load(params, m)
-        m = pset.machine_for(m)
-        theta = pset.vector_for(m)
+    m, theta = machine_with_parameters(machine, params)
     data = read_length_readings(readings, m)
     check = verify_length(
         m,
