@@ -36,7 +36,7 @@ E_PRINTED = [[45.0, -17.0, -220.0], [-17.0, 66.0, 7.0], [-220.0, 7.0, 58.0]]  # 
 def _files(tmp_path, *, e_cov=E_COV, machine=MACHINE.name, z_high=260.0):
     (tmp_path / "points.csv").write_text(POINTS, encoding="utf-8")
     rng = np.random.default_rng(1)
-    a = rng.normal(size=(13, 13)) * MACHINE.parameter_scales
+    a = MACHINE.parameter_scales[:, None] * rng.normal(size=(13, 13))  # row i in its unit
     ParameterSet(
         MACHINE.parameter_names,
         rng.normal(size=13) * MACHINE.parameter_scales * 3,
@@ -167,4 +167,4 @@ def test_report_shows_the_result_budget_and_decision(tmp_path):
     assert html.count("<svg") == 2  # budget bars and conformity zones
     assert f"{doc['outputs'][0]['value']:.6f}" in html
     assert doc["decision"]["decision"] == "conformance"
-    assert "Conformity decision (ISO 14253-1:2017)" in html
+    assert f"Conformity decision of {doc['outputs'][0]['name']} (ISO 14253-1:2017)" in html

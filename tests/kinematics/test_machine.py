@@ -296,6 +296,22 @@ def test_chunked_evaluation_equals_one_block(name, model):
         np.testing.assert_allclose(a, b, rtol=1e-14, atol=1e-15)
 
 
+@pytest.mark.parametrize("chunk", [8, 3])
+def test_per_trial_readings_and_parameters_equal_a_loop_over_trials(chunk):
+    """The Monte Carlo layout of a measurement task: readings (M, n, k) and parameters
+    (M, 1, P) both per trial; blocks of whole trials (n ≤ chunk) and flat blocks (n > chunk)."""
+    m = Machine.load("five-axis-wcbxfzyst")
+    rng = np.random.default_rng(4)
+    q, theta, _, _ = random_state(m, 6 * 4, rng)
+    q, theta = q.reshape(6, 4, m.n_axes), theta[:6, None, :]
+    m.chain.chunk_size = chunk
+    batched = m.evaluate(q, theta, d_params=True)
+    for t in range(6):
+        one = m.evaluate(q[t], theta[t, 0], d_params=True)
+        np.testing.assert_allclose(batched.position[t], one.position, rtol=1e-14, atol=1e-12)
+        np.testing.assert_allclose(batched.d_params[t], one.d_params, rtol=1e-14, atol=1e-15)
+
+
 @settings(max_examples=40, deadline=None)
 @given(xyz=st.lists(st.floats(-1000, 1000), min_size=3, max_size=3), seed=st.integers(0, 2**32 - 1))
 @pytest.mark.parametrize("name", ["three-axis-xfyz", "cmm-moving-bridge"])

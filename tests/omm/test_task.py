@@ -26,7 +26,7 @@ READINGS = MACHINE.readings_from_customary(
 )
 RNG = np.random.default_rng(6)
 DELTA = RNG.normal(0, 1, MACHINE.n_params) * MACHINE.parameter_scales * 5  # ~5 µm, µrad
-_A = RNG.normal(size=(13, 13)) * MACHINE.parameter_scales * 2
+_A = MACHINE.parameter_scales[:, None] * RNG.normal(size=(13, 13)) * 2  # row i in its unit
 SIGMA = _A @ _A.T  # long-term parameter covariance (PSD, correlated)
 V = np.zeros((2, 6, 6))
 V[:, :3, :3] = np.array([[0.5, 0.1, 0.05], [0.1, 0.6, -0.02], [0.05, -0.02, 0.4]]) * UM**2

@@ -120,6 +120,10 @@ def test_multivariate_normal_singular_covariance_with_zero_variance_row():
     # Sample covariance: relative s.e. of a variance is sqrt(2/n) = 0.3 %; 2 % tolerance.
     np.testing.assert_allclose(np.cov(x.T), cov, rtol=0.02, atol=0.02 * cov.max())
     np.testing.assert_allclose(d.standard_uncertainty, np.sqrt(np.diag(cov)))
+    # The transposed layout draws the same stream (InputSet writes it into its columns).
+    t = d.sample_transposed(np.random.default_rng(11), 200_000)
+    assert t.shape == (4, 200_000) and t.flags.c_contiguous
+    np.testing.assert_allclose(t, x.T, rtol=0, atol=1e-12)
 
 
 def test_from_replicates_reproduces_sample_covariance_rank_k_minus_1():

@@ -9,6 +9,7 @@ unexplained volumetric errors (``--unexplained``).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
@@ -27,7 +28,15 @@ from mtmetrology.cli._common import (
     write_report,
 )
 from mtmetrology.errors import InputError
-from mtmetrology.fitting.features import GaugeLength, SphereDiameter
+from mtmetrology.fitting.composite import CombinedFeature, PointCoordinates
+from mtmetrology.fitting.features import (
+    CircleDiameter,
+    Flatness,
+    GaugeLength,
+    Roundness,
+    SphereDiameter,
+    Sphericity,
+)
 from mtmetrology.io import read_csv_table, write_json
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -42,6 +51,30 @@ app = typer.Typer(help="Uncertainty of on-machine measurement tasks.", no_args_i
 class FeatureName(StrEnum):
     length = "length"
     sphere = "sphere"
+    circle = "circle"
+    plane = "plane"
+
+
+class Side(StrEnum):
+    inner = "inner"
+    outer = "outer"
+
+
+class Method(StrEnum):
+    guf = "guf"
+    mcm = "mcm"
+    both = "both"
+
+
+class Simulator(StrEnum):
+    linear = "linear"
+    sampled = "sampled"
+
+
+#: Fewest points of each feature (a length: exactly two).
+MIN_POINTS = {"length": 2, "sphere": 4, "circle": 3, "plane": 3}
+#: Default side: a ball is probed from outside, a circle is a bore.
+DEFAULT_SIDE = {"sphere": Side.outer, "circle": Side.inner}
 
 
 @app.callback()
@@ -63,6 +96,11 @@ def _points(path: Path, machine: Machine, feature: FeatureName, need_approach: b
             if sorted(ends.tolist()) != [1.0, 2.0]:
                 raise InputError(f"{path}: column 'end' must hold 1 and 2")
             order = np.argsort(ends)
+    elif len(table) < MIN_POINTS[feature.value]:
+        raise InputError(
+            f"{path}: a {feature.value} needs at least {MIN_POINTS[feature.value]} points, "
+            f"got {len(table)}"
+        )
     approach = None
     if need_approach:
         approach = np.column_stack([table.floats(c) for c in "ijk"])
@@ -72,6 +110,20 @@ def _points(path: Path, machine: Machine, feature: FeatureName, need_approach: b
         None if approach is None else approach[order],
         None if senses is None else senses[order],
     )
+
+
+def _feature(name: FeatureName, side: Side | None, d_tip: float, n_points: int, with_points: bool):
+    """The feature function g(q): the size (tip-compensated) and the form of the element."""
+    inner = (side or DEFAULT_SIDE.get(name.value, Side.outer)) is Side.inner
+    parts = {
+        FeatureName.length: (GaugeLength(tip_diameter=d_tip),),
+        FeatureName.sphere: (SphereDiameter(d_tip, inner=inner), Sphericity()),
+        FeatureName.circle: (CircleDiameter(inner=inner, tip_diameter=d_tip), Roundness()),
+        FeatureName.plane: (Flatness(),),
+    }[name]
+    if with_points:
+        parts = (PointCoordinates(n_points), *parts)
+    return parts[0] if len(parts) == 1 else CombinedFeature(parts)
 
 
 @app.command("uncertainty")
@@ -92,12 +144,39 @@ def uncertainty(
     unexplained: Annotated[
         Path | None, typer.Option(help="unexplained-volumetric-error document (µm²).")
     ] = None,
+    side: Annotated[
+        Side | None,
+        typer.Option(
+            help="Probed from inside (bore) or outside; default: ball outer, circle inner."
+        ),
+    ] = None,
     tip_diameter: Annotated[
         float | None, typer.Option(help="Effective tip diameter, mm (default: the machine's).")
     ] = None,
+    with_points: Annotated[
+        bool, typer.Option(help="Also report the compensated coordinates of every point.")
+    ] = False,
+    method: Annotated[
+        Method, typer.Option(help="GUF, adaptive Monte Carlo, or both with the validation.")
+    ] = Method.guf,
+    simulator: Annotated[
+        Simulator, typer.Option(help="Covariance simulator: linearised or sampled (Q draws).")
+    ] = Simulator.linear,
+    draws: Annotated[int, typer.Option(help="Q of the sampled simulator.")] = 10_000,
+    trials: Annotated[
+        int | None, typer.Option(help="Fixed Monte Carlo trials (default: adaptive).")
+    ] = None,
+    digits: Annotated[
+        int, typer.Option(help="Significant digits of u that the adaptive run stabilises.")
+    ] = 2,
+    seed: Annotated[int | None, typer.Option(help="Seed of every random stream.")] = None,
     tolerance: Annotated[
         str | None,
         typer.Option(help="NOMINAL,LOWER,UPPER in mm (deviations; one side may be empty)."),
+    ] = None,
+    tolerance_output: Annotated[
+        str | None,
+        typer.Option(help="Output the tolerance applies to (default: the feature's first)."),
     ] = None,
     guard_band_factor: Annotated[
         float, typer.Option(help="Guard bands h·U (ISO 14253-1:2017 default h = 1).")
@@ -112,8 +191,11 @@ def uncertainty(
     POINTS.csv holds one row per probed point: ``point`` and the readings of every axis
     (linear mm, rotary degrees); ``i,j,k`` (approach direction) when ``--repeatability``
     is given; for ``--feature length`` two rows, ordered by an optional ``end`` (1, 2).
-    Method: GUF with the linearised covariance simulator (machine-parameter uncertainty
-    cancels to first order; the parameters enter the compensated value).
+    Features: length (gauge length), sphere (diameter, sphericity), circle (diameter,
+    roundness), plane (flatness), least squares. Method: GUF with the covariance
+    simulator (machine-parameter uncertainty cancels to first order; the parameters enter
+    the compensated value), adaptive Monte Carlo (JCGM 101/102), or both with the
+    validation of the GUF.
     """
     tol = Tolerance.parse(tolerance) if tolerance is not None else None
     if repeatability is None and unexplained is None:
@@ -121,6 +203,8 @@ def uncertainty(
             "give --repeatability and/or --unexplained: the machine-parameter uncertainty "
             "alone cancels to first order (u would be 0)"
         )
+    if side is not None and feature.value not in DEFAULT_SIDE:
+        raise InputError(f"--side applies to sphere and circle, not to a {feature.value}")
     base = Machine.load(machine_name)
     pset = ParameterSet.load(params, base)
     machine = pset.machine_for(base)
@@ -132,9 +216,9 @@ def uncertainty(
         v = reading_covariance(machine, load_repeatability_model(repeatability), readings, approach)
     cov_e = load_unexplained_covariance(unexplained) if unexplained is not None else None
     d_tip = 2.0 * machine.tip_radius if tip_diameter is None else tip_diameter
-    feat = (
-        GaugeLength(tip_diameter=d_tip) if feature is FeatureName.length else SphereDiameter(d_tip)
-    )
+    feat = _feature(feature, side, d_tip, len(readings), with_points)
+    first = 3 * len(readings) if with_points else 0  # the coordinates come first
+    target = _tolerance_index(feat, tolerance_output, tol, first)
     result = task_uncertainty(
         machine,
         readings,
@@ -145,63 +229,83 @@ def uncertainty(
         unexplained_covariance=cov_e,
         senses=senses,
         p=p,
+        method=method.value,
+        simulator=simulator.value,
+        draws=draws,
+        trials=trials,
+        digits=digits,
+        seed=seed,
     )
     if tol is not None:
-        decision = decide(
-            float(result.guf.estimate[0]),
-            float(result.guf.expanded_uncertainty[0]),
-            tol,
-            guard_band_factor=guard_band_factor,
-            unit="mm",
-        )
-        result = TaskResult(
-            result.guf, result.points, result.points_covariance, result.shares, decision
-        )
+        out = result.result.outputs[target]
+        decision = decide(out.value, out.U, tol, guard_band_factor=guard_band_factor, unit="mm")
+        result = replace(result, decision=decision)
     document = result.to_dict()
     document["source"] = {"points": str(points_csv), "params": str(params)}
     if report_path is not None:
         inputs = [points_csv, params, *(f for f in (repeatability, unexplained) if f is not None)]
-        _write_report(report_path, result, command_line(ctx), inputs)
+        _write_report(report_path, result, command_line(ctx), inputs, target)
     if output is not None:
         write_json(output, document)
     if json_output:
         print_json(document)
     else:
-        _print(result)
+        _print(result, first)
 
 
-def _write_report(path: Path, result: TaskResult, command: str, inputs: list[Path]) -> None:
-    """Value with u and U, the budget by source, and the ISO 14253-1 decision."""
+def _tolerance_index(feature, name: str | None, tol: Tolerance | None, first: int) -> int:
+    """Index of the toleranced output: the named one, else the feature's first."""
+    names = list(feature.output_names)
+    if name is None:
+        return first
+    if tol is None:
+        raise InputError("--tolerance-output needs --tolerance")
+    if name not in names:
+        raise InputError(f"--tolerance-output: {name!r} is not an output ({', '.join(names)})")
+    return names.index(name)
+
+
+def _write_report(
+    path: Path, result: TaskResult, command: str, inputs: list[Path], target: int
+) -> None:
+    """Values with u and U, the budget by source, the validation and the decision."""
     from mtmetrology.report import Report, figures
+    from mtmetrology.report.results import add_result
 
-    g = result.guf
-    name, value = g.names[0], float(g.estimate[0])
-    u, big_u = float(g.standard_uncertainty[0]), float(g.expanded_uncertainty[0])
+    r = result.result
+    name = r.names[target]
     rep = Report(f"Task uncertainty: {name}", command=command, provenance={"inputs": inputs})
+    how = {
+        "guf": "GUF",
+        "mcm": "adaptive Monte Carlo (JCGM 101:2008, 7.9)",
+        "both": "adaptive Monte Carlo, with the GUF validated against it (JCGM 101:2008, 8)",
+    }[result.method]
     rep.section(
         "Result",
-        "GUF of the compensated points through the feature (full-covariance method of "
+        f"{how} of the compensated points through the feature (full-covariance method of "
         "Sepahi Boroujeni (2021), Ch. 6): repeatability, machine parameters and unexplained "
-        "volumetric errors; the machine-parameter share cancels to first order.",
+        f"volumetric errors; {result.inputs.simulator} covariance simulator.",
     )
     rep.table(
-        ["feature", "value", "u", "U", "k", "p", "interval", "unit"],
+        ["output", "value", "u", "U", "k", "p", "interval", "unit"],
         [
             [
-                name,
-                f"{value:.6f}",
-                f"{from_internal(u, 'µm'):.3g} µm",
-                f"{from_internal(big_u, 'µm'):.3g} µm",
-                f"{float(g.coverage_factor[0]):.3f}",
-                g.p,
-                f"[{g.interval[0][0]:.6f}, {g.interval[0][1]:.6f}]",
+                o.name,
+                f"{o.value:.6f}",
+                f"{from_internal(o.u, 'µm'):.3g} µm",
+                f"{from_internal(o.U, 'µm'):.3g} µm",
+                f"{o.k:.3f}",
+                o.p,
+                f"[{o.interval[0]:.6f}, {o.interval[1]:.6f}]",
                 "mm",
             ]
+            for o in r.outputs
         ],
     )
     sources = list(result.shares)
-    shares = [float(result.shares[k][0]) for k in sources]
-    rep.section("Budget by source")
+    shares = [float(result.shares[k][target]) for k in sources]
+    u = float(r.outputs[target].u)
+    rep.section("Budget by source (first order)")
     rep.table(
         ["source", "share of u²"],
         [[k.replace("_", " "), f"{100 * v:.1f} %"] for k, v in zip(sources, shares, strict=True)],
@@ -215,27 +319,38 @@ def _write_report(path: Path, result: TaskResult, command: str, inputs: list[Pat
         ),
         caption="Contribution of each source, u·√share (the squares add to u²).",
     )
+    if result.validation is not None:
+        add_result(rep, result.validation)
     if result.decision is not None:
         d = result.decision.to_dict()
         tol = result.decision.tolerance
+        value, big_u = float(r.outputs[target].value), float(r.outputs[target].U)
         lower = tol.lower_limit if np.isfinite(tol.lower_limit) else None
         upper = tol.upper_limit if np.isfinite(tol.upper_limit) else None
-        rep.section("Conformity decision (ISO 14253-1:2017)", str(d["decision"]))
+        rep.section(f"Conformity decision of {name} (ISO 14253-1:2017)", str(d["decision"]))
         rep.figure(figures.conformity_zones(value, big_u, lower, upper, name=name, unit="mm"))
     write_report(rep, path)
 
 
-def _print(result: TaskResult) -> None:
-    g = result.guf
-    u_um = from_internal(g.standard_uncertainty[0], "µm")
-    big_u_um = from_internal(g.expanded_uncertainty[0], "µm")
-    typer.echo(
-        f"{g.names[0]} = {g.estimate[0]:.4f} mm, u = {u_um:.2f} µm, "
-        f"U = {big_u_um:.2f} µm (k = {g.coverage_factor[0]:.2f}, p = {g.p})"
-    )
-    shares = ", ".join(
-        f"{k.replace('_', ' ')} {100 * v[0] + 0.0:.1f} %" for k, v in result.shares.items()
-    )
-    typer.echo(f"budget: {shares}")
+def _print(result: TaskResult, first: int) -> None:
+    r = result.result
+    if first:
+        typer.echo(f"(the coordinates of {first // 3} points are in the --json document)")
+    for j, o in list(enumerate(r.outputs))[first:]:
+        typer.echo(
+            f"{o.name} = {o.value:.4f} mm, u = {from_internal(o.u, 'µm'):.2f} µm, "
+            f"U = {from_internal(o.U, 'µm'):.2f} µm (k = {o.k:.2f}, p = {o.p})"
+        )
+        shares = ", ".join(
+            f"{k.replace('_', ' ')} {100 * v[j] + 0.0:.1f} %" for k, v in result.shares.items()
+        )
+        typer.echo(f"  first-order budget: {shares}")
+    if result.mcm is not None:
+        typer.echo(
+            f"Monte Carlo: {result.mcm.trials} trials"
+            + ("" if result.mcm.converged is None else f", converged: {result.mcm.converged}")
+        )
+    if result.validation is not None:
+        typer.echo(f"GUF validated by Monte Carlo: {result.validation.passed}")
     if result.decision is not None:
         typer.echo(f"decision (ISO 14253-1:2017): {result.decision.decision.value}")

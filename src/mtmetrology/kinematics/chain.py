@@ -444,6 +444,30 @@ class KinematicChain:
                 self._evaluate_block(q, th[sl, None, :], s, tt, part)
             return out
         arrays = [readings, theta, t] + ([] if senses is None else [senses])
+        inner = math.prod(shape[1:])
+        if len(shape) > 1 and inner <= self.chunk_size:
+            # Blocks of whole rows of the first dimension, each broadcast on its own: the
+            # broadcast of every input at once (e.g. per-trial parameters over the points
+            # of per-trial readings in a Monte Carlo) would copy them ``inner`` times.
+            step = self.chunk_size // inner
+            flat = _views(out, (shape[0], inner))
+            for start in range(0, shape[0], step):
+                sl = slice(start, start + step)
+                part = [
+                    a
+                    if a.ndim == 1
+                    else np.broadcast_to(a, (*shape, a.shape[-1]))[sl].reshape(-1, a.shape[-1])
+                    for a in arrays
+                ]
+                views = (None if a is None else a[sl].reshape(-1, *a.shape[2:]) for a in flat)
+                self._evaluate_block(
+                    part[0],
+                    part[1],
+                    part[3] if senses is not None else None,
+                    part[2],
+                    ChainEvaluation(*views),
+                )
+            return out
         flat_in = [
             a if a.ndim == 1 else np.broadcast_to(a, (*shape, a.shape[-1])).reshape(total, -1)
             for a in arrays

@@ -1,18 +1,19 @@
-"""Task uncertainty of an on-machine measurement by the full-covariance method (GUF).
+"""Task uncertainty of an on-machine measurement by the full-covariance method.
 
 The inputs of the on-machine measurement function are the long-term axis positions Γ
 of every probed point and the machine parameters Δ (Sepahi Boroujeni (2021), §6.2), plus
 the unexplained volumetric errors E added to the compensated points (eq. 6-14). Their
-covariance U_x is that of the covariance simulator (Populations I–IV, §6.2.2), here
-in its first-order (linearised) form, so no sampling noise enters the GUF:
+covariance U_x comes from the covariance simulator (Populations I–IV, §6.2.2,
+:mod:`mtmetrology.omm.simulator`), linearised (default, no sampling noise) or sampled as
+in the thesis. The compensated points q_s = f(Γ_s, Δ) + e_s and the feature g(q) are
+propagated
 
-    Ψ_s − ψ_s = A_s (Φ_s − φ_s)                       Population II, A_s = ∂f/∂q
-    Γ_s − φ_s = L F_s⁻¹ [(Ψ_s − ψ_s) − G_s (Δ − δ)]   Population IV, F_s = A_s L (X, Y, Z)
-
-with Φ_s ~ N(φ_s, v_s) (the repeatability model's 5×5 v_i) and Δ ~ N(δ, Σ) (the
-long-term parameter covariance). The compensated points q_s = f(Γ_s, Δ) + e_s and the
-feature g(q) are propagated by the library's GUF engine with the analytic sensitivities
-[G A_s, G G_s, G] (G = the feature's Jacobian).
+* by the GUF (JCGM 102:2011, 6.2.1.3) with the analytic sensitivities
+  [G A_s, G G_s, G] (A_s = ∂f/∂q, G_s = ∂f/∂δ, G = the feature's Jacobian), and/or
+* by Monte Carlo (JCGM 101:2008 and JCGM 102:2011, adaptive 7.9 / 7.8) with
+  x ~ N([φ; δ; 0], U_x) through the kinematic model and the feature, vectorised over
+  trials; with both, the GUF is validated against the Monte Carlo result (JCGM 101:2008,
+  8; JCGM 102:2011, 8).
 
 To first order the machine-parameter uncertainty cancels: A_s (Γ_s − φ_s) + G_s (Δ − δ)
 = Ψ_s − ψ_s, so U_q = blockdiag(A_s v_s A_sᵀ) + I ⊗ cov(e) whatever Σ is, and the
@@ -24,8 +25,11 @@ References
 Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine
 Tool Metrology*. PhD thesis, Polytechnique Montréal, ch. 6 and 7.
 
+JCGM 101:2008. *Evaluation of measurement data — Supplement 1 to the GUM — Propagation
+of distributions using a Monte Carlo method*, 7.9 and 8.
+
 JCGM 102:2011. *Evaluation of measurement data — Supplement 2 to the GUM — Extension to
-any number of output quantities*, 6.2.1.3.
+any number of output quantities*, 6.2.1.3, 7.8 and 8.
 """
 
 from __future__ import annotations
@@ -38,11 +42,16 @@ from mtmetrology.budgets.conformity import ConformityDecision
 from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.omm.repeatability import RepeatabilityModel
+from mtmetrology.omm.simulator import MeasurementModel, TaskInputs, covariance_simulator
+from mtmetrology.rng import SeedLike, chunk_generators
 from mtmetrology.uncertainty.guf import GUFResult, guf
+from mtmetrology.uncertainty.mcm import MCMResult, monte_carlo
+from mtmetrology.uncertainty.outputs import result_document
+from mtmetrology.uncertainty.validation import ValidationReport, validate_results
 
-__all__ = ["TaskResult", "pose_factors", "reading_covariance", "task_uncertainty"]
+__all__ = ["METHODS", "TaskResult", "pose_factors", "reading_covariance", "task_uncertainty"]
 
-GROUPS = ("repeatability", "machine_parameters", "unexplained_volumetric_error")
+METHODS = ("guf", "mcm", "both")
 
 
 def pose_factors(machine: Machine, readings: np.ndarray, approach: np.ndarray) -> np.ndarray:
@@ -127,51 +136,59 @@ class TaskResult:
 
     Attributes
     ----------
+    method : {"guf", "mcm", "both"}
+        What was asked; ``result`` is the Monte Carlo result when it ran (the reference of
+        the validation, JCGM 101:2008, 8), the GUF one otherwise.
     guf : GUFResult
-        The propagation (outputs, per-input budget) over Γ, Δ and E.
+        The first-order propagation over Γ, Δ and E (always computed: it gives the
+        budget and costs milliseconds).
+    mcm : MCMResult or None
+        Monte Carlo over x ~ N(x, U_x) through the kinematic model and the feature.
+    validation : ValidationReport or None
+        The GUF validated by the Monte Carlo result (``method="both"``).
+    inputs : TaskInputs
+        x and U_x of the covariance simulator.
     points : (n, 3) ndarray, mm
         Compensated points f(φ_s, δ).
     points_covariance : (3n, 3n) ndarray, mm²
-        U_q of the compensated points.
+        U_q of the compensated points (first order).
     shares : dict of str to (m,) ndarray
-        Variance share of each output from the repeatability, the machine parameters
-        (zero to first order, see the module notes) and E.
+        First-order variance share of each output from the repeatability, the machine
+        parameters (zero to first order, see the module notes) and E.
     decision : ConformityDecision or None
-        ISO 14253-1:2017 decision when a tolerance was given (first output).
+        ISO 14253-1:2017 decision when a tolerance was given (first output of ``result``).
     """
 
+    method: str
     guf: GUFResult
+    mcm: MCMResult | None
+    validation: ValidationReport | None
+    inputs: TaskInputs
     points: np.ndarray
     points_covariance: np.ndarray
     shares: dict
     decision: ConformityDecision | None = None
 
+    @property
+    def result(self) -> GUFResult | MCMResult:
+        """The result whose values are reported: Monte Carlo when it ran, else the GUF."""
+        return self.mcm if self.mcm is not None else self.guf
+
     def to_dict(self) -> dict:
         """``uncertainty-result`` document with the group budget and the decision."""
-        doc = {"kind": "uncertainty-result", "version": 1, **self.guf.to_dict()}
+        doc = result_document(self.guf if self.method != "mcm" else None, self.mcm, self.validation)
+        doc["covariance_simulator"] = {
+            "method": self.inputs.simulator,
+            "draws": self.inputs.draws,
+        }
         doc["budget_groups"] = {
-            name: {g: float(self.shares[g][j]) for g in GROUPS}
+            name: {g: float(share[j]) for g, share in self.shares.items()}
             for j, name in enumerate(self.guf.names)
         }
         doc["points"] = {"unit": "mm", "compensated": self.points.tolist()}
         if self.decision is not None:
             doc["decision"] = self.decision.to_dict()
         return doc
-
-
-class _Inputs:
-    """The input set the GUF engine reads: names, units, estimate, covariance, dof."""
-
-    def __init__(self, names, units, estimate, covariance):
-        self.names, self.units = tuple(names), tuple(units)
-        self.estimate, self.covariance = estimate, covariance
-        self.dof = np.full(len(names), np.inf)
-        u = np.sqrt(np.diag(covariance))
-        live = u > 0
-        self.correlation = np.eye(len(names))
-        self.correlation[np.ix_(live, live)] = covariance[np.ix_(live, live)] / np.outer(
-            u[live], u[live]
-        )
 
 
 def task_uncertainty(
@@ -185,8 +202,18 @@ def task_uncertainty(
     unexplained_covariance: np.ndarray | None = None,
     senses: np.ndarray | None = None,
     p: float = 0.95,
+    method: str = "guf",
+    simulator: str = "linear",
+    draws: int = 10_000,
+    trials: int | None = None,
+    digits: int = 2,
+    tolerance=None,
+    sequence_size: int = 10_000,
+    max_trials: int = 10_000_000,
+    seed: SeedLike = None,
+    executor=None,
 ) -> TaskResult:
-    """GUF of a feature measured on the machine, by the full-covariance method.
+    """Value and uncertainty of a feature measured on the machine (full-covariance method).
 
     Parameters
     ----------
@@ -199,16 +226,31 @@ def task_uncertainty(
     parameter_covariance : (P, P) array
         Long-term covariance Σ of the parameters.
     feature : mtmetrology.fitting.features.Feature
-        ``value(points (n, 3))`` and ``jacobian(points) -> (m, 3n)``.
+        ``value(points (..., n, 3))`` vectorised over trials and
+        ``jacobian(points) -> (m, 3n)``.
     reading_covariance : (n, n_axes, n_axes) array, optional
-        v_s of each reading (e.g. :meth:`RepeatabilityModel.covariance5` embedded); none
-        means perfect repeatability.
+        v_s of each reading (e.g. :func:`reading_covariance`); none means perfect
+        repeatability.
     unexplained_covariance : (3, 3) array, optional
         cov(e) of the unexplained volumetric errors, mm² (PSD).
     senses : (n, n_axes) array, optional
         Sense of motion per axis.
     p : float
         Coverage probability.
+    method : {"guf", "mcm", "both"}
+        Propagation; "both" validates the GUF by the Monte Carlo result.
+    simulator : {"linear", "sampled"}
+        Covariance simulator (:func:`~mtmetrology.omm.simulator.covariance_simulator`).
+    draws : int
+        Q of the sampled simulator.
+    trials : int, optional
+        Fixed number of Monte Carlo trials; by default the adaptive procedure (JCGM
+        101:2008, 7.9; JCGM 102:2011, 7.8) with ``digits`` or ``tolerance``.
+    digits, tolerance, sequence_size, max_trials, executor
+        As in :func:`mtmetrology.uncertainty.mcm.monte_carlo` (the thesis: δ = 0.05 µm
+        for y and u(y), ρ = κ_p = 0.05, sequences of 10⁴).
+    seed : int, SeedSequence or Generator, optional
+        Root of the random streams (sampled simulator and Monte Carlo).
 
     Returns
     -------
@@ -217,105 +259,82 @@ def task_uncertainty(
     Raises
     ------
     InputError
-        Shapes that do not match the machine, a singular linear-axis Jacobian, or a
-        covariance that is not positive semidefinite.
+        Shapes that do not match the machine, a singular linear-axis Jacobian, a
+        covariance that is not positive semidefinite, an unknown method or simulator.
     """
+    if method not in METHODS:
+        raise InputError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    sim_seed, mc_seed = chunk_generators(seed, 2)  # independent: simulator, Monte Carlo
+    inputs = covariance_simulator(
+        machine,
+        readings,
+        parameters,
+        parameter_covariance,
+        reading_covariance=reading_covariance,
+        unexplained_covariance=unexplained_covariance,
+        senses=senses,
+        simulator=simulator,
+        draws=draws,
+        seed=sim_seed,
+    )
     q = np.asarray(readings, float)
-    n, n_axes = q.shape
-    n_par = machine.n_params
+    n, n_axes, n_par = inputs.n_points, inputs.n_axes, inputs.n_params
     delta = np.asarray(parameters, float)
-    sigma = _psd(parameter_covariance, (n_par, n_par), "parameter covariance")
-    v = (
-        np.zeros((n, n_axes, n_axes))
-        if reading_covariance is None
-        else _psd(reading_covariance, (n, n_axes, n_axes), "reading covariance")
-    )
-    cov_e = (
-        np.zeros((3, 3))
-        if unexplained_covariance is None
-        else _psd(unexplained_covariance, (3, 3), "unexplained volumetric error covariance")
-    )
     ev = machine.evaluate(q, delta, senses=senses, d_params=True, d_axes=True)
     points, a, g = ev.position, ev.d_axes, ev.d_params  # (n,3), (n,3,n_axes), (n,3,P)
-    linear = [machine.axis_names.index(x) for x in machine.linear_axes]
-    if len(linear) != 3:
-        raise InputError(f"machine {machine.name}: the task model needs three linear axes")
-    f_lin = a[:, :, linear]  # (n, 3, 3)
-    if np.any(np.abs(np.linalg.det(f_lin)) < 1e-12):
-        raise InputError("the linear axes do not span space at a probed pose (singular ∂f/∂q)")
-    f_inv = np.linalg.inv(f_lin)
-    # Population IV, linearised: Γ_s − φ_s = L F⁻¹ (A v-noise − G (Δ − δ)).
-    w = a @ v @ np.swapaxes(a, 1, 2)  # (n, 3, 3) cov of Ψ_s
-    m_par = -f_inv @ g  # (n, 3, P): ∂Γ_lin/∂Δ
-    size = n * n_axes + n_par + 3 * n
-    ux = np.zeros((size, size))
-    lin = (np.arange(n)[:, None] * n_axes + np.array(linear)[None, :]).ravel()  # (3n,)
-    par = slice(n * n_axes, n * n_axes + n_par)
-    m_stack = m_par.reshape(3 * n, n_par)  # ∂Γ_lin/∂Δ of every point, stacked
-    gamma_cov = m_stack @ sigma @ m_stack.T  # parameter-driven part, all point pairs
-    own = f_inv @ w @ np.swapaxes(f_inv, 1, 2)  # (n, 3, 3): repeatability, per point
-    for s in range(n):
-        gamma_cov[3 * s : 3 * s + 3, 3 * s : 3 * s + 3] += own[s]
-    ux[np.ix_(lin, lin)] = gamma_cov
-    cross = m_stack @ sigma  # (3n, P)
-    ux[lin, par] = cross
-    ux[par, lin] = cross.T
-    ux[par, par] = sigma
-    e0 = n * n_axes + n_par
-    ux[e0:, e0:] = np.kron(np.eye(n), cov_e)
-    x = np.concatenate([q.ravel(), delta, np.zeros(3 * n)])
     feature_jac = np.atleast_2d(feature.jacobian(points))  # (m, 3n)
-
-    def model(xx):
-        gam = xx[..., : n * n_axes].reshape(*xx.shape[:-1], n, n_axes)
-        dd = xx[..., par]
-        pts = machine.forward(gam, dd[..., None, :], senses=senses)
-        pts = pts + xx[..., e0:].reshape(*xx.shape[:-1], n, 3)
-        return feature.value(pts)
-
     # ∂q/∂x = [blockdiag(A_s), G stacked, I]: (3n, N)
-    c_axes = np.zeros((3 * n, n * n_axes))
-    for s in range(n):
-        c_axes[3 * s : 3 * s + 3, s * n_axes : (s + 1) * n_axes] = a[s]
-    c_points = np.hstack([c_axes, g.reshape(3 * n, n_par), np.eye(3 * n)])
-
-    def jacobian(_x):
-        return feature_jac @ c_points
-
-    axis_names, linear_names = machine.axis_names, machine.linear_axes
-    names = [f"{ax}_{s + 1}" for s in range(n) for ax in axis_names]
-    names += list(machine.parameter_names) + [f"e{c}_{s + 1}" for s in range(n) for c in "xyz"]
-    units = [("mm" if ax in linear_names else "rad") for ax in axis_names] * n
-    units += ["1"] * n_par + ["mm"] * (3 * n)
-    result = guf(
-        model,
-        _Inputs(names, units, x, ux),
-        jacobian=jacobian,
-        p=p,
-        output_names=list(feature.output_names),
-        output_units=[feature.unit] * len(feature.output_names),
+    c_axes = np.zeros((n, 3, n, n_axes))
+    c_axes[np.arange(n), :, np.arange(n), :] = a
+    c_points = np.hstack(
+        [c_axes.reshape(3 * n, n * n_axes), g.reshape(3 * n, n_par), np.eye(3 * n)]
     )
-    full = result.sensitivities * (ux @ result.sensitivities.T).T  # (m, N)
-    var = np.diag(result.covariance)
-    groups = (slice(0, n * n_axes), par, slice(e0, size))
+    model = MeasurementModel(machine, feature, n, senses)
+    input_set = inputs.input_set()
+    guf_result = guf(
+        model,
+        input_set,
+        jacobian=lambda _x: feature_jac @ c_points,
+        p=p,
+        output_names=list(model.output_names),
+        output_units=list(model.output_units),
+    )
+    ux = inputs.covariance
+    full = guf_result.sensitivities * (ux @ guf_result.sensitivities.T).T  # (m, N)
+    var = np.diag(guf_result.covariance)
     shares = {
         name: np.where(var > 0, full[:, sl].sum(axis=1) / np.where(var > 0, var, 1.0), 0.0)
-        for name, sl in zip(GROUPS, groups, strict=True)
+        for name, sl in inputs.groups.items()
     }
     u_q = c_points @ ux @ c_points.T
-    return TaskResult(result, points, 0.5 * (u_q + u_q.T), shares)
-
-
-def _psd(matrix, shape: tuple[int, ...], what: str) -> np.ndarray:
-    m = np.asarray(matrix, float)
-    if m.shape != shape or not np.all(np.isfinite(m)):
-        raise InputError(f"{what}: expected finite values of shape {shape}, got {m.shape}")
-    if not np.allclose(m, np.swapaxes(m, -1, -2), rtol=1e-10, atol=0):
-        raise InputError(f"{what}: not symmetric")
-    low = np.linalg.eigvalsh(m).min(axis=-1)
-    scale = np.abs(m).max(axis=(-1, -2))
-    if np.any(low < -1e-10 * np.maximum(scale, np.finfo(float).tiny)):
-        raise InputError(
-            f"{what}: not positive semidefinite (smallest eigenvalue {float(np.min(low)):.3g})"
+    mcm_result = validation = None
+    if method != "guf":
+        mcm_result = monte_carlo(
+            model,
+            input_set,
+            trials=trials,
+            adaptive=trials is None,
+            digits=digits,
+            tolerance=tolerance,
+            p=p,
+            seed=mc_seed,
+            executor=executor,
+            sequence_size=sequence_size,
+            max_trials=max_trials,
+            output_names=list(model.output_names),
+            output_units=list(model.output_units),
         )
-    return m
+        if method == "both":
+            validation = validate_results(
+                guf_result, mcm_result, tolerance=tolerance, digits=digits
+            )
+    return TaskResult(
+        method,
+        guf_result,
+        mcm_result,
+        validation,
+        inputs,
+        points,
+        0.5 * (u_q + u_q.T),
+        shares,
+    )

@@ -517,6 +517,17 @@ class MultivariateNormal(_VectorDistribution):
         z = rng.standard_normal((*shape, self._factor.shape[1]))  # (..., r)
         return self.mean_vector + z @ self._factor.T  # (..., N)
 
+    def sample_transposed(self, rng, size: int) -> np.ndarray:
+        """``sample(rng, size).T`` from the same draws, computed as (N, size) C-ordered.
+
+        For writing into the rows of a column-major (size, N) array: a fancy-indexed write
+        of the (size, N) block into it costs about three times the draws themselves.
+        """
+        z = rng.standard_normal((size, self._factor.shape[1]))  # the stream of ``sample``
+        out = self._factor @ z.T  # (N, size)
+        out += self.mean_vector[:, None]
+        return out
+
 
 @dataclass(frozen=True)
 class MultivariateT(_VectorDistribution):

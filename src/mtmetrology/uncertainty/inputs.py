@@ -373,7 +373,8 @@ class InputSet:
         for i in self._single_index:
             self._quantities[i].distribution.sample_into(rng, out[:, i])
         if self._joint is not None:
-            out[:, self._joint_index] = self._joint.sample(rng, size)
+            # Whole contiguous columns of ``out``: see MultivariateNormal.sample_transposed.
+            out.T[self._joint_index] = self._joint.sample_transposed(rng, size)
         return out
 
     def __repr__(self) -> str:
