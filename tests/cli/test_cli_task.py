@@ -168,3 +168,112 @@ def test_report_shows_the_result_budget_and_decision(tmp_path):
     assert f"{doc['outputs'][0]['value']:.6f}" in html
     assert doc["decision"]["decision"] == "conformance"
     assert f"Conformity decision of {doc['outputs'][0]['name']} (ISO 14253-1:2017)" in html
+
+
+def _bore_points(d, n=8, radius=20.0, plane=False):
+    """A Ø 40 mm bore (or a 40 mm square of plane points) at Z = 100 mm, B = C = 0."""
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False) + 0.1
+    if plane:
+        pts = np.column_stack([radius * np.cos(t), radius * np.sin(t), np.full(n, 100.0)])
+        normal = np.tile([0.0, 0.0, -1.0], (n, 1))  # the probe moves down onto the face
+    else:
+        pts = np.column_stack([radius * np.cos(t), radius * np.sin(t), np.full(n, 100.0)])
+        normal = pts * [1, 1, 0] / radius  # towards the wall of the bore
+    q = MACHINE.inverse(pts, np.zeros((n, 6)))
+    rows = ["point,X,Y,Z,B,C,i,j,k"] + [
+        f"p{s + 1},{q[s, 0]:.6f},{q[s, 1]:.6f},{q[s, 2]:.6f},0,0,{normal[s, 0]:.6f},"
+        f"{normal[s, 1]:.6f},{normal[s, 2]:.6f}"
+        for s in range(n)
+    ]
+    (d / "bore.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return d / "bore.csv"
+
+
+def _run_on(d, points, feature, *extra):
+    return runner.invoke(
+        app,
+        [
+            "task", "uncertainty", str(points), "--machine", MACHINE.name,
+            "--params", str(d / "params.json"), "--feature", feature,
+            "--unexplained", str(d / "E.json"), *extra,
+        ],
+    )  # fmt: skip
+
+
+def test_circle_gives_diameter_and_roundness_and_tolerances_the_diameter(tmp_path):
+    """A bore probed from inside: D = 2R + d_tip; the form output is the LS roundness."""
+    d = _files(tmp_path)
+    bore = _bore_points(d)
+    result = _run_on(d, bore, "circle", "--tip-diameter", "2", "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    names = [o["name"] for o in doc["outputs"]]
+    assert names == ["circle_diameter", "roundness"]
+    q = np.array(doc["points"]["compensated"])
+    radius = np.linalg.norm(q[:, :2] - q[:, :2].mean(axis=0), axis=1).mean()
+    assert doc["outputs"][0]["value"] == pytest.approx(2 * radius + 2.0, abs=1e-6)
+    assert doc["outputs"][0]["value"] == pytest.approx(40.0 + 2.0, abs=0.01)  # δ: some µm
+    shaft = json.loads(
+        _run_on(d, bore, "circle", "--tip-diameter", "2", "--side", "outer", "--json").stdout
+    )
+    assert doc["outputs"][0]["value"] - shaft["outputs"][0]["value"] == pytest.approx(4.0)
+    value = doc["outputs"][1]["value"]
+    toleranced = _run_on(
+        d, bore, "circle", "--tolerance", f"0,,{value + 0.5}", "--tolerance-output", "roundness",
+        "--json",
+    )  # fmt: skip
+    assert toleranced.exit_code == 0, toleranced.output
+    assert json.loads(toleranced.stdout)["decision"]["decision"] == "conformance"
+
+
+def test_plane_flatness_and_monte_carlo_validation(tmp_path):
+    d = _files(tmp_path)
+    plane = _bore_points(d, plane=True)
+    result = _run_on(
+        d, plane, "plane", "--method", "both", "--trials", "20000", "--seed", "4", "--json"
+    )
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert doc["method"] == "both" and [o["name"] for o in doc["outputs"]] == ["flatness"]
+    assert doc["mcm"]["trials"] == 20_000
+    # The LS flatness of noisy points is biased upward: the GUF of a peak-to-valley
+    # cannot be validated (JCGM 101:2008, 8), and the document says so.
+    assert doc["validation"]["passed"] is False
+    assert doc["outputs"][0]["value"] > doc["guf"]["outputs"][0]["value"]
+
+
+def test_length_with_points_reports_the_coordinates_and_a_sampled_simulator(tmp_path):
+    d = _files(tmp_path)
+    result = _run(
+        d, "--unexplained", str(d / "E.json"), "--with-points", "--simulator", "sampled",
+        "--draws", "2000", "--seed", "1", "--json",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    names = [o["name"] for o in doc["outputs"]]
+    assert names == ["X_1", "Y_1", "Z_1", "X_2", "Y_2", "Z_2", "gauge_length"]
+    assert doc["covariance_simulator"] == {"method": "sampled", "draws": 2000}
+    u_x1 = doc["outputs"][0]["u"]
+    assert u_x1 == pytest.approx(np.sqrt(E_COV[0][0]) * UM, rel=1e-9)  # E alone, no v
+
+
+@pytest.mark.parametrize(
+    ("feature", "extra", "n"),
+    [
+        ("sphere", [], 3),  # a sphere needs 4 points
+        ("circle", [], 2),
+        ("plane", ["--side", "inner"], 8),  # a plane has no side
+        ("circle", ["--tolerance-output", "roundness"], 8),  # without --tolerance
+        ("circle", ["--tolerance", "0,,1", "--tolerance-output", "flatness"], 8),
+        ("circle", ["--method", "mcm", "--simulator", "sampled", "--draws", "5"], 8),
+    ],
+)
+def test_bad_feature_requests_exit_2_and_write_nothing(tmp_path, feature, extra, n):
+    d = _files(tmp_path)
+    points = _bore_points(d, n=n)
+    out = d / "out.json"
+    result = _run_on(d, points, feature, *extra, "-o", str(out))
+    assert result.exit_code == 2, result.output
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ")
+    assert not out.exists()

@@ -228,7 +228,7 @@ def covariance_simulator(
                 f"{size} inputs, got {draws}"
             )
         ux[: n * n_axes + n_par, : n * n_axes + n_par] = _sampled_population_covariance(
-            machine, q, delta, sigma, v, senses, int(draws), seed
+            machine, q, delta, sigma, v, senses, linear, int(draws), seed
         )
     e0 = n * n_axes + n_par
     ux[e0:, e0:] = np.kron(np.eye(n), cov_e)
@@ -277,7 +277,7 @@ def _linear_population_covariance(machine, q, delta, sigma, v, senses, linear) -
     return out
 
 
-def _sampled_population_covariance(machine, q, delta, sigma, v, senses, draws, seed):
+def _sampled_population_covariance(machine, q, delta, sigma, v, senses, linear, draws, seed):
     """Sample cov [Γ; Δ] of Q draws of Populations I–IV (Appendix A.3)."""
     rng = as_generator(seed)
     n, n_axes = q.shape
@@ -287,7 +287,13 @@ def _sampled_population_covariance(machine, q, delta, sigma, v, senses, draws, s
     deltas = rng.multivariate_normal(delta, sigma, draws, method="eigh")  # III
     # IV: rotary readings stay commanded; one member of II per member of III (§6.2.2).
     gamma = machine.inverse(psi, np.broadcast_to(q, phi.shape), deltas[:, None, :], senses=senses)
-    return np.cov(np.hstack([gamma.reshape(draws, -1), deltas]), rowvar=False)
+    # Only the linear readings and Δ vary: the rotary ones are constants, exactly.
+    lin = (np.arange(n)[:, None] * n_axes + np.array(linear)[None, :]).ravel()
+    live = np.concatenate([lin, n * n_axes + np.arange(machine.n_params)])
+    out = np.zeros((n * n_axes + machine.n_params,) * 2)
+    pop = np.hstack([gamma.reshape(draws, -1)[:, lin], deltas])
+    out[np.ix_(live, live)] = np.cov(pop, rowvar=False)
+    return out
 
 
 def _psd_factor(v: np.ndarray) -> np.ndarray:
