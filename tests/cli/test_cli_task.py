@@ -242,17 +242,21 @@ def test_plane_flatness_and_monte_carlo_validation(tmp_path):
     assert doc["outputs"][0]["value"] > doc["guf"]["outputs"][0]["value"]
 
 
-def test_length_with_points_reports_the_coordinates_and_a_sampled_simulator(tmp_path):
+def test_points_of_a_length_and_a_sampled_simulator(tmp_path):
+    """--feature points: the compensated coordinates (Sepahi Boroujeni (2021), Table 7-1)."""
     d = _files(tmp_path)
     result = _run(
-        d, "--unexplained", str(d / "E.json"), "--with-points", "--simulator", "sampled",
+        d, "--unexplained", str(d / "E.json"), "--feature", "points", "--simulator", "sampled",
         "--draws", "2000", "--seed", "1", "--json",
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
     names = [o["name"] for o in doc["outputs"]]
-    assert names == ["X_1", "Y_1", "Z_1", "X_2", "Y_2", "Z_2", "gauge_length"]
+    assert names == ["X_1", "Y_1", "Z_1", "X_2", "Y_2", "Z_2"]
     assert doc["covariance_simulator"] == {"method": "sampled", "draws": 2000}
+    assert [o["value"] for o in doc["outputs"]] == pytest.approx(
+        np.ravel(doc["points"]["compensated"]), abs=1e-12
+    )
     u_x1 = doc["outputs"][0]["u"]
     assert u_x1 == pytest.approx(np.sqrt(E_COV[0][0]) * UM, rel=1e-9)  # E alone, no v
 

@@ -53,6 +53,7 @@ class FeatureName(StrEnum):
     sphere = "sphere"
     circle = "circle"
     plane = "plane"
+    points = "points"
 
 
 class Side(StrEnum):
@@ -72,7 +73,7 @@ class Simulator(StrEnum):
 
 
 #: Fewest points of each feature (a length: exactly two).
-MIN_POINTS = {"length": 2, "sphere": 4, "circle": 3, "plane": 3}
+MIN_POINTS = {"length": 2, "sphere": 4, "circle": 3, "plane": 3, "points": 1}
 #: Default side: a ball is probed from outside, a circle is a bore.
 DEFAULT_SIDE = {"sphere": Side.outer, "circle": Side.inner}
 
@@ -112,17 +113,17 @@ def _points(path: Path, machine: Machine, feature: FeatureName, need_approach: b
     )
 
 
-def _feature(name: FeatureName, side: Side | None, d_tip: float, n_points: int, with_points: bool):
-    """The feature function g(q): the size (tip-compensated) and the form of the element."""
+def _feature(name: FeatureName, side: Side | None, d_tip: float, n_points: int):
+    """The feature function g(q): the size (tip-compensated) and the form of the element,
+    or the compensated coordinates themselves (Sepahi Boroujeni (2021), Table 7-1)."""
     inner = (side or DEFAULT_SIDE.get(name.value, Side.outer)) is Side.inner
     parts = {
         FeatureName.length: (GaugeLength(tip_diameter=d_tip),),
         FeatureName.sphere: (SphereDiameter(d_tip, inner=inner), Sphericity()),
         FeatureName.circle: (CircleDiameter(inner=inner, tip_diameter=d_tip), Roundness()),
         FeatureName.plane: (Flatness(),),
+        FeatureName.points: (PointCoordinates(n_points),),
     }[name]
-    if with_points:
-        parts = (PointCoordinates(n_points), *parts)
     return parts[0] if len(parts) == 1 else CombinedFeature(parts)
 
 
@@ -153,9 +154,6 @@ def uncertainty(
     tip_diameter: Annotated[
         float | None, typer.Option(help="Effective tip diameter, mm (default: the machine's).")
     ] = None,
-    with_points: Annotated[
-        bool, typer.Option(help="Also report the compensated coordinates of every point.")
-    ] = False,
     method: Annotated[
         Method, typer.Option(help="GUF, adaptive Monte Carlo, or both with the validation.")
     ] = Method.guf,
@@ -192,10 +190,10 @@ def uncertainty(
     (linear mm, rotary degrees); ``i,j,k`` (approach direction) when ``--repeatability``
     is given; for ``--feature length`` two rows, ordered by an optional ``end`` (1, 2).
     Features: length (gauge length), sphere (diameter, sphericity), circle (diameter,
-    roundness), plane (flatness), least squares. Method: GUF with the covariance
-    simulator (machine-parameter uncertainty cancels to first order; the parameters enter
-    the compensated value), adaptive Monte Carlo (JCGM 101/102), or both with the
-    validation of the GUF.
+    roundness), plane (flatness), least squares; points (the compensated coordinates).
+    Method: GUF with the covariance simulator (machine-parameter uncertainty cancels to
+    first order; the parameters enter the compensated value), adaptive Monte Carlo (JCGM
+    101/102), or both with the validation of the GUF.
     """
     tol = Tolerance.parse(tolerance) if tolerance is not None else None
     if repeatability is None and unexplained is None:
@@ -216,9 +214,8 @@ def uncertainty(
         v = reading_covariance(machine, load_repeatability_model(repeatability), readings, approach)
     cov_e = load_unexplained_covariance(unexplained) if unexplained is not None else None
     d_tip = 2.0 * machine.tip_radius if tip_diameter is None else tip_diameter
-    feat = _feature(feature, side, d_tip, len(readings), with_points)
-    first = 3 * len(readings) if with_points else 0  # the coordinates come first
-    target = _tolerance_index(feat, tolerance_output, tol, first)
+    feat = _feature(feature, side, d_tip, len(readings))
+    target = _tolerance_index(feat, tolerance_output, tol)
     result = task_uncertainty(
         machine,
         readings,
@@ -250,14 +247,14 @@ def uncertainty(
     if json_output:
         print_json(document)
     else:
-        _print(result, first)
+        _print(result)
 
 
-def _tolerance_index(feature, name: str | None, tol: Tolerance | None, first: int) -> int:
+def _tolerance_index(feature, name: str | None, tol: Tolerance | None) -> int:
     """Index of the toleranced output: the named one, else the feature's first."""
     names = list(feature.output_names)
     if name is None:
-        return first
+        return 0
     if tol is None:
         raise InputError("--tolerance-output needs --tolerance")
     if name not in names:
@@ -332,17 +329,16 @@ def _write_report(
     write_report(rep, path)
 
 
-def _print(result: TaskResult, first: int) -> None:
+def _print(result: TaskResult) -> None:
     r = result.result
-    if first:
-        typer.echo(f"(the coordinates of {first // 3} points are in the --json document)")
-    for j, o in list(enumerate(r.outputs))[first:]:
+    for j, o in enumerate(r.outputs):
         typer.echo(
             f"{o.name} = {o.value:.4f} mm, u = {from_internal(o.u, 'µm'):.2f} µm, "
             f"U = {from_internal(o.U, 'µm'):.2f} µm (k = {o.k:.2f}, p = {o.p})"
         )
         shares = ", ".join(
-            f"{k.replace('_', ' ')} {100 * v[j] + 0.0:.1f} %" for k, v in result.shares.items()
+            f"{k.replace('_', ' ')} {round(100 * v[j], 1) + 0.0:.1f} %"
+            for k, v in result.shares.items()
         )
         typer.echo(f"  first-order budget: {shares}")
     if result.mcm is not None:
