@@ -10,6 +10,7 @@ from mtmetrology.fitting.batch import (
     fit_planes,
     fit_spheres,
 )
+from mtmetrology.fitting.composite import CombinedFeature, PointCoordinates
 from mtmetrology.fitting.elements import Circle, Cone, Cylinder, Element, Line, Plane, Sphere
 from mtmetrology.fitting.features import (
     BallCentre,
@@ -46,6 +47,7 @@ __all__ = [
     "BatchRoundFit",
     "Circle",
     "CircleDiameter",
+    "CombinedFeature",
     "Cone",
     "Cylinder",
     "Element",
@@ -56,6 +58,7 @@ __all__ = [
     "GaugeLength",
     "Line",
     "Plane",
+    "PointCoordinates",
     "Roundness",
     "Sphere",
     "SphereDiameter",

@@ -15,11 +15,16 @@ from mtmetrology.omm.repeatability import (
     target_statistics,
 )
 from mtmetrology.omm.repeatability_file import load_repeatability_model
+from mtmetrology.omm.simulator import TaskInputs, covariance_simulator
+from mtmetrology.omm.task import TaskResult, task_uncertainty
 
 __all__ = [
     "ReferenceValue",
     "RepeatabilityModel",
     "TargetStatistics",
+    "TaskInputs",
+    "TaskResult",
+    "covariance_simulator",
     "coverage_probability",
     "fit_repeatability_model",
     "lateral_deviation_threshold",
@@ -27,5 +32,6 @@ __all__ = [
     "normal_tangential",
     "sphere_normal",
     "target_statistics",
+    "task_uncertainty",
     "thermal_reference_value",
 ]
