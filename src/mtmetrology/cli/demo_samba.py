@@ -307,7 +307,8 @@ def task_section(ctx: DemoContext, *, preset: str) -> None:
     readings = readings_from_table(m, read_csv_table(points, required=("point",)))
     tolerance = Tolerance.parse(GAUGE_TOLERANCE)
     unexplained = ctx.path("task", "unexplained.json")
-    with ctx.step("task uncertainty of the gauge length (GUF over the compensation)"):
+    seed = ctx.seed + 5
+    with ctx.step("task uncertainty of the gauge length (GUF validated by Monte Carlo)"):
         result = task_uncertainty(
             m,
             readings,
@@ -315,39 +316,45 @@ def task_section(ctx: DemoContext, *, preset: str) -> None:
             pset.covariance,
             GaugeLength(tip_diameter=2.0 * m.tip_radius),
             unexplained_covariance=load_unexplained_covariance(unexplained),
+            method="both",
+            seed=seed,
         )
-    g = result.guf
-    decision = decide(float(g.estimate[0]), float(g.expanded_uncertainty[0]), tolerance, unit="mm")
+    g = result.result.output()  # the Monte Carlo result, the reference of the validation
+    decision = decide(g.value, g.U, tolerance, unit="mm")
     result = replace(result, decision=decision)
     ctx.write_json(result.to_dict(), "task", "gauge-length.json")
     ctx.command(
         "the gauge length with its uncertainty and ISO 14253-1 decision",
         "task", "uncertainty", ctx.shown("task", "gauge-pair.csv"), "--machine", preset,
         "--params", ctx.shown("samba", "params.json"), "--feature", "length",
-        "--unexplained", ctx.shown("task", "unexplained.json"),
-        "--tolerance", GAUGE_TOLERANCE, "-o", ctx.shown("task", "gauge-length.json"),
+        "--unexplained", ctx.shown("task", "unexplained.json"), "--method", "both",
+        "--seed", str(seed), "--tolerance", GAUGE_TOLERANCE,
+        "-o", ctx.shown("task", "gauge-length.json"),
     )  # fmt: skip
-    u_um = float(from_internal(g.standard_uncertainty[0], "µm"))
-    big_u_um = float(from_internal(g.expanded_uncertainty[0], "µm"))
+    u_um = float(from_internal(g.u, "µm"))
+    big_u_um = float(from_internal(g.U, "µm"))
     ctx.report.section(
         "Task uncertainty and conformity of the gauge length",
         "The gauge length of the first indexation, compensated with the calibrated "
-        "parameters; its uncertainty by the full-covariance GUF over the parameter "
-        "covariance of the calibration and the unexplained volumetric error (the covariance "
-        "of the calibration's residual vectors; Sepahi Boroujeni (2021), ch. 6–7). The "
-        "decision follows ISO 14253-1:2017 with guard bands of U: "
+        "parameters; its uncertainty by adaptive Monte Carlo (JCGM 101:2008, 7.9) over the "
+        "parameter covariance of the calibration and the unexplained volumetric error (the "
+        "covariance of the calibration's residual vectors; Sepahi Boroujeni (2021), ch. "
+        "6–7), with the full-covariance GUF validated against it. The decision follows ISO "
+        "14253-1:2017 with guard bands of U: "
         f"tolerance {tolerance.lower_limit:.6f} to {tolerance.upper_limit:.6f} mm.",
     )
     ctx.report.table(
         ["length (mm)", "u (µm)", "U (µm)", "k", "acceptance zone (mm)", "decision"],
         [[
-            f"{g.estimate[0]:.6f}", f"{u_um:.2f}", f"{big_u_um:.2f}",
-            f"{g.coverage_factor[0]:.2f}",
+            f"{g.value:.6f}", f"{u_um:.2f}", f"{big_u_um:.2f}", f"{g.k:.2f}",
             "[{:.6f}, {:.6f}]".format(*decision.acceptance_zone), decision.decision.value,
         ]],
     )  # fmt: skip
-    add_result(ctx.report, g)
+    add_result(ctx.report, result.guf)
+    add_result(ctx.report, result.validation)
+    validated = "validated" if result.validation.passed else "NOT validated"
     ctx.summary.append(
-        f"task: gauge length {g.estimate[0]:.4f} mm, u = {u_um:.2f} µm, U = {big_u_um:.2f} µm "
-        f"(k = {g.coverage_factor[0]:.2f}); ISO 14253-1: {decision.decision.value}"
+        f"task: gauge length {g.value:.4f} mm, u = {u_um:.2f} µm, U = {big_u_um:.2f} µm "
+        f"(k = {g.k:.2f}, Monte Carlo, {result.mcm.trials} trials; GUF {validated}); "
+        f"ISO 14253-1: {decision.decision.value}"
     )
