@@ -128,7 +128,7 @@ class HysteresisResult:
             big_u = k * u
             out.append(
                 Output(
-                    name=f"H_{from_internal(self.psi[j], 'deg'):g}",
+                    name=f"H_{_deg(self.psi[j]):g}",
                     value=float(h),
                     unit="µm",
                     u=float(u),
@@ -152,7 +152,7 @@ class HysteresisResult:
             "outputs": [o.to_dict() for o in self.outputs()],
             "indexations": [
                 {
-                    "psi": float(from_internal(self.psi[j], "deg")),
+                    "psi": _deg(self.psi[j]),
                     f"mean_r_{affected}": float(self.mean_affected[j]),
                     f"mean_r_{reference}": float(self.mean_reference[j]),
                     f"s_{affected}": _um(self.std_affected[j]),
@@ -172,6 +172,11 @@ class HysteresisResult:
                 "unit": "µm",
             },
         }
+
+
+def _deg(angle) -> float:
+    # ψ is a label read in degrees: undo the rad round trip (30 → 29.999999999999996).
+    return round(float(from_internal(angle, "deg")), 9)
 
 
 def _um(value) -> float:
