@@ -36,13 +36,14 @@ def sphere_records(rng: np.random.Generator) -> list[str]:
     pos = rng.uniform([-200, -150, -100], [200, 150, 200], (n_targets, 3))
     n = sphere_normal(to_internal(phi, "deg"), to_internal(theta, "deg"))
     span = cycles * n_targets * dt
-    drift = np.array([[0.0, 0.0, 0.0], [16.0, -12.0, 8.0], [-24.0, 8.0, -4.0], [12.0, 6.0, 2.0]]) * UM
+    # Coefficients of z, z², z³ (z = time / span) of the X, Y, Z drift, µm.
+    drift = np.array([[16.0, -12.0, 8.0], [-24.0, 8.0, -4.0], [12.0, 6.0, 2.0]]) * UM
     rows = ["target,phi,theta,B,C,X_T,Y_T,Z_T,i,j,k,X,Y,Z,time"]
     for cycle in range(cycles):
         for t in range(n_targets):
             time = (cycle * n_targets + t) * dt
             z = time / span
-            thermal = drift[1] * z + drift[2] * z**2 + drift[3] * z**3
+            thermal = drift[0] * z + drift[1] * z**2 + drift[2] * z**3
             along, across = rng.normal(0.0, 0.5 * UM), rng.normal(0.0, 0.2 * UM, 3)
             p = pos[t] + thermal + along * n[t] + across - np.dot(across, n[t]) * n[t]
             rows.append(

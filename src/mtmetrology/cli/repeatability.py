@@ -163,12 +163,8 @@ def fit(
     zero = [t for t, z in zip(stats.targets, stats.zero_variance, strict=True) if z.any()]
     document["resolution_warnings"] = zero
     json.dumps(document, allow_nan=False)  # refuse NaN before anything is written
-    if report_path is not None:
-        report = _report(ctx, records, document)
-    write_json(output, document)
-    typer.echo(f"repeatability model written to {output}", err=True)
-    if report_path is not None:
-        write_report(report, report_path)
+    report = None if report_path is None else _report(ctx, records, document)
+    _write(document, output, "repeatability model", report, report_path)
     if json_output:
         print_json(document)
     elif zero:
@@ -177,6 +173,15 @@ def fit(
             f"({', '.join(zero[:5])}): approach slightly off the axes",
             err=True,
         )
+
+
+def _write(document: dict, output: Path | None, what: str, report, report_path) -> None:
+    """Write the document, then the report: both are complete before either is written."""
+    if output is not None:
+        write_json(output, document)
+        typer.echo(f"{what} written to {output}", err=True)
+    if report is not None:
+        write_report(report, report_path)
 
 
 def _report(ctx: typer.Context, records: Path, document: dict):
@@ -328,13 +333,8 @@ def hysteresis(
     document = result.to_dict()
     document["source"] = str(records)
     json.dumps(document, allow_nan=False)  # refuse NaN before anything is written
-    if report_path is not None:
-        report = _hysteresis_report(ctx, records, document)
-    if output is not None:
-        write_json(output, document)
-        typer.echo(f"hysteresis result written to {output}", err=True)
-    if report_path is not None:
-        write_report(report, report_path)
+    report = None if report_path is None else _hysteresis_report(ctx, records, document)
+    _write(document, output, "hysteresis result", report, report_path)
     if json_output:
         print_json(document)
         return
