@@ -171,3 +171,17 @@ def test_window_larger_than_the_series_is_refused_naming_the_target():
         sliding_window_std(np.zeros(5), 1)
     with pytest.raises(InputError, match="first iteration"):
         window_statistics(*args, first_iteration=0)
+
+
+def test_repeated_times_are_refused_naming_the_target():
+    touches = 8
+    time = np.r_[np.arange(float(touches)), np.zeros(touches)]  # target "b": one instant
+    with pytest.raises(InputError, match="'b'"):
+        target_statistics(
+            ["a"] * touches + ["b"] * touches,
+            np.zeros((2 * touches, 7)),
+            np.random.default_rng(3).normal(size=(2 * touches, 3)),
+            np.tile([1.0, 0.0, 0.0], (2 * touches, 1)),
+            time,
+            drift="cubic",
+        )

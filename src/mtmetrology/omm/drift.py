@@ -19,9 +19,15 @@ from __future__ import annotations
 import numpy as np
 
 from mtmetrology.errors import ConvergenceError, InputError
-from mtmetrology.optimize import least_squares
+from mtmetrology.optimize import least_squares_batch
 
-__all__ = ["CUBIC_COEFFICIENTS", "MIN_CUBIC_POINTS", "detrend_cubic", "sliding_window_std"]
+__all__ = [
+    "CUBIC_COEFFICIENTS",
+    "MIN_CUBIC_POINTS",
+    "detrend_cubic",
+    "detrend_cubic_stack",
+    "sliding_window_std",
+]
 
 #: Coefficients of the drift polynomial (degree 3): the residuals keep n − 4 degrees of freedom.
 CUBIC_COEFFICIENTS = 4
@@ -62,9 +68,8 @@ def detrend_cubic(values, abscissa=None, *, where: str = "series") -> np.ndarray
     -----
     Sepahi Boroujeni (2021), §4: cubic polynomials are fitted to the recorded
     coordinates and radial projections to remove the (thermal) drift, and the standard
-    deviation of the residuals specifies the probing repeatability. The fit is linear
-    least squares by the library's Gauss–Newton core (one step); the abscissa is mapped
-    to [−1, 1] so that the Vandermonde columns stay of order one.
+    deviation of the residuals specifies the probing repeatability. See
+    :func:`detrend_cubic_stack` for the computation.
 
     References
     ----------
@@ -84,30 +89,93 @@ def detrend_cubic(values, abscissa=None, *, where: str = "series") -> np.ndarray
     y2 = y[:, None] if single else y
     if y2.ndim != 2:
         raise InputError(f"{where}: values must be (n,) or (n, k), got shape {y.shape}")
-    n, k = y2.shape
+    n = y2.shape[0]
+    t = np.arange(n, dtype=float) if abscissa is None else np.asarray(abscissa, dtype=float)
+    if t.shape != (n,):
+        raise InputError(f"{where}: {n} values but abscissa of shape {t.shape}")
+    residuals = detrend_cubic_stack(y2[None], t[None], where=where)[0]
+    return residuals[:, 0] if single else residuals
+
+
+def detrend_cubic_stack(values, abscissa, *, where: str = "series") -> np.ndarray:
+    """:func:`detrend_cubic` for K series of equal length at once.
+
+    Parameters
+    ----------
+    values : (K, n, k) array_like
+        K groups of k series of n values (e.g. the X, Y, Z, N, T readings of K targets).
+    abscissa : (K, n) array_like
+        Time of each value of each group.
+    where : str
+        Name of the source for error messages.
+
+    Returns
+    -------
+    (K, n, k) ndarray
+        Residuals of the cubic fitted to each series.
+
+    Raises
+    ------
+    InputError
+        n < :data:`MIN_CUBIC_POINTS`, a group with fewer than 4 distinct times (the
+        message gives its position), non-finite values or mismatched shapes.
+
+    Notes
+    -----
+    Each series is the linear least-squares problem min ‖V c − y‖, V = [1, z, z², z³]
+    with z the group's times mapped to [−1, 1] (Vandermonde columns of order one), and
+    y centred on its mean (the constant is in the model, so the residuals do not change,
+    and the fit works on the µm-size scatter instead of the mm-size readings). All K·k
+    problems go to the library's batched Gauss–Newton core at once, which solves a
+    linear problem in its first step.
+
+    Examples
+    --------
+    >>> t = np.tile(np.arange(6.0), (2, 1))
+    >>> y = np.stack([t[0] ** 3, 1.0 - t[1]])[..., None]
+    >>> bool(np.abs(detrend_cubic_stack(y, t)).max() < 1e-12)
+    True
+    """
+    y = np.asarray(values, dtype=float)
+    t = np.asarray(abscissa, dtype=float)
+    if y.ndim != 3 or t.shape != y.shape[:2]:
+        raise InputError(f"{where}: values (K, n, k) and abscissa (K, n) do not match")
+    n_groups, n, k = y.shape
     if n < MIN_CUBIC_POINTS:
         raise InputError(
             f"{where}: {n} values; cubic drift removal needs at least {MIN_CUBIC_POINTS} "
             f"(4 coefficients and 2 degrees of freedom left); record more replicates"
         )
-    t = np.arange(n, dtype=float) if abscissa is None else np.asarray(abscissa, dtype=float)
-    if t.shape != (n,) or not (np.all(np.isfinite(t)) and np.all(np.isfinite(y2))):
-        raise InputError(f"{where}: values and abscissa must be finite, with {n} abscissae")
-    if np.unique(t).size < CUBIC_COEFFICIENTS:
-        raise InputError(f"{where}: fewer than 4 distinct times; a cubic drift cannot be fitted")
-    z = 2.0 * (t - t.min()) / (t.max() - t.min()) - 1.0
-    vander = np.vander(z, CUBIC_COEFFICIENTS, increasing=True)
-    residuals = np.empty_like(y2)
-    for j in range(k):  # k is small (the coordinates of one target)
-        res = least_squares(
-            lambda c, col=y2[:, j]: (vander @ c - col, vander),
-            np.zeros(CUBIC_COEFFICIENTS),
-            require_full_rank=True,
-        )
-        if not res.success:  # full rank is checked above: a failure here is numerical
-            raise ConvergenceError(f"{where}: cubic drift fit failed ({res.message})")
-        residuals[:, j] = y2[:, j] - vander @ res.x
-    return residuals[:, 0] if single else residuals
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(y))):
+        raise InputError(f"{where}: values and abscissa must be finite")
+    distinct = 1 + np.sum(np.diff(np.sort(t, axis=1), axis=1) > 0, axis=1)
+    if np.any(distinct < CUBIC_COEFFICIENTS):
+        g = int(np.flatnonzero(distinct < CUBIC_COEFFICIENTS)[0])
+        at = f" (series {g + 1})" if n_groups > 1 else ""
+        raise InputError(f"{where}{at}: fewer than 4 distinct times; a cubic cannot be fitted")
+    low, high = t.min(axis=1, keepdims=True), t.max(axis=1, keepdims=True)
+    z = 2.0 * (t - low) / (high - low) - 1.0
+    vander = z[..., None] ** np.arange(CUBIC_COEFFICIENTS)  # (K, n, 4)
+    centred = y - y.mean(axis=1, keepdims=True)
+    # One problem per (group, series): normal matrix VᵀV of its group, right side Vᵀy.
+    gram = np.repeat(np.einsum("gni,gnj->gij", vander, vander), k, axis=0)
+    rhs = np.einsum("gni,gnk->gki", vander, centred).reshape(-1, CUBIC_COEFFICIENTS)
+    yy = np.einsum("gnk,gnk->gk", centred, centred).ravel()
+
+    def normal_equations(c, index):
+        a = gram[index]
+        ac = np.einsum("kij,kj->ki", a, c)
+        rr = yy[index] - 2.0 * np.einsum("ki,ki->k", c, rhs[index]) + np.einsum("ki,ki->k", c, ac)
+        return a, ac - rhs[index], np.maximum(rr, 0.0), n
+
+    scale = np.sqrt(yy) + np.finfo(float).tiny
+    solve = least_squares_batch(
+        normal_equations, np.zeros((n_groups * k, CUBIC_COEFFICIENTS)), xtol=1e-12 * scale
+    )
+    if not np.all(solve.success):  # full rank is checked above: a failure is numerical
+        raise ConvergenceError(f"{where}: cubic drift fit failed ({solve.message})")
+    coefficients = solve.x.reshape(n_groups, k, CUBIC_COEFFICIENTS)
+    return centred - np.einsum("gni,gki->gnk", vander, coefficients)
 
 
 def sliding_window_std(values, window: int, *, start: int = 0, where: str = "series"):

@@ -29,7 +29,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from mtmetrology.errors import InputError
-from mtmetrology.omm.drift import CUBIC_COEFFICIENTS, MIN_CUBIC_POINTS, detrend_cubic
+from mtmetrology.omm.drift import (
+    CUBIC_COEFFICIENTS,
+    MIN_CUBIC_POINTS,
+    detrend_cubic,
+    detrend_cubic_stack,
+)
 from mtmetrology.optimize import least_squares
 from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.units import from_internal, to_internal
@@ -353,7 +358,7 @@ def target_statistics(
     if drift not in ("none", "cubic"):
         raise InputError(f"drift: must be 'none' or 'cubic', got {drift!r}")
     need = MIN_CUBIC_POINTS if drift == "cubic" else 3
-    rows = []
+    groups = []
     for name, idx in time_ordered_groups(target, time):
         if not np.all(factors[idx] == factors[idx[0]]):
             raise InputError(f"{where}: target {name!r}: pose factors change between touches")
@@ -369,20 +374,25 @@ def target_statistics(
                 )
             )
         p = readings[idx]
-        mean = p.mean(axis=0)
-        origin = centre[idx] if centre is not None else mean
+        origin = centre[idx] if centre is not None else p.mean(axis=0)
         n_proj, t_proj = normal_tangential(p, origin, normal[idx])
-        series = np.column_stack([p, n_proj, t_proj])  # X, Y, Z, N, T
+        groups.append((name, idx, np.column_stack([p, n_proj, t_proj])))  # X, Y, Z, N, T
+    residuals = _drift_residuals(groups, time, where) if drift == "cubic" else None
+    rows = []
+    for g, (name, idx, series) in enumerate(groups):
         raw = np.cov(series, rowvar=False)
-        if drift == "cubic":
-            r = detrend_cubic(series, time[idx], where=f"{where}: target {name!r}")
+        if residuals is not None:
+            r = residuals[g]
             c5 = r.T @ r / (idx.size - CUBIC_COEFFICIENTS)
         else:
             c5 = raw
         std = np.sqrt(np.diag(c5))
         cov = np.array([c5[0, 1], c5[0, 2], c5[1, 2], c5[3, 4]])
+        p = series[:, :3]
         zero = np.ptp(p, 0) == 0
-        rows.append((name, factors[idx[0]], idx.size, mean, std, cov, zero, np.sqrt(np.diag(raw))))
+        rows.append(
+            (name, factors[idx[0]], idx.size, p.mean(axis=0), std, cov, zero, np.sqrt(np.diag(raw)))
+        )
     cols = list(zip(*rows, strict=True))
     return TargetStatistics(
         targets=tuple(cols[0]),
@@ -395,6 +405,29 @@ def target_statistics(
         drift=drift,
         std_raw=np.array(cols[7]),
     )
+
+
+def _drift_residuals(groups, time: np.ndarray, where: str) -> list[np.ndarray]:
+    """Cubic-drift residuals of each target's (n, 5) series, targets of equal n batched."""
+    out: list = [None] * len(groups)
+    sizes = np.array([idx.size for _, idx, _ in groups])
+    for size in np.unique(sizes):
+        members = np.flatnonzero(sizes == size)
+        try:
+            r = detrend_cubic_stack(
+                np.stack([groups[g][2] for g in members]),
+                np.stack([time[groups[g][1]] for g in members]),
+                where=where,
+            )
+        except InputError:  # name the target: refit one by one to find it
+            for g in members:
+                detrend_cubic(
+                    groups[g][2], time[groups[g][1]], where=f"{where}: target {groups[g][0]!r}"
+                )
+            raise
+        for j, g in enumerate(members):
+            out[g] = r[j]
+    return out
 
 
 def _design(z: np.ndarray, degrees: tuple[int, ...]) -> np.ndarray:
