@@ -274,12 +274,9 @@ def time_ordered_groups(target, time) -> list[tuple[str, np.ndarray]]:
     [('b', [2, 0]), ('a', [1])]
     """
     names, first, inverse = np.unique(np.asarray(target), return_index=True, return_inverse=True)
-    time = np.asarray(time, float)
-    groups = []
-    for g in np.argsort(first):  # first-appearance order
-        idx = np.flatnonzero(inverse == g)
-        groups.append((str(names[g]), idx[np.argsort(time[idx], kind="stable")]))
-    return groups
+    order = np.lexsort((np.asarray(time, float), inverse))  # by target, then time (stable)
+    chunks = np.split(order, np.cumsum(np.bincount(inverse, minlength=names.size))[:-1])
+    return [(str(names[g]), chunks[g]) for g in np.argsort(first)]  # first-appearance order
 
 
 def target_statistics(
@@ -373,61 +370,49 @@ def target_statistics(
                     else f"repeatability needs at least {need} after the first is discarded"
                 )
             )
+        groups.append((name, idx))
+    k = len(groups)
+    mean, std, cov, std_raw = np.empty((k, 3)), np.empty((k, 5)), np.empty((k, 4)), np.empty((k, 5))
+    zero = np.empty((k, 3), bool)
+    sizes = np.array([idx.size for _, idx in groups])
+    for size in np.unique(sizes):  # targets with as many touches, stacked (g, n, ·)
+        members = np.flatnonzero(sizes == size)
+        idx = np.stack([groups[g][1] for g in members])
         p = readings[idx]
-        origin = centre[idx] if centre is not None else p.mean(axis=0)
+        mean[members] = p.mean(axis=1)
+        origin = centre[idx] if centre is not None else mean[members][:, None, :]
         n_proj, t_proj = normal_tangential(p, origin, normal[idx])
-        groups.append((name, idx, np.column_stack([p, n_proj, t_proj])))  # X, Y, Z, N, T
-    residuals = _drift_residuals(groups, time, where) if drift == "cubic" else None
-    rows = []
-    for g, (name, idx, series) in enumerate(groups):
-        raw = np.cov(series, rowvar=False)
-        if residuals is not None:
-            r = residuals[g]
-            c5 = r.T @ r / (idx.size - CUBIC_COEFFICIENTS)
-        else:
-            c5 = raw
-        std = np.sqrt(np.diag(c5))
-        cov = np.array([c5[0, 1], c5[0, 2], c5[1, 2], c5[3, 4]])
-        p = series[:, :3]
-        zero = np.ptp(p, 0) == 0
-        rows.append(
-            (name, factors[idx[0]], idx.size, p.mean(axis=0), std, cov, zero, np.sqrt(np.diag(raw)))
-        )
-    cols = list(zip(*rows, strict=True))
+        series = np.concatenate([p, n_proj[..., None], t_proj[..., None]], axis=2)  # X Y Z N T
+        d = series - series.mean(axis=1, keepdims=True)
+        c5 = raw = np.einsum("gni,gnj->gij", d, d) / (size - 1)
+        if drift == "cubic":
+            r = _drift_residuals(series, time[idx], [groups[g][0] for g in members], where)
+            c5 = np.einsum("gni,gnj->gij", r, r) / (size - CUBIC_COEFFICIENTS)
+        std[members] = np.sqrt(np.einsum("gii->gi", c5))
+        cov[members] = c5[:, [0, 0, 1, 3], [1, 2, 2, 4]]  # XY, XZ, YZ, NT
+        std_raw[members] = np.sqrt(np.einsum("gii->gi", raw))
+        zero[members] = np.ptp(p, axis=1) == 0
     return TargetStatistics(
-        targets=tuple(cols[0]),
-        factors=np.array(cols[1]),
-        n_touches=np.array(cols[2]),
-        mean=np.array(cols[3]),
-        std=np.array(cols[4]),
-        cov=np.array(cols[5]),
-        zero_variance=np.array(cols[6]),
+        targets=tuple(name for name, _ in groups),
+        factors=np.array([factors[idx[0]] for _, idx in groups]),
+        n_touches=sizes,
+        mean=mean,
+        std=std,
+        cov=cov,
+        zero_variance=zero,
         drift=drift,
-        std_raw=np.array(cols[7]),
+        std_raw=std_raw,
     )
 
 
-def _drift_residuals(groups, time: np.ndarray, where: str) -> list[np.ndarray]:
-    """Cubic-drift residuals of each target's (n, 5) series, targets of equal n batched."""
-    out: list = [None] * len(groups)
-    sizes = np.array([idx.size for _, idx, _ in groups])
-    for size in np.unique(sizes):
-        members = np.flatnonzero(sizes == size)
-        try:
-            r = detrend_cubic_stack(
-                np.stack([groups[g][2] for g in members]),
-                np.stack([time[groups[g][1]] for g in members]),
-                where=where,
-            )
-        except InputError:  # name the target: refit one by one to find it
-            for g in members:
-                detrend_cubic(
-                    groups[g][2], time[groups[g][1]], where=f"{where}: target {groups[g][0]!r}"
-                )
-            raise
-        for j, g in enumerate(members):
-            out[g] = r[j]
-    return out
+def _drift_residuals(series, time, names, where: str) -> np.ndarray:
+    """Cubic-drift residuals of stacked (g, n, 5) series; a refused target is named."""
+    try:
+        return detrend_cubic_stack(series, time, where=where)
+    except InputError:
+        for s, t, name in zip(series, time, names, strict=True):
+            detrend_cubic(s, t, where=f"{where}: target {name!r}")
+        raise
 
 
 def _design(z: np.ndarray, degrees: tuple[int, ...]) -> np.ndarray:
