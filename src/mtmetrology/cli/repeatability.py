@@ -1,16 +1,19 @@
 """``mtm repeatability``: probing repeatability models from replicated on-machine probing.
 
 ``mtm repeatability fit RECORDS.csv -o R.json`` computes, per target pose, the standard
-deviations and covariances of the readings (first touch discarded) and fits the
+deviations and covariances of the readings (first touch discarded; optionally after
+removing a cubic drift, and with sliding-window standard deviations) and fits the
 standard-deviation (Sepahi Boroujeni (2021), eq. 4-1) and covariance (eq. 4-2) models on
 normalised pose factors; ``R.json`` is a ``repeatability-model`` document.
+``mtm repeatability hysteresis RECORDS.csv`` evaluates probing or axis hysteresis errors
+of ring-gauge probing (eqs. 4-3 and 4-4).
 """
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import numpy as np
 import typer
@@ -24,6 +27,7 @@ from mtmetrology.cli._common import (
 )
 from mtmetrology.errors import InputError
 from mtmetrology.io import read_csv_table, write_json
+from mtmetrology.omm.hysteresis import HYSTERESIS_KINDS, hysteresis_errors, radial_projection
 from mtmetrology.omm.repeatability import (
     COVARIANCE_OUTPUTS,
     STD_OUTPUTS,
@@ -31,6 +35,8 @@ from mtmetrology.omm.repeatability import (
     fit_repeatability_model,
     target_statistics,
 )
+from mtmetrology.omm.repeatability_windows import WINDOW_OUTPUTS, window_statistics
+from mtmetrology.units import to_internal
 
 app = typer.Typer(
     help="Probing repeatability models (on-machine measurement).", no_args_is_help=True
@@ -83,6 +89,29 @@ def fit(
         typer.Option(help="Fraction of the targets held out to report validation errors."),
     ] = 0.15,
     seed: Annotated[int, typer.Option(help="Seed of the held-out draw.")] = 0,
+    drift: Annotated[
+        Literal["none", "cubic"],
+        typer.Option(
+            help="cubic: remove a cubic drift in time from each target's series first; "
+            "σ and covariances then come from the residuals (n − 4 degrees of freedom)."
+        ),
+    ] = "none",
+    window: Annotated[
+        int | None,
+        typer.Option(
+            help="Also give σ of X, Y, Z, N in a window of this many touches sliding along "
+            "each target's series (the thesis uses 10).",
+            min=2,
+        ),
+    ] = None,
+    window_from: Annotated[
+        int,
+        typer.Option(
+            help="Iteration (1 = first touch of a target) where the first window starts "
+            "(the thesis uses 26, after the drift has settled).",
+            min=1,
+        ),
+    ] = 2,
     json_output: Annotated[
         bool, typer.Option("--json", help="Also print the document on standard output.")
     ] = False,
@@ -106,22 +135,36 @@ def fit(
     Per target: σ of X, Y, Z and of the normal/tangential projections N, T, and
     cov(X,Y), cov(X,Z), cov(Y,Z), cov(N,T). The models need more than 36 fitting targets
     and at least six distinct values of each factor. Output units: µm, µm².
+
+    --drift cubic fits c0 + c1 t + c2 t² + c3 t³ to each of a target's series against
+    the time column (Sepahi Boroujeni (2021), §4) and needs at least 6 touches after the
+    first. --window W adds a "windows" block (σ per window start, µm) and, with --report,
+    a figure of σ against the window start.
     """
     data = _read_records(records)
-    stats = target_statistics(**data)
+    stats = target_statistics(**data, drift=drift)
+    windows = None
+    if window is not None:
+        windows = window_statistics(
+            data["target"],
+            data["readings"],
+            data["normal"],
+            data["time"],
+            window=window,
+            first_iteration=window_from,
+            where=data["where"],
+        )
     model = fit_repeatability_model(stats, holdout=holdout, seed=seed)
     document = model.to_dict()
     document["source"] = str(records)
     document["statistics"] = stats.to_dict()
+    if windows is not None:
+        document["windows"] = {"first_iteration": window_from, **windows.to_dict()}
     zero = [t for t, z in zip(stats.targets, stats.zero_variance, strict=True) if z.any()]
     document["resolution_warnings"] = zero
     json.dumps(document, allow_nan=False)  # refuse NaN before anything is written
-    if report_path is not None:
-        report = _report(ctx, records, document)
-    write_json(output, document)
-    typer.echo(f"repeatability model written to {output}", err=True)
-    if report_path is not None:
-        write_report(report, report_path)
+    report = None if report_path is None else _report(ctx, records, document)
+    _write(document, output, "repeatability model", report, report_path)
     if json_output:
         print_json(document)
     elif zero:
@@ -130,6 +173,15 @@ def fit(
             f"({', '.join(zero[:5])}): approach slightly off the axes",
             err=True,
         )
+
+
+def _write(document: dict, output: Path | None, what: str, report, report_path) -> None:
+    """Write the document, then the report: both are complete before either is written."""
+    if output is not None:
+        write_json(output, document)
+        typer.echo(f"{what} written to {output}", err=True)
+    if report is not None:
+        write_report(report, report_path)
 
 
 def _report(ctx: typer.Context, records: Path, document: dict):
@@ -167,12 +219,171 @@ def _report(ctx: typer.Context, records: Path, document: dict):
     )
     rep.section("Per-target statistics")
     names = STD_OUTPUTS + COVARIANCE_OUTPUTS
+    cubic = document["statistics"]["drift"]["model"] == "cubic"
+    caption = "σ in µm, covariances in µm²; first touch discarded."
+    if cubic:
+        caption += (
+            " Cubic drift in time removed from each series (Sepahi Boroujeni (2021), §4): "
+            "σ and covariances of the residuals, n − 4 degrees of freedom; σ_X raw is the "
+            "standard deviation of the X readings themselves."
+        )
     rep.table(
-        ["target", "touches", *names],
+        ["target", "touches", *names, *(["sigma_X raw"] if cubic else [])],
         [
-            [t["target"], t["n_touches"], *(f"{t[n]:.3f}" for n in names)]
+            [
+                t["target"],
+                t["n_touches"],
+                *(f"{t[n]:.3f}" for n in names),
+                *([f"{t['sigma_X_raw']:.3f}"] if cubic else []),
+            ]
             for t in document["statistics"]["targets"]
         ],
-        caption="σ in µm, covariances in µm²; first touch discarded.",
+        caption=caption,
     )
+    if "windows" in document:
+        from mtmetrology.report.figures import window_repeatability
+
+        w = document["windows"]
+        rep.section(
+            "Sliding-window repeatability",
+            f"σ of the readings in a window of {w['window']} touches sliding from iteration "
+            f"{w['first_iteration']} (Sepahi Boroujeni (2021), §4, Fig. 4-20).",
+        )
+        rep.figure(
+            window_repeatability(
+                {n: [(t["start"], t[n]) for t in w["targets"]] for n in WINDOW_OUTPUTS},
+                window=w["window"],
+            ),
+            caption="One thin line per target; the thick line is the median over targets.",
+        )
+    return rep
+
+
+#: condition label -> (test, affected): H = mean r (affected) − mean r (reference).
+_CONDITIONS = {
+    label: (kind, flag)
+    for kind, labels in HYSTERESIS_KINDS.items()
+    for label, flag in zip(labels, (True, False), strict=True)
+}
+
+
+def _read_hysteresis_records(path: Path):
+    table = read_csv_table(path, required=("psi", "condition"))
+    labels = table.strings("condition")
+    for label, line in zip(labels, table.lines, strict=True):
+        if label not in _CONDITIONS:
+            raise InputError(
+                f"{path}, line {line}: column 'condition' holds {label!r}; use direct and "
+                "hysteresis (probing test) or + and - (axis test)"
+            )
+    kinds = {_CONDITIONS[label][0] for label in labels}
+    if len(kinds) != 1:
+        raise InputError(
+            f"{path}: column 'condition' mixes the probing test (direct, hysteresis) and the "
+            "axis test (+, -); give each test its own file"
+        )
+    psi = to_internal(table.floats("psi"), "deg")
+    if table.has("r") == (table.has("X") or table.has("Y")):
+        raise InputError(
+            f"{path}: give either the radial projection in column 'r' or the readings in "
+            "columns 'X' and 'Y' (relative to the ring centre), not both"
+        )
+    if table.has("r"):
+        radius = table.floats("r")
+    else:
+        radius = radial_projection(table.floats("X"), table.floats("Y"), psi)
+    affected = np.array([_CONDITIONS[label][1] for label in labels])
+    return psi, radius, affected, kinds.pop()
+
+
+@app.command("hysteresis")
+@user_errors
+def hysteresis(
+    ctx: typer.Context,
+    records: Annotated[Path, typer.Argument(help="Ring-gauge probing records (CSV).")],
+    output: Annotated[
+        Path | None,
+        typer.Option("-o", "--output", help="Write the hysteresis-result JSON here."),
+    ] = None,
+    p: Annotated[float, typer.Option("--p", help="Coverage probability.")] = 0.95,
+    json_output: Annotated[
+        bool, typer.Option("--json", help="Print the document on standard output.")
+    ] = False,
+    report_path: ReportOption = None,
+) -> None:
+    """Probing or axis hysteresis errors (Sepahi Boroujeni (2021), eqs. 4-3 and 4-4).
+
+    RECORDS.csv has one row per touch of a ring gauge, with the columns:
+
+    \b
+      psi         indexation of the touch (deg)
+      condition   direct / hysteresis (probing test: the previous touch was the same
+                  point / the opposite wall) or + / - (axis test: pre-movement along
+                  the + / - direction of the cross axis); one test per file
+      r           radial projection (mm), or instead
+      X, Y        readings relative to the ring centre (mm): r = X cos ψ + Y sin ψ
+
+    Per indexation: H = mean r (hysteresis) − mean r (direct), or mean r (+) − mean r
+    (−), u(H) = √(s_H²/n_H + s²/n), and H ± k u(H) with k the t quantile for the
+    Welch–Satterthwaite degrees of freedom. Summary: the mean of H over the indexations
+    with u = √(Σu²)/m, the mean of |H| and the RMS of u(H). Output unit: µm.
+    """
+    psi, radius, affected, kind = _read_hysteresis_records(records)
+    result = hysteresis_errors(psi, radius, affected, kind=kind, p=p, where=str(records))
+    document = result.to_dict()
+    document["source"] = str(records)
+    json.dumps(document, allow_nan=False)  # refuse NaN before anything is written
+    report = None if report_path is None else _hysteresis_report(ctx, records, document)
+    _write(document, output, "hysteresis result", report, report_path)
+    if json_output:
+        print_json(document)
+        return
+    typer.echo(f"{kind} hysteresis, {document['definition']} (µm), p = {p:g}")
+    typer.echo(f"{'psi (deg)':>10} {'H':>8} {'u':>7} {'U':>7} {'k':>6}")
+    for row, o in zip(document["indexations"], document["outputs"], strict=True):
+        typer.echo(
+            f"{row['psi']:>10g} {o['value']:>8.3f} {o['u']:>7.3f} {o['U']:>7.3f} {o['k']:>6.2f}"
+        )
+    summary = document["summary"]
+    typer.echo(
+        f"mean H = {summary['mean']:.3f} µm (u = {summary['mean_u']:.3f} µm), "
+        f"mean |H| = {summary['mean_abs']:.3f} µm, RMS u(H) = {summary['rms_u']:.3f} µm"
+    )
+
+
+def _hysteresis_report(ctx: typer.Context, records: Path, document: dict):
+    from mtmetrology.report import Report
+    from mtmetrology.report.figures import hysteresis_bars
+
+    rep = Report(
+        f"Hysteresis: {records.name}",
+        command=command_line(ctx),
+        provenance={"inputs": [records]},
+    )
+    summary = document["summary"]
+    rep.section(
+        f"{document['test'].capitalize()} hysteresis",
+        f"{document['definition']} at each indexation (Sepahi Boroujeni (2021), eq. 4-3), "
+        "u(H) from the standard deviations of the two means (eq. 4-4). Mean over the "
+        f"indexations {summary['mean']:.3f} µm (u = {summary['mean_u']:.3f} µm); mean |H| "
+        f"{summary['mean_abs']:.3f} µm; RMS of u(H) {summary['rms_u']:.3f} µm.",
+    )
+    outputs, rows = document["outputs"], document["indexations"]
+    rep.figure(
+        hysteresis_bars(
+            [r["psi"] for r in rows],
+            [o["value"] for o in outputs],
+            [o["u"] for o in outputs],
+            coverage_factor=[o["k"] for o in outputs],
+        ),
+        caption=f"Bars: H ± U, coverage probability {outputs[0]['p']:g}.",
+    )
+    rep.table(
+        ["ψ (deg)", "H (µm)", "u (µm)", "ν_eff", "k", "U (µm)"],
+        [
+            [f"{r['psi']:g}", f"{o['value']:.3f}", f"{o['u']:.3f}", f"{r['dof']:.1f}",
+             f"{o['k']:.2f}", f"{o['U']:.3f}"]
+            for r, o in zip(rows, outputs, strict=True)
+        ],
+    )  # fmt: skip
     return rep

@@ -1,5 +1,7 @@
 """On-machine measurement (OMM): probing repeatability, reference values, task uncertainty."""
 
+from mtmetrology.omm.drift import detrend_cubic, sliding_window_std
+from mtmetrology.omm.hysteresis import HysteresisResult, hysteresis_errors, radial_projection
 from mtmetrology.omm.reference import (
     ReferenceValue,
     coverage_probability,
@@ -15,23 +17,31 @@ from mtmetrology.omm.repeatability import (
     target_statistics,
 )
 from mtmetrology.omm.repeatability_file import load_repeatability_model
+from mtmetrology.omm.repeatability_windows import WindowStatistics, window_statistics
 from mtmetrology.omm.simulator import TaskInputs, covariance_simulator
 from mtmetrology.omm.task import TaskResult, task_uncertainty
 
 __all__ = [
+    "HysteresisResult",
     "ReferenceValue",
     "RepeatabilityModel",
     "TargetStatistics",
     "TaskInputs",
     "TaskResult",
+    "WindowStatistics",
     "covariance_simulator",
     "coverage_probability",
+    "detrend_cubic",
     "fit_repeatability_model",
+    "hysteresis_errors",
     "lateral_deviation_threshold",
     "load_repeatability_model",
     "normal_tangential",
+    "radial_projection",
+    "sliding_window_std",
     "sphere_normal",
     "target_statistics",
     "task_uncertainty",
     "thermal_reference_value",
+    "window_statistics",
 ]

@@ -29,6 +29,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from mtmetrology.errors import InputError
+from mtmetrology.omm.drift import (
+    CUBIC_COEFFICIENTS,
+    MIN_CUBIC_POINTS,
+    detrend_cubic,
+    detrend_cubic_stack,
+)
 from mtmetrology.optimize import least_squares
 from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.units import from_internal, to_internal
@@ -48,6 +54,7 @@ __all__ = [
     "normal_tangential",
     "sphere_normal",
     "target_statistics",
+    "time_ordered_groups",
 ]
 
 FACTORS = ("phi", "theta", "B", "C", "X_T", "Y_T", "Z_T")
@@ -176,6 +183,12 @@ class TargetStatistics:
     zero_variance : (n, 3) ndarray of bool
         X, Y, Z readings that did not change at all: the scale resolution hides the
         scatter (an approach along an axis); approach slightly off the axes instead.
+    drift : {"none", "cubic"}
+        "cubic": ``std`` and ``cov`` are those of the residuals of a cubic drift in time
+        (:func:`~mtmetrology.omm.drift.detrend_cubic`, n − 4 degrees of freedom).
+    std_raw : (n, 5) ndarray, mm
+        Standard deviations of the readings themselves (ddof = 1), drift included; equal
+        to ``std`` when ``drift`` is "none".
     """
 
     targets: tuple[str, ...]
@@ -185,6 +198,8 @@ class TargetStatistics:
     std: np.ndarray
     cov: np.ndarray
     zero_variance: np.ndarray
+    drift: str = "none"
+    std_raw: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.targets)
@@ -197,11 +212,21 @@ class TargetStatistics:
             row.update(_factors_to_file(self.factors[i]))
             row.update({f"mean_{a}": float(v) for a, v in zip("XYZ", self.mean[i], strict=True)})
             row.update(_outputs_to_file(self.std[i], self.cov[i]))
+            if self.drift != "none" and self.std_raw is not None:
+                row.update(
+                    {
+                        f"{n}_raw": float(from_internal(v, "µm"))
+                        for n, v in zip(STD_OUTPUTS, self.std_raw[i], strict=True)
+                    }
+                )
             row["zero_variance"] = [
                 a for a, z in zip("XYZ", self.zero_variance[i], strict=True) if z
             ]
             rows.append(row)
-        return {"units": _file_units(), "targets": rows}
+        drift = {"model": self.drift}
+        if self.drift == "cubic":
+            drift.update(abscissa="time", ddof=CUBIC_COEFFICIENTS)
+        return {"units": _file_units(), "drift": drift, "targets": rows}
 
 
 def _factors_to_file(f: np.ndarray) -> dict:
@@ -229,6 +254,31 @@ def _file_units() -> dict:
     return units
 
 
+def time_ordered_groups(target, time) -> list[tuple[str, np.ndarray]]:
+    """Row indices of each target's touches in time order, targets in first-appearance order.
+
+    Parameters
+    ----------
+    target : (m,) sequence of str
+        Target id of each touch.
+    time : (m,) array
+        Touch time (ties keep the file order).
+
+    Returns
+    -------
+    list of (str, ndarray of int)
+
+    Examples
+    --------
+    >>> [(t, i.tolist()) for t, i in time_ordered_groups(["b", "a", "b"], [2.0, 0.0, 1.0])]
+    [('b', [2, 0]), ('a', [1])]
+    """
+    names, first, inverse = np.unique(np.asarray(target), return_index=True, return_inverse=True)
+    order = np.lexsort((np.asarray(time, float), inverse))  # by target, then time (stable)
+    chunks = np.split(order, np.cumsum(np.bincount(inverse, minlength=names.size))[:-1])
+    return [(str(names[g]), chunks[g]) for g in np.argsort(first)]  # first-appearance order
+
+
 def target_statistics(
     target: list[str],
     factors: np.ndarray,
@@ -238,6 +288,7 @@ def target_statistics(
     *,
     centre: np.ndarray | None = None,
     discard_first: bool = True,
+    drift: str = "none",
     where: str = "records",
 ) -> TargetStatistics:
     """Per-target sample standard deviations and covariances of replicated probing.
@@ -253,13 +304,18 @@ def target_statistics(
     normal : (m, 3) array
         Unit outward normal of the target (the probe approaches along −n̂).
     time : (m,) array, s
-        Touch time: orders the touches of a target (the first is discarded).
+        Touch time: orders the touches of a target (the first is discarded) and is the
+        abscissa of the drift fit.
     centre : (m, 3) array, mm, optional
         Sphere centre for the N/T projections; by default the line along n̂ through the
         target's mean reading (N then scatters about 0 and T is the lateral distance).
     discard_first : bool, default True
         Drop the first touch of each target (hysteresis of the preceding motion,
         Sepahi Boroujeni (2021), §4).
+    drift : {"none", "cubic"}, default "none"
+        "cubic": remove a cubic drift in time from each of the series X, Y, Z, N, T of a
+        target (:func:`~mtmetrology.omm.drift.detrend_cubic`) and compute the standard
+        deviations and covariances from the residuals with n − 4 degrees of freedom.
     where : str
         Name of the source (file) for error messages.
 
@@ -270,44 +326,93 @@ def target_statistics(
     Raises
     ------
     InputError
-        A target with fewer than 3 usable touches or with changing pose factors.
+        A target with fewer than 3 usable touches (6 with ``drift="cubic"``), with
+        changing pose factors, or an unknown ``drift``.
+
+    Notes
+    -----
+    Without drift removal, s² = Σ (x − x̄)² / (n − 1); with it, s² = Σ r² / (n − 4),
+    r the residuals of the cubic, whose 4 coefficients (the mean among them) use 4
+    degrees of freedom (Sepahi Boroujeni (2021), §4: repeatability = standard deviation
+    of the residuals of the cubic fitted to each series). The abscissa is the touch
+    time, which equals the thesis's iteration index when touches are equally spaced
+    (the residuals do not change under an affine change of the abscissa) and follows
+    the thermal drift better when they are not (shuffled tests).
+
+    Examples
+    --------
+    Six touches on a pure cubic drift (first touch discarded) have zero repeatability
+    once the drift is removed:
+
+    >>> t = np.arange(7.0)
+    >>> x = to_internal(0.5 * t - 0.1 * t**2 + 0.02 * t**3, "µm")
+    >>> readings = np.column_stack([x, 2 * x, np.zeros(7)])
+    >>> n = np.tile([0.0, 0.0, 1.0], (7, 1))
+    >>> st = target_statistics(["a"] * 7, np.zeros((7, 7)), readings, n, t, drift="cubic")
+    >>> bool(st.std[0, 0] < 1e-12 < st.std_raw[0, 0])
+    True
     """
-    names, first, inverse = np.unique(np.asarray(target), return_index=True, return_inverse=True)
-    order = np.argsort(first)  # first-appearance order
-    rows = []
-    for g in order:
-        idx = np.flatnonzero(inverse == g)
-        idx = idx[np.argsort(time[idx], kind="stable")]
+    if drift not in ("none", "cubic"):
+        raise InputError(f"drift: must be 'none' or 'cubic', got {drift!r}")
+    need = MIN_CUBIC_POINTS if drift == "cubic" else 3
+    groups = []
+    for name, idx in time_ordered_groups(target, time):
         if not np.all(factors[idx] == factors[idx[0]]):
-            raise InputError(
-                f"{where}: target {str(names[g])!r}: pose factors change between touches"
-            )
+            raise InputError(f"{where}: target {name!r}: pose factors change between touches")
         if discard_first:
             idx = idx[1:]
-        if idx.size < 3:
+        if idx.size < need:
             raise InputError(
-                f"{where}: target {str(names[g])!r} has {idx.size} usable touches; "
-                "repeatability needs at least 3 after the first is discarded"
+                f"{where}: target {name!r} has {idx.size} usable touches; "
+                + (
+                    f"cubic drift removal needs at least {need} after the first is discarded"
+                    if drift == "cubic"
+                    else f"repeatability needs at least {need} after the first is discarded"
+                )
             )
+        groups.append((name, idx))
+    k = len(groups)
+    mean, std, cov, std_raw = np.empty((k, 3)), np.empty((k, 5)), np.empty((k, 4)), np.empty((k, 5))
+    zero = np.empty((k, 3), bool)
+    sizes = np.array([idx.size for _, idx in groups])
+    for size in np.unique(sizes):  # targets with as many touches, stacked (g, n, ·)
+        members = np.flatnonzero(sizes == size)
+        idx = np.stack([groups[g][1] for g in members])
         p = readings[idx]
-        mean = p.mean(axis=0)
-        origin = centre[idx] if centre is not None else mean
+        mean[members] = p.mean(axis=1)
+        origin = centre[idx] if centre is not None else mean[members][:, None, :]
         n_proj, t_proj = normal_tangential(p, origin, normal[idx])
-        c3 = np.cov(p, rowvar=False)
-        c_nt = np.cov(n_proj, t_proj)
-        std = np.sqrt(np.r_[np.diag(c3), c_nt[0, 0], c_nt[1, 1]])
-        cov = np.array([c3[0, 1], c3[0, 2], c3[1, 2], c_nt[0, 1]])
-        rows.append((str(names[g]), factors[idx[0]], idx.size, mean, std, cov, np.ptp(p, 0) == 0))
-    cols = list(zip(*rows, strict=True))
+        series = np.concatenate([p, n_proj[..., None], t_proj[..., None]], axis=2)  # X Y Z N T
+        d = series - series.mean(axis=1, keepdims=True)
+        c5 = raw = np.einsum("gni,gnj->gij", d, d) / (size - 1)
+        if drift == "cubic":
+            r = _drift_residuals(series, time[idx], [groups[g][0] for g in members], where)
+            c5 = np.einsum("gni,gnj->gij", r, r) / (size - CUBIC_COEFFICIENTS)
+        std[members] = np.sqrt(np.einsum("gii->gi", c5))
+        cov[members] = c5[:, [0, 0, 1, 3], [1, 2, 2, 4]]  # XY, XZ, YZ, NT
+        std_raw[members] = np.sqrt(np.einsum("gii->gi", raw))
+        zero[members] = np.ptp(p, axis=1) == 0
     return TargetStatistics(
-        targets=tuple(cols[0]),
-        factors=np.array(cols[1]),
-        n_touches=np.array(cols[2]),
-        mean=np.array(cols[3]),
-        std=np.array(cols[4]),
-        cov=np.array(cols[5]),
-        zero_variance=np.array(cols[6]),
+        targets=tuple(name for name, _ in groups),
+        factors=np.array([factors[idx[0]] for _, idx in groups]),
+        n_touches=sizes,
+        mean=mean,
+        std=std,
+        cov=cov,
+        zero_variance=zero,
+        drift=drift,
+        std_raw=std_raw,
     )
+
+
+def _drift_residuals(series, time, names, where: str) -> np.ndarray:
+    """Cubic-drift residuals of stacked (g, n, 5) series; a refused target is named."""
+    try:
+        return detrend_cubic_stack(series, time, where=where)
+    except InputError:
+        for s, t, name in zip(series, time, names, strict=True):
+            detrend_cubic(s, t, where=f"{where}: target {name!r}")
+        raise
 
 
 def _design(z: np.ndarray, degrees: tuple[int, ...]) -> np.ndarray:

@@ -64,6 +64,7 @@ class _Document(BaseModel):
     outputs: list[_Output]
     source: str | None = None
     statistics: dict | None = None
+    windows: dict | None = None
     resolution_warnings: list[str] = []
 
 
