@@ -2,18 +2,21 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
 import mtmetrology.fitting as fitting
-from mtmetrology.errors import InputError
+from mtmetrology.errors import ConvergenceError, InputError
 from mtmetrology.fitting import (
     CircleCentre,
     CylinderDiameter,
     Cylindricity,
     Feature,
     FitError,
+    batch,
     fit_circle,
     fit_cylinder,
     fit_cylinders,
@@ -205,3 +208,19 @@ def test_degenerate_and_malformed_sets_are_refused():
 def test_everything_is_exported():
     for name in ("CircleCentre", "CylinderDiameter", "Cylindricity", "fit_cylinders"):
         assert name in fitting.__all__
+
+
+def test_a_set_that_does_not_converge_raises(monkeypatch):
+    """The feature never turns a failed fit into a number."""
+    real = batch.fit_cylinders
+
+    def second_fails(points):
+        fit = real(points)
+        status = fit.status.copy()
+        status[1] = 0
+        return dataclasses.replace(fit, status=status)
+
+    monkeypatch.setattr(batch, "fit_cylinders", second_fails)
+    sets = np.stack([_task_cylinder(1), _task_cylinder(2)])
+    with pytest.raises(ConvergenceError, match="set 1"):
+        Cylindricity().value(sets)
