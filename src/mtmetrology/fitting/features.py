@@ -15,7 +15,8 @@ Jacobians of fitted features come from the least-squares fits' first-order
 implicit-function derivatives (:mod:`mtmetrology.fitting.least_squares`), exact at
 zero form error and first-order accurate otherwise, as the GUF linearisation is.
 Form errors (max − min residual) are differentiated at the extreme points, which is
-exact where they are unique (almost everywhere).
+exact where they are unique (almost everywhere).  The minimum-zone (ISO 1101 Chebyshev)
+form errors and minimax sizes are in :mod:`mtmetrology.fitting.zone_features`.
 """
 
 from __future__ import annotations
@@ -100,8 +101,42 @@ def _peak_to_valley_jacobian(fit: FitResult) -> np.ndarray:
     return (rj[i_max] - rj[i_min]).reshape(1, -1)
 
 
+class _Scalar:
+    """One output, named after the feature."""
+
+    name: str
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return (self.name,)
+
+
+class _Position:
+    """Three outputs, the x, y, z coordinates of a point, mm."""
+
+    name: str
+
+    @property
+    def output_names(self) -> tuple[str, ...]:
+        return (f"{self.name}_x", f"{self.name}_y", f"{self.name}_z")
+
+
+class _TipCompensated(_Scalar):
+    """A size with a validated ``tip_diameter``, added inside (``inner``: bore, cavity)
+    and subtracted outside (shaft, ball); GaugeLength has no ``inner``."""
+
+    tip_diameter: float
+    inner: bool
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "tip_diameter", _tip(self.tip_diameter))
+
+    def _offset(self) -> float:
+        return self.tip_diameter if self.inner else -self.tip_diameter
+
+
 @dataclass(frozen=True)
-class GaugeLength:
+class GaugeLength(_TipCompensated):
     """Bipoint length ``l = ‖q2 − q1‖ − d_tip`` (Sepahi Boroujeni (2021), eq. 6-20).
 
     Points ``(..., 2, 3)``: the stylus-centre points probed on the two faces.  Sepahi
@@ -117,13 +152,6 @@ class GaugeLength:
     tip_diameter: float
     name: str = "gauge_length"
     unit: str = "mm"
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "tip_diameter", _tip(self.tip_diameter))
-
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (self.name,)
 
     def value(self, points: object) -> np.ndarray:
         arr = np.asarray(points, dtype=float)
@@ -142,7 +170,7 @@ class GaugeLength:
 
 
 @dataclass(frozen=True)
-class SphereDiameter:
+class SphereDiameter(_TipCompensated):
     """Least-squares sphere diameter with tip compensation: ``2R ∓ d_tip``.
 
     ``inner=False`` (a ball probed from outside): ``D = 2 R_fit − d_tip``;
@@ -155,16 +183,6 @@ class SphereDiameter:
     name: str = "sphere_diameter"
     unit: str = "mm"
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "tip_diameter", _tip(self.tip_diameter))
-
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (self.name,)
-
-    def _offset(self) -> float:
-        return self.tip_diameter if self.inner else -self.tip_diameter
-
     def value(self, points: object) -> np.ndarray:
         stack, lead = _stack(points, self.name, 4)
         return (2.0 * batch.fit_spheres(stack).radii + self._offset()).reshape(lead)
@@ -175,16 +193,12 @@ class SphereDiameter:
 
 
 @dataclass(frozen=True)
-class Sphericity:
+class Sphericity(_Scalar):
     """Least-squares sphericity: max − min residual of the LS sphere (Sepahi Boroujeni
     (2021), Ch. 6)."""
 
     name: str = "sphericity"
     unit: str = "mm"
-
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (self.name,)
 
     def value(self, points: object) -> np.ndarray:
         stack, lead = _stack(points, self.name, 4)
@@ -195,7 +209,7 @@ class Sphericity:
 
 
 @dataclass(frozen=True)
-class CircleDiameter:
+class CircleDiameter(_TipCompensated):
     """Least-squares circle diameter (in the LS plane) with tip compensation.
 
     ``inner=True`` (bore, ring gauge probed from inside): ``D = 2 R_fit + d_tip``;
@@ -207,17 +221,9 @@ class CircleDiameter:
     name: str = "circle_diameter"
     unit: str = "mm"
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "tip_diameter", _tip(self.tip_diameter))
-
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (self.name,)
-
     def value(self, points: object) -> np.ndarray:
         stack, lead = _stack(points, self.name, 3)
-        offset = self.tip_diameter if self.inner else -self.tip_diameter
-        return (2.0 * batch.fit_circles(stack).radii + offset).reshape(lead)
+        return (2.0 * batch.fit_circles(stack).radii + self._offset()).reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
         fit = fit_circle(_single(points, self.name, 3))
@@ -225,15 +231,11 @@ class CircleDiameter:
 
 
 @dataclass(frozen=True)
-class Roundness:
+class Roundness(_Scalar):
     """Least-squares roundness: max − min radial residual in the LS plane."""
 
     name: str = "roundness"
     unit: str = "mm"
-
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (self.name,)
 
     def value(self, points: object) -> np.ndarray:
         stack, lead = _stack(points, self.name, 3)
@@ -244,15 +246,11 @@ class Roundness:
 
 
 @dataclass(frozen=True)
-class Flatness:
+class Flatness(_Scalar):
     """Least-squares flatness: max − min signed distance to the LS plane."""
 
     name: str = "flatness"
     unit: str = "mm"
-
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (self.name,)
 
     def value(self, points: object) -> np.ndarray:
         stack, lead = _stack(points, self.name, 3)
@@ -263,7 +261,7 @@ class Flatness:
 
 
 @dataclass(frozen=True)
-class BallCentre:
+class BallCentre(_Position):
     """Ball centre (x, y, z) from probed points: LS sphere, or centre only with a known
     radius (SAMBA: ball radius + effective tip radius; Sepahi Boroujeni (2021), Ch. 5 and 6)."""
 
@@ -278,10 +276,6 @@ class BallCentre:
                 raise ValueError(f"radius must be a positive length, got {self.radius!r}")
             object.__setattr__(self, "radius", r)
 
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (f"{self.name}_x", f"{self.name}_y", f"{self.name}_z")
-
     def value(self, points: object) -> np.ndarray:
         stack, lead = _stack(points, self.name, 4)
         return batch.fit_spheres(stack, radius=self.radius).centres.reshape((*lead, 3))
@@ -292,7 +286,7 @@ class BallCentre:
 
 
 @dataclass(frozen=True)
-class CircleCentre:
+class CircleCentre(_Position):
     """Centre (x, y, z) of the least-squares circle in its least-squares plane.
 
     The position of a bore or boss from one probed cross-section (ISO 1101 position and
@@ -310,10 +304,6 @@ class CircleCentre:
     name: str = "circle_centre"
     unit: str = "mm"
 
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (f"{self.name}_x", f"{self.name}_y", f"{self.name}_z")
-
     def value(self, points: object) -> np.ndarray:
         stack, lead = _stack(points, self.name, 3)
         return batch.fit_circles(stack).centres.reshape((*lead, 3))
@@ -325,7 +315,7 @@ class CircleCentre:
 
 
 @dataclass(frozen=True)
-class CylinderDiameter:
+class CylinderDiameter(_TipCompensated):
     """Least-squares cylinder diameter with tip compensation.
 
     ``inner=True`` (a bore probed from inside): ``D = 2 R_fit + d_tip``;
@@ -371,17 +361,9 @@ class CylinderDiameter:
     name: str = "cylinder_diameter"
     unit: str = "mm"
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "tip_diameter", _tip(self.tip_diameter))
-
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (self.name,)
-
     def value(self, points: object) -> np.ndarray:
         stack, lead = _stack(points, self.name, 5)
-        offset = self.tip_diameter if self.inner else -self.tip_diameter
-        return (2.0 * _cylinders(stack, self.name).radii + offset).reshape(lead)
+        return (2.0 * _cylinders(stack, self.name).radii + self._offset()).reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
         fit = fit_cylinder(_single(points, self.name, 5))
@@ -389,7 +371,7 @@ class CylinderDiameter:
 
 
 @dataclass(frozen=True)
-class Cylindricity:
+class Cylindricity(_Scalar):
     """Least-squares cylindricity: max − min radial residual of the LS cylinder.
 
     An upper bound of the ISO 12180-1 minimum-zone cylindricity
@@ -408,10 +390,6 @@ class Cylindricity:
 
     name: str = "cylindricity"
     unit: str = "mm"
-
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (self.name,)
 
     def value(self, points: object) -> np.ndarray:
         stack, lead = _stack(points, self.name, 5)

@@ -59,13 +59,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from mtmetrology.errors import ConvergenceError, RankDeficientError
 from mtmetrology.fitting import minimum_zone
 from mtmetrology.fitting._zones import ZoneResult, _plane_basis
-from mtmetrology.fitting.features import _single, _stack, _tip
+from mtmetrology.fitting.features import _Scalar, _single, _stack, _TipCompensated
 from mtmetrology.fitting.least_squares import fit_plane
 
 __all__ = [
@@ -188,30 +189,39 @@ _CYLINDER = _ZoneShape(minimum_zone.cylindricity, _cylinder_gradients, 6)
 _PLANE = _ZoneShape(minimum_zone.flatness, _flatness_gradients, 4)
 
 
-def _form_value(points, shape: _ZoneShape, name: str) -> np.ndarray:
-    stack, lead = _stack(points, name, shape.min_points)
-    zones = _zones(stack, shape.solve, name)
-    return np.array([z.form_error for z in zones]).reshape(lead)
+class _MinimumZoneForm(_Scalar):
+    """Value and Jacobian of a zone width; subclasses set the element's ``_shape``."""
+
+    _shape: ClassVar[_ZoneShape]
+
+    def value(self, points: object) -> np.ndarray:
+        stack, lead = _stack(points, self.name, self._shape.min_points)
+        zones = _zones(stack, self._shape.solve, self.name)
+        return np.array([z.form_error for z in zones]).reshape(lead)
+
+    def jacobian(self, points: object) -> np.ndarray:
+        p = _single(points, self.name, self._shape.min_points)
+        return _zone_jacobian(p, self._shape.solve(p), self._shape.gradients, WIDTH, self.name)
 
 
-def _form_jacobian(points, shape: _ZoneShape, name: str) -> np.ndarray:
-    p = _single(points, name, shape.min_points)
-    return _zone_jacobian(p, shape.solve(p), shape.gradients, WIDTH, name)
+class _MinimumZoneDiameter(_TipCompensated):
+    """Value and Jacobian of a mid-zone diameter ``r_in + r_out ± d_tip``."""
 
+    _shape: ClassVar[_ZoneShape]
 
-def _diameter_value(points, shape: _ZoneShape, name: str, offset: float) -> np.ndarray:
-    stack, lead = _stack(points, name, shape.min_points)
-    zones = _zones(stack, shape.solve, name)
-    return np.array([sum(z.bounds) + offset for z in zones]).reshape(lead)
+    def value(self, points: object) -> np.ndarray:
+        stack, lead = _stack(points, self.name, self._shape.min_points)
+        zones = _zones(stack, self._shape.solve, self.name)
+        return np.array([sum(z.bounds) + self._offset() for z in zones]).reshape(lead)
 
-
-def _diameter_jacobian(points, shape: _ZoneShape, name: str) -> np.ndarray:
-    p = _single(points, name, shape.min_points)
-    return _zone_jacobian(p, shape.solve(p), shape.gradients, MEAN_DIAMETER, name)
+    def jacobian(self, points: object) -> np.ndarray:
+        p = _single(points, self.name, self._shape.min_points)
+        shape = self._shape
+        return _zone_jacobian(p, shape.solve(p), shape.gradients, MEAN_DIAMETER, self.name)
 
 
 @dataclass(frozen=True)
-class MinimumZoneSphericity:
+class MinimumZoneSphericity(_MinimumZoneForm):
     """Minimum-zone sphericity: radial separation of the two closest concentric spheres
     containing the points (ISO 1101 zone; :func:`mtmetrology.fitting.minimum_zone.sphericity`).
 
@@ -226,22 +236,13 @@ class MinimumZoneSphericity:
     0.002
     """
 
+    _shape: ClassVar[_ZoneShape] = _SPHERE
     name: str = "minimum_zone_sphericity"
     unit: str = "mm"
 
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (self.name,)
-
-    def value(self, points: object) -> np.ndarray:
-        return _form_value(points, _SPHERE, self.name)
-
-    def jacobian(self, points: object) -> np.ndarray:
-        return _form_jacobian(points, _SPHERE, self.name)
-
 
 @dataclass(frozen=True)
-class MinimumZoneRoundness:
+class MinimumZoneRoundness(_MinimumZoneForm):
     """Minimum-zone roundness of a probed cross-section (ISO 12181-1:2011, MZCI).
 
     The points ``(..., n, 3)``, n ≥ 4, are projected on their least-squares plane and
@@ -258,22 +259,13 @@ class MinimumZoneRoundness:
     0.001
     """
 
+    _shape: ClassVar[_ZoneShape] = _CIRCLE
     name: str = "minimum_zone_roundness"
     unit: str = "mm"
 
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (self.name,)
-
-    def value(self, points: object) -> np.ndarray:
-        return _form_value(points, _CIRCLE, self.name)
-
-    def jacobian(self, points: object) -> np.ndarray:
-        return _form_jacobian(points, _CIRCLE, self.name)
-
 
 @dataclass(frozen=True)
-class MinimumZoneFlatness:
+class MinimumZoneFlatness(_MinimumZoneForm):
     """Minimum-zone flatness: distance between the two closest parallel planes containing
     the points (ISO 12781-1:2011, MZPL), solved exactly on the convex hull
     (:func:`mtmetrology.fitting.minimum_zone.flatness`).
@@ -288,22 +280,13 @@ class MinimumZoneFlatness:
     0.003
     """
 
+    _shape: ClassVar[_ZoneShape] = _PLANE
     name: str = "minimum_zone_flatness"
     unit: str = "mm"
 
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (self.name,)
-
-    def value(self, points: object) -> np.ndarray:
-        return _form_value(points, _PLANE, self.name)
-
-    def jacobian(self, points: object) -> np.ndarray:
-        return _form_jacobian(points, _PLANE, self.name)
-
 
 @dataclass(frozen=True)
-class MinimumZoneCylindricity:
+class MinimumZoneCylindricity(_MinimumZoneForm):
     """Minimum-zone cylindricity: radial separation of the two closest coaxial cylinders
     containing the points (ISO 12180-1:2011, MZCY;
     :func:`mtmetrology.fitting.minimum_zone.cylindricity`).
@@ -319,22 +302,13 @@ class MinimumZoneCylindricity:
     0.002
     """
 
+    _shape: ClassVar[_ZoneShape] = _CYLINDER
     name: str = "minimum_zone_cylindricity"
     unit: str = "mm"
 
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (self.name,)
-
-    def value(self, points: object) -> np.ndarray:
-        return _form_value(points, _CYLINDER, self.name)
-
-    def jacobian(self, points: object) -> np.ndarray:
-        return _form_jacobian(points, _CYLINDER, self.name)
-
 
 @dataclass(frozen=True)
-class MinimumZoneSphereDiameter:
+class MinimumZoneSphereDiameter(_MinimumZoneDiameter):
     """Minimax (Chebyshev) sphere diameter with tip compensation: the diameter of the mean
     sphere of the minimum zone, ``D = (r_in + r_out) ∓ d_tip``.
 
@@ -357,28 +331,15 @@ class MinimumZoneSphereDiameter:
     19.05
     """
 
+    _shape: ClassVar[_ZoneShape] = _SPHERE
     tip_diameter: float = 0.0
     inner: bool = False
     name: str = "minimum_zone_sphere_diameter"
     unit: str = "mm"
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "tip_diameter", _tip(self.tip_diameter))
-
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (self.name,)
-
-    def value(self, points: object) -> np.ndarray:
-        offset = self.tip_diameter if self.inner else -self.tip_diameter
-        return _diameter_value(points, _SPHERE, self.name, offset)
-
-    def jacobian(self, points: object) -> np.ndarray:
-        return _diameter_jacobian(points, _SPHERE, self.name)
-
 
 @dataclass(frozen=True)
-class MinimumZoneCylinderDiameter:
+class MinimumZoneCylinderDiameter(_MinimumZoneDiameter):
     """Minimax (Chebyshev) cylinder diameter with tip compensation: the diameter of the
     mean cylinder of the minimum zone, ``D = (r_in + r_out) ± d_tip``.
 
@@ -397,21 +358,8 @@ class MinimumZoneCylinderDiameter:
     30.0
     """
 
+    _shape: ClassVar[_ZoneShape] = _CYLINDER
     inner: bool = True
     tip_diameter: float = 0.0
     name: str = "minimum_zone_cylinder_diameter"
     unit: str = "mm"
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "tip_diameter", _tip(self.tip_diameter))
-
-    @property
-    def output_names(self) -> tuple[str, ...]:
-        return (self.name,)
-
-    def value(self, points: object) -> np.ndarray:
-        offset = self.tip_diameter if self.inner else -self.tip_diameter
-        return _diameter_value(points, _CYLINDER, self.name, offset)
-
-    def jacobian(self, points: object) -> np.ndarray:
-        return _diameter_jacobian(points, _CYLINDER, self.name)
