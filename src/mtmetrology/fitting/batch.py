@@ -671,7 +671,10 @@ def fit_cylinders(points: object, direction: object = None) -> BatchCylinderFit:
         Approximate axis direction(s) to start from (e.g. the nominal axis of a bore, or
         the fitted axis of the unperturbed task in a Monte Carlo run).  Without it each
         set starts from the best of its three principal axes and the axis of its
-        algebraic quadric (n ≥ 10).
+        algebraic quadric (n ≥ 10).  Sets of fewer than 10 points are refined from every
+        principal axis and keep the best converged fit; such sparse random sets can have
+        several local minima, and :func:`fit_cylinder` (which also tries surface-normal
+        axes) may then find another one: give ``direction`` for them.
 
     Returns
     -------

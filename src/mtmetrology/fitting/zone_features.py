@@ -31,14 +31,16 @@ mid-zone diameter l + h),
 
     ∂g/∂q_k = −Σ_{i ∈ O ∪ I} y_i ∂d_i/∂q_k,     Mᵀ y = e,
 
-where ``−y`` are the multipliers of the linear programme's active constraints (the LP
-dual: ``∂W/∂q = Σ_O λ_i ∂d_i/∂q − Σ_I μ_i ∂d_i/∂q`` with ``Σ λ = Σ μ = 1``).  This is
-exact — not a linearisation — wherever the contact set is unique and non-degenerate
-(p + 2 contacts, M regular), which is the case for almost every measured point set;
-it holds for perturbations that keep the contact set.  At a degenerate set (zero form
-error, symmetric nominal points, more or fewer than p + 2 contacts) the zone is not
-differentiable and ``jacobian`` raises :class:`mtmetrology.errors.RankDeficientError`:
-use the Monte Carlo method (JCGM 101:2008) there.
+which is the LP dual: for the width, ``λ_i = −y_i`` (i ∈ O) and ``μ_i = y_i`` (i ∈ I) are the
+multipliers of the active constraints, ``Σ λ = Σ μ = 1``, and
+``∂W/∂q = Σ_O λ_i ∂d_i/∂q − Σ_I μ_i ∂d_i/∂q``.  This is exact — not a linearisation —
+wherever the contact set is unique and non-degenerate (p + 2 contacts, M regular),
+which is the case for almost every measured point set; it holds for perturbations
+that keep the contact set.  (Roundness adds the motion of the least-squares
+projection plane, to second order in the form deviations.)  At a degenerate set (zero
+form error, symmetric nominal points, more or fewer than p + 2 contacts) the zone is
+not differentiable and ``jacobian`` raises
+:class:`mtmetrology.errors.RankDeficientError`: use the Monte Carlo method (JCGM 101:2008) there.
 
 References
 ----------
@@ -117,8 +119,10 @@ def _circle_gradients(p: np.ndarray, zone: ZoneResult, idx: np.ndarray) -> Gradi
     """θ = in-plane centre shift; ``d_i = ‖w_i − (w_i·n) n‖``, ``w_i = q_i − c``.
 
     The plane is the least-squares plane of all the points, so every d_i also moves with
-    every point through the normal: ``∂d_i/∂n = −(w_i·n) w_i / d_i`` times
-    ``∂n/∂q`` of :func:`fit_plane` (exact: the plane is a closed-form SVD fit).
+    every point through the normal: ``∂d_i/∂n = −(w_i·n) w_i / d_i`` times ``∂n/∂q`` of
+    :func:`fit_plane`.  That term is of the order of (height off the plane / radius), and
+    the plane's first-order Jacobian is accurate to O(flatness / size) relative, so its
+    error is second order in the form deviations.
     """
     e1, e2, nrm = _plane_basis(zone.element.normal)
     w = p[idx] - zone.element.centre
@@ -248,7 +252,8 @@ class MinimumZoneRoundness(_MinimumZoneForm):
     The points ``(..., n, 3)``, n ≥ 4, are projected on their least-squares plane and
     ``W = min_c (max_i ρ_i − min_i ρ_i)`` over the in-plane centre c
     (:func:`mtmetrology.fitting.minimum_zone.roundness`).  The Jacobian includes the
-    dependence of the projection plane on every point.
+    dependence of the projection plane on every point, to second order in the form
+    deviations off the plane (exact for a planar profile).
 
     Examples
     --------
