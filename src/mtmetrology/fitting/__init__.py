@@ -1,11 +1,14 @@
 """Geometric elements and their fits: least squares, batched least squares, probe-tip
-compensation and the feature interface of the uncertainty engine."""
+compensation and the features (least-squares and minimum-zone) of the uncertainty
+engine."""
 
 from mtmetrology.fitting.batch import (
+    BatchCylinderFit,
     BatchLineFit,
     BatchPlaneFit,
     BatchRoundFit,
     fit_circles,
+    fit_cylinders,
     fit_lines,
     fit_planes,
     fit_spheres,
@@ -14,7 +17,10 @@ from mtmetrology.fitting.composite import CombinedFeature, PointCoordinates
 from mtmetrology.fitting.elements import Circle, Cone, Cylinder, Element, Line, Plane, Sphere
 from mtmetrology.fitting.features import (
     BallCentre,
+    CircleCentre,
     CircleDiameter,
+    CylinderDiameter,
+    Cylindricity,
     Feature,
     Flatness,
     GaugeLength,
@@ -39,17 +45,29 @@ from mtmetrology.fitting.probe import (
     effective_tip_diameter,
     surface_normals,
 )
+from mtmetrology.fitting.zone_features import (
+    MinimumZoneCylinderDiameter,
+    MinimumZoneCylindricity,
+    MinimumZoneFlatness,
+    MinimumZoneRoundness,
+    MinimumZoneSphereDiameter,
+    MinimumZoneSphericity,
+)
 
 __all__ = [
     "BallCentre",
+    "BatchCylinderFit",
     "BatchLineFit",
     "BatchPlaneFit",
     "BatchRoundFit",
     "Circle",
+    "CircleCentre",
     "CircleDiameter",
     "CombinedFeature",
     "Cone",
     "Cylinder",
+    "CylinderDiameter",
+    "Cylindricity",
     "Element",
     "Feature",
     "FitError",
@@ -57,6 +75,12 @@ __all__ = [
     "Flatness",
     "GaugeLength",
     "Line",
+    "MinimumZoneCylinderDiameter",
+    "MinimumZoneCylindricity",
+    "MinimumZoneFlatness",
+    "MinimumZoneRoundness",
+    "MinimumZoneSphereDiameter",
+    "MinimumZoneSphericity",
     "Plane",
     "PointCoordinates",
     "Roundness",
@@ -71,6 +95,7 @@ __all__ = [
     "fit_circles",
     "fit_cone",
     "fit_cylinder",
+    "fit_cylinders",
     "fit_line",
     "fit_lines",
     "fit_plane",
