@@ -270,6 +270,9 @@ def test_points_of_a_length_and_a_sampled_simulator(tmp_path):
         ("circle", ["--tolerance-output", "roundness"], 8),  # without --tolerance
         ("circle", ["--tolerance", "0,,1", "--tolerance-output", "flatness"], 8),
         ("circle", ["--method", "mcm", "--simulator", "sampled", "--draws", "5"], 8),
+        ("plane", ["--form", "minimum-zone"], 3),  # a minimum-zone plane needs 4 contacts
+        ("length", ["--form", "minimum-zone"], 2),  # a length has no form
+        ("cylinder", [], 4),
     ],
 )
 def test_bad_feature_requests_exit_2_and_write_nothing(tmp_path, feature, extra, n):
@@ -281,3 +284,50 @@ def test_bad_feature_requests_exit_2_and_write_nothing(tmp_path, feature, extra,
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ")
     assert not out.exists()
+
+
+def _cylinder_points(d, n=12, radius=20.0, rng_seed=5):
+    """A Ø 40 mm bore along Z (two rows of points, 30 mm apart) with 2 µm of form."""
+    rng = np.random.default_rng(rng_seed)
+    t = np.linspace(0, 2 * np.pi, n // 2, endpoint=False)
+    t = np.concatenate([t, t + np.pi / n])
+    z = np.repeat([80.0, 110.0], n // 2)
+    r = radius + rng.normal(0, 0.002, n)
+    pts = np.column_stack([r * np.cos(t), r * np.sin(t), z])
+    q = MACHINE.inverse(pts, np.zeros((n, 6)))
+    rows = ["point,X,Y,Z,B,C"] + [
+        f"p{s + 1},{q[s, 0]:.6f},{q[s, 1]:.6f},{q[s, 2]:.6f},0,0" for s in range(n)
+    ]
+    (d / "cylinder.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return d / "cylinder.csv"
+
+
+def test_cylinder_diameter_cylindricity_and_minimum_zone_form(tmp_path):
+    d = _files(tmp_path)
+    points = _cylinder_points(d)
+    ls = json.loads(_run_on(d, points, "cylinder", "--tip-diameter", "2", "--json").stdout)
+    assert [o["name"] for o in ls["outputs"]] == ["cylinder_diameter", "cylindricity"]
+    assert ls["outputs"][0]["value"] == pytest.approx(42.0, abs=0.01)  # bore: 2R + d_tip
+    result = _run_on(d, points, "cylinder", "--form", "minimum-zone", "--json")
+    assert result.exit_code == 0, result.output
+    mz = json.loads(result.stdout)
+    assert [o["name"] for o in mz["outputs"]] == ["cylinder_diameter", "minimum_zone_cylindricity"]
+    # The minimum zone never exceeds the least-squares peak-to-valley (ISO 1101).
+    assert 0 < mz["outputs"][1]["value"] <= ls["outputs"][1]["value"] + 1e-12
+    assert mz["outputs"][1]["u"] > 0
+
+
+def test_centres_are_positions_with_their_uncertainty(tmp_path):
+    d = _files(tmp_path)
+    bore = _bore_points(d)
+    result = _run_on(d, bore, "circle-centre", "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    names = [o["name"] for o in doc["outputs"]]
+    assert names == ["circle_centre_x", "circle_centre_y", "circle_centre_z"]
+    q = np.array(doc["points"]["compensated"])
+    assert [o["value"] for o in doc["outputs"]] == pytest.approx(q.mean(axis=0), abs=1e-3)
+    # n equally spaced points, independent e: x = (2/n) Σ cos θ_i e_r,i to first order, so
+    # u²(x) = (4/n²) Σ cos²θ (cos²θ σ_xx + sin²θ σ_yy + sin 2θ σ_xy) = (3σ_xx + σ_yy)/(2n).
+    u_x = np.sqrt((3 * E_COV[0][0] + E_COV[1][1]) / 16) * UM
+    assert doc["outputs"][0]["u"] == pytest.approx(u_x, rel=1e-5)  # δ tilts by µrad

@@ -30,12 +30,22 @@ from mtmetrology.cli._common import (
 from mtmetrology.errors import InputError
 from mtmetrology.fitting.composite import CombinedFeature, PointCoordinates
 from mtmetrology.fitting.features import (
+    BallCentre,
+    CircleCentre,
     CircleDiameter,
+    CylinderDiameter,
+    Cylindricity,
     Flatness,
     GaugeLength,
     Roundness,
     SphereDiameter,
     Sphericity,
+)
+from mtmetrology.fitting.zone_features import (
+    MinimumZoneCylindricity,
+    MinimumZoneFlatness,
+    MinimumZoneRoundness,
+    MinimumZoneSphericity,
 )
 from mtmetrology.io import read_csv_table, write_json
 from mtmetrology.kinematics.machine import Machine
@@ -53,7 +63,15 @@ class FeatureName(StrEnum):
     sphere = "sphere"
     circle = "circle"
     plane = "plane"
+    cylinder = "cylinder"
+    sphere_centre = "sphere-centre"
+    circle_centre = "circle-centre"
     points = "points"
+
+
+class Form(StrEnum):
+    least_squares = "least-squares"
+    minimum_zone = "minimum-zone"
 
 
 class Side(StrEnum):
@@ -72,10 +90,15 @@ class Simulator(StrEnum):
     sampled = "sampled"
 
 
-#: Fewest points of each feature (a length: exactly two).
-MIN_POINTS = {"length": 2, "sphere": 4, "circle": 3, "plane": 3, "points": 1}
-#: Default side: a ball is probed from outside, a circle is a bore.
-DEFAULT_SIDE = {"sphere": Side.outer, "circle": Side.inner}
+#: Fewest points of each feature (a length: exactly two); minimum-zone forms need the
+#: p + 2 contacts of a regular zone (p parameters of the element).
+MIN_POINTS = {
+    "length": 2, "sphere": 4, "circle": 3, "plane": 3, "cylinder": 5, "sphere-centre": 4,
+    "circle-centre": 3, "points": 1,
+}  # fmt: skip
+MIN_POINTS_MINIMUM_ZONE = {"sphere": 5, "circle": 4, "plane": 4, "cylinder": 6}
+#: Default side: a ball is probed from outside, a circle or a cylinder is a bore.
+DEFAULT_SIDE = {"sphere": Side.outer, "circle": Side.inner, "cylinder": Side.inner}
 
 
 @app.callback()
@@ -83,7 +106,7 @@ def _group() -> None:
     """Uncertainty of on-machine measurement tasks."""
 
 
-def _points(path: Path, machine: Machine, feature: FeatureName, need_approach: bool):
+def _points(path: Path, machine: Machine, feature: FeatureName, need_approach: bool, least: int):
     table = read_csv_table(path, required=("point",))
     readings = readings_from_table(machine, table)
     order = np.arange(len(table))
@@ -97,10 +120,9 @@ def _points(path: Path, machine: Machine, feature: FeatureName, need_approach: b
             if sorted(ends.tolist()) != [1.0, 2.0]:
                 raise InputError(f"{path}: column 'end' must hold 1 and 2")
             order = np.argsort(ends)
-    elif len(table) < MIN_POINTS[feature.value]:
+    elif len(table) < least:
         raise InputError(
-            f"{path}: a {feature.value} needs at least {MIN_POINTS[feature.value]} points, "
-            f"got {len(table)}"
+            f"{path}: a {feature.value} needs at least {least} points, got {len(table)}"
         )
     approach = None
     if need_approach:
@@ -113,17 +135,31 @@ def _points(path: Path, machine: Machine, feature: FeatureName, need_approach: b
     )
 
 
-def _feature(name: FeatureName, side: Side | None, d_tip: float, n_points: int):
-    """The feature function g(q): the size (tip-compensated) and the form of the element,
-    or the compensated coordinates themselves (Sepahi Boroujeni (2021), Table 7-1)."""
+def _feature(name: FeatureName, form: Form, side: Side | None, d_tip: float, n_points: int):
+    """The feature function g(q): the size (tip-compensated, least squares) and the form
+    (least-squares peak-to-valley or minimum zone) of the element, its centre, or the
+    compensated coordinates themselves (Sepahi Boroujeni (2021), Table 7-1)."""
     inner = (side or DEFAULT_SIDE.get(name.value, Side.outer)) is Side.inner
+    zone = form is Form.minimum_zone
     parts = {
-        FeatureName.length: (GaugeLength(tip_diameter=d_tip),),
-        FeatureName.sphere: (SphereDiameter(d_tip, inner=inner), Sphericity()),
-        FeatureName.circle: (CircleDiameter(inner=inner, tip_diameter=d_tip), Roundness()),
-        FeatureName.plane: (Flatness(),),
-        FeatureName.points: (PointCoordinates(n_points),),
-    }[name]
+        FeatureName.length: lambda: (GaugeLength(tip_diameter=d_tip),),
+        FeatureName.sphere: lambda: (
+            SphereDiameter(d_tip, inner=inner),
+            MinimumZoneSphericity() if zone else Sphericity(),
+        ),
+        FeatureName.circle: lambda: (
+            CircleDiameter(inner=inner, tip_diameter=d_tip),
+            MinimumZoneRoundness() if zone else Roundness(),
+        ),
+        FeatureName.plane: lambda: (MinimumZoneFlatness() if zone else Flatness(),),
+        FeatureName.cylinder: lambda: (
+            CylinderDiameter(inner=inner, tip_diameter=d_tip),
+            MinimumZoneCylindricity() if zone else Cylindricity(),
+        ),
+        FeatureName.sphere_centre: lambda: (BallCentre(name="sphere_centre"),),
+        FeatureName.circle_centre: lambda: (CircleCentre(),),
+        FeatureName.points: lambda: (PointCoordinates(n_points),),
+    }[name]()
     return parts[0] if len(parts) == 1 else CombinedFeature(parts)
 
 
@@ -145,6 +181,13 @@ def uncertainty(
     unexplained: Annotated[
         Path | None, typer.Option(help="unexplained-volumetric-error document (µm²).")
     ] = None,
+    form: Annotated[
+        Form,
+        typer.Option(
+            help="Form error by the least-squares element or the minimum zone (ISO 1101; "
+            "about 2–60 ms per Monte Carlo trial)."
+        ),
+    ] = Form.least_squares,
     side: Annotated[
         Side | None,
         typer.Option(
@@ -190,7 +233,9 @@ def uncertainty(
     (linear mm, rotary degrees); ``i,j,k`` (approach direction) when ``--repeatability``
     is given; for ``--feature length`` two rows, ordered by an optional ``end`` (1, 2).
     Features: length (gauge length), sphere (diameter, sphericity), circle (diameter,
-    roundness), plane (flatness), least squares; points (the compensated coordinates).
+    roundness), plane (flatness), cylinder (diameter, cylindricity), sphere-centre and
+    circle-centre (positions), points (the compensated coordinates). Sizes and centres are
+    least squares; ``--form minimum-zone`` evaluates the form error by the minimum zone.
     Method: GUF with the covariance simulator (machine-parameter uncertainty cancels to
     first order; the parameters enter the compensated value), adaptive Monte Carlo (JCGM
     101/102), or both with the validation of the GUF.
@@ -202,19 +247,30 @@ def uncertainty(
             "alone cancels to first order (u would be 0)"
         )
     if side is not None and feature.value not in DEFAULT_SIDE:
-        raise InputError(f"--side applies to sphere and circle, not to a {feature.value}")
+        raise InputError(
+            f"--side applies to a sphere, circle or cylinder, not to a {feature.value}"
+        )
+    least = MIN_POINTS[feature.value]
+    if form is Form.minimum_zone:
+        if feature.value not in MIN_POINTS_MINIMUM_ZONE:
+            raise InputError(
+                f"--form minimum-zone applies to a form error, not to a {feature.value}"
+            )
+        least = MIN_POINTS_MINIMUM_ZONE[feature.value]
     base = Machine.load(machine_name)
     pset = ParameterSet.load(params, base)
     machine = pset.machine_for(base)
     if pset.covariance is None:
         raise InputError(f"{params}: no covariance; the task uncertainty needs one")
-    readings, approach, senses = _points(points_csv, machine, feature, repeatability is not None)
+    readings, approach, senses = _points(
+        points_csv, machine, feature, repeatability is not None, least
+    )
     v = None
     if repeatability is not None:
         v = reading_covariance(machine, load_repeatability_model(repeatability), readings, approach)
     cov_e = load_unexplained_covariance(unexplained) if unexplained is not None else None
     d_tip = 2.0 * machine.tip_radius if tip_diameter is None else tip_diameter
-    feat = _feature(feature, side, d_tip, len(readings))
+    feat = _feature(feature, form, side, d_tip, len(readings))
     target = _tolerance_index(feat, tolerance_output, tol)
     result = task_uncertainty(
         machine,
