@@ -1,5 +1,7 @@
 """On-machine measurement (OMM): probing repeatability, reference values, task uncertainty."""
 
+from mtmetrology.omm.long_term import long_term_parameters
+from mtmetrology.omm.pooling import PoolingResult, pooling_experiment
 from mtmetrology.omm.reference import (
     ReferenceValue,
     coverage_probability,
@@ -17,6 +19,7 @@ from mtmetrology.omm.repeatability import (
 from mtmetrology.omm.repeatability_file import load_repeatability_model
 
 __all__ = [
+    "PoolingResult",
     "ReferenceValue",
     "RepeatabilityModel",
     "TargetStatistics",
@@ -24,7 +27,9 @@ __all__ = [
     "fit_repeatability_model",
     "lateral_deviation_threshold",
     "load_repeatability_model",
+    "long_term_parameters",
     "normal_tangential",
+    "pooling_experiment",
     "sphere_normal",
     "target_statistics",
     "thermal_reference_value",
