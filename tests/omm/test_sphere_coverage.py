@@ -93,7 +93,7 @@ def tasks():
 
 def test_sphere_diameter_intervals_cover_the_truth_95_percent(tasks):
     """500 tasks: the number of k = 2 (p = 0.95) intervals holding the true 19.05 mm
-    must lie in the two-sided 99 % binomial acceptance region of p = 0.95 (461 … 487).
+    must lie in the two-sided 99 % binomial acceptance region of p = 0.95 (462 … 487).
 
     The day-to-day parameter change moves the 25 points almost rigidly (its effect on the
     diameter is ~0.1 µm against u ≈ 9 µm), so the first-order cancellation of the
