@@ -47,7 +47,11 @@ COMMANDS = {
 SHARED_GROUPS = {
     "calibrate": (
         "Identify a machine's errors from artefact records.",
-        [("mtmetrology.cli.calibrate", "app"), ("mtmetrology.cli.cmm", "calibrate_app")],
+        [
+            ("mtmetrology.cli.calibrate", "app"),
+            ("mtmetrology.cli.cmm", "calibrate_app"),
+            ("mtmetrology.cli.long_term", "app"),
+        ],
     ),
     "simulate": (
         "Simulate artefact records of a machine with known errors.",

@@ -2,6 +2,8 @@
 
 from mtmetrology.omm.drift import detrend_cubic, sliding_window_std
 from mtmetrology.omm.hysteresis import HysteresisResult, hysteresis_errors, radial_projection
+from mtmetrology.omm.long_term import long_term_parameters
+from mtmetrology.omm.pooling import PoolingResult, pooling_experiment
 from mtmetrology.omm.reference import (
     ReferenceValue,
     coverage_probability,
@@ -23,6 +25,7 @@ from mtmetrology.omm.task import TaskResult, task_uncertainty
 
 __all__ = [
     "HysteresisResult",
+    "PoolingResult",
     "ReferenceValue",
     "RepeatabilityModel",
     "TargetStatistics",
@@ -36,7 +39,9 @@ __all__ = [
     "hysteresis_errors",
     "lateral_deviation_threshold",
     "load_repeatability_model",
+    "long_term_parameters",
     "normal_tangential",
+    "pooling_experiment",
     "radial_projection",
     "sliding_window_std",
     "sphere_normal",

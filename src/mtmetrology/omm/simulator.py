@@ -55,6 +55,9 @@ SIMULATORS = ("linear", "sampled")
 class TaskInputs:
     """Inputs x = [Γ (n × n_axes); Δ (P); E (3n)] of a task with their covariance U_x.
 
+    It is what the GUF engine reads (names, units, estimate, covariance, dof); Monte Carlo
+    samples :meth:`input_set`, whose factorisation of U_x the GUF does not need.
+
     Attributes
     ----------
     names, units : tuple of str, length N = n·n_axes + P + 3n
@@ -90,6 +93,11 @@ class TaskInputs:
             "machine_parameters": slice(a, b),
             "unexplained_volumetric_error": slice(b, b + 3 * self.n_points),
         }
+
+    @property
+    def dof(self) -> np.ndarray:
+        """Degrees of freedom of the inputs: infinite (the covariances are taken as known)."""
+        return np.full(len(self.names), np.inf)
 
     def input_set(self) -> InputSet:
         """The inputs as jointly normal quantities (for the GUF and Monte Carlo engines)."""

@@ -290,10 +290,9 @@ def task_uncertainty(
         [c_axes.reshape(3 * n, n * n_axes), g.reshape(3 * n, n_par), np.eye(3 * n)]
     )
     model = MeasurementModel(machine, feature, n, senses)
-    input_set = inputs.input_set()
     guf_result = guf(
         model,
-        input_set,
+        inputs,
         jacobian=lambda _x: feature_jac @ c_points,
         p=p,
         output_names=list(model.output_names),
@@ -311,7 +310,7 @@ def task_uncertainty(
     if method != "guf":
         mcm_result = monte_carlo(
             model,
-            input_set,
+            inputs.input_set(),
             trials=trials,
             adaptive=trials is None,
             digits=digits,
