@@ -88,29 +88,21 @@ def test_table_7_1_gauge_length_by_monte_carlo_and_guf():
     assert doc["outputs"][0]["value"] == r.mcm.estimate[0]  # Monte Carlo is the reference
 
 
-def test_fixed_trials_are_reproducible_and_independent_of_the_chunking():
-    a = task_uncertainty(
-        MACHINE,
-        READINGS,
-        np.zeros(13),
-        SIGMA,
-        GaugeLength(tip_diameter=0.0),
-        unexplained_covariance=COV_E,
-        method="mcm",
-        trials=20_000,
-        seed=5,
-    )
-    b = task_uncertainty(
-        MACHINE,
-        READINGS,
-        np.zeros(13),
-        SIGMA,
-        GaugeLength(tip_diameter=0.0),
-        unexplained_covariance=COV_E,
-        method="mcm",
-        trials=20_000,
-        seed=5,
-    )
+def test_fixed_trials_are_reproducible():
+    def run():
+        return task_uncertainty(
+            MACHINE,
+            READINGS,
+            np.zeros(13),
+            SIGMA,
+            GaugeLength(tip_diameter=0.0),
+            unexplained_covariance=COV_E,
+            method="mcm",
+            trials=20_000,
+            seed=5,
+        )
+
+    a, b = run(), run()
     assert a.mcm.trials == 20_000 and a.mcm.converged is None
     assert a.mcm.estimate[0] == b.mcm.estimate[0]
     assert a.validation is None and a.result is a.mcm
