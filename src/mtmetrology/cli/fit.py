@@ -23,11 +23,11 @@ from pathlib import Path
 from typing import Annotated
 
 import numpy as np
-import pyarrow as pa
 import typer
 from rich.console import Console
 from rich.table import Table as RichTable
 
+from mtmetrology._memory import release_free_memory
 from mtmetrology.cli._common import ReportOption, command_line, write_report
 from mtmetrology.errors import InputError
 from mtmetrology.fitting.documents import fit_document
@@ -103,8 +103,9 @@ def _read_points(path: Path) -> tuple[np.ndarray, np.ndarray]:
     points, lines = np.c_[table.floats("x"), table.floats("y"), table.floats("z")], table.lines
     del table
     # Arrow's allocator keeps the freed text columns (about 3 bytes per byte of the file)
-    # for reuse; nothing else uses Arrow here, so return them before the fit's own peak.
-    pa.default_memory_pool().release_unused()
+    # for reuse, glibc the reader's freed scratch; nothing else uses Arrow here, so return
+    # them before the fit's own peak.
+    release_free_memory()
     return points, lines
 
 
