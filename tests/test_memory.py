@@ -66,15 +66,18 @@ def test_freed_columns_and_heap_chunks_go_back_to_the_system():
     less than 4 MiB resident (glibc's adaptive threshold would serve the second and third
     from the heap and keep them: about 23 MiB).  39 freed 1 MiB chunks under a live one
     stay resident until release_free_memory trims the heap: then less than 8 MiB remain."""
-    applied, columns, held, released = _probe(MALLOC_MMAP_THRESHOLD_=None)
+    applied, columns, held, released = _probe(
+        MALLOC_MMAP_THRESHOLD_=None, MALLOC_TRIM_THRESHOLD_=None
+    )
     assert applied == "True"
     assert float(columns) < 4.0
     assert float(held) > 30.0 and float(released) < 8.0
 
 
 @glibc_only
-def test_a_threshold_set_in_the_environment_wins():
-    applied = _probe(MALLOC_MMAP_THRESHOLD_="131072")[0]
+@pytest.mark.parametrize("variable", ["MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_"])
+def test_a_threshold_set_in_the_environment_wins(variable):
+    applied = _probe(**{variable: "131072"})[0]
     assert applied == "False"
 
 

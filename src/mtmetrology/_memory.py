@@ -12,7 +12,10 @@ otherwise stay as large as its largest moment, and the peaks of later steps add 
   fragment it and remain resident.  :func:`limit_heap_retention` fixes the threshold
   (which also stops the adaptation) at :data:`MMAP_THRESHOLD`: whole-column arrays are
   mapped and truly freed, while the per-chunk temporaries of a chunked computation (a few
-  MiB) keep being reused from the heap without new page faults.
+  MiB) keep being reused from the heap without new page faults.  The heap's *trim
+  threshold* (free memory kept at its top) is fixed at the same size, as glibc's own
+  adaptation would have it grow: with its starting 128 KiB, every freed chunk temporary
+  at the top would be given back and faulted in again for the next chunk.
 - :func:`release_free_memory` hands back, after a large file is read, what both
   allocators hold free (Arrow's ``release_unused``, glibc's ``malloc_trim``).
 
@@ -38,13 +41,14 @@ from __future__ import annotations
 import os
 import sys
 
-#: ``mallopt`` parameter number of the mmap threshold (glibc ``malloc.h``).
+#: ``mallopt`` parameter numbers of the trim and mmap thresholds (glibc ``malloc.h``).
+M_TRIM_THRESHOLD = -1
 M_MMAP_THRESHOLD = -3
 #: Allocations of at least this many bytes are mapped (and unmapped when freed): above the
 #: per-chunk temporaries of the chunked kinematic chain and CSV writer (up to 8 MiB each,
 #: reused from the heap at no page-fault cost), below the (n, 3) arrays of a million rows
 #: (24 MB).  128 KiB, glibc's starting value, made ``mtm predict`` on 1 M rows spend
-#: 0.6 s more CPU on page faults (bench/bench_csv.py).
+#: 0.6 s more CPU on page faults (bench/bench_csv.py).  Also the trim threshold.
 MMAP_THRESHOLD = 16 << 20
 
 
@@ -61,21 +65,23 @@ def _glibc():
 
 
 def limit_heap_retention() -> bool:
-    """Fix glibc's mmap threshold at :data:`MMAP_THRESHOLD` for this process.
+    """Fix glibc's mmap and trim thresholds at :data:`MMAP_THRESHOLD` for this process.
 
     Returns
     -------
     bool
-        Whether it was set (False off glibc, or if ``mallopt`` refused).
+        Whether they were set (False off glibc, or if ``mallopt`` refused).
 
     Notes
     -----
-    ``MALLOC_MMAP_THRESHOLD_`` in the environment, if set, is the user's choice and wins.
+    ``MALLOC_MMAP_THRESHOLD_`` or ``MALLOC_TRIM_THRESHOLD_`` in the environment is the
+    user's choice and wins: then nothing is changed.
     """
     libc = _glibc()
-    if libc is None or "MALLOC_MMAP_THRESHOLD_" in os.environ:
+    if libc is None or {"MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_"} & set(os.environ):
         return False
-    return bool(libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD))
+    mapped = libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD)
+    return bool(mapped and libc.mallopt(M_TRIM_THRESHOLD, MMAP_THRESHOLD))
 
 
 def release_free_memory() -> None:
