@@ -229,3 +229,42 @@ def test_tall_problems_factorised_by_block_qr_agree_with_the_thin_svd(monkeypatc
     np.testing.assert_allclose(lean.covariance(), thin.covariance(), rtol=1e-9, atol=1e-15)
     if not rank_deficient:
         assert lean.condition == pytest.approx(thin.condition, rel=1e-10)
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_a_tall_problem_holds_one_jacobian_at_a_time(sign):
+    """Above the tall-problem threshold the iteration needs only the SVD pieces, so the
+    current Jacobian is let go before a trial point is evaluated: when ``fun`` is called,
+    no Jacobian it returned before is still alive.  A sign-flipped Jacobian makes every
+    step go uphill (damping limit after rejected trials): the final point's Jacobian is
+    then evaluated once more, counted in ``nfev``, and is the one of the returned ``x``."""
+    import weakref
+
+    import mtmetrology.optimize as optimize
+
+    rng = np.random.default_rng(11)
+    a = rng.normal(size=(30_000, 3))
+    b = a @ np.array([1.0, -2.0, 0.5]) + 1e-3 * rng.normal(size=a.shape[0])
+    handed_out = []
+    alive_at_call = []
+
+    def fun(x):
+        alive_at_call.append(sum(ref() is not None for ref in handed_out))
+        jac = sign * a
+        handed_out.append(weakref.ref(jac))
+        return a @ x - b, jac
+
+    assert optimize._tall(a)
+    res = least_squares(fun, np.zeros(3))
+    assert alive_at_call == [0] * len(alive_at_call)
+    assert res.nfev == res.njev == len(handed_out)
+    np.testing.assert_array_equal(res.jacobian, sign * a)
+    if sign > 0:
+        assert res.status == Status.STEP_TOLERANCE
+        np.testing.assert_allclose(res.x, np.linalg.lstsq(a, b, rcond=None)[0], atol=1e-12)
+    else:
+        # the undamped step and λ = 1e-3 ... 1e12: 17 rejected trials, then the start
+        # evaluated again
+        assert res.status == Status.DAMPING_LIMIT
+        assert res.nit == 17 and res.nfev == 1 + 17 + 1
+        np.testing.assert_array_equal(res.x, np.zeros(3))

@@ -299,7 +299,11 @@ def least_squares(
     -----
     See the module notes for the step and the stopping rules.  The returned point is the
     last accepted one, so ``residuals``, ``jacobian`` and the SVD all belong to ``x``; a
-    converged step (below ``xtol`` or at the rounding level) is not applied.
+    converged step (below ``xtol`` or at the rounding level) is not applied.  A tall
+    problem (many more residuals than unknowns) holds one (m, n) Jacobian at a time: the
+    current one is released before a trial point is evaluated, and when the iteration
+    stops after a rejected trial (a failed stop) ``fun(x)`` is evaluated once more for it
+    (counted in ``nfev`` and ``njev``).
 
     References
     ----------
@@ -339,6 +343,10 @@ def least_squares(
     if require_full_rank and _rank(svd[2], rank_rtol, jac.shape[1]) < jac.shape[1]:
         return _result(x, r, jac, svd, Status.RANK_DEFICIENT, nfev, njev, 0, rank_rtol)
     rr = float(r @ r)
+    # A tall problem's iteration needs only the small SVD pieces: its (m, n) Jacobian is
+    # let go before a trial point is evaluated, so that two are never held at once, and
+    # evaluated again at the end only if the last trial was rejected (a failed stop).
+    lean = _tall(jac)
     lam = 0.0
     previous = np.inf  # last accepted step size in the near-converged regime
     status = Status.ITERATION_LIMIT
@@ -365,6 +373,8 @@ def least_squares(
         trial = move(x, step_scaled / norms)
         accepted = False
         if trial is not None:
+            if lean:
+                jac = None
             r_t, jac_t = fun(trial)
             nfev += 1
             njev += 1
@@ -376,12 +386,17 @@ def least_squares(
                     previous = size if near else np.inf
                     lam = 0.0 if lam <= 1e-6 else lam / 10.0
                     accepted = True
+            del r_t, jac_t  # a rejected trial's arrays go now, not at the next evaluation
         if not accepted:
             previous = np.inf
             lam = _LAMBDA_START if lam == 0.0 else lam * 10.0
             if lam > _LAMBDA_MAX:
                 status = Status.DAMPING_LIMIT
                 break
+    if jac is None:
+        jac = fun(x)[1]
+        nfev += 1
+        njev += 1
     return _result(x, r, jac, svd, status, nfev, njev, nit, rank_rtol)
 
 

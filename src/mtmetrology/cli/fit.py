@@ -23,14 +23,13 @@ from pathlib import Path
 from typing import Annotated
 
 import numpy as np
-import pyarrow as pa
 import typer
 from rich.console import Console
 from rich.table import Table as RichTable
 
+from mtmetrology._memory import release_free_memory
 from mtmetrology.cli._common import ReportOption, command_line, write_report
 from mtmetrology.errors import InputError
-from mtmetrology.fitting import minimum_zone
 from mtmetrology.fitting.documents import fit_document
 from mtmetrology.fitting.elements import Circle, Cone, Cylinder, Line, Sphere
 from mtmetrology.fitting.least_squares import (
@@ -77,17 +76,20 @@ _LEAST_SQUARES = {
     ElementName.cone: fit_cone,
 }
 
+#: The Chebyshev fits, by name in :mod:`mtmetrology.fitting.minimum_zone` (imported only
+#: when one is asked for: it brings scipy.optimize and scipy.spatial, which a
+#: least-squares fit to millions of points does without).
 _ZONE_FITS = {
-    (ElementName.plane, Method.minimum_zone): minimum_zone.flatness,
-    (ElementName.circle, Method.minimum_zone): minimum_zone.roundness,
-    (ElementName.circle, Method.inscribed): minimum_zone.inscribed_circle,
-    (ElementName.circle, Method.circumscribed): minimum_zone.circumscribed_circle,
-    (ElementName.sphere, Method.minimum_zone): minimum_zone.sphericity,
-    (ElementName.sphere, Method.inscribed): minimum_zone.inscribed_sphere,
-    (ElementName.sphere, Method.circumscribed): minimum_zone.circumscribed_sphere,
-    (ElementName.cylinder, Method.minimum_zone): minimum_zone.cylindricity,
-    (ElementName.cylinder, Method.inscribed): minimum_zone.inscribed_cylinder,
-    (ElementName.cylinder, Method.circumscribed): minimum_zone.circumscribed_cylinder,
+    (ElementName.plane, Method.minimum_zone): "flatness",
+    (ElementName.circle, Method.minimum_zone): "roundness",
+    (ElementName.circle, Method.inscribed): "inscribed_circle",
+    (ElementName.circle, Method.circumscribed): "circumscribed_circle",
+    (ElementName.sphere, Method.minimum_zone): "sphericity",
+    (ElementName.sphere, Method.inscribed): "inscribed_sphere",
+    (ElementName.sphere, Method.circumscribed): "circumscribed_sphere",
+    (ElementName.cylinder, Method.minimum_zone): "cylindricity",
+    (ElementName.cylinder, Method.inscribed): "inscribed_cylinder",
+    (ElementName.cylinder, Method.circumscribed): "circumscribed_cylinder",
 }
 
 
@@ -101,8 +103,9 @@ def _read_points(path: Path) -> tuple[np.ndarray, np.ndarray]:
     points, lines = np.c_[table.floats("x"), table.floats("y"), table.floats("z")], table.lines
     del table
     # Arrow's allocator keeps the freed text columns (about 3 bytes per byte of the file)
-    # for reuse; nothing else uses Arrow here, so return them before the fit's own peak.
-    pa.default_memory_pool().release_unused()
+    # for reuse, glibc the reader's freed scratch; nothing else uses Arrow here, so return
+    # them before the fit's own peak.
+    release_free_memory()
     return points, lines
 
 
@@ -123,11 +126,13 @@ def _least_squares(element: ElementName, points: np.ndarray) -> tuple[Line, FitR
 
 
 def _zone_fit(element: ElementName, method: Method, points: np.ndarray):
+    from mtmetrology.fitting import minimum_zone
+
     if element is ElementName.line and method is Method.minimum_zone:
         normal = (0.0, 0.0, 1.0) if _line_in_plane(points) else None
         return minimum_zone.straightness(points, plane_normal=normal)
     try:
-        solve = _ZONE_FITS[element, method]
+        name = _ZONE_FITS[element, method]
     except KeyError:
         raise _UsageError(
             f"--method {method.value} is not available for a {element.value}: "
@@ -136,7 +141,7 @@ def _zone_fit(element: ElementName, method: Method, points: np.ndarray):
                 "cylinder, minimum-zone also to line and plane"
             )
         ) from None
-    return solve(points)
+    return getattr(minimum_zone, name)(points)
 
 
 def _compensate(element, tip_radius: float, inside: bool):

@@ -9,6 +9,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from mtmetrology._memory import release_free_memory
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
@@ -119,6 +120,7 @@ def predict(
     if params is not None:
         m, theta, gp, pset = read_error_model(params, m)
     table = read_csv_table(readings)
+    release_free_memory()  # the reader's scratch (file bytes, parse buffers) before compute
     clash = sorted(set(table.header) & {"x", "y", "z"})
     if clash:
         raise InputFileError(
@@ -132,6 +134,7 @@ def predict(
         tools = probe_tools(load_probes(probes), table)
     q = readings_from_table(m, table)
     senses = senses_from_table(m, table)
+    release_free_memory()  # the float casts of the columns, now copied into q
     reversal = [p.name for p in m.parameters if p.kind == "reversal"]
     if reversal and senses is None:
         columns = ", ".join(
@@ -171,6 +174,9 @@ def predict(
         if pset is not None:
             add_result(report, pset)
         write_report(report, report_path)
+    # The readings (n, axes) are done with: let them go before the output is formatted,
+    # so that they and the writer's chunks are never resident together.
+    del q, senses, tools
     columns = {c: table.text.column(c) for c in table.header}
     columns.update({c: xyz[:, k] for k, c in enumerate("xyz")})
     plain = () if table.quoted else table.header

@@ -9,7 +9,6 @@ axis of an algebraic quadric, a given direction); the best converged fit is kept
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from mtmetrology.fitting._odr import (
     FitError,
@@ -75,6 +74,9 @@ def _candidate_axes(x: np.ndarray, direction: object, kind: str) -> list[np.ndar
     if quadric is not None:
         axes.append(quadric)
     if n >= 6:
+        # here, not at the top: scipy.spatial is large and only cylinders and cones use it
+        from scipy.spatial import cKDTree
+
         k = min(n, 8)
         nb = cKDTree(x).query(x, k=k)[1]  # (n, k) neighbour indices
         patches = x[nb] - x[nb].mean(axis=1, keepdims=True)  # (n, k, 3)
