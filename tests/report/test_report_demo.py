@@ -149,8 +149,9 @@ def test_demo_sphere_at_several_orientations(demo_run):
         ijk = np.array([[float(r[header.index(a)]) for a in "ijk"] for r in rows])
         np.testing.assert_allclose(np.linalg.norm(ijk, axis=1), 1.0, atol=1e-6)
         result = json.loads(path.with_suffix(".json").read_text(encoding="utf-8"))
-        (diameter,) = result["outputs"]
+        diameter, sphericity = result["outputs"]  # as `--feature sphere` gives them
         assert diameter["name"] == "sphere_diameter" and diameter["unit"] == "mm"
+        assert sphericity["name"] == "sphericity" and sphericity["value"] >= 0
         limits = result["decision"]["tolerance"]
         expected = _iso_14253_decision(diameter["value"], diameter["U"], limits)
         assert result["decision"]["decision"] == expected
@@ -190,7 +191,7 @@ def test_demo_task_intervals_cover_the_truth(demo_run):
     assert all(t["true"] == pytest.approx(gauge_length, abs=1e-9) for t in gauges)
     for t in spheres:  # the counted interval is the one of the written result
         result = json.loads((out / "task" / f"{t['feature']}.json").read_text(encoding="utf-8"))
-        (diameter,) = result["outputs"]
+        diameter = result["outputs"][0]
         assert (t["value"], t["U"]) == (diameter["value"], diameter["U"])
     covered = sum(abs(t["value"] - t["true"]) <= t["U"] for t in tasks)
     assert [t["covered"] for t in tasks] == [abs(t["value"] - t["true"]) <= t["U"] for t in tasks]

@@ -28,7 +28,8 @@ from scipy.stats import binom
 from mtmetrology.budgets.conformity import Tolerance, decide
 from mtmetrology.cli._common import readings_from_table
 from mtmetrology.cli.demo import DemoContext
-from mtmetrology.fitting.features import GaugeLength, SphereDiameter
+from mtmetrology.cli.task import FeatureName, Form, task_feature
+from mtmetrology.fitting.features import GaugeLength
 from mtmetrology.io import read_csv_table
 from mtmetrology.io.tables import write_csv_table
 from mtmetrology.kinematics.machine import Machine
@@ -146,7 +147,8 @@ def sphere_task_section(ctx: DemoContext, *, preset: str) -> None:
     m = pset.machine_for(base)
     unexplained = load_unexplained_covariance(ctx.path("task", "unexplained.json"))
     tolerance = Tolerance.parse(SPHERE_TOLERANCE)
-    sphere = SphereDiameter(2.0 * m.tip_radius)
+    # What `mtm task uncertainty --feature sphere` evaluates: the diameter and the sphericity.
+    sphere = task_feature(FeatureName.sphere, Form.least_squares, None, 2.0 * m.tip_radius, 25)
     rows, intervals, big_u_um = [], [], []
     with ctx.step(
         f"a {SPHERE_DIAMETER_MM:g} mm sphere at {len(SPHERE_BC)} (B, C): task uncertainty"

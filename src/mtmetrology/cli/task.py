@@ -135,7 +135,7 @@ def _points(path: Path, machine: Machine, feature: FeatureName, need_approach: b
     )
 
 
-def _feature(name: FeatureName, form: Form, side: Side | None, d_tip: float, n_points: int):
+def task_feature(name: FeatureName, form: Form, side: Side | None, d_tip: float, n_points: int):
     """The feature function g(q): the size (tip-compensated, least squares) and the form
     (least-squares peak-to-valley or minimum zone) of the element, its centre, or the
     compensated coordinates themselves (Sepahi Boroujeni (2021), Table 7-1)."""
@@ -270,7 +270,7 @@ def uncertainty(
         v = reading_covariance(machine, load_repeatability_model(repeatability), readings, approach)
     cov_e = load_unexplained_covariance(unexplained) if unexplained is not None else None
     d_tip = 2.0 * machine.tip_radius if tip_diameter is None else tip_diameter
-    feat = _feature(feature, form, side, d_tip, len(readings))
+    feat = task_feature(feature, form, side, d_tip, len(readings))
     target = _tolerance_index(feat, tolerance_output, tol)
     result = task_uncertainty(
         machine,
