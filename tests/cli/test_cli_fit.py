@@ -254,3 +254,26 @@ def test_zone_results_agree_with_the_library_for_cylinders_and_circles(csv_files
     circle = np.loadtxt(csv_files["circle"], delimiter=",", skiprows=1)
     ls = _run_json("circle", csv_files["circle"])
     assert ls["form_error"]["value"] == pytest.approx(fit_circle(circle).form_error * 1e3)
+
+
+def test_a_least_squares_fit_does_without_the_zone_machinery(tmp_path):
+    """``mtm fit sphere`` (least squares) loads neither scipy.optimize nor scipy.spatial
+    (the Chebyshev fits' linear programs and hulls, cylinders' neighbour search): a smaller
+    process on millions of points.  Checked in a fresh interpreter after a real run."""
+    import subprocess
+    import sys
+
+    rng = np.random.default_rng(4)
+    path = _write(tmp_path / "ball.csv", 12.5 * _unit_vectors(rng, 40))
+    code = (
+        "import sys\n"
+        "from mtmetrology.__main__ import main\n"
+        "try:\n"
+        f"    main(['fit', 'sphere', {str(path)!r}, '--json'])\n"
+        "except SystemExit as stop:\n"
+        "    assert stop.code == 0, stop.code\n"
+        "print(sorted(m for m in ('scipy.optimize', 'scipy.spatial') if m in sys.modules))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert json.loads(done.stdout[: done.stdout.rindex("}") + 1])["element"] == "sphere"
+    assert done.stdout.strip().splitlines()[-1] == "[]"

@@ -66,7 +66,6 @@ from typing import ClassVar
 import numpy as np
 
 from mtmetrology.errors import ConvergenceError, RankDeficientError
-from mtmetrology.fitting import minimum_zone
 from mtmetrology.fitting._zones import ZoneResult, _plane_basis
 from mtmetrology.fitting.features import _Scalar, _single, _stack, _TipCompensated
 from mtmetrology.fitting.least_squares import fit_plane
@@ -182,15 +181,22 @@ def _zones(stack: np.ndarray, solve: Callable, name: str) -> list[ZoneResult]:
 class _ZoneShape:
     """What differs between the zone features: the solver, gradients, minimum points."""
 
-    solve: Callable
+    solver: str  # the function of mtmetrology.fitting.minimum_zone
     gradients: Callable
     min_points: int
 
+    def solve(self, points: np.ndarray) -> ZoneResult:
+        # Imported on first use: the linear programmes and hulls (scipy.optimize,
+        # scipy.spatial) cost a least-squares process about 20 MiB it never needs.
+        from mtmetrology.fitting import minimum_zone
 
-_SPHERE = _ZoneShape(minimum_zone.sphericity, _sphere_gradients, 5)
-_CIRCLE = _ZoneShape(minimum_zone.roundness, _circle_gradients, 4)
-_CYLINDER = _ZoneShape(minimum_zone.cylindricity, _cylinder_gradients, 6)
-_PLANE = _ZoneShape(minimum_zone.flatness, _flatness_gradients, 4)
+        return getattr(minimum_zone, self.solver)(points)
+
+
+_SPHERE = _ZoneShape("sphericity", _sphere_gradients, 5)
+_CIRCLE = _ZoneShape("roundness", _circle_gradients, 4)
+_CYLINDER = _ZoneShape("cylindricity", _cylinder_gradients, 6)
+_PLANE = _ZoneShape("flatness", _flatness_gradients, 4)
 
 
 class _MinimumZoneForm(_Scalar):
