@@ -40,10 +40,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import block_diag
 
 from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.rng import SeedLike, as_generator
+from mtmetrology.uncertainty.distributions import MultivariateNormal
 from mtmetrology.uncertainty.inputs import InputSet
 
 __all__ = ["SIMULATORS", "MeasurementModel", "TaskInputs", "covariance_simulator"]
@@ -289,10 +291,10 @@ def _sampled_population_covariance(machine, q, delta, sigma, v, senses, linear, 
     """Sample cov [Γ; Δ] of Q draws of Populations I–IV (Appendix A.3)."""
     rng = as_generator(seed)
     n, n_axes = q.shape
-    factor = _psd_factor(v)  # (n, n_axes, n_axes)
-    phi = q + np.einsum("sij,tsj->tsi", factor, rng.standard_normal((draws, n, n_axes)))  # I
+    # I: the readings of all points, independent between points (block-diagonal v).
+    phi = MultivariateNormal(q.ravel(), block_diag(*v)).sample(rng, draws).reshape(draws, n, n_axes)
     psi = machine.forward(phi, delta, senses=senses)  # II
-    deltas = rng.multivariate_normal(delta, sigma, draws, method="eigh")  # III
+    deltas = MultivariateNormal(delta, sigma).sample(rng, draws)  # III
     # IV: rotary readings stay commanded; one member of II per member of III (§6.2.2).
     gamma = machine.inverse(psi, np.broadcast_to(q, phi.shape), deltas[:, None, :], senses=senses)
     # Only the linear readings and Δ vary: the rotary ones are constants, exactly.
@@ -302,12 +304,6 @@ def _sampled_population_covariance(machine, q, delta, sigma, v, senses, linear, 
     pop = np.hstack([gamma.reshape(draws, -1)[:, lin], deltas])
     out[np.ix_(live, live)] = np.cov(pop, rowvar=False)
     return out
-
-
-def _psd_factor(v: np.ndarray) -> np.ndarray:
-    """L with L Lᵀ = v for a stack of PSD matrices (eigen-decomposition: v may be singular)."""
-    w, vec = np.linalg.eigh(v)
-    return vec * np.sqrt(np.clip(w, 0.0, None))[..., None, :]
 
 
 def check_psd(matrix, shape: tuple[int, ...], what: str) -> np.ndarray:
