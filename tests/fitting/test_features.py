@@ -162,3 +162,24 @@ def test_sphere_diameter_guf_equals_parameter_covariance():
 def test_invalid_input_is_refused_with_a_clear_message(call, pattern):
     with pytest.raises(ValueError, match=pattern):
         call()
+
+
+@pytest.mark.parametrize(
+    "feature",
+    [
+        SphereDiameter(),
+        CircleDiameter(),
+        Flatness(),
+        BallCentre(),
+    ],
+    ids=lambda f: f.name,
+)
+def test_min_points_is_what_the_fit_refuses_below(feature):
+    """``min_points`` (read by ``mtm task uncertainty`` to refuse a short file) is the
+    fewest points ``value`` accepts."""
+    rng = np.random.default_rng(2)
+    d = rng.normal(size=(feature.min_points, 3))
+    points = 10.0 * d / np.linalg.norm(d, axis=1, keepdims=True)
+    assert np.all(np.isfinite(feature.value(points)))
+    with pytest.raises(ValueError):
+        feature.value(points[:-1])

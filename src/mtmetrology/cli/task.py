@@ -90,13 +90,8 @@ class Simulator(StrEnum):
     sampled = "sampled"
 
 
-#: Fewest points of each feature (a length: exactly two); minimum-zone forms need the
-#: p + 2 contacts of a regular zone (p parameters of the element).
-MIN_POINTS = {
-    "length": 2, "sphere": 4, "circle": 3, "plane": 3, "cylinder": 5, "sphere-centre": 4,
-    "circle-centre": 3, "points": 1,
-}  # fmt: skip
-MIN_POINTS_MINIMUM_ZONE = {"sphere": 5, "circle": 4, "plane": 4, "cylinder": 6}
+#: The features with a form error, which ``--form minimum-zone`` may evaluate.
+FORM_FEATURES = ("sphere", "circle", "plane", "cylinder")
 #: Default side: a ball is probed from outside, a circle or a cylinder is a bore.
 DEFAULT_SIDE = {"sphere": Side.outer, "circle": Side.inner, "cylinder": Side.inner}
 
@@ -106,7 +101,7 @@ def _group() -> None:
     """Uncertainty of on-machine measurement tasks."""
 
 
-def _points(path: Path, machine: Machine, feature: FeatureName, need_approach: bool, least: int):
+def _points(path: Path, machine: Machine, feature: FeatureName, need_approach: bool):
     table = read_csv_table(path, required=("point",))
     readings = readings_from_table(machine, table)
     order = np.arange(len(table))
@@ -120,10 +115,6 @@ def _points(path: Path, machine: Machine, feature: FeatureName, need_approach: b
             if sorted(ends.tolist()) != [1.0, 2.0]:
                 raise InputError(f"{path}: column 'end' must hold 1 and 2")
             order = np.argsort(ends)
-    elif len(table) < least:
-        raise InputError(
-            f"{path}: a {feature.value} needs at least {least} points, got {len(table)}"
-        )
     approach = None
     if need_approach:
         approach = np.column_stack([table.floats(c) for c in "ijk"])
@@ -250,27 +241,25 @@ def uncertainty(
         raise InputError(
             f"--side applies to a sphere, circle or cylinder, not to a {feature.value}"
         )
-    least = MIN_POINTS[feature.value]
-    if form is Form.minimum_zone:
-        if feature.value not in MIN_POINTS_MINIMUM_ZONE:
-            raise InputError(
-                f"--form minimum-zone applies to a form error, not to a {feature.value}"
-            )
-        least = MIN_POINTS_MINIMUM_ZONE[feature.value]
+    if form is Form.minimum_zone and feature.value not in FORM_FEATURES:
+        raise InputError(f"--form minimum-zone applies to a form error, not to a {feature.value}")
     base = Machine.load(machine_name)
     pset = ParameterSet.load(params, base)
     machine = pset.machine_for(base)
     if pset.covariance is None:
         raise InputError(f"{params}: no covariance; the task uncertainty needs one")
-    readings, approach, senses = _points(
-        points_csv, machine, feature, repeatability is not None, least
-    )
+    readings, approach, senses = _points(points_csv, machine, feature, repeatability is not None)
+    d_tip = 2.0 * machine.tip_radius if tip_diameter is None else tip_diameter
+    feat = task_feature(feature, form, side, d_tip, len(readings))
+    if len(readings) < feat.min_points:
+        raise InputError(
+            f"{points_csv}: a {feature.value} needs at least {feat.min_points} points "
+            f"({form.value}), got {len(readings)}"
+        )
     v = None
     if repeatability is not None:
         v = reading_covariance(machine, load_repeatability_model(repeatability), readings, approach)
     cov_e = load_unexplained_covariance(unexplained) if unexplained is not None else None
-    d_tip = 2.0 * machine.tip_radius if tip_diameter is None else tip_diameter
-    feat = task_feature(feature, form, side, d_tip, len(readings))
     target = _tolerance_index(feat, tolerance_output, tol)
     result = task_uncertainty(
         machine,

@@ -28,6 +28,10 @@ class PointCoordinates:
     unit: str = "mm"
 
     @property
+    def min_points(self) -> int:
+        return self.n_points
+
+    @property
     def output_names(self) -> tuple[str, ...]:
         return tuple(f"{c}_{s + 1}" for s in range(self.n_points) for c in "XYZ")
 
@@ -87,6 +91,10 @@ class CombinedFeature:
     @property
     def unit(self) -> str:
         return self.features[0].unit
+
+    @property
+    def min_points(self) -> int:
+        return max(f.min_points for f in self.features)
 
     @property
     def output_names(self) -> tuple[str, ...]:

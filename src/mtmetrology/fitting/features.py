@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -58,6 +58,7 @@ class Feature(Protocol):
 
     name: str
     unit: str
+    min_points: int  # the fewest points it is defined on
 
     @property
     def output_names(self) -> tuple[str, ...]: ...
@@ -152,6 +153,7 @@ class GaugeLength(_TipCompensated):
     tip_diameter: float
     name: str = "gauge_length"
     unit: str = "mm"
+    min_points: ClassVar[int] = 2
 
     def value(self, points: object) -> np.ndarray:
         arr = np.asarray(points, dtype=float)
@@ -182,13 +184,14 @@ class SphereDiameter(_TipCompensated):
     inner: bool = False
     name: str = "sphere_diameter"
     unit: str = "mm"
+    min_points: ClassVar[int] = 4
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, 4)
+        stack, lead = _stack(points, self.name, self.min_points)
         return (2.0 * batch.fit_spheres(stack).radii + self._offset()).reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        fit = fit_sphere(_single(points, self.name, 4))
+        fit = fit_sphere(_single(points, self.name, self.min_points))
         return 2.0 * fit.parameter_jacobian[3].reshape(1, -1)
 
 
@@ -199,13 +202,14 @@ class Sphericity(_Scalar):
 
     name: str = "sphericity"
     unit: str = "mm"
+    min_points: ClassVar[int] = 4
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, 4)
+        stack, lead = _stack(points, self.name, self.min_points)
         return batch.fit_spheres(stack).form_error.reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        return _peak_to_valley_jacobian(fit_sphere(_single(points, self.name, 4)))
+        return _peak_to_valley_jacobian(fit_sphere(_single(points, self.name, self.min_points)))
 
 
 @dataclass(frozen=True)
@@ -220,13 +224,14 @@ class CircleDiameter(_TipCompensated):
     tip_diameter: float = 0.0
     name: str = "circle_diameter"
     unit: str = "mm"
+    min_points: ClassVar[int] = 3
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, 3)
+        stack, lead = _stack(points, self.name, self.min_points)
         return (2.0 * batch.fit_circles(stack).radii + self._offset()).reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        fit = fit_circle(_single(points, self.name, 3))
+        fit = fit_circle(_single(points, self.name, self.min_points))
         return 2.0 * fit.parameter_jacobian[6].reshape(1, -1)
 
 
@@ -236,13 +241,14 @@ class Roundness(_Scalar):
 
     name: str = "roundness"
     unit: str = "mm"
+    min_points: ClassVar[int] = 3
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, 3)
+        stack, lead = _stack(points, self.name, self.min_points)
         return batch.fit_circles(stack).form_error.reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        return _peak_to_valley_jacobian(fit_circle(_single(points, self.name, 3)))
+        return _peak_to_valley_jacobian(fit_circle(_single(points, self.name, self.min_points)))
 
 
 @dataclass(frozen=True)
@@ -251,13 +257,14 @@ class Flatness(_Scalar):
 
     name: str = "flatness"
     unit: str = "mm"
+    min_points: ClassVar[int] = 3
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, 3)
+        stack, lead = _stack(points, self.name, self.min_points)
         return batch.fit_planes(stack).form_error.reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        return _peak_to_valley_jacobian(fit_plane(_single(points, self.name, 3)))
+        return _peak_to_valley_jacobian(fit_plane(_single(points, self.name, self.min_points)))
 
 
 @dataclass(frozen=True)
@@ -268,6 +275,7 @@ class BallCentre(_Position):
     radius: float | None = None
     name: str = "ball_centre"
     unit: str = "mm"
+    min_points: ClassVar[int] = 4
 
     def __post_init__(self) -> None:
         if self.radius is not None:
@@ -277,11 +285,11 @@ class BallCentre(_Position):
             object.__setattr__(self, "radius", r)
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, 4)
+        stack, lead = _stack(points, self.name, self.min_points)
         return batch.fit_spheres(stack, radius=self.radius).centres.reshape((*lead, 3))
 
     def jacobian(self, points: object) -> np.ndarray:
-        fit = fit_sphere(_single(points, self.name, 4), radius=self.radius)
+        fit = fit_sphere(_single(points, self.name, self.min_points), radius=self.radius)
         return fit.parameter_jacobian[:3].reshape(3, -1)
 
 
@@ -303,14 +311,15 @@ class CircleCentre(_Position):
 
     name: str = "circle_centre"
     unit: str = "mm"
+    min_points: ClassVar[int] = 3
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, 3)
+        stack, lead = _stack(points, self.name, self.min_points)
         return batch.fit_circles(stack).centres.reshape((*lead, 3))
 
     def jacobian(self, points: object) -> np.ndarray:
         """Rows 0–2 of :func:`fit_circle`'s parameter Jacobian, shape (3, 3n)."""
-        fit = fit_circle(_single(points, self.name, 3))
+        fit = fit_circle(_single(points, self.name, self.min_points))
         return fit.parameter_jacobian[:3].reshape(3, -1)
 
 
@@ -360,13 +369,14 @@ class CylinderDiameter(_TipCompensated):
     tip_diameter: float = 0.0
     name: str = "cylinder_diameter"
     unit: str = "mm"
+    min_points: ClassVar[int] = 5
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, 5)
+        stack, lead = _stack(points, self.name, self.min_points)
         return (2.0 * _cylinders(stack, self.name).radii + self._offset()).reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        fit = fit_cylinder(_single(points, self.name, 5))
+        fit = fit_cylinder(_single(points, self.name, self.min_points))
         return 2.0 * fit.parameter_jacobian[6].reshape(1, -1)
 
 
@@ -390,13 +400,14 @@ class Cylindricity(_Scalar):
 
     name: str = "cylindricity"
     unit: str = "mm"
+    min_points: ClassVar[int] = 5
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, 5)
+        stack, lead = _stack(points, self.name, self.min_points)
         return _cylinders(stack, self.name).form_error.reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        return _peak_to_valley_jacobian(fit_cylinder(_single(points, self.name, 5)))
+        return _peak_to_valley_jacobian(fit_cylinder(_single(points, self.name, self.min_points)))
 
 
 def _cylinders(stack: np.ndarray, name: str) -> batch.BatchCylinderFit:

@@ -204,13 +204,18 @@ class _MinimumZoneForm(_Scalar):
 
     _shape: ClassVar[_ZoneShape]
 
+    @property
+    def min_points(self) -> int:
+        """p + 2: the contacts of a regular zone of an element of p parameters."""
+        return self._shape.min_points
+
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, self._shape.min_points)
+        stack, lead = _stack(points, self.name, self.min_points)
         zones = _zones(stack, self._shape.solve, self.name)
         return np.array([z.form_error for z in zones]).reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        p = _single(points, self.name, self._shape.min_points)
+        p = _single(points, self.name, self.min_points)
         return _zone_jacobian(p, self._shape.solve(p), self._shape.gradients, WIDTH, self.name)
 
 
@@ -219,13 +224,18 @@ class _MinimumZoneDiameter(_TipCompensated):
 
     _shape: ClassVar[_ZoneShape]
 
+    @property
+    def min_points(self) -> int:
+        """p + 2: the contacts of a regular zone of an element of p parameters."""
+        return self._shape.min_points
+
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, self._shape.min_points)
+        stack, lead = _stack(points, self.name, self.min_points)
         zones = _zones(stack, self._shape.solve, self.name)
         return np.array([sum(z.bounds) + self._offset() for z in zones]).reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        p = _single(points, self.name, self._shape.min_points)
+        p = _single(points, self.name, self.min_points)
         shape = self._shape
         return _zone_jacobian(p, shape.solve(p), shape.gradients, MEAN_DIAMETER, self.name)
 
