@@ -37,12 +37,13 @@ Tool Metrology*. PhD thesis, Polytechnique Montréal, §6.2 and Appendix A.3.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.linalg import block_diag
 
 from mtmetrology.errors import InputError
+from mtmetrology.kinematics.chain import ChainEvaluation
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.uncertainty.distributions import MultivariateNormal
@@ -73,6 +74,9 @@ class TaskInputs:
     simulator : {"linear", "sampled"}
     draws : int or None
         Q of the sampled simulator.
+    at_estimate : ChainEvaluation
+        The kinematic model at x: the compensated points f(φ_s, δ) (``position``, (n, 3))
+        with ∂f/∂q (``d_axes``) and ∂f/∂δ (``d_params``), which the GUF reuses.
     """
 
     names: tuple[str, ...]
@@ -83,7 +87,8 @@ class TaskInputs:
     n_axes: int
     n_params: int
     simulator: str
-    draws: int | None = None
+    draws: int | None
+    at_estimate: ChainEvaluation = field(repr=False)
 
     @property
     def groups(self) -> dict[str, slice]:
@@ -225,11 +230,14 @@ def covariance_simulator(
     linear = [machine.axis_names.index(x) for x in machine.linear_axes]
     if len(linear) != 3:
         raise InputError(f"machine {machine.name}: the task model needs three linear axes")
+    ev = machine.evaluate(q, delta, senses=senses, d_params=True, d_axes=True)
+    if np.any(np.abs(np.linalg.det(ev.d_axes[:, :, linear])) < 1e-12):
+        raise InputError("the linear axes do not span space at a probed pose (singular ∂f/∂q)")
     size = n * n_axes + n_par + 3 * n
     ux = np.zeros((size, size))
     if simulator == "linear":
         ux[: n * n_axes + n_par, : n * n_axes + n_par] = _linear_population_covariance(
-            machine, q, delta, sigma, v, senses, linear
+            ev, sigma, v, linear
         )
     else:
         if int(draws) < 2 * size:
@@ -256,19 +264,16 @@ def covariance_simulator(
         n_par,
         simulator,
         int(draws) if simulator == "sampled" else None,
+        ev,
     )
 
 
-def _linear_population_covariance(machine, q, delta, sigma, v, senses, linear) -> np.ndarray:
-    """Cov [Γ; Δ] of the linearised Population IV."""
-    n, n_axes = q.shape
-    n_par = machine.n_params
-    ev = machine.evaluate(q, delta, senses=senses, d_params=True, d_axes=True)
+def _linear_population_covariance(ev, sigma, v, linear) -> np.ndarray:
+    """Cov [Γ; Δ] of the linearised Population IV, from the model's Jacobians at x."""
     a, g = ev.d_axes, ev.d_params  # (n, 3, n_axes), (n, 3, P)
-    f_lin = a[:, :, linear]
-    if np.any(np.abs(np.linalg.det(f_lin)) < 1e-12):
-        raise InputError("the linear axes do not span space at a probed pose (singular ∂f/∂q)")
-    f_inv = np.linalg.inv(f_lin)
+    n, _, n_axes = a.shape
+    n_par = g.shape[-1]
+    f_inv = np.linalg.inv(a[:, :, linear])
     m_stack = (-f_inv @ g).reshape(3 * n, n_par)  # ∂Γ_lin/∂Δ of every point, stacked
     gamma_cov = m_stack @ sigma @ m_stack.T  # parameter-driven part, all point pairs
     own = f_inv @ (a @ v @ np.swapaxes(a, 1, 2)) @ np.swapaxes(f_inv, 1, 2)  # repeatability

@@ -277,10 +277,8 @@ def task_uncertainty(
         draws=draws,
         seed=sim_seed,
     )
-    q = np.asarray(readings, float)
     n, n_axes, n_par = inputs.n_points, inputs.n_axes, inputs.n_params
-    delta = np.asarray(parameters, float)
-    ev = machine.evaluate(q, delta, senses=senses, d_params=True, d_axes=True)
+    ev = inputs.at_estimate
     points, a, g = ev.position, ev.d_axes, ev.d_params  # (n,3), (n,3,n_axes), (n,3,P)
     feature_jac = np.atleast_2d(feature.jacobian(points))  # (m, 3n)
     # ∂q/∂x = [blockdiag(A_s), G stacked, I]: (3n, N)
