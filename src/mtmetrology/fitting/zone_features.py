@@ -199,10 +199,14 @@ _CYLINDER = _ZoneShape("cylindricity", _cylinder_gradients, 6)
 _PLANE = _ZoneShape("flatness", _flatness_gradients, 4)
 
 
-class _MinimumZoneForm(_Scalar):
-    """Value and Jacobian of a zone width; subclasses set the element's ``_shape``."""
+class _ZoneFeature:
+    """Value and Jacobian of one quantity of the minimum zone; subclasses set the
+    element's ``_shape``, the ``_quantity`` (:data:`WIDTH` or :data:`MEAN_DIAMETER`) and
+    how a zone gives the value (``_of``)."""
 
     _shape: ClassVar[_ZoneShape]
+    _quantity: ClassVar[tuple[float, float]]
+    name: str
 
     @property
     def min_points(self) -> int:
@@ -212,32 +216,30 @@ class _MinimumZoneForm(_Scalar):
     def value(self, points: object) -> np.ndarray:
         stack, lead = _stack(points, self.name, self.min_points)
         zones = _zones(stack, self._shape.solve, self.name)
-        return np.array([z.form_error for z in zones]).reshape(lead)
-
-    def jacobian(self, points: object) -> np.ndarray:
-        p = _single(points, self.name, self.min_points)
-        return _zone_jacobian(p, self._shape.solve(p), self._shape.gradients, WIDTH, self.name)
-
-
-class _MinimumZoneDiameter(_TipCompensated):
-    """Value and Jacobian of a mid-zone diameter ``r_in + r_out ± d_tip``."""
-
-    _shape: ClassVar[_ZoneShape]
-
-    @property
-    def min_points(self) -> int:
-        """p + 2: the contacts of a regular zone of an element of p parameters."""
-        return self._shape.min_points
-
-    def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, self.min_points)
-        zones = _zones(stack, self._shape.solve, self.name)
-        return np.array([sum(z.bounds) + self._offset() for z in zones]).reshape(lead)
+        return np.array([self._of(z) for z in zones]).reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
         p = _single(points, self.name, self.min_points)
         shape = self._shape
-        return _zone_jacobian(p, shape.solve(p), shape.gradients, MEAN_DIAMETER, self.name)
+        return _zone_jacobian(p, shape.solve(p), shape.gradients, self._quantity, self.name)
+
+
+class _MinimumZoneForm(_ZoneFeature, _Scalar):
+    """A zone width (the form error)."""
+
+    _quantity = WIDTH
+
+    def _of(self, zone: ZoneResult) -> float:
+        return zone.form_error
+
+
+class _MinimumZoneDiameter(_ZoneFeature, _TipCompensated):
+    """A mid-zone diameter ``r_in + r_out ± d_tip``."""
+
+    _quantity = MEAN_DIAMETER
+
+    def _of(self, zone: ZoneResult) -> float:
+        return sum(zone.bounds) + self._offset()
 
 
 @dataclass(frozen=True)
