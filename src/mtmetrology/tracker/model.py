@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mtmetrology.errors import InputError
 from mtmetrology.identification.datum import Datum, choose_datum
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.tracker import TrackerPose, euler_angles, euler_matrix
@@ -63,8 +64,20 @@ def mean_distance(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def whitening(covariance: np.ndarray) -> np.ndarray:
-    """``L⁻¹`` (n, 3, 3) of per-point covariances ``Σ = L Lᵀ``."""
-    return np.linalg.inv(np.linalg.cholesky(covariance))
+    """``L⁻¹`` (n, 3, 3) of per-point covariances ``Σ = L Lᵀ``.
+
+    Raises
+    ------
+    InputError
+        If a covariance is singular (a noise model of zero uncertainty cannot weight).
+    """
+    try:
+        return np.linalg.inv(np.linalg.cholesky(covariance))
+    except np.linalg.LinAlgError:
+        raise InputError(
+            "noise: the tracker noise model gives a singular point covariance; give a "
+            "positive range, angle or SMR uncertainty"
+        ) from None
 
 
 def tracker_points(machine_points: np.ndarray, pose_vectors: np.ndarray) -> np.ndarray:
