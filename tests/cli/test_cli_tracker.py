@@ -99,3 +99,20 @@ def test_reading_beyond_tracker_limits_and_nan_reading_refused(measurements, tmp
     assert res.exit_code == 2
     assert "elevation" in res.output and len(res.output.strip().splitlines()) == 1
     assert not (tmp_path / "r.json").exists()
+
+
+def test_verify_tracker_json_and_report(tmp_path):
+    res = mtm("verify", "tracker", "--machine", MACHINE, "--trials", 50, "--seed", 1, "--json",
+              "--report", tmp_path / "v.html")  # fmt: skip
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["kind"] == "tracker-verification"
+    assert len(doc["mean_final_um"]) == 50 and doc["coverage"]["trials"] == 50
+    s = doc["statistics"]
+    assert s["mean_plus_2sigma_um"] == pytest.approx(s["mean_final_um"] + 2 * s["sigma_final_um"])
+    assert (tmp_path / "v.html").stat().st_size > 1000
+
+
+def test_verify_tracker_bad_trials_writes_nothing(tmp_path):
+    res = mtm("verify", "tracker", "--machine", MACHINE, "--trials", 2, "-o", tmp_path / "v.json")
+    _refused(res, tmp_path, "error: --trials must be an integer >= 10, got 2")

@@ -111,20 +111,10 @@ def simulate_tracker(
     """Tracker readings (range, azimuth, elevation) and axis temperatures of a virtual
     verification of a machine with known errors."""
     from mtmetrology.kinematics.machine import Machine
-    from mtmetrology.kinematics.parameter_set import ParameterSet
     from mtmetrology.tracker import parse_mesh, simulate
 
     m = Machine.load(machine)
-    theta = np.zeros(m.n_params)
-    if truth is not None:
-        pset = ParameterSet.load(truth, m)
-        values = dict(zip(pset.names, pset.values, strict=True))
-        unknown = [n for n in values if n not in m.parameter_names]
-        if unknown:
-            raise InputError(
-                f"{truth}: {unknown[0]} is not a parameter of the model {m.model_name}"
-            )
-        theta = np.array([values.get(n, 0.0) for n in m.parameter_names])
+    theta = _truth(m, truth)
     meas = simulate(
         m,
         theta,
@@ -173,3 +163,70 @@ def calibrate_tracker(
         print_json(doc)
     else:
         typer.echo(cal.summary())
+
+
+def _truth(m, truth: Path | None) -> np.ndarray:
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+
+    if truth is None:
+        return np.zeros(m.n_params)
+    pset = ParameterSet.load(truth, m)
+    values = dict(zip(pset.names, pset.values, strict=True))
+    unknown = [n for n in values if n not in m.parameter_names]
+    if unknown:
+        raise InputError(f"{truth}: {unknown[0]} is not a parameter of the model {m.model_name}")
+    return np.array([values.get(n, 0.0) for n in m.parameter_names])
+
+
+@verify_app.command("tracker")
+@user_errors
+def verify_tracker(
+    ctx: typer.Context,
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    mesh: Annotated[str, typer.Option("--mesh", help=MESH_HELP)] = (
+        "800:1200:100,100:500:100,200:400:100"
+    ),
+    truth: Annotated[
+        Path | None, typer.Option("--truth", help="TRUTH.json parameter set (zero if omitted).")
+    ] = None,
+    pose: Annotated[Path | None, typer.Option("--pose", help=POSE_HELP)] = None,
+    tools: Annotated[Path | None, typer.Option("--tools", help=TOOLS_HELP)] = None,
+    trials: Annotated[int, typer.Option("--trials", help="Simulated verifications.")] = 1000,
+    angle_urad: NoiseOption = 20.0,
+    seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
+    report_path: ReportOption = None,
+) -> None:
+    """Monte Carlo of the whole verification: per-point initial and final errors, statistics
+    of the mean final volumetric error (mean, σ, mean + 2σ, maximum), distribution fits,
+    held-out coverage of the predicted uncertainty."""
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.tracker import parse_mesh
+    from mtmetrology.tracker.verify import verify
+
+    m = Machine.load(machine)
+    result = verify(
+        m,
+        _truth(m, truth),
+        _pose(pose),
+        parse_mesh(mesh, m),
+        _tools(tools),
+        trials=trials,
+        noise=_noise(angle_urad),
+        seed=seed,
+    )
+    doc = result.to_dict()
+    report = None
+    if report_path is not None:
+        from mtmetrology.tracker.report import verification_report
+
+        report = verification_report(result, command_line(ctx))
+    if output is not None:
+        write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
+    if json:
+        print_json(doc)
+    else:
+        typer.echo(result.summary())
