@@ -116,3 +116,19 @@ def test_verify_tracker_json_and_report(tmp_path):
 def test_verify_tracker_bad_trials_writes_nothing(tmp_path):
     res = mtm("verify", "tracker", "--machine", MACHINE, "--trials", 2, "-o", tmp_path / "v.json")
     _refused(res, tmp_path, "error: --trials must be an integer >= 10, got 2")
+
+
+def test_design_tracker_placement_json(tmp_path):
+    res = mtm("design", "tracker-placement", "--machine", MACHINE, "--trials", 2000,
+              "--seed", 2, "--json", "--report", tmp_path / "p.html")  # fmt: skip
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["kind"] == "tracker-placement" and doc["criterion"] == "max"
+    assert doc["best_value_um"] == pytest.approx(min(doc["criterion_um"]))
+    assert len(doc["criterion_um"]) + doc["refused"] == 2000
+
+
+def test_design_tracker_placement_bad_region_writes_nothing(tmp_path):
+    res = mtm("design", "tracker-placement", "--machine", MACHINE, "--region", "a:b,1:2",
+              "-o", tmp_path / "p.json")  # fmt: skip
+    _refused(res, tmp_path, "error: --region needs D0:D1,L0:L1,H0:H1 in mm")

@@ -230,3 +230,71 @@ def verify_tracker(
         print_json(doc)
     else:
         typer.echo(result.summary())
+
+
+def _region(text: str):
+    parts = [p.split(":") for p in text.split(",")]
+    try:
+        region = [(float(a), float(b)) for a, b in parts]
+    except ValueError:
+        region = []
+    if len(region) != 3:
+        raise InputError(f"--region needs D0:D1,L0:L1,H0:H1 in mm, got {text!r}")
+    return tuple(region)
+
+
+@design_app.command("tracker-placement")
+@user_errors
+def tracker_placement(
+    ctx: typer.Context,
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    mesh: Annotated[str, typer.Option("--mesh", help=MESH_HELP)] = (
+        "800:1200:100,100:500:100,200:400:100"
+    ),
+    tools: Annotated[Path | None, typer.Option("--tools", help=TOOLS_HELP)] = None,
+    region: Annotated[
+        str, typer.Option("--region", help="Allowed tracker region D0:D1,L0:L1,H0:H1, mm.")
+    ] = "-2000:-500,-2000:2000,350:2000",
+    direction: Annotated[
+        str, typer.Option("--direction", help="x: tracker on the -X side; y: on the -Y side.")
+    ] = "x",
+    criterion: Annotated[
+        str, typer.Option("--criterion", help="max or mean of u_p over the mesh.")
+    ] = "max",
+    trials: Annotated[int, typer.Option("--trials", help="Candidate poses drawn.")] = 10_000,
+    seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
+    report_path: ReportOption = None,
+) -> None:
+    """Placement study of the tracker over the allowed region: criterion per candidate pose,
+    colour map, best pose (refusing poses inside the workspace or beyond the limits)."""
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.tracker import parse_mesh
+    from mtmetrology.tracker.placement import plan_placement
+
+    m = Machine.load(machine)
+    study = plan_placement(
+        m,
+        parse_mesh(mesh, m),
+        _tools(tools),
+        region=_region(region),
+        direction=direction,
+        criterion=criterion,
+        trials=trials,
+        seed=seed,
+    )
+    doc = study.to_dict()
+    report = None
+    if report_path is not None:
+        from mtmetrology.tracker.report import placement_report
+
+        report = placement_report(study, command_line(ctx))
+    if output is not None:
+        write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
+    if json:
+        print_json(doc)
+    else:
+        typer.echo(study.summary())

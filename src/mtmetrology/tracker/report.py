@@ -9,7 +9,7 @@ import numpy as np
 from mtmetrology.report import Report
 from mtmetrology.units import from_internal
 
-__all__ = ["calibration_report", "verification_report"]
+__all__ = ["calibration_report", "placement_report", "verification_report"]
 
 
 def _two_digits(u: float) -> float:
@@ -70,4 +70,31 @@ def verification_report(result, command: str) -> Report:
     ax.set_xlabel("X / mm")
     ax.set_ylabel("Y / mm")
     report.figure(fig, caption="Uncertainty map of the compensated volume (all Z levels)")
+    return report
+
+
+def placement_report(study, command: str) -> Report:
+    """Report of a :class:`~mtmetrology.tracker.placement.PlacementStudy`: colour map of the
+    criterion over the candidate positions, histogram of the introduced maximum error."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    um = from_internal(1.0, "µm")
+    report = Report("Laser-tracker placement study", command=command)
+    report.section("Summary", study.summary())
+    report.table(["component", "value"], [[k, v] for k, v in study.best.to_dict().items()])
+    across = 1 if study.direction == "x" else 0
+    fig, ax = plt.subplots(figsize=(6, 4))
+    sc = ax.scatter(study.candidates[:, across], study.candidates[:, 2],
+                    c=study.criterion * um, s=4, cmap="viridis")  # fmt: skip
+    fig.colorbar(sc, label=f"{study.criterion_name} u_p over the mesh / µm")
+    ax.set_xlabel(f"{'LD'[across]} / mm")
+    ax.set_ylabel("H / mm")
+    report.figure(fig, caption="Criterion of each candidate tracker position")
+    fig, ax = plt.subplots(figsize=(6, 3))
+    ax.hist(study.max_error * um, bins=60)
+    ax.set_xlabel("largest tracker-introduced error over the mesh / µm")
+    report.figure(fig, caption="One draw per candidate (angular levels N(20, 3) µrad)")
     return report
