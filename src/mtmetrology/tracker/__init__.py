@@ -13,17 +13,24 @@ The instrument model lives in the kinematic engine
 """
 
 from mtmetrology.tracker.calibrate import TrackerCalibration, calibrate
+from mtmetrology.tracker.placement import PAPER_REGION, PlacementStudy, plan_placement
 from mtmetrology.tracker.setup import PAPER_POSE, MachineConditions, cte_uncertainty, parse_mesh
 from mtmetrology.tracker.simulate import TrackerMeasurements, read_measurements, simulate
+from mtmetrology.tracker.verify import TrackerVerification, verify
 
 __all__ = [
     "PAPER_POSE",
+    "PAPER_REGION",
     "MachineConditions",
+    "PlacementStudy",
     "TrackerCalibration",
     "TrackerMeasurements",
+    "TrackerVerification",
     "calibrate",
     "cte_uncertainty",
     "parse_mesh",
+    "plan_placement",
     "read_measurements",
     "simulate",
+    "verify",
 ]
