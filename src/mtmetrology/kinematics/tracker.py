@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mtmetrology.errors import InputError
-from mtmetrology.units import to_internal
+from mtmetrology.units import from_internal, to_internal
 
 __all__ = [
     "TrackerLimits",
@@ -437,8 +437,10 @@ class TrackerLimits:
         i = int(bad[0])
         r, az, el = s[i]
         if not self.range_min <= r <= self.range_max:
-            lo, hi = self.range_min / 1000, self.range_max / 1000
-            why = f"range {r / 1000:.3f} m outside {lo:g}–{hi:g} m"
+            r_m, lo, hi = (
+                float(from_internal(v, "m")) for v in (r, self.range_min, self.range_max)
+            )
+            why = f"range {r_m:.3f} m outside {lo:g}–{hi:g} m"
         elif abs(el) > self.elevation_max:
             why = f"elevation {el / _DEG:.2f}° beyond ±{self.elevation_max / _DEG:g}°"
         else:

@@ -40,7 +40,8 @@ __all__ = [
     "parse_mesh",
 ]
 
-_UM_PER_MK = float(to_internal(1.0, "µm/m"))  # 1 µm/(m·K) = 1e-6 /K; per kelvin below
+#: 1 µm/(m·K) in 1/K (a CTE is a strain per kelvin)
+_UM_PER_MK = float(to_internal(1.0, "µm/m"))
 #: Study 2 pose of Aguado et al. (2019), Section 3.
 PAPER_POSE = TrackerPose.from_customary(-563.52, 194.37, 677.78, 0.0339, 0.0343, 59.4652)
 
@@ -55,7 +56,8 @@ def cte_uncertainty(alpha: float) -> float:
     --------
     Steel, α = 11.5 µm/(m·K): the floor applies, u = 0.002/(2√3) = 5.77e-4 µm/(mm·K)
 
-    >>> round(cte_uncertainty(11.5e-6) * 1e3 / 1e-6, 7)  # µm/(mm·K)
+    >>> from mtmetrology.units import from_internal
+    >>> round(float(from_internal(cte_uncertainty(11.5e-6), "µm/mm")), 7)  # µm/(mm·K)
     0.0005774
     """
     width = max(0.1 * abs(alpha), 2.0 * _UM_PER_MK)
