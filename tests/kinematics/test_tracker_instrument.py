@@ -182,3 +182,13 @@ def test_pose_file_form_round_trip_and_bad_field():
     np.testing.assert_allclose(back.vector, PAPER_POSE.vector, rtol=1e-15)
     with pytest.raises(InputError, match=r"^pose\.yaml: field H_mm must be finite"):
         TrackerPose.from_dict({**doc, "H_mm": "nan"}, "pose.yaml")
+
+
+def test_source_names_theta_azimuth_but_its_limits_are_elevation_limits():
+    """Aguado et al. (2019) call θ "the azimuth angle" and give −45° ≤ θ ≤ 45°, −235° ≤ φ ≤
+    235°.  Its own Study 2 pose sees the mesh at azimuths −63° to −47°: read as azimuth
+    limits, ±45° would refuse the paper's pose; read as elevation limits (θ polar in eq. 23,
+    elevation = 90° − θ) every point is inside.  The code takes the second reading."""
+    s = spherical(PAPER_POSE.to_tracker(MESH))
+    assert np.all(np.abs(np.degrees(s[:, 1])) > 45.0)  # azimuth: beyond ±45° everywhere
+    assert TrackerLimits().within(s).all()  # elevation within ±45°, azimuth within ±235°
