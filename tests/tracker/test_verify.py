@@ -38,6 +38,7 @@ def test_paper_setup_final_error_orders_of_magnitude(paper_run):
     assert s["mean_plus_2sigma_um"] == pytest.approx(s["mean_final_um"] + 2 * s["sigma_final_um"])
     assert 25.0 < s["max_final_um"] < 100.0
     assert s["mean_initial_um"] > 2 * s["mean_final_um"]  # compensation helps
+    assert np.all(paper_run.point_initial > paper_run.point_mean)  # at every mesh point
     assert paper_run.linearisation_error < 1e-5  # mm: the linear-in-θ model is exact enough
     assert paper_run.status_message == "all 1000 problems converged"
 
@@ -77,6 +78,7 @@ def test_result_round_trip(paper_run):
     back = TrackerVerification.from_dict(paper_run.to_dict())
     np.testing.assert_allclose(back.mean_final, paper_run.mean_final, rtol=1e-12)
     np.testing.assert_allclose(back.final_errors, paper_run.final_errors, rtol=1e-12)
+    np.testing.assert_allclose(back.point_initial, paper_run.point_initial, rtol=1e-12)
     assert back.statistics() == pytest.approx(paper_run.statistics(), rel=1e-12)
     assert back.coverage == paper_run.coverage
     fits = paper_run.distribution_fits()

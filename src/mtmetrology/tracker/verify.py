@@ -83,6 +83,8 @@ class TrackerVerification:
         Largest |final error| of each verification.
     final_errors : (min(K, 200), n, 3) ndarray
         Final errors of the first verifications (histograms).
+    point_initial : (n,) ndarray
+        Per mesh point: mean |initial error| over the verifications.
     point_mean, point_max : (n,) ndarray
         Per mesh point: mean and largest |final error| over the verifications.
     point_uncertainty : (n,) ndarray
@@ -104,6 +106,7 @@ class TrackerVerification:
     mean_final: np.ndarray
     max_final: np.ndarray
     final_errors: np.ndarray = field(repr=False)
+    point_initial: np.ndarray = field(repr=False)
     point_mean: np.ndarray = field(repr=False)
     point_max: np.ndarray = field(repr=False)
     point_uncertainty: np.ndarray = field(repr=False)
@@ -175,6 +178,7 @@ class TrackerVerification:
             "mean_final_um": (self.mean_final * um).tolist(),
             "max_final_um": (self.max_final * um).tolist(),
             "final_errors_um": (self.final_errors * um).tolist(),
+            "point_initial_um": (self.point_initial * um).tolist(),
             "point_mean_um": (self.point_mean * um).tolist(),
             "point_max_um": (self.point_max * um).tolist(),
             "point_uncertainty_um": (self.point_uncertainty * um).tolist(),
@@ -200,6 +204,7 @@ class TrackerVerification:
             arr("mean_final_um"),
             arr("max_final_um"),
             arr("final_errors_um"),
+            arr("point_initial_um"),
             arr("point_mean_um"),
             arr("point_max_um"),
             arr("point_uncertainty_um"),
@@ -313,6 +318,7 @@ def verify(
     rng = as_generator(seed)
     out = {k: [] for k in ("mi", "mf", "xf", "cov")}
     point_sum = np.zeros(len(q))
+    point_initial = np.zeros(len(q))
     point_max = np.zeros(len(q))
     kept_errors = []
     messages = []
@@ -344,7 +350,9 @@ def verify(
         final = np.einsum("bij,bnj->bni", rot, pred - true_lt)
         initial = np.einsum("bij,bnj->bni", rot, measured) + poses[:, None, :3] - nominal
         nf = np.linalg.norm(final, axis=-1)
-        out["mi"].append(np.linalg.norm(initial, axis=-1).mean(axis=1))
+        ni = np.linalg.norm(initial, axis=-1)
+        point_initial += ni.sum(axis=0)
+        out["mi"].append(ni.mean(axis=1))
         out["mf"].append(nf.mean(axis=1))
         out["xf"].append(nf.max(axis=1))
         point_sum += nf.sum(axis=0)
@@ -376,6 +384,7 @@ def verify(
         mean_final=np.concatenate(out["mf"]),
         max_final=np.concatenate(out["xf"]),
         final_errors=np.concatenate(kept_errors),
+        point_initial=point_initial / trials,
         point_mean=point_sum / trials,
         point_max=point_max,
         point_uncertainty=np.sqrt(np.einsum("nik,kl,nil->n", g0, covariance, g0)),
