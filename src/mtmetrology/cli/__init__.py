@@ -52,11 +52,16 @@ SHARED_GROUPS = {
             ("mtmetrology.cli.calibrate", "app"),
             ("mtmetrology.cli.cmm", "calibrate_app"),
             ("mtmetrology.cli.long_term", "app"),
+            ("mtmetrology.cli.multilateration", "calibrate_app"),
         ],
     ),
     "simulate": (
         "Simulate artefact records of a machine with known errors.",
-        [("mtmetrology.cli.simulate", "app"), ("mtmetrology.cli.cmm", "simulate_app")],
+        [
+            ("mtmetrology.cli.simulate", "app"),
+            ("mtmetrology.cli.cmm", "simulate_app"),
+            ("mtmetrology.cli.multilateration", "simulate_app"),
+        ],
     ),
 }
 
