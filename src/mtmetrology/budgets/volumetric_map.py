@@ -67,6 +67,7 @@ __all__ = [
     "CharacteristicBudget",
     "VolumetricMapBudget",
     "characteristics",
+    "map_for_points",
     "volumetric_map_budget",
 ]
 
@@ -283,6 +284,21 @@ class VolumetricMapBudget:
             float(to_internal(doc["largest_correction_um"], "µm")),
             dict(doc.get("provenance", {})),
         )
+
+
+def map_for_points(machine, params, points: np.ndarray, spacing: float = 10.0) -> VolumetricMap:
+    """The map of an identified model on a grid covering ``points`` (1 mm margin).
+
+    Nodes every ``spacing`` mm at most (10 mm: the trilinear interpolation error of the
+    cubic error functions of a medium machine is far below 1 nm there).
+    """
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    low, high = p.min(axis=0) - 1.0, p.max(axis=0) + 1.0
+    grid = tuple(
+        np.linspace(lo, hi, max(2, math.ceil((hi - lo) / spacing) + 1))
+        for lo, hi in zip(low, high, strict=True)
+    )
+    return VolumetricMap.from_parameters(machine, params, grid)
 
 
 def _sqrt_psd(cov: np.ndarray) -> np.ndarray:

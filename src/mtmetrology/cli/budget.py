@@ -10,10 +10,19 @@ import typer
 
 from mtmetrology.budgets.conformity import Tolerance
 from mtmetrology.budgets.iso15530 import Policy, RepeatabilityMethod, iso15530_3_budget
+from mtmetrology.budgets.volumetric_map import (
+    FEATURE_KINDS,
+    map_for_points,
+    volumetric_map_budget,
+)
 from mtmetrology.cli._common import print_json, user_errors
 from mtmetrology.errors import InputError
 from mtmetrology.io import check_output, read_csv_table
+from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import write_json
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.kinematics.volumetric_map import MAP_KIND, VolumetricMap
 from mtmetrology.report.format import format_uncertainty
 from mtmetrology.units import to_internal
 
@@ -103,3 +112,104 @@ def iso15530_3(
     typer.echo(f"  result {budget.result:.6f} mm ± {format_uncertainty(um['U'])} µm")
     if budget.decision is not None:
         typer.echo(f"  decision (ISO 14253-1): {budget.decision.decision.value}")
+
+
+MAP_HELP = f"""VDI/VDE 2617-11 budget of a feature with a volumetric error map.
+
+POINTS.csv: x,y,z[,cycle[,series]] (mm): the indicated contact (stylus-centre) points
+of the feature, every cycle the same points.  --params: the machine's map, a parameter
+set with covariance (MAP.json of 'mtm calibrate multilateration') or a volumetric-map
+document.  Each point is corrected P_true = P - e(P); the feature ({", ".join(FEATURE_KINDS)})
+is fitted to the original and corrected points; b = F(corrected) - F(original), u_b = |b|
+(--mode uncorrected, the default) or the corrected value with u_b from the map covariance
+(--mode corrected); u_p: the spread over the cycles (or --u-p-um); u_cal: the map
+covariance propagated to F (--u-cal guf, or mc with --trials); u_MS and U_MS = k u_MS.
+Prints the budget in the layout of Mutilba et al., Table 1 (µm).
+"""
+
+
+def _load_map(machine: Machine, params: Path, points) -> VolumetricMap:
+    doc = load_document(params, "map or parameter set")
+    if isinstance(doc, dict) and doc.get("kind") == MAP_KIND:
+        return VolumetricMap.from_dict(doc, str(params))
+    pset = ParameterSet.from_document(doc, machine, str(params))
+    return map_for_points(machine, pset, points)
+
+
+@app.command("volumetric-map", help=MAP_HELP)
+@user_errors
+def volumetric_map(
+    points: Annotated[Path, typer.Argument(help="POINTS.csv: x,y,z[,cycle[,series]] (mm).")],
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    params: Annotated[Path, typer.Option("--params", help="MAP.json or a map document.")],
+    feature: Annotated[str, typer.Option("--feature", help=" | ".join(FEATURE_KINDS))],
+    mode: Annotated[str, typer.Option("--mode", help="uncorrected or corrected.")] = (
+        "uncorrected"
+    ),
+    u_p_um: Annotated[
+        float | None, typer.Option("--u-p-um", help="u_p (µm) instead of the cycles'.")
+    ] = None,
+    u_p_method: Annotated[
+        RepeatabilityMethod, typer.Option("--u-p", help="u_p: sample s or max over series.")
+    ] = RepeatabilityMethod.SAMPLE,
+    u_cal: Annotated[str, typer.Option("--u-cal", help="guf or mc.")] = "guf",
+    trials: Annotated[int, typer.Option("--trials", help="Map draws of --u-cal mc.")] = 2000,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of --u-cal mc.")] = None,
+    probe_u: Annotated[float, typer.Option("--probe-u", help="Probe systematic error (µm).")] = 0.0,
+    machine_class: Annotated[
+        str, typer.Option("--machine-class", help="small (1 µm) or large (3 µm) probe threshold.")
+    ] = "small",
+    k: Annotated[float, typer.Option("--k", help="Coverage factor.")] = 2.0,
+    outer: Annotated[
+        bool, typer.Option("--outer", help="A shaft or ball (sizes probed from outside).")
+    ] = False,
+    tip_diameter: Annotated[
+        float, typer.Option("--tip-diameter", help="Effective tip diameter (mm).")
+    ] = 0.0,
+    json: Annotated[bool, typer.Option("--json", help="Print the JSON document.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
+) -> None:
+    if output is not None:
+        check_output(output, [points, params])
+    if trials < 2:
+        raise InputError(f"--trials must be at least 2, got {trials}")
+    m = Machine.load(machine)
+    table = read_csv_table(points, required=["x", "y", "z"])
+    xyz = np.column_stack([table.floats(c) for c in "xyz"])
+    vmap = _load_map(m, params, xyz)
+    budget = volumetric_map_budget(
+        xyz,
+        vmap,
+        feature,
+        cycles=np.asarray(table.strings("cycle")) if table.has("cycle") else None,
+        series=np.asarray(table.strings("series")) if table.has("series") else None,
+        machine=m.name,
+        mode=mode,
+        repeatability_method=u_p_method,
+        u_p=None if u_p_um is None else _um(u_p_um, "--u-p-um"),
+        u_cal_method=u_cal,
+        trials=trials,
+        seed=seed,
+        probe_error=_um(probe_u, "--probe-u"),
+        machine_class=machine_class,
+        k=k,
+        inner=not outer,
+        tip_diameter=tip_diameter,
+        provenance={"points": str(points), "params": str(params)},
+    )
+    doc = budget.to_dict()
+    if output is not None:
+        write_json(output, doc)
+    if json:
+        print_json(doc)
+        return
+    typer.echo(
+        f"VDI/VDE 2617-11 budget of {points.name}: {feature}, {budget.cycles} cycle(s) of "
+        f"{budget.n_points} points, mode {mode}, u_cal by {u_cal}, k = {k:g} (µm); largest "
+        f"map correction {doc['largest_correction_um']:.2f} µm"
+    )
+    typer.echo(
+        f"  {'characteristic':<14} {'u_b':>6} {'u_p':>6} {'u_cal':>6} {'u_MS':>6} {'U_MS':>6}"
+    )
+    for row in budget.table():
+        typer.echo(f"  {row[0]:<14} " + " ".join(f"{v:>6}" for v in row[1:]))
