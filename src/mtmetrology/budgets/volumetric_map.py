@@ -59,6 +59,7 @@ from mtmetrology.fitting import (
     Sphericity,
 )
 from mtmetrology.kinematics.volumetric_map import VolumetricMap
+from mtmetrology.report.format import format_uncertainty
 from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.units import from_internal, to_internal
 
@@ -240,11 +241,13 @@ class VolumetricMapBudget:
         raise KeyError(name)
 
     def table(self) -> list[list[str]]:
-        """Rows of Table 1 (µm, one decimal): characteristic, u_b, u_p, u_cal, u_MS, U_MS."""
+        """Rows in the layout of Table 1 (µm, two significant digits, JCGM 100 7.2.6):
+        characteristic, u_b, u_p, u_cal, u_MS, U_MS."""
         out = []
         for r in self.rows:
             d = r.to_dict()["um"]
-            out.append([r.name, *(f"{d[c]:.1f}" for c in ("u_b", "u_p", "u_cal", "u", "U"))])
+            cells = (format_uncertainty(d[c]) for c in ("u_b", "u_p", "u_cal", "u", "U"))
+            out.append([r.name, *cells])
         return out
 
     def to_dict(self) -> dict:
