@@ -202,3 +202,23 @@ def test_bad_inputs():
         volumetric_map_budget(pts, vmap, "circle", u_p=-1.0)
     with pytest.raises(InputError, match="outside the map's grid"):
         _budget(pts + np.array([1000.0, 0, 0]), vmap)
+
+
+def test_repeatability_from_repeated_results():
+    """u_p of each characteristic from its repeated results (Eq. 3 with n − 1), or the
+    largest over series; a characteristic without results is refused."""
+    vmap = _map(lambda x: np.zeros_like(x))
+    pts, _ = _bore(108.0, CENTRE)
+    rng = np.random.default_rng(6)
+    names = ["diameter"] * 20 + ["roundness"] * 20 + ["X position"] * 20 + ["Y position"] * 20
+    values = rng.normal(0, 2e-3, 80)
+    series = np.tile(np.repeat(["a", "b"], 10), 4)
+    b = volumetric_map_budget(pts, vmap, "circle", repeats=(names, values, None))
+    assert b.row("roundness").u_p == pytest.approx(np.std(values[20:40], ddof=1), rel=1e-12)
+    iso = volumetric_map_budget(
+        pts, vmap, "circle", repeats=(names, values, series), repeatability_method="max-over-series"
+    )
+    a, c = values[:10], values[10:20]
+    assert iso.row("diameter").u_p == max(np.std(a, ddof=1), np.std(c, ddof=1))
+    with pytest.raises(InputError, match="no values of characteristic 'Y position'"):
+        volumetric_map_budget(pts, vmap, "circle", repeats=(names[:60], values[:60], None))

@@ -320,6 +320,7 @@ def volumetric_map_budget(
     mode: str = "uncorrected",
     repeatability_method: RepeatabilityMethod | str = RepeatabilityMethod.SAMPLE,
     u_p: float | None = None,
+    repeats: tuple | None = None,
     u_cal_method: str = "guf",
     trials: int = 2000,
     seed: SeedLike = None,
@@ -351,6 +352,10 @@ def volumetric_map_budget(
     repeatability_method : RepeatabilityMethod
     u_p : float, optional
         A repeatability given (mm) instead of the cycles' (needed with one cycle).
+    repeats : (names, values, series or None), optional
+        Repeated results of the characteristics from other cycles (e.g. the on-machine
+        software's, over the temperature range of the scenario): u_p of each
+        characteristic from its values, by ``repeatability_method``.
     u_cal_method : {"guf", "mc"}
     trials, seed
         Monte Carlo of the map (``mc``).
@@ -398,8 +403,23 @@ def volumetric_map_budget(
         corrected_f = _values(chars, corrected)
     except ValueError as err:  # the fitting library's refusal (collinear points ...)
         raise InputError(f"feature {kind}: {err}") from None
+    if u_p is not None and repeats is not None:
+        raise InputError("u_p: give a value or repeated results, not both")
     if u_p is not None:
         ups = np.full(len(chars), float(u_p))
+    elif repeats is not None:
+        names, values, rseries = (None if a is None else np.asarray(a) for a in repeats)
+        ups = []
+        for name, _, _ in chars:
+            sel = names == name
+            if not sel.any():
+                raise InputError(
+                    f"repeats: no values of characteristic {name!r} (the feature has "
+                    f"{', '.join(c[0] for c in chars)})"
+                )
+            part = None if rseries is None else rseries[sel]
+            ups.append(repeatability(values[sel], part, repeatability_method))
+        ups = np.array(ups)
     else:
         if len(sets) < 2:
             raise InputError(

@@ -122,7 +122,8 @@ set with covariance (MAP.json of 'mtm calibrate multilateration') or a volumetri
 document.  Each point is corrected P_true = P - e(P); the feature ({", ".join(FEATURE_KINDS)})
 is fitted to the original and corrected points; b = F(corrected) - F(original), u_b = |b|
 (--mode uncorrected, the default) or the corrected value with u_b from the map covariance
-(--mode corrected); u_p: the spread over the cycles (or --u-p-um); u_cal: the map
+(--mode corrected); u_p: the spread over the cycles, or of --repeats RUNS.csv
+(characteristic,value[,series]: e.g. the on-machine software's results), or --u-p-um; u_cal: the map
 covariance propagated to F (--u-cal guf, or mc with --trials); u_MS and U_MS = k u_MS.
 Prints the budget in the layout of Mutilba et al., Table 1 (µm).
 """
@@ -148,6 +149,10 @@ def volumetric_map(
     ),
     u_p_um: Annotated[
         float | None, typer.Option("--u-p-um", help="u_p (µm) instead of the cycles'.")
+    ] = None,
+    repeats: Annotated[
+        Path | None,
+        typer.Option("--repeats", help="RUNS.csv: characteristic,value[,series] (mm)."),
     ] = None,
     u_p_method: Annotated[
         RepeatabilityMethod, typer.Option("--u-p", help="u_p: sample s or max over series.")
@@ -177,6 +182,14 @@ def volumetric_map(
     table = read_csv_table(points, required=["x", "y", "z"])
     xyz = np.column_stack([table.floats(c) for c in "xyz"])
     vmap = _load_map(m, params, xyz)
+    runs = None
+    if repeats is not None:
+        r = read_csv_table(repeats, required=["characteristic", "value"], min_rows=2)
+        runs = (
+            r.strings("characteristic"),
+            r.floats("value"),
+            r.strings("series") if r.has("series") else None,
+        )
     budget = volumetric_map_budget(
         xyz,
         vmap,
@@ -187,6 +200,7 @@ def volumetric_map(
         mode=mode,
         repeatability_method=u_p_method,
         u_p=None if u_p_um is None else _um(u_p_um, "--u-p-um"),
+        repeats=runs,
         u_cal_method=u_cal,
         trials=trials,
         seed=seed,
