@@ -197,3 +197,12 @@ def test_cli_iso15530_3(tmp_path):
     )
     assert r.exit_code == 2
     assert "--u-cal" in r.output and not bad.exists()
+
+
+def test_outputs_in_the_uncertainty_result_vocabulary():
+    b = iso15530_3_budget(_values(), calibrated=10.0, u_cal=0.0005, policy="2004")
+    out = b.to_dict()["outputs"][0]
+    assert out["value"] == b.result and out["u"] == b.u and out["U"] == b.U
+    assert out["k"] == pytest.approx(b.U / b.u) and out["k"] > 2.0  # |b| outside the root
+    assert out["p"] == pytest.approx(0.9545, abs=1e-4)
+    assert out["interval"] == [pytest.approx(b.result - b.U), pytest.approx(b.result + b.U)]

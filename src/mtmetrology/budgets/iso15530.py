@@ -49,6 +49,7 @@ import numpy as np
 
 from mtmetrology.budgets.conformity import ConformityDecision, Tolerance, decide
 from mtmetrology.errors import InputError
+from mtmetrology.uncertainty.outputs import Output
 from mtmetrology.units import from_internal, to_internal
 
 __all__ = [
@@ -57,6 +58,7 @@ __all__ = [
     "ISO15530Budget",
     "Policy",
     "RepeatabilityMethod",
+    "budget_output",
     "combine",
     "iso15530_3_budget",
     "probe_contribution",
@@ -229,6 +231,26 @@ def combine(
     return u, expanded
 
 
+def budget_output(name: str, value: float, u: float, expanded: float, k: float) -> Output:
+    """A budget's result in the project's uncertainty-result vocabulary.
+
+    ``p`` is the probability of ±k·u for a normal distribution (0.9545 for k = 2), the
+    usual reading of a budget's coverage factor (JCGM 100:2008, 6.3.3); the interval is
+    value ± U, and the stated k is U/u (larger than the coverage factor when |b| is added
+    outside the root).
+    """
+    return Output(
+        name=name,
+        value=float(value),
+        unit="mm",
+        u=float(u),
+        U=float(expanded),
+        k=float(expanded / u) if u > 0 else None,
+        p=math.erf(k / math.sqrt(2.0)),
+        interval=(float(value - expanded), float(value + expanded)),
+    )
+
+
 def _um(x: float | None) -> float | None:
     return None if x is None else float(from_internal(x, "µm"))
 
@@ -327,6 +349,7 @@ class ISO15530Budget:
                 "u": _um(self.u),
                 "U": _um(self.U),
             },
+            "outputs": [budget_output(self.name, self.result, self.u, self.U, self.k).to_dict()],
             "decision": None if self.decision is None else self.decision.to_dict(),
             "provenance": dict(self.provenance),
         }

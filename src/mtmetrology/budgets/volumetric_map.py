@@ -41,6 +41,7 @@ import numpy as np
 from mtmetrology.budgets.iso15530 import (
     Policy,
     RepeatabilityMethod,
+    budget_output,
     combine,
     probe_contribution,
     repeatability,
@@ -266,6 +267,9 @@ class VolumetricMapBudget:
             "largest_correction_um": float(from_internal(self.largest_correction, "µm")),
             "unit": "mm",
             "rows": [r.to_dict() for r in self.rows],
+            "outputs": [
+                budget_output(r.name, r.result, r.u, r.U, self.k).to_dict() for r in self.rows
+            ],
             "provenance": dict(self.provenance),
         }
 
