@@ -222,3 +222,21 @@ def test_repeatability_from_repeated_results():
     assert iso.row("diameter").u_p == max(np.std(a, ddof=1), np.std(c, ddof=1))
     with pytest.raises(InputError, match="no values of characteristic 'Y position'"):
         volumetric_map_budget(pts, vmap, "circle", repeats=(names[:60], values[:60], None))
+
+
+def test_tolerance_decisions_use_iso_14253_1():
+    from mtmetrology.budgets import Tolerance
+
+    vmap = _map(lambda x: S * x * [1.0, 1.0, 0.0])
+    pts, _ = _bore(108.0, CENTRE)
+    tol = {"diameter": Tolerance(108.0, -0.005, 0.005), "roundness": Tolerance(0, None, 0.001)}
+    b = _budget(pts, vmap, tolerances=tol)
+    d = b.decisions()
+    # diameter 108 ± U (U = 2·√(1.08² + 1²) µm ≈ 2.9 µm) inside ±5 µm: conformance
+    assert d["diameter"].decision.value == "conformance"
+    # roundness 0 with U ≈ 2 µm against 1 µm: the interval crosses the limit
+    assert d["roundness"].decision.value == "undecided"
+    back = VolumetricMapBudget.from_dict(json.loads(json.dumps(b.to_dict())))
+    assert back == b and back.decisions()["diameter"] == d["diameter"]
+    with pytest.raises(InputError, match="'flatness' is not a characteristic of a circle"):
+        _budget(pts, vmap, tolerances={"flatness": Tolerance(0, None, 0.01)})

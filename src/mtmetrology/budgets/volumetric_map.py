@@ -38,6 +38,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from mtmetrology.budgets.conformity import Tolerance, decide
 from mtmetrology.budgets.iso15530 import (
     Policy,
     RepeatabilityMethod,
@@ -233,6 +234,14 @@ class VolumetricMapBudget:
     machine: str
     largest_correction: float
     provenance: dict = field(default_factory=dict)
+    tolerances: dict = field(default_factory=dict)
+
+    def decisions(self) -> dict:
+        """ISO 14253-1 decision of each toleranced characteristic: result ± U_MS."""
+        return {
+            name: decide(self.row(name).result, self.row(name).U, tol, unit="mm")
+            for name, tol in self.tolerances.items()
+        }
 
     def row(self, name: str) -> CharacteristicBudget:
         """The row of characteristic ``name``."""
@@ -270,6 +279,7 @@ class VolumetricMapBudget:
             "outputs": [
                 budget_output(r.name, r.result, r.u, r.U, self.k).to_dict() for r in self.rows
             ],
+            "decisions": {n: d.to_dict() for n, d in self.decisions().items()},
             "provenance": dict(self.provenance),
         }
 
@@ -290,6 +300,14 @@ class VolumetricMapBudget:
             doc["machine"],
             float(to_internal(doc["largest_correction_um"], "µm")),
             dict(doc.get("provenance", {})),
+            {
+                name: Tolerance(
+                    d["tolerance"]["nominal"],
+                    d["tolerance"]["lower_deviation"],
+                    d["tolerance"]["upper_deviation"],
+                )
+                for name, d in doc.get("decisions", {}).items()
+            },
         )
 
 
@@ -333,6 +351,7 @@ def volumetric_map_budget(
     k: float = 2.0,
     inner: bool = True,
     tip_diameter: float = 0.0,
+    tolerances: dict | None = None,
     provenance: dict | None = None,
 ) -> VolumetricMapBudget:
     """Budget of one feature's characteristics with a volumetric map (module notes).
@@ -368,6 +387,9 @@ def volumetric_map_budget(
     k : float
     inner, tip_diameter
         Sizes: bore (inner) or shaft, effective tip diameter (mm).
+    tolerances : dict of str to Tolerance, optional
+        Specifications of characteristics by name: the budget takes the ISO 14253-1
+        decision of each (:meth:`VolumetricMapBudget.decisions`).
 
     Returns
     -------
@@ -473,6 +495,13 @@ def volumetric_map_budget(
                 name, orig, corr, b, u_b, float(ups[j]), u_cal, u_probe, u, big, result
             )
         )
+    tolerances = dict(tolerances or {})
+    unknown = sorted(set(tolerances) - {c[0] for c in chars})
+    if unknown:
+        raise InputError(
+            f"tolerance: {unknown[0]!r} is not a characteristic of a {kind} "
+            f"({', '.join(c[0] for c in chars)})"
+        )
     e = vmap.error(stack.reshape(-1, 3))
     return VolumetricMapBudget(
         kind,
@@ -487,4 +516,5 @@ def volumetric_map_budget(
         vmap.machine,
         float(np.linalg.norm(e, axis=1).max()),
         dict(provenance or {}),
+        tolerances,
     )

@@ -171,11 +171,24 @@ def volumetric_map(
     tip_diameter: Annotated[
         float, typer.Option("--tip-diameter", help="Effective tip diameter (mm).")
     ] = 0.0,
+    tolerance: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--tolerance",
+            help="NAME=NOMINAL,LOWER,UPPER (mm), e.g. diameter=108,0,0.02; repeat.",
+        ),
+    ] = None,
     json: Annotated[bool, typer.Option("--json", help="Print the JSON document.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
 ) -> None:
     if output is not None:
         check_output(output, [points, params])
+    tolerances = {}
+    for text in tolerance or []:
+        name, sep, spec = text.partition("=")
+        if not sep:
+            raise InputError(f"--tolerance: expected NAME=NOMINAL,LOWER,UPPER, got {text!r}")
+        tolerances[name.strip()] = Tolerance.parse(spec, parameter=f"--tolerance {name.strip()}")
     if trials < 2:
         raise InputError(f"--trials must be at least 2, got {trials}")
     m = Machine.load(machine)
@@ -209,6 +222,7 @@ def volumetric_map(
         k=k,
         inner=not outer,
         tip_diameter=tip_diameter,
+        tolerances=tolerances,
         provenance={"points": str(points), "params": str(params)},
     )
     doc = budget.to_dict()
@@ -227,3 +241,5 @@ def volumetric_map(
     )
     for row in budget.table():
         typer.echo(f"  {row[0]:<14} " + " ".join(f"{v:>6}" for v in row[1:]))
+    for name, decision in budget.decisions().items():
+        typer.echo(f"  decision (ISO 14253-1) on {name}: {decision.decision.value}")
