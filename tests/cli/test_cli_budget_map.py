@@ -54,9 +54,12 @@ def _run(*args):
 
 def test_bore_budget(files, tmp_path):
     out = tmp_path / "budget.json"
+    html = tmp_path / "budget.html"
     r = _run(files / "points.csv", "--machine", M.name, "--params", files / "map.json",
-             "--feature", "circle", "-o", out)  # fmt: skip
+             "--feature", "circle", "-o", out, "--report", html)  # fmt: skip
     assert r.exit_code == 0, r.output
+    page = html.read_text()
+    assert "U_MS" in page and "X position" in page and "points.csv" in page
     doc = json.loads(out.read_text())
     assert [row["name"] for row in doc["rows"]] == [
         "diameter", "roundness", "X position", "Y position"

@@ -15,7 +15,13 @@ from mtmetrology.budgets.volumetric_map import (
     map_for_points,
     volumetric_map_budget,
 )
-from mtmetrology.cli._common import print_json, user_errors
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    print_json,
+    user_errors,
+    write_report,
+)
 from mtmetrology.errors import InputError
 from mtmetrology.io import check_output, read_csv_table
 from mtmetrology.io.documents import load_document
@@ -38,6 +44,15 @@ probe error enters in quadrature above 1 µm (small machine) or 3 µm (large).
 """
 
 
+def _report(ctx: typer.Context, title: str, inputs: list, header: list, rows: list, notes: str):
+    from mtmetrology.report import Report
+
+    report = Report(title, command=command_line(ctx), provenance={"inputs": inputs})
+    report.section("Budget", notes)
+    report.table(header, rows, caption="Standard uncertainties and U in µm.")
+    return report
+
+
 def _um(value: float, option: str) -> float:
     if not value >= 0:
         raise InputError(f"{option}: must be >= 0 µm, got {value}")
@@ -47,6 +62,7 @@ def _um(value: float, option: str) -> float:
 @app.command("iso15530-3", help=ISO_HELP)
 @user_errors
 def iso15530_3(
+    ctx: typer.Context,
     runs: Annotated[Path, typer.Argument(help="RUNS.csv: value[,series] (mm).")],
     calibrated: Annotated[float, typer.Option("--calibrated", help="Calibrated value x_cal (mm).")],
     u_cal: Annotated[float, typer.Option("--u-cal", help="u_cal of x_cal (µm).")],
@@ -71,9 +87,12 @@ def iso15530_3(
     ] = None,
     json: Annotated[bool, typer.Option("--json", help="Print the JSON document.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
+    report_path: ReportOption = None,
 ) -> None:
     if output is not None:
         check_output(output, [runs])
+    if report_path is not None:
+        check_output(report_path, [runs])
     tol = None if tolerance is None else Tolerance.parse(tolerance)
     table = read_csv_table(runs, required=["value"])
     series = table.strings("series") if table.has("series") else None
@@ -94,8 +113,25 @@ def iso15530_3(
         provenance={"runs": str(runs)},
     )
     doc = budget.to_dict()
+    report = None
+    if report_path is not None:
+        um = doc["um"]
+        names = ("b", "u_b", "u_p", "u_cal", "u_w", "u_probe", "u", "U")
+        report = _report(
+            ctx,
+            f"ISO 15530-3 budget: {runs.name}",
+            [runs],
+            ["quantity", "µm"],
+            [[n, um[n]] for n in names],
+            f"Policy {budget.policy.value}, n = {budget.n}, k = {budget.k:g}; mean "
+            f"{budget.mean:.6f} mm, calibrated {budget.calibrated:.6f} mm, result "
+            f"{budget.result:.6f} mm"
+            + ("" if budget.decision is None else f"; decision {budget.decision.decision.value}"),
+        )
     if output is not None:
         write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
     if json:
         print_json(doc)
         return
@@ -140,6 +176,7 @@ def _load_map(machine: Machine, params: Path, points) -> VolumetricMap:
 @app.command("volumetric-map", help=MAP_HELP)
 @user_errors
 def volumetric_map(
+    ctx: typer.Context,
     points: Annotated[Path, typer.Argument(help="POINTS.csv: x,y,z[,cycle[,series]] (mm).")],
     machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
     params: Annotated[Path, typer.Option("--params", help="MAP.json or a map document.")],
@@ -180,9 +217,11 @@ def volumetric_map(
     ] = None,
     json: Annotated[bool, typer.Option("--json", help="Print the JSON document.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
+    report_path: ReportOption = None,
 ) -> None:
-    if output is not None:
-        check_output(output, [points, params])
+    for target in (output, report_path):
+        if target is not None:
+            check_output(target, [points, params])
     tolerances = {}
     for text in tolerance or []:
         name, sep, spec = text.partition("=")
@@ -226,8 +265,26 @@ def volumetric_map(
         provenance={"points": str(points), "params": str(params)},
     )
     doc = budget.to_dict()
+    report = None
+    if report_path is not None:
+        decisions = budget.decisions()
+        report = _report(
+            ctx,
+            f"VDI/VDE 2617-11 budget with a volumetric map: {points.name}",
+            [points, params],
+            ["characteristic", "u_b", "u_p", "u_cal", "u_MS", "U_MS", "decision"],
+            [
+                [*row, decisions[row[0]].decision.value if row[0] in decisions else None]
+                for row in budget.table()
+            ],
+            f"{feature}, {budget.cycles} cycle(s) of {budget.n_points} points, mode {mode} "
+            f"(P_true = P - e(P)), u_cal by {u_cal}, k = {k:g}; largest map correction "
+            f"{doc['largest_correction_um']:.2f} µm.",
+        )
     if output is not None:
         write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
     if json:
         print_json(doc)
         return

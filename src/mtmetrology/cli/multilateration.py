@@ -8,7 +8,13 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from mtmetrology.cli._common import print_json, user_errors
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    print_json,
+    user_errors,
+    write_report,
+)
 from mtmetrology.errors import InputError
 from mtmetrology.io import check_output
 from mtmetrology.io.files import write_json
@@ -135,6 +141,7 @@ def simulate_multilateration(
 @calibrate_app.command("multilateration", help=CALIBRATE_HELP)
 @user_errors
 def calibrate_multilateration_cmd(
+    ctx: typer.Context,
     lengths: Annotated[Path, typer.Argument(help="LENGTHS.csv.")],
     machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
     model: Annotated[str | None, typer.Option("--model", help="Error model.")] = None,
@@ -145,9 +152,11 @@ def calibrate_multilateration_cmd(
     seed: Annotated[int | None, typer.Option("--seed", help="Seed of --mc.")] = None,
     json: Annotated[bool, typer.Option("--json", help="Print the JSON document.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="MAP.json.")] = None,
+    report_path: ReportOption = None,
 ) -> None:
-    if output is not None:
-        check_output(output, [lengths])
+    for target in (output, report_path):
+        if target is not None:
+            check_output(target, [lengths])
     if mc < 0:
         raise InputError(f"--mc must be >= 0 trials, got {mc}")
     m = Machine.load(machine, model)
@@ -163,8 +172,29 @@ def calibrate_multilateration_cmd(
         points = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
         check = map_monte_carlo(m, record, result, points, trials=mc, seed=seed)
         doc["provenance"]["map_monte_carlo"] = check.to_dict()
+    report = None
+    if report_path is not None:
+        from mtmetrology.report import Report
+        from mtmetrology.report.results import add_result
+
+        report = Report(
+            f"Sequential multilateration: {lengths.name}",
+            command=command_line(ctx),
+            provenance={"inputs": [lengths], "seed": seed},
+        )
+        report.section("Stations", result.message)
+        report.table(
+            ["station", "x (mm)", "y (mm)", "z (mm)", "dead path (mm)", "u max (µm)"],
+            [
+                [s.name, *s.position, s.dead_path, float(from_internal(u.max(), "µm"))]
+                for s, u in zip(result.stations, result.station_u, strict=True)
+            ],
+        )
+        add_result(report, result.parameters)
     if output is not None:
         write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
     if json:
         print_json(doc)
         return
