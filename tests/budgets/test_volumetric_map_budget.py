@@ -240,3 +240,33 @@ def test_tolerance_decisions_use_iso_14253_1():
     assert back == b and back.decisions()["diameter"] == d["diameter"]
     with pytest.raises(InputError, match="'flatness' is not a characteristic of a circle"):
         _budget(pts, vmap, tolerances={"flatness": Tolerance(0, None, 0.01)})
+
+
+def _feature_points(kind):
+    rng = np.random.default_rng(7)
+    if kind == "sphere":
+        v = rng.normal(size=(30, 3))
+        v[:, 2] = np.abs(v[:, 2])
+        return CENTRE + 12.5 * v / np.linalg.norm(v, axis=1, keepdims=True)
+    if kind == "cylinder":
+        t, h = rng.uniform(0, 2 * np.pi, 40), rng.uniform(0, 50, 40)
+        return CENTRE + np.c_[14 * np.cos(t), 14 * np.sin(t), h]
+    if kind == "length":
+        return CENTRE + np.array([[-50.0, 0, 0], [50.0, 0, 0]])
+    return CENTRE + rng.normal(0, 0.01, (5, 3))  # position: repeated contacts of a point
+
+
+@pytest.mark.parametrize("kind", ["sphere", "cylinder", "length", "position"])
+def test_translation_moves_positions_and_keeps_sizes_for_every_feature(kind):
+    t = np.array([3.0, -2.0, 1.0]) * UM
+    b = _budget(_feature_points(kind), _map(lambda x: np.broadcast_to(t, x.shape)), kind)
+    for r in b.rows:
+        if r.name.endswith("position"):
+            assert r.b == pytest.approx(-t["XYZ".index(r.name[0])], abs=1e-10)
+        else:
+            assert abs(r.b) < 1e-10, r.name
+    s = _budget(_feature_points(kind), _map(lambda x: S * x), kind)  # isotropic scale
+    if kind in ("sphere", "cylinder", "length"):
+        size = s.rows[0]
+        assert size.b < 0 and size.original > 0
+        assert size.b / size.original == pytest.approx(-S, rel=1e-6)
