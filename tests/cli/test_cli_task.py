@@ -123,17 +123,48 @@ def test_full_task_with_repeatability_tolerance_and_output_file(tmp_path):
 
 
 @pytest.mark.parametrize(
-    ("files", "extra"),
+    ("files", "extra", "named"),
     [
-        ({"e_cov": E_PRINTED}, ["--unexplained", "E.json"]),  # eq. 6-15 as printed: not PSD
-        ({"machine": "another-machine"}, []),  # parameter file of another machine
-        ({"z_high": 200.0}, ["--repeatability", "R.json"]),  # Z = 246.8 mm outside the model
-        ({}, ["--tolerance", "500,0.1,-0.1"]),
-        ({}, ["--unexplained", "E.json", "--tip-diameter", "-1"]),
-        ({}, []),  # no repeatability nor E: u would be 0
+        # eq. 6-15 as printed: not PSD; the file, its field and the smallest eigenvalue
+        (
+            {"e_cov": E_PRINTED},
+            ["--unexplained", "E.json"],
+            lambda d: (
+                f"{d / 'E.json'}: covariance is not positive semidefinite",
+                f"smallest eigenvalue {np.linalg.eigvalsh(E_PRINTED)[0]:.3g} µm²",
+            ),
+        ),
+        # parameter file of another machine: the file and both machine names
+        (
+            {"machine": "another-machine"},
+            ["--unexplained", "E.json"],
+            lambda d: (
+                f"{d / 'params.json'}: made for machine 'another-machine'",
+                f"not '{MACHINE.name}'",
+            ),
+        ),
+        # p2 at Z = 246.817 mm is outside the model's Z range [-110, 200] mm
+        (
+            {"z_high": 200.0},
+            ["--repeatability", "R.json"],
+            lambda d: ("pose factor Z_T = 246.817 mm", "range [-110, 200] mm"),
+        ),
+        (
+            {},
+            ["--tolerance", "500,0.1,-0.1"],
+            lambda d: ("tolerance: the lower limit 500.1 is above the upper limit 499.9",),
+        ),
+        (
+            {},
+            ["--unexplained", "E.json", "--tip-diameter", "-1"],
+            lambda d: ("tip_diameter must be a finite length >= 0 mm, got -1.0",),
+        ),
+        # no repeatability nor E: u would be 0
+        ({}, [], lambda d: ("give --repeatability and/or --unexplained", "u would be 0")),
     ],
+    ids=["e-not-psd", "another-machine", "outside-model", "tolerance", "tip", "no-u"],
 )
-def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, files, extra):
+def test_bad_input_exits_2_naming_the_file_field_or_option(tmp_path, files, extra, named):
     d = _files(tmp_path, **files)
     extra = [str(d / x) if x.endswith(".json") else x for x in extra]
     out = d / "out.json"
@@ -141,6 +172,9 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, files, ext
     assert result.exit_code == 2, result.output
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ")
+    first, *rest = named(d)
+    assert lines[0].startswith(f"error: {first}"), lines[0]
+    assert all(part in lines[0] for part in rest), lines[0]
     assert not out.exists()
 
 
@@ -148,7 +182,9 @@ def test_three_points_for_a_length_are_refused(tmp_path):
     d = _files(tmp_path)
     (d / "points.csv").write_text(POINTS + "p3,0,0,0,0,0,1,0,0,2\n", encoding="utf-8")
     result = _run(d, "--unexplained", str(d / "E.json"))
-    assert result.exit_code == 2 and result.stderr.startswith("error: ")
+    assert result.exit_code == 2
+    line = f"error: {d / 'points.csv'}: a length needs exactly 2 points (one pair), got 3\n"
+    assert result.stderr == line
 
 
 def test_report_shows_the_result_budget_and_decision(tmp_path):
