@@ -298,27 +298,35 @@ def test_points_of_a_length_and_a_sampled_simulator(tmp_path):
 
 
 @pytest.mark.parametrize(
-    ("feature", "extra", "n"),
+    ("feature", "extra", "n", "named"),
     [
-        ("sphere", [], 3),  # a sphere needs 4 points
-        ("circle", [], 2),
-        ("plane", ["--side", "inner"], 8),  # a plane has no side
-        ("circle", ["--tolerance-output", "roundness"], 8),  # without --tolerance
-        ("circle", ["--tolerance", "0,,1", "--tolerance-output", "flatness"], 8),
-        ("circle", ["--method", "mcm", "--simulator", "sampled", "--draws", "5"], 8),
-        ("plane", ["--form", "minimum-zone"], 3),  # a minimum-zone plane needs 4 contacts
-        ("length", ["--form", "minimum-zone"], 2),  # a length has no form
-        ("cylinder", [], 4),
+        # a sphere needs 4 points
+        ("sphere", [], 3, "{points}: a sphere needs at least 4 points (least-squares), got 3"),
+        ("circle", [], 2, "{points}: a circle needs at least 3 points (least-squares), got 2"),
+        # a plane has no side
+        ("plane", ["--side", "inner"], 8, "--side applies to a sphere, circle or cylinder"),
+        # without --tolerance
+        ("circle", ["--tolerance-output", "roundness"], 8, "--tolerance-output needs --tolerance"),
+        ("circle", ["--tolerance", "0,,1", "--tolerance-output", "flatness"], 8,
+         "--tolerance-output: 'flatness' is not an output"),
+        ("circle", ["--method", "mcm", "--simulator", "sampled", "--draws", "5"], 8,
+         "draws: the sampled simulator needs at least"),
+        # a minimum-zone plane needs 4 contacts
+        ("plane", ["--form", "minimum-zone"], 3,
+         "{points}: a plane needs at least 4 points (minimum-zone), got 3"),
+        # a length has no form
+        ("length", ["--form", "minimum-zone"], 2, "--form minimum-zone applies to a form error"),
+        ("cylinder", [], 4, "{points}: a cylinder needs at least 5 points (least-squares), got 4"),
     ],
-)
-def test_bad_feature_requests_exit_2_and_write_nothing(tmp_path, feature, extra, n):
+)  # fmt: skip
+def test_bad_feature_requests_exit_2_and_write_nothing(tmp_path, feature, extra, n, named):
     d = _files(tmp_path)
     points = _bore_points(d, n=n)
     out = d / "out.json"
     result = _run_on(d, points, feature, *extra, "-o", str(out))
     assert result.exit_code == 2, result.output
     lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: ")
+    assert len(lines) == 1 and lines[0].startswith("error: " + named.format(points=points))
     assert not out.exists()
 
 
