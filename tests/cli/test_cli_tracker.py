@@ -132,3 +132,23 @@ def test_design_tracker_placement_bad_region_writes_nothing(tmp_path):
     res = mtm("design", "tracker-placement", "--machine", MACHINE, "--region", "a:b,1:2",
               "-o", tmp_path / "p.json")  # fmt: skip
     _refused(res, tmp_path, "error: --region needs D0:D1,L0:L1,H0:H1 in mm")
+
+
+def test_conditions_file_is_read_and_a_bad_key_named(tmp_path):
+    cond = tmp_path / "cond.yaml"
+    cond.write_text("kind: tracker-conditions\nversion: 1\n"
+                    "sensor_temperatures_C: [[25, 25], [25, 25], [25, 25]]\nu_sensor_K: 0.0\n"
+                    "u_cte_per_K: [0, 0, 0]\n")  # fmt: skip
+    out = tmp_path / "m.csv"
+    res = mtm("simulate", "tracker", "--machine", MACHINE, "--mesh", MESH, "--conditions", cond,
+              "--seed", 1, "-o", out)  # fmt: skip
+    assert res.exit_code == 0, res.output
+    temps = [line.split(",")[-3:] for line in out.read_text().splitlines()[1:]]
+    assert {float(v) for row in temps for v in row} == {25.0}
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("kind: tracker-conditions\nversion: 1\ncte: [1, 2, 3]\n")
+    res = mtm("simulate", "tracker", "--machine", MACHINE, "--mesh", MESH, "--conditions", bad,
+              "-o", tmp_path / "n.csv")  # fmt: skip
+    assert res.exit_code == 2
+    assert res.output.strip().startswith(f"error: {bad}: cte: unknown key")
+    assert not (tmp_path / "n.csv").exists()

@@ -83,12 +83,24 @@ def _noise(angle_urad: float):
     return TrackerNoise(u_angle=float(to_internal(angle_urad, "µrad")))
 
 
-def _conditions(temperature_c: float):
+CONDITIONS_HELP = (
+    "CONDITIONS.yaml: kind tracker-conditions, version 1, any of sensor_temperatures_C "
+    "(3 x 2, per axis X, Y, Z at the lower and upper travel end), u_sensor_K, cte_per_K, "
+    "u_cte_per_K, reversal_mm, repeatability_mm, geometric_random, geometric_distribution "
+    "(normal or beta); 20 °C, steel, none otherwise."
+)
+
+
+def _conditions(path: Path | None):
+    from mtmetrology.io.documents import load_document
     from mtmetrology.tracker import MachineConditions
 
-    if not np.isfinite(temperature_c):
-        raise InputError(f"--temperature must be a number (°C), got {temperature_c}")
-    return MachineConditions(np.full((3, 2), temperature_c))
+    if path is None:
+        return MachineConditions()
+    doc = load_document(path, "tracker conditions")
+    if not isinstance(doc, dict) or doc.get("kind") != "tracker-conditions":
+        raise InputError(f"{path}: kind: expected 'tracker-conditions'")
+    return MachineConditions.from_dict(doc, str(path))
 
 
 @simulate_app.command("tracker")
@@ -103,9 +115,7 @@ def simulate_tracker(
     pose: Annotated[Path | None, typer.Option("--pose", help=POSE_HELP)] = None,
     tools: Annotated[Path | None, typer.Option("--tools", help=TOOLS_HELP)] = None,
     angle_urad: NoiseOption = 20.0,
-    temperature: Annotated[
-        float, typer.Option("--temperature", help="Temperature of every axis sensor, °C.")
-    ] = 20.0,
+    conditions: Annotated[Path | None, typer.Option("--conditions", help=CONDITIONS_HELP)] = None,
     seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
 ) -> None:
     """Tracker readings (range, azimuth, elevation) and axis temperatures of a virtual
@@ -122,7 +132,7 @@ def simulate_tracker(
         parse_mesh(mesh, m),
         _tools(tools),
         noise=_noise(angle_urad),
-        conditions=_conditions(temperature),
+        conditions=_conditions(conditions),
         seed=seed,
     )
     meas.write(output)
@@ -137,6 +147,7 @@ def calibrate_tracker(
     machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
     model: Annotated[str | None, typer.Option("--model", help="Error model name.")] = None,
     angle_urad: NoiseOption = 20.0,
+    conditions: Annotated[Path | None, typer.Option("--conditions", help=CONDITIONS_HELP)] = None,
     json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
     report_path: ReportOption = None,
@@ -148,7 +159,7 @@ def calibrate_tracker(
 
     m = Machine.load(machine, model)
     meas = read_measurements(measurements)
-    cal = calibrate(m, meas, noise=_noise(angle_urad))
+    cal = calibrate(m, meas, noise=_noise(angle_urad), conditions=_conditions(conditions))
     doc = cal.to_dict()
     report = None
     if report_path is not None:
@@ -193,6 +204,7 @@ def verify_tracker(
     tools: Annotated[Path | None, typer.Option("--tools", help=TOOLS_HELP)] = None,
     trials: Annotated[int, typer.Option("--trials", help="Simulated verifications.")] = 1000,
     angle_urad: NoiseOption = 20.0,
+    conditions: Annotated[Path | None, typer.Option("--conditions", help=CONDITIONS_HELP)] = None,
     seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
     json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
@@ -214,6 +226,7 @@ def verify_tracker(
         _tools(tools),
         trials=trials,
         noise=_noise(angle_urad),
+        conditions=_conditions(conditions),
         seed=seed,
     )
     doc = result.to_dict()

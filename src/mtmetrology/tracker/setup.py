@@ -219,14 +219,34 @@ class MachineConditions:
         }
 
     @classmethod
-    def from_dict(cls, doc: dict) -> MachineConditions:
-        return cls(
-            np.array(doc["sensor_temperatures_C"]),
-            doc["u_sensor_K"],
-            np.array(doc["cte_per_K"]),
-            np.array(doc["u_cte_per_K"]),
-            np.array(doc["reversal_mm"]),
-            np.array(doc["repeatability_mm"]),
-            doc["geometric_random"],
-            doc["geometric_distribution"],
-        )
+    def from_dict(cls, doc: dict, source: str = "conditions") -> MachineConditions:
+        """From the file form of :meth:`to_dict`; missing keys take their defaults
+        (``u_cte_per_K``: eq. 10 of the CTEs), unknown keys are refused."""
+        fields = {
+            "sensor_temperatures_C": "sensor_temperatures",
+            "u_sensor_K": "u_sensor",
+            "cte_per_K": "cte",
+            "u_cte_per_K": "u_cte",
+            "reversal_mm": "reversal",
+            "repeatability_mm": "repeatability",
+            "geometric_random": "geometric_random",
+            "geometric_distribution": "geometric_distribution",
+        }
+        unknown = sorted(set(doc) - set(fields) - {"kind", "version"})
+        if unknown:
+            raise InputError(f"{source}: {unknown[0]}: unknown key (known: {', '.join(fields)})")
+        kwargs = {}
+        for key, name in fields.items():
+            if key not in doc:
+                continue
+            value = doc[key]
+            if name != "geometric_distribution":
+                try:
+                    value = np.asarray(value, dtype=float)
+                except (TypeError, ValueError):
+                    raise InputError(f"{source}: {key}: must be numbers, got {value!r}") from None
+            kwargs[name] = value
+        try:
+            return cls(**kwargs)
+        except InputError as err:
+            raise InputError(f"{source}: {str(err).removeprefix('conditions: ')}") from None
