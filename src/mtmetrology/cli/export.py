@@ -1,0 +1,97 @@
+"""``mtm export``: compensation tables for a control, and the residual they leave."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from mtmetrology.cli._common import fail, print_json, user_errors
+from mtmetrology.io.files import atomic_write, check_output, write_json
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+
+
+def _split(text: str | None) -> list[str] | None:
+    return [s.strip() for s in text.split(",") if s.strip()] if text else None
+
+
+@user_errors
+def export(
+    fmt: Annotated[str, typer.Argument(metavar="FORMAT", help="linuxcnc, fanuc, siemens or isg.")],
+    params: Annotated[
+        Path, typer.Argument(metavar="RESULT", help="Parameter set or calibration result JSON.")
+    ],
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Existing output directory.")],
+    pitch: Annotated[
+        float | None, typer.Option("--pitch", help="Table spacing: mm (linear), deg (rotary).")
+    ] = None,
+    points: Annotated[
+        int | None, typer.Option("--points", help="Points per table over the travel.")
+    ] = None,
+    axes: Annotated[str | None, typer.Option("--axes", help="Axes to tabulate, e.g. X,Y.")] = None,
+    functions: Annotated[
+        str | None, typer.Option("--functions", help="Error functions, e.g. E_XX,E_YX.")
+    ] = None,
+    bound: Annotated[
+        float | None,
+        typer.Option("--bound", help="Pitch advisor: interpolation-error bound, µm."),
+    ] = None,
+    check_per_axis: Annotated[
+        int, typer.Option("--check-per-axis", help="Residual check: grid points per axis.")
+    ] = 5,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the check JSON.")] = False,
+) -> None:
+    """Write a control's compensation tables and check.json: the residual tool-point error
+    after the control's own interpolation, with its uncertainty (k = 2), on a grid over the
+    travel."""
+    from mtmetrology.export.workflow import export_compensation
+
+    if (pitch is None) == (points is None):
+        fail("give exactly one of --pitch and --points")
+    if not output.is_dir():
+        fail(f"{output}: not an existing directory (it is not created)")
+    if check_per_axis < 2:
+        fail(f"--check-per-axis: {check_per_axis} < 2")
+    m = Machine.load(machine)
+    pset = ParameterSet.load(params, m)
+    result = export_compensation(
+        m,
+        pset,
+        fmt.lower(),
+        pitch=pitch,
+        points=points,
+        axes=_split(axes),
+        functions=_split(functions),
+        check_per_axis=check_per_axis,
+        bound_um=bound,
+    )
+    targets = {name: output / name for name in [*result.files, "check.json"]}
+    for target in targets.values():
+        check_output(target, [params])
+    for name, text in result.files.items():
+        with atomic_write(targets[name]) as fh:
+            fh.write(text)
+    doc = result.to_dict()
+    write_json(targets["check.json"], doc)
+    if as_json:
+        print_json(doc)
+        return
+    r = result.residual
+    typer.echo(f"{result.format}: wrote {', '.join(targets)} to {output}")
+    for t in result.tables:
+        typer.echo(
+            f"  {t['function']}: {t['points']} points, pitch {t['pitch']:g} {t['pitch_unit']}, "
+            f"largest correction {t['max_correction_um']:.2f} µm"
+        )
+    if result.not_carried:
+        typer.echo(f"  not carried by {result.format}: {', '.join(result.not_carried)}")
+    u = "" if r["max_U_um"] is None else f", U (k = 2) up to {r['max_U_um']:.2g} µm"
+    typer.echo(
+        f"residual over {r['points']} check points: largest {r['max_um']:.3g} µm, "
+        f"rms {r['rms_um']:.3g} µm{u} (uncompensated largest {r['uncompensated_max_um']:.3g} µm)"
+    )
+    if result.advisor is not None:
+        typer.echo(f"pitch advisor: {result.advisor['reason']}")
