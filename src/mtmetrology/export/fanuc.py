@@ -137,6 +137,8 @@ def render(tables: list[ControlTable], model: CompensationModel, *, magnificatio
         scale = 1.0 if linear else _DEG
         absolute = np.round(t.forward / unit).astype(int)
         inc = increments(absolute)
+        if t.period is not None:  # the reference point repeats the last point's value
+            inc[0] = inc[-1]
         interval = round(
             (t.positions[1] - t.positions[0]) / _UNIT["linear" if linear else "rotary"]
         )
