@@ -70,6 +70,7 @@ def test_export_writes_the_files_and_a_check_that_equals_the_library_result(para
         (["siemens", "--pitch", 10, "--functions", "E_CZ"], "E_CZ: format siemens cannot"),
         (["heidenhain", "--pitch", 10], "format: 'heidenhain' is not one of"),
         (["linuxcnc", "--pitch", 10, "--axes", "Q"], "axes: Q is not an axis"),
+        (["grid", "--pitch", 50, "--region", "X=700:1000"], "grid: X from 700 to 1000 mm is"),
     ],
 )
 def test_bad_input_is_one_line_exit_2_and_nothing_written(params, tmp_path, args, field):

@@ -17,9 +17,26 @@ def _split(text: str | None) -> list[str] | None:
     return [s.strip() for s in text.split(",") if s.strip()] if text else None
 
 
+def _region(text: str | None) -> dict | None:
+    """``X=800:1000,Z=200:300`` -> {"X": (800.0, 1000.0), "Z": (200.0, 300.0)}."""
+    if not text:
+        return None
+    out = {}
+    for item in _split(text):
+        try:
+            axis, span = item.split("=")
+            lo, hi = (float(v) for v in span.split(":"))
+        except ValueError:
+            fail(f"--region: {item!r} is not AXIS=low:high")
+        out[axis.strip().upper()] = (lo, hi)
+    return out
+
+
 @user_errors
 def export(
-    fmt: Annotated[str, typer.Argument(metavar="FORMAT", help="linuxcnc, fanuc, siemens or isg.")],
+    fmt: Annotated[
+        str, typer.Argument(metavar="FORMAT", help="linuxcnc, fanuc, siemens, isg or grid.")
+    ],
     params: Annotated[
         Path, typer.Argument(metavar="RESULT", help="Parameter set or calibration result JSON.")
     ],
@@ -42,6 +59,10 @@ def export(
     check_per_axis: Annotated[
         int, typer.Option("--check-per-axis", help="Residual check: grid points per axis.")
     ] = 5,
+    region: Annotated[
+        str | None,
+        typer.Option("--region", help="grid: box of readings, e.g. X=800:1000,Z=200:300 (mm)."),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the check JSON.")] = False,
 ) -> None:
     """Write a control's compensation tables and check.json: the residual tool-point error
@@ -67,6 +88,7 @@ def export(
         functions=_split(functions),
         check_per_axis=check_per_axis,
         bound_um=bound,
+        region=_region(region),
     )
     targets = {name: output / name for name in [*result.files, "check.json"]}
     for target in targets.values():
@@ -83,8 +105,9 @@ def export(
     typer.echo(f"{result.format}: wrote {', '.join(targets)} to {output}")
     for t in result.tables:
         typer.echo(
-            f"  {t['function']}: {t['points']} points, pitch {t['pitch']:g} {t['pitch_unit']}, "
-            f"largest correction {t['max_correction_um']:.2f} µm"
+            f"  {t['function']}: {t['points']} points"
+            + (f", pitch {t['pitch']:g} {t['pitch_unit']}" if "pitch" in t else "")
+            + f", largest correction {t['max_correction_um']:.2f} µm"
         )
     if result.not_carried:
         typer.echo(f"  not carried by {result.format}: {', '.join(result.not_carried)}")

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mtmetrology.errors import InputError
-from mtmetrology.export import fanuc, isg, linuxcnc, siemens
+from mtmetrology.export import fanuc, grid, isg, linuxcnc, siemens
 from mtmetrology.export.control import ControlTable, residual
 from mtmetrology.export.model import CompensationModel, compensation_model
 from mtmetrology.kinematics.machine import Machine
@@ -189,6 +189,51 @@ def advise_pitch(fmt, machine, parameters, functions, bound_um: float, readings)
     return {"bound_um": bound_um, "pitch": None, "met": False, "reason": reason}
 
 
+def _summary(model, readings, r, u, per_axis) -> dict:
+    e0, _ = residual(model.machine, model.theta, None, [], readings)
+    return {
+        "points": int(readings.shape[0]),
+        "per_axis": per_axis,
+        "max_um": float(from_internal(np.abs(r).max(), "µm")),
+        "rms_um": float(from_internal(np.sqrt(np.mean(np.sum(r**2, axis=1))), "µm")),
+        "max_U_um": None if u is None else float(from_internal(2 * u.max(), "µm")),
+        "k": 2,
+        "uncompensated_max_um": float(from_internal(np.abs(e0).max(), "µm")),
+    }
+
+
+def _export_grid(machine, parameters, pitch, points, region, per_axis) -> ExportResult:
+    """The volumetric grid: nodes over the region, trilinear check at the check grid."""
+    model = compensation_model(machine, parameters, points=2, covariance=False)
+    field = grid.grid_from_model(model, grid.grid_lines(model, pitch, points, region))
+    readings = check_readings(model.machine, per_axis)
+    for k, a in enumerate(("X", "Y", "Z")):  # the check stays inside the grid's box
+        col = model.machine.axis_names.index(a)
+        lo, hi = field.lines[k][0], field.lines[k][-1]
+        travel = model.machine.axes[a].travel
+        readings[:, col] = lo + (readings[:, col] - travel[0]) * (hi - lo) / (travel[1] - travel[0])
+    r, u = grid.residual_grid(model, field, readings)
+    rotary = sorted({t.function for t in model.tables if t.axis not in LINEAR_AXES})
+    nodes = int(np.prod([x.size for x in field.lines]))
+    row = {
+        "function": "volumetric",
+        "points": nodes,
+        "max_correction_um": float(from_internal(np.abs(field.vectors).max(), "µm")),
+        "max_u_um": None if field.u is None else float(from_internal(field.u.max(), "µm")),
+    }
+    return ExportResult(
+        "grid",
+        model.machine.name,
+        model.machine.model_name,
+        grid.render(field, model.machine.name),
+        [row],
+        rotary,
+        _summary(model, readings, r, u, per_axis),
+        None,
+        {"parameters": dict(parameters.provenance)},
+    )
+
+
 def export_compensation(
     machine: Machine,
     parameters: ParameterSet,
@@ -200,6 +245,7 @@ def export_compensation(
     functions: Sequence[str] | None = None,
     check_per_axis: int = 5,
     bound_um: float | None = None,
+    region: dict | None = None,
 ) -> ExportResult:
     """Control tables of one format and the residual error after the control applies them.
 
@@ -208,7 +254,7 @@ def export_compensation(
     machine : Machine
     parameters : ParameterSet
         Identified parameters with covariance, made for ``machine``.
-    fmt : {"linuxcnc", "fanuc", "siemens", "isg"}
+    fmt : {"linuxcnc", "fanuc", "siemens", "isg", "grid"}
     pitch, points : float or int
         Table spacing (mm, or degrees on a rotary axis) or number of points (one of them).
     axes : sequence of str, optional
@@ -219,7 +265,10 @@ def export_compensation(
     check_per_axis : int
         Grid points per axis of the residual check.
     bound_um : float, optional
-        Interpolation-error bound of the pitch advisor, µm.
+        Interpolation-error bound of the pitch advisor, µm (axis-table formats).
+    region : dict of axis to (low, high), optional
+        Volumetric grid only: the box of X, Y, Z readings (mm) it covers; the travel
+        otherwise.  A box outside the travel is refused.
 
     Returns
     -------
@@ -230,10 +279,12 @@ def export_compensation(
     InputError
         Unknown format, a parameter set of another machine, a grid the control refuses.
     """
-    if fmt not in FORMATS:
-        raise InputError(f"format: {fmt!r} is not one of {', '.join(FORMATS)}")
+    if fmt not in (*FORMATS, "grid"):
+        raise InputError(f"format: {fmt!r} is not one of {', '.join(FORMATS)}, grid")
     if pitch is None and points is None:
         raise InputError("give --pitch or --points")
+    if fmt == "grid":
+        return _export_grid(machine, parameters, pitch, points, region, check_per_axis)
     model = compensation_model(machine, parameters, pitch=pitch, points=points, axes=axes)
     module, tables, constants = _build(fmt, model, functions)
     files = module.render(tables, model)
@@ -242,16 +293,7 @@ def export_compensation(
     not_carried += [n for n, _ in model.constants if n not in carried]
     readings = check_readings(model.machine, check_per_axis)
     r, u = residual_check(model, tables, constants, readings)
-    e0, _ = residual(model.machine, model.theta, None, [], readings)
-    summary = {
-        "points": int(readings.shape[0]),
-        "per_axis": check_per_axis,
-        "max_um": float(from_internal(np.abs(r).max(), "µm")),
-        "rms_um": float(from_internal(np.sqrt(np.mean(np.sum(r**2, axis=1))), "µm")),
-        "max_U_um": None if u is None else float(from_internal(2 * u.max(), "µm")),
-        "k": 2,
-        "uncompensated_max_um": float(from_internal(np.abs(e0).max(), "µm")),
-    }
+    summary = _summary(model, readings, r, u, check_per_axis)
     rows = []
     for t in tables:
         lin = t.axis in LINEAR_AXES
