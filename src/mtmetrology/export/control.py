@@ -26,7 +26,10 @@ its tables is::
 
     r(q) = e(q; θ) + Σ_f S_f(q) c_f(q_f; θ̂)
 
-with c_f the control's interpolation of the tables made from the estimate θ̂.  Its
+with c_f the control's interpolation of the tables made from the estimate θ̂.  The sum
+is evaluated as ``p(q; c) − p(q; 0)`` on the machine whose parameters are those degree-0
+coefficients (and location errors), each point with its own values c: the chain is linear
+in each factor's parameters, so this is ``Σ S_f c_f`` up to second order in the errors.  Its
 estimate is ``r̂ = e(q; θ̂) + Σ_f S_f c_f(θ̂)`` (interpolation error and functions no table
 carries); ``r − r̂ = J(q)(θ − θ̂)`` to first order, so its standard uncertainty per component
 is ``sqrt(diag(J U Jᵀ))`` with ``J = ∂p/∂θ`` — for tables that carry every function
@@ -46,7 +49,7 @@ import numpy as np
 
 from mtmetrology.kinematics.machine import Machine
 
-__all__ = ["RULES", "ControlTable", "function_sensitivity", "residual"]
+__all__ = ["RULES", "ControlTable", "residual"]
 
 RULES = ("linear", "staircase")
 
@@ -118,14 +121,39 @@ class ControlTable:
         return np.where(np.asarray(senses) < 0, values[1], values[0])
 
 
-def function_sensitivity(machine: Machine, names: list[str], readings: np.ndarray):
-    """``S_f(q)``: tool-point displacement per unit value of each function, (..., 3, F).
+def _corrections(tables: list[ControlTable], q: np.ndarray, senses, cols) -> np.ndarray:
+    """Corrections of all tables at readings ``q`` (b, n_axes), shape (F, b).
 
-    ``names`` are degree-0 coefficients of the functions (``E_XX0`` …, whose basis value is
-    1 everywhere) or location errors (``E_C0Y``); the result is the kinematic chain's
-    Jacobian with respect to them.
+    :meth:`ControlTable.correction` vectorised: tables on one axis with the same points
+    and rule share the interval index, found arithmetically (the points of every control
+    table are equally spaced), and are gathered as one stacked array.
     """
-    return machine.with_parameters(names).jacobian(readings)
+    out = np.empty((len(tables), q.shape[0]))
+    groups: dict = {}
+    for f, (t, k) in enumerate(zip(tables, cols, strict=True)):
+        key = (k, t.rule, t.period, t.positions.tobytes())
+        groups.setdefault(key, []).append(f)
+    for (k, rule, period, _), members in groups.items():
+        x = tables[members[0]].positions
+        qk = q[:, k] if period is None else x[0] + np.mod(q[:, k] - x[0], period)
+        h = x[1] - x[0]
+        position = (qk - x[0]) / h
+        i = np.clip(np.floor(position).astype(np.intp), 0, x.size - 1)
+        both = senses is not None and any(
+            not np.array_equal(tables[f].forward, tables[f].reverse) for f in members
+        )
+        directions = ("forward", "reverse") if both else ("forward",)
+        values = []
+        for d in directions:
+            stack = np.stack([getattr(tables[f], d) for f in members])  # (F_g, n)
+            value = np.take(stack, i, axis=1)
+            if rule == "linear":  # + slope of the interval × fraction of it travelled
+                slope = np.diff(stack, axis=1, append=stack[:, -1:])
+                value += np.clip(position - i, 0.0, 1.0) * np.take(slope, i, axis=1)
+            values.append(value)
+        v = values[0] if not both else np.where(senses[:, k] < 0, values[1], values[0])
+        out[members] = v
+    return out
 
 
 def residual(
@@ -179,19 +207,18 @@ def residual(
     names = [f"{t.function}0" for t in tables] + [name for name, _ in constants]
     fixed = np.array([value for _, value in constants])
     cols = [machine.axis_names.index(t.axis) for t in tables]
+    applied = machine.with_parameters(names) if names else None
     for start in range(0, n, chunk):
         q = readings[start : start + chunk]
         s = None if senses is None else senses[start : start + chunk]
         ev = machine.evaluate(q, theta, senses=s, d_params=covariance is not None)
-        e = ev.position - machine.forward(q)
-        if names:
-            sens = function_sensitivity(machine, names, q)  # (b, 3, F)
-            c = [
-                t.correction(q[:, k], None if s is None else s[:, k])
-                for t, k in zip(tables, cols, strict=True)
-            ]
-            c += [np.full(q.shape[0], v) for v in fixed]
-            e = e + np.einsum("bif,fb->bi", sens, np.array(c))
+        nominal = machine.forward(q)
+        e = ev.position - nominal
+        if applied is not None:
+            c = np.empty((len(names), q.shape[0]))  # (F, b): each parameter contiguous
+            c[: len(tables)] = _corrections(tables, q, s, cols)
+            c[len(tables) :] = fixed[:, None]
+            e += applied.forward(q, c.T) - nominal  # Σ_f S_f c_f (module notes)
         r[start : start + chunk] = e
         if factor is not None:
             jf = ev.d_params @ factor  # (b, 3, P)
