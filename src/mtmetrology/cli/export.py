@@ -107,7 +107,7 @@ def export(
         typer.echo(
             f"  {t['function']}: {t['points']} points"
             + (f", pitch {t['pitch']:g} {t['pitch_unit']}" if "pitch" in t else "")
-            + f", largest correction {t['max_correction_um']:.2f} µm"
+            + f", largest correction {t['max_correction']:.2f} {t['unit']}"
         )
     if result.not_carried:
         typer.echo(f"  not carried by {result.format}: {', '.join(result.not_carried)}")

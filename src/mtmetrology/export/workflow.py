@@ -45,12 +45,14 @@ class ExportResult:
     files : dict of str to str
         File name -> text, as the control reads it.
     tables : list of dict
-        Per table: function, points, pitch, largest |correction| and its largest u.
+        Per table: function, points, pitch, unit (µm or µrad), largest |correction| and
+        largest standard uncertainty of a tabulated value.
     not_carried : list of str
         Error functions (and location errors) of the model the format cannot carry.
     residual : dict
-        Over the check grid: points, largest |r̂| and rms, largest expanded uncertainty
-        U (k = 2) of a component, all in µm; the uncompensated largest error for scale.
+        Over the check grid: points, largest and rms length of the residual vector r̂,
+        largest expanded uncertainty U (k = 2) of a component, all in µm; the largest
+        uncompensated error for scale.
     advisor : dict or None
         The pitch advisor's answer: bound (µm), pitch, whether met, and why.
     provenance : dict
@@ -194,11 +196,11 @@ def _summary(model, readings, r, u, per_axis) -> dict:
     return {
         "points": int(readings.shape[0]),
         "per_axis": per_axis,
-        "max_um": float(from_internal(np.abs(r).max(), "µm")),
+        "max_um": float(from_internal(np.linalg.norm(r, axis=1).max(), "µm")),
         "rms_um": float(from_internal(np.sqrt(np.mean(np.sum(r**2, axis=1))), "µm")),
         "max_U_um": None if u is None else float(from_internal(2 * u.max(), "µm")),
         "k": 2,
-        "uncompensated_max_um": float(from_internal(np.abs(e0).max(), "µm")),
+        "uncompensated_max_um": float(from_internal(np.linalg.norm(e0, axis=1).max(), "µm")),
     }
 
 
@@ -218,8 +220,9 @@ def _export_grid(machine, parameters, pitch, points, region, per_axis) -> Export
     row = {
         "function": "volumetric",
         "points": nodes,
-        "max_correction_um": float(from_internal(np.abs(field.vectors).max(), "µm")),
-        "max_u_um": None if field.u is None else float(from_internal(field.u.max(), "µm")),
+        "unit": "µm",
+        "max_correction": float(from_internal(np.abs(field.vectors).max(), "µm")),
+        "max_u": None if field.u is None else float(from_internal(field.u.max(), "µm")),
     }
     return ExportResult(
         "grid",
@@ -305,8 +308,9 @@ def export_compensation(
                 "points": int(t.positions.size),
                 "pitch": float((t.positions[1] - t.positions[0]) / (1.0 if lin else np.pi / 180)),
                 "pitch_unit": "mm" if lin else "deg",
-                "max_correction_um": float(from_internal(np.abs(t.forward).max(), "µm")),
-                "max_u_um": None if u_t is None else float(from_internal(u_t.max(), "µm")),
+                "unit": src.unit,
+                "max_correction": float(from_internal(np.abs(t.forward).max(), src.unit)),
+                "max_u": None if u_t is None else float(from_internal(u_t.max(), src.unit)),
             }
         )
     advisor = None
