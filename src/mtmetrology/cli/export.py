@@ -7,7 +7,8 @@ from typing import Annotated
 
 import typer
 
-from mtmetrology.cli._common import fail, print_json, user_errors
+from mtmetrology.cli._common import fail, print_json, readings_from_table, user_errors
+from mtmetrology.io import read_csv_table, write_columns
 from mtmetrology.io.files import atomic_write, check_output, write_json
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -63,6 +64,10 @@ def export(
         str | None,
         typer.Option("--region", help="grid: box of readings, e.g. X=800:1000,Z=200:300 (mm)."),
     ] = None,
+    at: Annotated[
+        Path | None,
+        typer.Option("--at", help="Readings CSV (X,Y,Z[,B,C]; mm, deg): residual there too."),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the check JSON.")] = False,
 ) -> None:
     """Write a control's compensation tables and check.json: the residual tool-point error
@@ -78,6 +83,9 @@ def export(
         fail(f"--check-per-axis: {check_per_axis} < 2")
     m = Machine.load(machine)
     pset = ParameterSet.load(params, m)
+    readings = None
+    if at is not None:
+        readings = readings_from_table(m, read_csv_table(at))
     result = export_compensation(
         m,
         pset,
@@ -89,13 +97,22 @@ def export(
         check_per_axis=check_per_axis,
         bound_um=bound,
         region=_region(region),
+        at=readings,
     )
-    targets = {name: output / name for name in [*result.files, "check.json"]}
+    names = [*result.files, "check.json"] + (["residual_at.csv"] if at is not None else [])
+    targets = {name: output / name for name in names}
     for target in targets.values():
-        check_output(target, [params])
+        check_output(target, [params] + ([at] if at is not None else []))
     for name, text in result.files.items():
         with atomic_write(targets[name]) as fh:
             fh.write(text)
+    if at is not None:
+        r, big_u = result.at_points["r"], result.at_points["U"]
+        columns = {f"r{c}_um": r[:, k] for k, c in enumerate("xyz")}
+        if big_u is not None:
+            columns.update({f"U{c}_um": big_u[:, k] for k, c in enumerate("xyz")})
+        with atomic_write(targets["residual_at.csv"], "wb") as fh:
+            write_columns(fh, columns, decimals=4)
     doc = result.to_dict()
     write_json(targets["check.json"], doc)
     if as_json:
@@ -118,3 +135,9 @@ def export(
     )
     if result.advisor is not None:
         typer.echo(f"pitch advisor: {result.advisor['reason']}")
+    if result.at_points is not None:
+        doc_at = doc["at_points"]
+        typer.echo(
+            f"at the {doc_at['points']} points of {at.name}: largest {doc_at['max_um']:.3g} µm "
+            f"(residual_at.csv, µm, U with k = 2)"
+        )

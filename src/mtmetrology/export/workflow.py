@@ -56,6 +56,9 @@ class ExportResult:
     advisor : dict or None
         The pitch advisor's answer: bound (µm), pitch, whether met, and why.
     provenance : dict
+    at_points : dict or None
+        At the user's readings: ``r`` and ``U`` (k = 2), arrays (n, 3) in µm (in the
+        document: ``r_um``, ``U_um`` and their largest values).
     """
 
     format: str
@@ -67,6 +70,7 @@ class ExportResult:
     residual: dict
     advisor: dict | None = None
     provenance: dict = field(default_factory=dict)
+    at_points: dict | None = None
 
     def to_dict(self) -> dict:
         """The JSON document (``kind``, ``version``); file texts are not repeated."""
@@ -82,6 +86,7 @@ class ExportResult:
             "residual": self.residual,
             "advisor": self.advisor,
             "provenance": self.provenance,
+            "at_points": None if self.at_points is None else _at_document(self.at_points),
         }
 
     @classmethod
@@ -100,12 +105,24 @@ class ExportResult:
             doc["residual"],
             doc.get("advisor"),
             doc.get("provenance", {}),
+            _at_arrays_from(doc.get("at_points")),
         )
 
 
 #: Offset of the check grid in its cells (the golden section): the check points fall between
 #: the table points of any usual pitch, where the interpolation error lives.
 _CHECK_OFFSET = (3 - 5**0.5) / 2
+
+
+def _at_document(at: dict) -> dict:
+    length = np.linalg.norm(at["r"], axis=1)
+    return {
+        "points": int(length.size),
+        "max_um": float(length.max()),
+        "max_U_um": None if at["U"] is None else float(np.max(at["U"])),
+        "r_um": at["r"].tolist(),
+        "U_um": None if at["U"] is None else at["U"].tolist(),
+    }
 
 
 def check_readings(machine: Machine, per_axis: int = 5) -> np.ndarray:
@@ -191,6 +208,20 @@ def advise_pitch(fmt, machine, parameters, functions, bound_um: float, readings)
     return {"bound_um": bound_um, "pitch": None, "met": False, "reason": reason}
 
 
+def _at_arrays_from(doc: dict | None) -> dict | None:
+    if doc is None:
+        return None
+    u = doc["U_um"]
+    return {"r": np.array(doc["r_um"]), "U": None if u is None else np.array(u)}
+
+
+def _at_arrays(r: np.ndarray, u: np.ndarray | None) -> dict:
+    return {
+        "r": from_internal(r, "µm"),
+        "U": None if u is None else from_internal(2 * u, "µm"),
+    }
+
+
 def _summary(model, readings, r, u, per_axis) -> dict:
     e0, _ = residual(model.machine, model.theta, None, [], readings)
     return {
@@ -204,7 +235,7 @@ def _summary(model, readings, r, u, per_axis) -> dict:
     }
 
 
-def _export_grid(machine, parameters, pitch, points, region, per_axis) -> ExportResult:
+def _export_grid(machine, parameters, pitch, points, region, per_axis, at) -> ExportResult:
     """The volumetric grid: nodes over the region, trilinear check at the check grid."""
     model = compensation_model(machine, parameters, points=2, covariance=False)
     field = grid.grid_from_model(model, grid.grid_lines(model, pitch, points, region))
@@ -234,6 +265,9 @@ def _export_grid(machine, parameters, pitch, points, region, per_axis) -> Export
         _summary(model, readings, r, u, per_axis),
         None,
         {"parameters": dict(parameters.provenance)},
+        None
+        if at is None
+        else _at_arrays(*grid.residual_grid(model, field, np.asarray(at, float))),
     )
 
 
@@ -249,6 +283,7 @@ def export_compensation(
     check_per_axis: int = 5,
     bound_um: float | None = None,
     region: dict | None = None,
+    at: np.ndarray | None = None,
 ) -> ExportResult:
     """Control tables of one format and the residual error after the control applies them.
 
@@ -272,6 +307,8 @@ def export_compensation(
     region : dict of axis to (low, high), optional
         Volumetric grid only: the box of X, Y, Z readings (mm) it covers; the travel
         otherwise.  A box outside the travel is refused.
+    at : ndarray, shape (n, n_axes), optional
+        The user's readings (internal units): the residual and its U there as well.
 
     Returns
     -------
@@ -287,7 +324,7 @@ def export_compensation(
     if pitch is None and points is None:
         raise InputError("give --pitch or --points")
     if fmt == "grid":
-        return _export_grid(machine, parameters, pitch, points, region, check_per_axis)
+        return _export_grid(machine, parameters, pitch, points, region, check_per_axis, at)
     model = compensation_model(machine, parameters, pitch=pitch, points=points, axes=axes)
     module, tables, constants = _build(fmt, model, functions)
     files = module.render(tables, model)
@@ -297,6 +334,9 @@ def export_compensation(
     readings = check_readings(model.machine, check_per_axis)
     r, u = residual_check(model, tables, constants, readings)
     summary = _summary(model, readings, r, u, check_per_axis)
+    at_points = None
+    if at is not None:
+        at_points = _at_arrays(*residual_check(model, tables, constants, np.asarray(at, float)))
     rows = []
     for t in tables:
         lin = t.axis in LINEAR_AXES
@@ -326,4 +366,5 @@ def export_compensation(
         summary,
         advisor,
         {"parameters": dict(parameters.provenance)},
+        at_points,
     )
