@@ -123,3 +123,22 @@ def test_residual_at_the_users_points_and_the_document_round_trip(params, tmp_pa
     again = ExportResult.from_dict(doc, lib.files)
     assert again.to_dict() == doc
     assert again.files == lib.files
+
+
+def test_report_shows_the_tables_with_bands_and_the_residual_map(params, tmp_path):
+    from mtmetrology.export.workflow import ExportResult
+
+    out = tmp_path / "out"
+    out.mkdir()
+    report = tmp_path / "export.html"
+    res = _run(
+        "isg", params, "--machine", "three-axis-xfyz", "--pitch", 20, "-o", out, "--report", report
+    )
+    assert res.exit_code == 0, res.output
+    page = report.read_text()
+    # 18 tables in panels of 6, and the residual map
+    assert page.count("<svg") == 18 // 6 + 1
+    doc = json.loads((out / "check.json").read_text())
+    assert (
+        "Residual after the control applies the tables" in ExportResult.from_dict(doc)._repr_html_()
+    )

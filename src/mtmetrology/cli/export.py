@@ -7,7 +7,15 @@ from typing import Annotated
 
 import typer
 
-from mtmetrology.cli._common import fail, print_json, readings_from_table, user_errors
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    fail,
+    print_json,
+    readings_from_table,
+    user_errors,
+    write_report,
+)
 from mtmetrology.io import read_csv_table, write_columns
 from mtmetrology.io.files import atomic_write, check_output, write_json
 from mtmetrology.kinematics.machine import Machine
@@ -35,6 +43,7 @@ def _region(text: str | None) -> dict | None:
 
 @user_errors
 def export(
+    ctx: typer.Context,
     fmt: Annotated[
         str, typer.Argument(metavar="FORMAT", help="linuxcnc, fanuc, siemens, isg or grid.")
     ],
@@ -69,6 +78,7 @@ def export(
         typer.Option("--at", help="Readings CSV (X,Y,Z[,B,C]; mm, deg): residual there too."),
     ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the check JSON.")] = False,
+    report_path: ReportOption = None,
 ) -> None:
     """Write a control's compensation tables and check.json: the residual tool-point error
     after the control's own interpolation, with its uncertainty (k = 2), on a grid over the
@@ -77,6 +87,8 @@ def export(
 
     if (pitch is None) == (points is None):
         fail("give exactly one of --pitch and --points")
+    if report_path is not None:
+        check_output(report_path, [params])
     if not output.is_dir():
         fail(f"{output}: not an existing directory (it is not created)")
     if check_per_axis < 2:
@@ -115,6 +127,19 @@ def export(
             write_columns(fh, columns, decimals=4)
     doc = result.to_dict()
     write_json(targets["check.json"], doc)
+    if report_path is not None:
+        import mtmetrology.export.report  # noqa: F401  (registers the renderer)
+        from mtmetrology.report import Report
+        from mtmetrology.report.results import add_result
+
+        inputs = [params] + ([at] if at is not None else [])
+        report = Report(
+            f"Compensation tables: {result.format}",
+            command=command_line(ctx),
+            provenance={"inputs": inputs},
+        )
+        add_result(report, result)
+        write_report(report, report_path)
     if as_json:
         print_json(doc)
         return

@@ -23,6 +23,7 @@ from mtmetrology.export.model import CompensationModel, compensation_model
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.topology import LINEAR_AXES
+from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.units import from_internal
 
 __all__ = ["FORMATS", "KIND", "ExportResult", "export_compensation", "residual_check"]
@@ -35,7 +36,7 @@ ADVISOR_PITCHES = (100.0, 50.0, 40.0, 25.0, 20.0, 10.0, 5.0, 4.0, 2.5, 2.0, 1.0,
 
 
 @dataclass(frozen=True)
-class ExportResult:
+class ExportResult(NotebookRepr):
     """Control tables, their files and the residual error after the control applies them.
 
     Attributes
@@ -46,13 +47,14 @@ class ExportResult:
         File name -> text, as the control reads it.
     tables : list of dict
         Per table: function, points, pitch, unit (µm or µrad), largest |correction| and
-        largest standard uncertainty of a tabulated value.
+        largest standard uncertainty of a tabulated value; the positions (mm or degrees),
+        the corrections the control applies and their u.
     not_carried : list of str
         Error functions (and location errors) of the model the format cannot carry.
     residual : dict
         Over the check grid: points, largest and rms length of the residual vector r̂,
         largest expanded uncertainty U (k = 2) of a component, all in µm; the largest
-        uncompensated error for scale.
+        uncompensated error for scale; the check readings (mm, degrees) and r̂ (µm) at each.
     advisor : dict or None
         The pitch advisor's answer: bound (µm), pitch, whether met, and why.
     provenance : dict
@@ -60,6 +62,8 @@ class ExportResult:
         At the user's readings: ``r`` and ``U`` (k = 2), arrays (n, 3) in µm (in the
         document: ``r_um``, ``U_um`` and their largest values).
     """
+
+    _renderer_module = "mtmetrology.export.report"
 
     format: str
     machine: str
@@ -232,6 +236,9 @@ def _summary(model, readings, r, u, per_axis) -> dict:
         "max_U_um": None if u is None else float(from_internal(2 * u.max(), "µm")),
         "k": 2,
         "uncompensated_max_um": float(from_internal(np.linalg.norm(e0, axis=1).max(), "µm")),
+        "axes": list(model.machine.axis_names),
+        "readings": model.machine.readings_to_customary(readings).tolist(),
+        "r_um": from_internal(r, "µm").tolist(),
     }
 
 
@@ -342,15 +349,21 @@ def export_compensation(
         lin = t.axis in LINEAR_AXES
         src = model.table(t.function)
         u_t = src.u_forward
+        scale = 1.0 if lin else np.pi / 180
+        if u_t is not None:
+            u_t = from_internal(np.interp(t.positions, src.positions, u_t), src.unit)
         rows.append(
             {
                 "function": t.function,
                 "points": int(t.positions.size),
-                "pitch": float((t.positions[1] - t.positions[0]) / (1.0 if lin else np.pi / 180)),
+                "pitch": float((t.positions[1] - t.positions[0]) / scale),
                 "pitch_unit": "mm" if lin else "deg",
                 "unit": src.unit,
                 "max_correction": float(from_internal(np.abs(t.forward).max(), src.unit)),
-                "max_u": None if u_t is None else float(from_internal(u_t.max(), src.unit)),
+                "max_u": None if u_t is None else float(u_t.max()),
+                "positions": (t.positions / scale).tolist(),
+                "correction": from_internal(t.forward, src.unit).tolist(),
+                "u": None if u_t is None else u_t.tolist(),
             }
         )
     advisor = None
