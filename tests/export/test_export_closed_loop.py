@@ -230,3 +230,15 @@ def test_volumetric_grid_round_trip_and_trilinear_closed_loop(make_set):
     r, u = grid.residual_grid(cm, back, q)
     np.testing.assert_allclose(r, after, atol=1e-9)
     assert u.max() > 0
+
+
+def test_fanuc_states_the_correction_left_to_the_reference_position(make_set):
+    """Five-axis preset, E_XX1 = +100 µm/m, reference X = −100 mm: the table is zero there
+    and the note gives the correction −E_XX(−100 mm) = +10 µm."""
+    m = Machine.load("five-axis-wcbxfzyst")
+    ps = make_set(m, {"E_XX1": 100.0})
+    result = export_compensation(
+        m, ps, "fanuc", pitch=10, functions=["E_XX"], reference={"X": -100.0}
+    )
+    (note,) = result.notes
+    assert note.startswith("E_XX: the correction at the reference position X = -100 mm (+10 µm)")

@@ -26,18 +26,20 @@ def _split(text: str | None) -> list[str] | None:
     return [s.strip() for s in text.split(",") if s.strip()] if text else None
 
 
-def _region(text: str | None) -> dict | None:
-    """``X=800:1000,Z=200:300`` -> {"X": (800.0, 1000.0), "Z": (200.0, 300.0)}."""
+def _per_axis(text: str | None, option: str, pair: bool) -> dict | None:
+    """``X=800:1000,Z=200:300`` -> {"X": (800.0, 1000.0), ...}; ``X=0,Y=0`` -> {"X": 0.0}."""
     if not text:
         return None
     out = {}
     for item in _split(text):
         try:
-            axis, span = item.split("=")
-            lo, hi = (float(v) for v in span.split(":"))
+            axis, value = item.split("=")
+            numbers = tuple(float(v) for v in value.split(":"))
+            if len(numbers) != (2 if pair else 1):
+                raise ValueError
         except ValueError:
-            fail(f"--region: {item!r} is not AXIS=low:high")
-        out[axis.strip().upper()] = (lo, hi)
+            fail(f"{option}: {item!r} is not AXIS={'low:high' if pair else 'value'}")
+        out[axis.strip().upper()] = numbers if pair else numbers[0]
     return out
 
 
@@ -72,6 +74,10 @@ def export(
     region: Annotated[
         str | None,
         typer.Option("--region", help="grid: box of readings, e.g. X=800:1000,Z=200:300 (mm)."),
+    ] = None,
+    reference: Annotated[
+        str | None,
+        typer.Option("--reference", help="Reference position per axis, e.g. X=0,Y=0 (fanuc)."),
     ] = None,
     at: Annotated[
         Path | None,
@@ -108,7 +114,8 @@ def export(
         functions=_split(functions),
         check_per_axis=check_per_axis,
         bound_um=bound,
-        region=_region(region),
+        region=_per_axis(region, "--region", pair=True),
+        reference=_per_axis(reference, "--reference", pair=False),
         at=readings,
     )
     names = [*result.files, "check.json"] + (["residual_at.csv"] if at is not None else [])
@@ -160,6 +167,8 @@ def export(
     )
     if result.advisor is not None:
         typer.echo(f"pitch advisor: {result.advisor['reason']}")
+    for note in result.notes:
+        typer.echo(f"note: {note}")
     if result.at_points is not None:
         doc_at = doc["at_points"]
         typer.echo(

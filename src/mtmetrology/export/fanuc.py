@@ -37,7 +37,7 @@ from mtmetrology.export.control import ControlTable
 from mtmetrology.export.model import CompensationModel, ErrorTable
 from mtmetrology.kinematics.topology import LINEAR_AXES
 
-__all__ = ["MAX_POINTS", "build", "increments", "parse", "render"]
+__all__ = ["MAX_POINTS", "build", "increments", "parse", "reference_notes", "render"]
 
 NAME = "fanuc"
 #: Compensation points shared by all axes (FANUC Series 16/18: 1024, numbers 0–1023).
@@ -120,6 +120,24 @@ def build(
             )
         values = absolute * unit
         out.append(ControlTable(t.function, q, values, values, "staircase", period, ref))
+    return out
+
+
+def reference_notes(model: CompensationModel, tables: list[ControlTable]) -> list[str]:
+    """What a Fanuc table leaves to the reference position: the correction there."""
+    out = []
+    for t in tables:
+        src = model.table(t.function)
+        ref = t.positions[t.reference_index]
+        value = -model.sign * float(np.interp(ref, src.positions, src.forward))
+        unit, scale = ("mm", 1.0) if t.axis in LINEAR_AXES else ("deg", _DEG)
+        shown = value * (1e3 if t.axis in LINEAR_AXES else 1e3 / _DEG)
+        out.append(
+            f"{t.function}: the correction at the reference position {t.axis} = "
+            f"{ref / scale:g} {unit} ({shown:+.4g} {'µm' if unit == 'mm' else '0.001°'}) is "
+            "not in the table (a Fanuc table is zero there); apply it with the reference "
+            "position shift or choose --reference"
+        )
     return out
 
 

@@ -87,6 +87,8 @@ def _render(rep, result, **_context) -> None:
     )
     if result.not_carried:
         rep.text(f"Not carried by {result.format}: {', '.join(result.not_carried)}.")
+    for note in result.notes:
+        rep.text(f"Note: {note}.")
     drawn = [t for t in result.tables if "positions" in t]
     for start in range(0, len(drawn), PANELS):
         rep.figure(

@@ -58,6 +58,8 @@ class ExportResult(NotebookRepr):
     advisor : dict or None
         The pitch advisor's answer: bound (µm), pitch, whether met, and why.
     provenance : dict
+    notes : list of str
+        What the user must know to load the tables (e.g. a Fanuc reference offset).
     at_points : dict or None
         At the user's readings: ``r`` and ``U`` (k = 2), arrays (n, 3) in µm (in the
         document: ``r_um``, ``U_um`` and their largest values).
@@ -75,6 +77,7 @@ class ExportResult(NotebookRepr):
     advisor: dict | None = None
     provenance: dict = field(default_factory=dict)
     at_points: dict | None = None
+    notes: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
         """The JSON document (``kind``, ``version``); file texts are not repeated."""
@@ -91,6 +94,7 @@ class ExportResult(NotebookRepr):
             "advisor": self.advisor,
             "provenance": self.provenance,
             "at_points": None if self.at_points is None else _at_document(self.at_points),
+            "notes": self.notes,
         }
 
     @classmethod
@@ -110,6 +114,7 @@ class ExportResult(NotebookRepr):
             doc.get("advisor"),
             doc.get("provenance", {}),
             _at_arrays_from(doc.get("at_points")),
+            doc.get("notes", []),
         )
 
 
@@ -291,6 +296,7 @@ def export_compensation(
     bound_um: float | None = None,
     region: dict | None = None,
     at: np.ndarray | None = None,
+    reference: dict | None = None,
 ) -> ExportResult:
     """Control tables of one format and the residual error after the control applies them.
 
@@ -316,6 +322,9 @@ def export_compensation(
         otherwise.  A box outside the travel is refused.
     at : ndarray, shape (n, n_axes), optional
         The user's readings (internal units): the residual and its U there as well.
+    reference : dict of axis to float, optional
+        Reference position per axis (mm or degrees), a point of the table: a Fanuc table
+        is zero there (the control's reference return absorbs the error at that point).
 
     Returns
     -------
@@ -332,7 +341,9 @@ def export_compensation(
         raise InputError("give --pitch or --points")
     if fmt == "grid":
         return _export_grid(machine, parameters, pitch, points, region, check_per_axis, at)
-    model = compensation_model(machine, parameters, pitch=pitch, points=points, axes=axes)
+    model = compensation_model(
+        machine, parameters, pitch=pitch, points=points, axes=axes, reference=reference
+    )
     module, tables, constants = _build(fmt, model, functions)
     files = module.render(tables, model)
     carried = {t.function for t in tables} | {n for n, _ in constants}
@@ -356,7 +367,7 @@ def export_compensation(
             {
                 "function": t.function,
                 "points": int(t.positions.size),
-                "pitch": float((t.positions[1] - t.positions[0]) / scale),
+                "pitch": round(float((t.positions[1] - t.positions[0]) / scale), 9),
                 "pitch_unit": "mm" if lin else "deg",
                 "unit": src.unit,
                 "max_correction": float(from_internal(np.abs(t.forward).max(), src.unit)),
@@ -380,4 +391,5 @@ def export_compensation(
         advisor,
         {"parameters": dict(parameters.provenance)},
         at_points,
+        fanuc.reference_notes(model, tables) if fmt == "fanuc" else [],
     )
