@@ -242,3 +242,16 @@ def test_fanuc_states_the_correction_left_to_the_reference_position(make_set):
     )
     (note,) = result.notes
     assert note.startswith("E_XX: the correction at the reference position X = -100 mm (+10 µm)")
+
+
+def test_a_format_that_drops_the_reversal_says_so(make_set):
+    """Five-axis 84 model, E_BBb = 5 µrad: LinuxCNC carries both directions, ISG only the
+    forward table and states the 10 µrad it leaves in the negative direction."""
+    m = Machine.load("five-axis-wcbxfzyst", model="84")
+    ps = make_set(m, {"E_BBb": 5.0})
+    assert export_compensation(m, ps, "linuxcnc", pitch=10, functions=["E_BB"]).notes == []
+    (note,) = export_compensation(m, ps, "isg", pitch=10, functions=["E_BB"]).notes
+    assert note == (
+        "E_BB: isg carries the forward table only; travel in the negative direction keeps "
+        "the reversal of up to 10 µrad"
+    )

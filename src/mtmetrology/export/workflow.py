@@ -135,7 +135,8 @@ def _at_document(at: dict) -> dict:
 
 
 def check_readings(machine: Machine, per_axis: int = 5) -> np.ndarray:
-    """Readings of a full-factorial grid over the travel of every axis (spindle at 0).
+    """Readings of a full-factorial grid over the travel of every axis (spindle at 0); the
+    residual is checked for travel in the positive direction (forward tables).
 
     On each axis ``lo + (k + 0.382) (hi − lo) / per_axis``, k = 0 … per_axis − 1.
     """
@@ -229,6 +230,20 @@ def _at_arrays(r: np.ndarray, u: np.ndarray | None) -> dict:
         "r": from_internal(r, "µm"),
         "U": None if u is None else from_internal(2 * u, "µm"),
     }
+
+
+def _reversal_notes(model: CompensationModel, tables, fmt: str) -> list[str]:
+    """Reversal terms a format drops (it writes the forward table only)."""
+    out = []
+    for t in tables:
+        src = model.table(t.function)
+        if src.bidirectional and np.array_equal(t.forward, t.reverse):
+            gap = float(from_internal(np.abs(src.forward - src.reverse).max(), src.unit))
+            out.append(
+                f"{t.function}: {fmt} carries the forward table only; travel in the negative "
+                f"direction keeps the reversal of up to {gap:.3g} {src.unit}"
+            )
+    return out
 
 
 def _summary(model, readings, r, u, per_axis) -> dict:
@@ -391,5 +406,6 @@ def export_compensation(
         advisor,
         {"parameters": dict(parameters.provenance)},
         at_points,
-        fanuc.reference_notes(model, tables) if fmt == "fanuc" else [],
+        (fanuc.reference_notes(model, tables) if fmt == "fanuc" else [])
+        + _reversal_notes(model, tables, fmt),
     )
