@@ -20,13 +20,18 @@ def test_positioning_slope_tabulated_as_correction_is_minus_slope_times_position
 
 
 def test_reversal_term_splits_forward_and_reverse_by_twice_its_value(make_set):
-    """E_BBb = 5 µrad: the error is +5 µrad travelling +, −5 µrad travelling −."""
+    """E_BBb = 5 µrad (u 1 µrad): the error is +5 µrad travelling +, −5 µrad travelling −;
+    a forward and a reverse value covary by −u² (the same term with opposite signs)."""
     m = Machine.load("five-axis-wcbxfzyst", model="84")
-    cm = compensation_model(m, make_set(m, {"E_BBb": 5.0}), pitch=10, flag="error")
+    ps = make_set(m, {"E_BBb": 5.0}, u={"E_BBb": 1.0})
+    cm = compensation_model(m, ps, pitch=10, flag="error")
     t = cm.table("E_BB")
-    assert t.bidirectional
+    n = t.positions.size
+    assert t.bidirectional and t.covariance.shape == (2 * n, 2 * n)
     np.testing.assert_allclose(t.forward, 5e-6)
     np.testing.assert_allclose(t.reverse, -5e-6)
+    assert t.covariance[0, n] == pytest.approx(-1e-12)
+    assert cm.table("E_XB").covariance.shape == (cm.table("E_XB").positions.size,) * 2
 
 
 def test_covariance_of_tabulated_values_is_a_u_a_transpose(make_set):

@@ -75,8 +75,10 @@ class ErrorTable:
         model has no reversal term), internal units (mm or rad), with the model's flag.
     sensitivity : ndarray, shape (2n, n_params)
         ``∂(forward, reverse)/∂θ``: the linear map from the parameters to the values.
-    covariance : ndarray, shape (2n, 2n) or None
-        ``A U Aᵀ`` of (forward, reverse), internal units; None without a parameter covariance.
+    covariance : ndarray, shape (2n, 2n) or (n, n), or None
+        ``A U Aᵀ`` of (forward, reverse), internal units — of the forward values alone when
+        the table has no reversal term (the reverse values are the same); None without a
+        parameter covariance.
     """
 
     function: str
@@ -247,6 +249,13 @@ def function_columns(machine: Machine) -> dict[str, list[int]]:
     return out
 
 
+def _covariance(a: np.ndarray, cols: list[int], cov: np.ndarray, n: int) -> np.ndarray:
+    """``A U Aᵀ`` from the function's own columns (A is zero elsewhere); of the forward
+    values alone, shape (n, n), when the reverse values are the same (no reversal term)."""
+    rows = a[:, cols] if not np.array_equal(a[:n], a[n:]) else a[:n, cols]
+    return rows @ cov[np.ix_(cols, cols)] @ rows.T
+
+
 def _sides(machine: Machine) -> dict[str, str]:
     return {a: machine.topology.side(a) for a in machine.axis_names}
 
@@ -334,7 +343,7 @@ def compensation_model(
                 forward=v[:n],
                 reverse=v[n:],
                 sensitivity=a,
-                covariance=None if cov is None else a @ cov @ a.T,
+                covariance=None if cov is None else _covariance(a, cols, cov, n),
             )
         )
         scale = 1.0 if axis in LINEAR_AXES else _DEG
