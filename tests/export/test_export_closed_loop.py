@@ -179,25 +179,30 @@ def test_samba_13_through_isg_leaves_only_second_order_error(make_set):
     assert set(lin.not_carried) == {n for n in m.parameter_names if n[3] == "0"}
 
 
-def test_virtual_machine_residual_uncertainty_covers_95_percent():
-    """Three-axis preset, 21 functions with known errors θ; 200 identifications
-    θ̂ ~ N(θ, U); ISG tables from θ̂ at 20 mm pitch; at one held-out point per trial the
-    true residual lies within r̂ ± 1.96 u (one component per trial).  Acceptance region of
-    the count for p = 0.95, n = 200: [181, 197] (0.5 % and 99.5 % binomial quantiles)."""
-    m = Machine.load("three-axis-xfyz")
-    rng = np.random.default_rng(6)
+@pytest.mark.parametrize(
+    ("preset", "model", "pitch", "seed"),
+    [("three-axis-xfyz", None, 20, 6), ("five-axis-wcbxfzyst", "13", 10, 9)],
+)
+def test_virtual_machine_residual_uncertainty_covers_95_percent(preset, model, pitch, seed):
+    """A virtual machine with known errors θ (the 21 functions of the three-axis preset;
+    the SAMBA 13 of the five-axis one), 200 identifications θ̂ ~ N(θ, U), ISG tables from
+    θ̂; at one held-out pose per trial the true residual lies within r̂ ± 1.96 u (one
+    component per trial).  Acceptance region of the count for p = 0.95, n = 200:
+    [181, 197] (0.5 % and 99.5 % binomial quantiles)."""
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+
+    m = Machine.load(preset, model=model)
+    rng = np.random.default_rng(seed)
     theta = rng.normal(0, 5.0, m.n_params) * m.parameter_scales
     sd = 0.3 * m.parameter_scales
     cov = np.diag(sd**2)
-    from mtmetrology.kinematics.parameter_set import ParameterSet
-
     covered, shrink = 0, []
     for trial in range(200):
         estimate = theta + sd * rng.standard_normal(m.n_params)
         ps = ParameterSet(
             m.parameter_names, estimate, m.parameter_units, cov, machine=m.name, model=m.model_name
         )
-        cm = compensation_model(m, ps, pitch=20, covariance=False)
+        cm = compensation_model(m, ps, pitch=pitch, covariance=False)
         tables, consts = isg.build(cm), isg.constants(cm)
         q = _readings(m, 1, seed=1000 + trial)
         true, _ = residual(m, theta, None, tables, q, constants=consts)
