@@ -106,19 +106,9 @@ class ControlTable:
         ndarray, shape (...)
         """
         q = np.asarray(q, dtype=float)
-        x = self.positions
-        if self.period is not None:
-            q = x[0] + np.mod(q - x[0], self.period)
-        values = []
-        for table in (self.forward, self.reverse):
-            if self.rule == "linear":
-                values.append(np.interp(q, x, table))
-            else:
-                k = np.clip(np.searchsorted(x, q, side="right") - 1, 0, x.size - 1)
-                values.append(table[k])
-        if senses is None:
-            return values[0]
-        return np.where(np.asarray(senses) < 0, values[1], values[0])
+        flat = q.reshape(-1, 1)
+        sense = None if senses is None else np.broadcast_to(senses, q.shape).reshape(-1, 1)
+        return _corrections([self], flat, sense, [0])[0].reshape(q.shape)
 
 
 def _corrections(tables: list[ControlTable], q: np.ndarray, senses, cols) -> np.ndarray:
