@@ -33,7 +33,7 @@ E_COV = [[45.0, -17.0, 5.0], [-17.0, 66.0, 7.0], [5.0, 7.0, 58.0]]  # µm²
 E_PRINTED = [[45.0, -17.0, -220.0], [-17.0, 66.0, 7.0], [-220.0, 7.0, 58.0]]  # eq. 6-15
 
 
-def _files(tmp_path, *, e_cov=E_COV, machine=MACHINE.name, z_high=260.0):
+def _files(tmp_path, *, e_cov=E_COV, machine=MACHINE.name, z_high=260.0, cov_scale=1.0):
     (tmp_path / "points.csv").write_text(POINTS, encoding="utf-8")
     rng = np.random.default_rng(1)
     a = MACHINE.parameter_scales[:, None] * rng.normal(size=(13, 13))  # row i in its unit
@@ -41,7 +41,7 @@ def _files(tmp_path, *, e_cov=E_COV, machine=MACHINE.name, z_high=260.0):
         MACHINE.parameter_names,
         rng.normal(size=13) * MACHINE.parameter_scales * 3,
         MACHINE.parameter_units,
-        covariance=a @ a.T,
+        covariance=cov_scale * a @ a.T,
         machine=machine,
     ).save(tmp_path / "params.json")
     write_json(
@@ -81,7 +81,7 @@ def _run(tmp_path, *extra):
 
 
 def test_length_with_unexplained_errors_only_matches_the_closed_form(tmp_path):
-    d = _files(tmp_path)
+    d = _files(tmp_path, cov_scale=0.0)  # parameters known exactly
     result = _run(d, "--unexplained", str(d / "E.json"), "--json")
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
@@ -94,6 +94,31 @@ def test_length_with_unexplained_errors_only_matches_the_closed_form(tmp_path):
     assert doc["budget_groups"]["gauge_length"]["unexplained_volumetric_error"] == pytest.approx(
         1.0
     )
+
+
+def test_without_repeatability_or_e_u_is_the_calibration_contribution(tmp_path):
+    """u² = c G U_θ Gᵀ cᵀ (c: the length's gradient, G = ∂f/∂δ at the compensated points);
+    with --long-term the same covariance once more: u² doubles."""
+    d = _files(tmp_path)
+    result = _run(d, "--recalibrated", "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    pset = ParameterSet.load(d / "params.json", MACHINE)
+    q = MACHINE.readings_from_customary(
+        {"X": [-138.565, -61.288], "Y": [94.656, 48.344], "Z": [196.232, 246.817],
+         "B": [-42.0, -64.0], "C": [-293.0, -124.0]}
+    )  # fmt: skip
+    g = MACHINE.jacobian(q, pset.values).reshape(6, 13)
+    p = np.array(doc["points"]["compensated"])
+    e = (p[1] - p[0]) / np.linalg.norm(p[1] - p[0])
+    c = np.concatenate([-e, e]) @ g
+    u = doc["outputs"][0]["u"]
+    assert u == pytest.approx(np.sqrt(c @ pset.covariance @ c), rel=1e-9)
+    assert doc["budget_groups"]["gauge_length"]["calibration"] == pytest.approx(1.0)
+    assert doc["measurement_model"]["long_term_variation"] == "recalibrated"
+    both = json.loads(_run(d, "--long-term", str(d / "params.json"), "--json").stdout)
+    assert both["outputs"][0]["u"] == pytest.approx(np.sqrt(2) * u, rel=1e-9)
+    assert both["budget_groups"]["gauge_length"]["long_term_variation"] == pytest.approx(0.5)
 
 
 def test_full_task_with_repeatability_tolerance_and_output_file(tmp_path):
@@ -116,7 +141,8 @@ def test_full_task_with_repeatability_tolerance_and_output_file(tmp_path):
     doc = json.loads(out_path.read_text(encoding="utf-8"))
     groups = doc["budget_groups"]["gauge_length"]
     # 1 µm isotropic repeatability per point adds 2 µm² along the gauge axis.
-    assert groups["repeatability"] > 0 and abs(groups["machine_parameters"]) < 1e-9
+    assert groups["repeatability"] > 0 and groups["calibration"] > 0
+    assert sum(groups.values()) == pytest.approx(1.0, abs=1e-12)
     u_e = first["outputs"][0]["u"]
     assert doc["outputs"][0]["u"] == pytest.approx(np.sqrt(u_e**2 + 2 * UM**2), rel=1e-6)
     assert doc["decision"]["decision"] == "conformance"
@@ -130,7 +156,7 @@ def test_full_task_with_repeatability_tolerance_and_output_file(tmp_path):
         ({"z_high": 200.0}, ["--repeatability", "R.json"]),  # Z = 246.8 mm outside the model
         ({}, ["--tolerance", "500,0.1,-0.1"]),
         ({}, ["--unexplained", "E.json", "--tip-diameter", "-1"]),
-        ({}, []),  # no repeatability nor E: u would be 0
+        ({}, ["--recalibrated", "--long-term", "params.json"]),  # contradictory
     ],
 )
 def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, files, extra):
@@ -244,7 +270,7 @@ def test_plane_flatness_and_monte_carlo_validation(tmp_path):
 
 def test_points_of_a_length_and_a_sampled_simulator(tmp_path):
     """--feature points: the compensated coordinates (Sepahi Boroujeni (2021), Table 7-1)."""
-    d = _files(tmp_path)
+    d = _files(tmp_path, cov_scale=0.0)  # parameters known exactly: E alone
     result = _run(
         d, "--unexplained", str(d / "E.json"), "--feature", "points", "--simulator", "sampled",
         "--draws", "2000", "--seed", "1", "--json",
@@ -318,7 +344,7 @@ def test_cylinder_diameter_cylindricity_and_minimum_zone_form(tmp_path):
 
 
 def test_centres_are_positions_with_their_uncertainty(tmp_path):
-    d = _files(tmp_path)
+    d = _files(tmp_path, cov_scale=0.0)  # parameters known exactly: E alone
     bore = _bore_points(d)
     result = _run_on(d, bore, "circle-centre", "--json")
     assert result.exit_code == 0, result.output
