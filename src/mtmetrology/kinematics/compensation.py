@@ -22,7 +22,43 @@ import numpy as np
 
 from mtmetrology.kinematics.machine import Machine
 
-__all__ = ["compensated_points"]
+__all__ = ["compensated_points", "compensation_covariance"]
+
+
+def compensation_covariance(
+    machine: Machine,
+    readings: np.ndarray,
+    parameters: np.ndarray,
+    covariance: np.ndarray,
+    *,
+    senses: np.ndarray | None = None,
+    tool: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Compensated points f(φ, δ̂) and the covariance G U_θ Gᵀ of each.
+
+    Parameters
+    ----------
+    machine : Machine
+    readings : (n, n_axes) array
+        Internal readings (mm, rad).
+    parameters : (P,) array
+        δ̂ (internal units, ``machine.parameter_names`` order).
+    covariance : (P, P) array
+        U_θ of δ̂, internal units.
+    senses : (n, n_axes) array, optional
+    tool : (3,) or (n, 3) array, optional
+        Tool vector, mm (the machine's when omitted).
+
+    Returns
+    -------
+    points : (n, 3) ndarray, mm
+    covariance : (n, 3, 3) ndarray, mm²
+        G_s U_θ G_sᵀ of each point s (G_s = ∂f/∂δ, analytic).
+    """
+    ev = machine.evaluate(readings, parameters, senses=senses, tool=tool, d_params=True)
+    g = np.asarray(ev.d_params).reshape(-1, 3, machine.n_params)
+    cov = np.einsum("sip,pq,sjq->sij", g, np.asarray(covariance, float), g)
+    return np.asarray(ev.position).reshape(-1, 3), cov
 
 
 def compensated_points(
@@ -55,7 +91,7 @@ def compensated_points(
     u : (n, 3) ndarray, mm
         √diag(G_s U_θ G_sᵀ) of each point s.
     """
-    ev = machine.evaluate(readings, parameters, senses=senses, tool=tool, d_params=True)
-    g = np.atleast_3d(ev.d_params).reshape(-1, 3, machine.n_params)
-    var = np.einsum("sip,pq,siq->si", g, np.asarray(covariance, float), g)
-    return np.atleast_2d(ev.position), np.sqrt(np.maximum(var, 0.0))
+    points, cov = compensation_covariance(
+        machine, readings, parameters, covariance, senses=senses, tool=tool
+    )
+    return points, np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
