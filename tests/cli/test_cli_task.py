@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -357,3 +358,21 @@ def test_centres_are_positions_with_their_uncertainty(tmp_path):
     # u²(x) = (4/n²) Σ cos²θ (cos²θ σ_xx + sin²θ σ_yy + sin 2θ σ_xy) = (3σ_xx + σ_yy)/(2n).
     u_x = np.sqrt((3 * E_COV[0][0] + E_COV[1][1]) / 16) * UM
     assert doc["outputs"][0]["u"] == pytest.approx(u_x, rel=1e-5)  # δ tilts by µrad
+
+
+def test_the_calibrated_tool_compensates_the_task(tmp_path):
+    """A parameter set with an identified tool vector (tool_mm): the task's compensated
+    points are f(φ, δ̂) with that tool, not the machine's nominal one."""
+    d = _files(tmp_path)
+    pset = ParameterSet.load(d / "params.json", MACHINE)
+    tool = MACHINE.tool + np.array([0.010, -0.020, 0.030])
+    replace(pset, tool=tool).save(d / "params.json")
+    result = _run(d, "--recalibrated", "--json")
+    assert result.exit_code == 0, result.output
+    q = MACHINE.readings_from_customary(
+        {"X": [-138.565, -61.288], "Y": [94.656, 48.344], "Z": [196.232, 246.817],
+         "B": [-42.0, -64.0], "C": [-293.0, -124.0]}
+    )  # fmt: skip
+    expected = MACHINE.forward(q, pset.values, tool=tool)
+    np.testing.assert_allclose(json.loads(result.stdout)["points"]["compensated"], expected)
+    assert np.abs(MACHINE.forward(q, pset.values) - expected).max() > 0.005  # it matters
