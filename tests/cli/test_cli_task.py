@@ -66,6 +66,11 @@ def _files(tmp_path, *, e_cov=E_COV, machine=MACHINE.name, z_high=260.0, cov_sca
     return tmp_path
 
 
+def _statement(extra) -> list[str]:
+    """--recalibrated unless the call states the long-term variation itself."""
+    return [] if {"--long-term", "--recalibrated"} & set(extra) else ["--recalibrated"]
+
+
 def _run(tmp_path, *extra):
     base = [
         "task",
@@ -78,7 +83,7 @@ def _run(tmp_path, *extra):
         "--feature",
         "length",
     ]
-    return runner.invoke(app, [*base, *extra])
+    return runner.invoke(app, [*base, *_statement(extra), *extra])
 
 
 def test_length_with_unexplained_errors_only_matches_the_closed_form(tmp_path):
@@ -171,6 +176,23 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, files, ext
     assert not out.exists()
 
 
+def test_the_long_term_variation_must_be_stated(tmp_path):
+    """Neither --long-term nor --recalibrated: refused, one line, nothing written."""
+    d = _files(tmp_path)
+    out = d / "out.json"
+    result = runner.invoke(
+        app,
+        [
+            "task", "uncertainty", str(d / "points.csv"), "--machine", MACHINE.name,
+            "--params", str(d / "params.json"), "--feature", "length", "-o", str(out),
+        ],
+    )  # fmt: skip
+    assert result.exit_code == 2
+    (line,) = result.stderr.strip().splitlines()
+    assert line.startswith("error: ") and "--long-term" in line and "--recalibrated" in line
+    assert not out.exists()
+
+
 def test_three_points_for_a_length_are_refused(tmp_path):
     d = _files(tmp_path)
     (d / "points.csv").write_text(POINTS + "p3,0,0,0,0,0,1,0,0,2\n", encoding="utf-8")
@@ -222,7 +244,7 @@ def _run_on(d, points, feature, *extra):
         [
             "task", "uncertainty", str(points), "--machine", MACHINE.name,
             "--params", str(d / "params.json"), "--feature", feature,
-            "--unexplained", str(d / "E.json"), *extra,
+            "--unexplained", str(d / "E.json"), *_statement(extra), *extra,
         ],
     )  # fmt: skip
 

@@ -246,8 +246,9 @@ def uncertainty(
     least squares; ``--form minimum-zone`` evaluates the form error by the minimum zone.
     The budget separates the calibration (--params covariance U_θ, always propagated:
     the readings are compensated with its estimate), the long-term variation
-    (--long-term, left out with --recalibrated), the repeatability and E; with neither
-    --repeatability nor --unexplained, u is the calibration's contribution.
+    (--long-term; one of --long-term and --recalibrated is required), the repeatability
+    and E; with neither --repeatability nor --unexplained, u is the calibration's
+    contribution.
     Method: GUF with the covariance simulator, adaptive Monte Carlo (JCGM 101/102), or both
     with the validation of the GUF.
     """
@@ -256,6 +257,11 @@ def uncertainty(
         raise InputError(
             "--long-term and --recalibrated: a machine recalibrated for the task has no "
             "long-term term; give one of them"
+        )
+    if not recalibrated and long_term is None:
+        raise InputError(
+            "state the long-term variation of the parameters since the calibration: "
+            "--long-term FILE (mtm calibrate long-term), or --recalibrated"
         )
     if side is not None and feature.value not in DEFAULT_SIDE:
         raise InputError(
@@ -427,8 +433,7 @@ def _print(result: TaskResult) -> None:
             for k, v in result.shares.items()
         )
         typer.echo(f"  first-order budget: {shares}")
-    if result.long_term != "propagated":
-        typer.echo(f"  long-term variation of the parameters: {result.long_term}")
+    typer.echo(f"  long-term variation of the parameters: {result.long_term}")
     if result.mcm is not None:
         typer.echo(
             f"Monte Carlo: {result.mcm.trials} trials"
