@@ -334,6 +334,11 @@ def uncertainty(
         _print(result)
 
 
+def _label(group: str) -> str:
+    """A budget group's name in words: ``long_term_variation`` -> ``long-term variation``."""
+    return group.replace("long_term", "long-term").replace("_", " ")
+
+
 def _ordered_covariance(pset: ParameterSet, machine: Machine) -> np.ndarray:
     """The set's covariance in ``machine.parameter_names`` order."""
     order = [pset.names.index(n) for n in machine.parameter_names]
@@ -397,11 +402,11 @@ def _write_report(
     rep.section("Budget by source (first order)")
     rep.table(
         ["source", "share of u²"],
-        [[k.replace("_", " "), f"{100 * v:.1f} %"] for k, v in zip(sources, shares, strict=True)],
+        [[_label(k), f"{100 * v:.1f} %"] for k, v in zip(sources, shares, strict=True)],
     )
     rep.figure(
         figures.budget_bars(
-            [k.replace("_", " ") for k in sources],
+            [_label(k) for k in sources],
             [float(from_internal(u, "µm")) * max(v, 0.0) ** 0.5 for v in shares],
             unit="µm",
             title=f"Uncertainty budget of {name}",
@@ -429,8 +434,7 @@ def _print(result: TaskResult) -> None:
             f"U = {from_internal(o.U, 'µm'):.2f} µm (k = {o.k:.2f}, p = {o.p})"
         )
         shares = ", ".join(
-            f"{k.replace('_', ' ')} {round(100 * v[j], 1) + 0.0:.1f} %"
-            for k, v in result.shares.items()
+            f"{_label(k)} {round(100 * v[j], 1) + 0.0:.1f} %" for k, v in result.shares.items()
         )
         typer.echo(f"  first-order budget: {shares}")
     typer.echo(f"  long-term variation of the parameters: {result.long_term}")
