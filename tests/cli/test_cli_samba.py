@@ -377,3 +377,37 @@ def test_bad_tool_prior_is_one_line_exit_2_and_no_result(records, tmp_path, extr
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: --tool-prior-um")
     assert not out.exists()
+
+
+def test_predict_compensates_with_the_identified_tool_and_gives_u(calibrated, records, tmp_path):
+    """The calibration's tool_mm (--estimate-tool) is the tool of the compensation, and
+    --u appends √diag(G U_θ Gᵀ): a covariance four times larger doubles every u."""
+    from mtmetrology.kinematics import Machine
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+
+    path, doc = calibrated
+    base = Machine.load(MACHINE)
+    pset = ParameterSet.load(path, base)
+    m = pset.machine_for(base)
+    np.testing.assert_allclose(m.tool, doc["tool_mm"], rtol=0, atol=1e-12)
+    out = tmp_path / "xyz.csv"
+    result = mtm("predict", "--machine", MACHINE, "--params", path, records, "--u", "-o", out)
+    assert result.exit_code == 0, result.output
+    lines = out.read_text(encoding="utf-8").splitlines()
+    assert lines[0].endswith("x,y,z,u_x_um,u_y_um,u_z_um")
+    first = np.array([float(v) for v in lines[1].split(",")[-6:]])
+    header = lines[0].split(",")
+    row = dict(zip(header, lines[1].split(","), strict=True))
+    q = m.readings_from_customary({a: [float(row[a])] for a in m.axis_names if a in row})
+    expected = m.forward(q, pset.vector_for(m), tool=np.array(doc["tool_mm"]))[0]
+    np.testing.assert_allclose(first[:3], expected, rtol=0, atol=1e-6)
+    assert np.all(first[3:] > 0)
+    doc4 = json.loads(path.read_text(encoding="utf-8"))
+    doc4["covariance"]["matrix"] = (4 * np.array(doc4["covariance"]["matrix"])).tolist()
+    path4 = tmp_path / "result4.json"
+    path4.write_text(json.dumps(doc4), encoding="utf-8")
+    out4 = tmp_path / "xyz4.csv"
+    again = mtm("predict", "--machine", MACHINE, "--params", path4, records, "--u", "-o", out4)
+    assert again.exit_code == 0, again.output
+    row4 = np.array([float(v) for v in out4.read_text().splitlines()[1].split(",")[-3:]])
+    np.testing.assert_allclose(row4, 2 * first[3:], rtol=1e-5)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -33,7 +34,7 @@ E_COV = [[45.0, -17.0, 5.0], [-17.0, 66.0, 7.0], [5.0, 7.0, 58.0]]  # µm²
 E_PRINTED = [[45.0, -17.0, -220.0], [-17.0, 66.0, 7.0], [-220.0, 7.0, 58.0]]  # eq. 6-15
 
 
-def _files(tmp_path, *, e_cov=E_COV, machine=MACHINE.name, z_high=260.0):
+def _files(tmp_path, *, e_cov=E_COV, machine=MACHINE.name, z_high=260.0, cov_scale=1.0):
     (tmp_path / "points.csv").write_text(POINTS, encoding="utf-8")
     rng = np.random.default_rng(1)
     a = MACHINE.parameter_scales[:, None] * rng.normal(size=(13, 13))  # row i in its unit
@@ -41,7 +42,7 @@ def _files(tmp_path, *, e_cov=E_COV, machine=MACHINE.name, z_high=260.0):
         MACHINE.parameter_names,
         rng.normal(size=13) * MACHINE.parameter_scales * 3,
         MACHINE.parameter_units,
-        covariance=a @ a.T,
+        covariance=cov_scale * a @ a.T,
         machine=machine,
     ).save(tmp_path / "params.json")
     write_json(
@@ -65,6 +66,11 @@ def _files(tmp_path, *, e_cov=E_COV, machine=MACHINE.name, z_high=260.0):
     return tmp_path
 
 
+def _statement(extra) -> list[str]:
+    """--recalibrated unless the call states the long-term variation itself."""
+    return [] if {"--long-term", "--recalibrated"} & set(extra) else ["--recalibrated"]
+
+
 def _run(tmp_path, *extra):
     base = [
         "task",
@@ -77,11 +83,11 @@ def _run(tmp_path, *extra):
         "--feature",
         "length",
     ]
-    return runner.invoke(app, [*base, *extra])
+    return runner.invoke(app, [*base, *_statement(extra), *extra])
 
 
 def test_length_with_unexplained_errors_only_matches_the_closed_form(tmp_path):
-    d = _files(tmp_path)
+    d = _files(tmp_path, cov_scale=0.0)  # parameters known exactly
     result = _run(d, "--unexplained", str(d / "E.json"), "--json")
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
@@ -94,6 +100,31 @@ def test_length_with_unexplained_errors_only_matches_the_closed_form(tmp_path):
     assert doc["budget_groups"]["gauge_length"]["unexplained_volumetric_error"] == pytest.approx(
         1.0
     )
+
+
+def test_without_repeatability_or_e_u_is_the_calibration_contribution(tmp_path):
+    """u² = c G U_θ Gᵀ cᵀ (c: the length's gradient, G = ∂f/∂δ at the compensated points);
+    with --long-term the same covariance once more: u² doubles."""
+    d = _files(tmp_path)
+    result = _run(d, "--recalibrated", "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    pset = ParameterSet.load(d / "params.json", MACHINE)
+    q = MACHINE.readings_from_customary(
+        {"X": [-138.565, -61.288], "Y": [94.656, 48.344], "Z": [196.232, 246.817],
+         "B": [-42.0, -64.0], "C": [-293.0, -124.0]}
+    )  # fmt: skip
+    g = MACHINE.jacobian(q, pset.values).reshape(6, 13)
+    p = np.array(doc["points"]["compensated"])
+    e = (p[1] - p[0]) / np.linalg.norm(p[1] - p[0])
+    c = np.concatenate([-e, e]) @ g
+    u = doc["outputs"][0]["u"]
+    assert u == pytest.approx(np.sqrt(c @ pset.covariance @ c), rel=1e-9)
+    assert doc["budget_groups"]["gauge_length"]["calibration"] == pytest.approx(1.0)
+    assert doc["measurement_model"]["long_term_variation"] == "recalibrated"
+    both = json.loads(_run(d, "--long-term", str(d / "params.json"), "--json").stdout)
+    assert both["outputs"][0]["u"] == pytest.approx(np.sqrt(2) * u, rel=1e-9)
+    assert both["budget_groups"]["gauge_length"]["long_term_variation"] == pytest.approx(0.5)
 
 
 def test_full_task_with_repeatability_tolerance_and_output_file(tmp_path):
@@ -116,7 +147,8 @@ def test_full_task_with_repeatability_tolerance_and_output_file(tmp_path):
     doc = json.loads(out_path.read_text(encoding="utf-8"))
     groups = doc["budget_groups"]["gauge_length"]
     # 1 µm isotropic repeatability per point adds 2 µm² along the gauge axis.
-    assert groups["repeatability"] > 0 and abs(groups["machine_parameters"]) < 1e-9
+    assert groups["repeatability"] > 0 and groups["calibration"] > 0
+    assert sum(groups.values()) == pytest.approx(1.0, abs=1e-12)
     u_e = first["outputs"][0]["u"]
     assert doc["outputs"][0]["u"] == pytest.approx(np.sqrt(u_e**2 + 2 * UM**2), rel=1e-6)
     assert doc["decision"]["decision"] == "conformance"
@@ -159,10 +191,14 @@ def test_full_task_with_repeatability_tolerance_and_output_file(tmp_path):
             ["--unexplained", "E.json", "--tip-diameter", "-1"],
             lambda d: ("tip_diameter must be a finite length >= 0 mm, got -1.0",),
         ),
-        # no repeatability nor E: u would be 0
-        ({}, [], lambda d: ("give --repeatability and/or --unexplained", "u would be 0")),
+        # a machine recalibrated for the task has no long-term term: contradictory
+        (
+            {},
+            ["--recalibrated", "--long-term", "params.json"],
+            lambda d: ("--long-term and --recalibrated: a machine recalibrated",),
+        ),
     ],
-    ids=["e-not-psd", "another-machine", "outside-model", "tolerance", "tip", "no-u"],
+    ids=["e-not-psd", "another-machine", "outside-model", "tolerance", "tip", "contradictory"],
 )
 def test_bad_input_exits_2_naming_the_file_field_or_option(tmp_path, files, extra, named):
     d = _files(tmp_path, **files)
@@ -175,6 +211,26 @@ def test_bad_input_exits_2_naming_the_file_field_or_option(tmp_path, files, extr
     first, *rest = named(d)
     assert lines[0].startswith(f"error: {first}"), lines[0]
     assert all(part in lines[0] for part in rest), lines[0]
+    assert not out.exists()
+
+
+def test_the_long_term_variation_must_be_stated(tmp_path):
+    """Neither --long-term nor --recalibrated: refused, one line, nothing written."""
+    d = _files(tmp_path)
+    out = d / "out.json"
+    result = runner.invoke(
+        app,
+        [
+            "task", "uncertainty", str(d / "points.csv"), "--machine", MACHINE.name,
+            "--params", str(d / "params.json"), "--feature", "length", "-o", str(out),
+        ],
+    )  # fmt: skip
+    assert result.exit_code == 2
+    (line,) = result.stderr.strip().splitlines()
+    assert line == (
+        "error: state the long-term variation of the parameters since the calibration: "
+        "--long-term FILE (mtm calibrate long-term), or --recalibrated"
+    )
     assert not out.exists()
 
 
@@ -231,7 +287,7 @@ def _run_on(d, points, feature, *extra):
         [
             "task", "uncertainty", str(points), "--machine", MACHINE.name,
             "--params", str(d / "params.json"), "--feature", feature,
-            "--unexplained", str(d / "E.json"), *extra,
+            "--unexplained", str(d / "E.json"), *_statement(extra), *extra,
         ],
     )  # fmt: skip
 
@@ -280,7 +336,7 @@ def test_plane_flatness_and_monte_carlo_validation(tmp_path):
 
 def test_points_of_a_length_and_a_sampled_simulator(tmp_path):
     """--feature points: the compensated coordinates (Sepahi Boroujeni (2021), Table 7-1)."""
-    d = _files(tmp_path)
+    d = _files(tmp_path, cov_scale=0.0)  # parameters known exactly: E alone
     result = _run(
         d, "--unexplained", str(d / "E.json"), "--feature", "points", "--simulator", "sampled",
         "--draws", "2000", "--seed", "1", "--json",
@@ -362,7 +418,7 @@ def test_cylinder_diameter_cylindricity_and_minimum_zone_form(tmp_path):
 
 
 def test_centres_are_positions_with_their_uncertainty(tmp_path):
-    d = _files(tmp_path)
+    d = _files(tmp_path, cov_scale=0.0)  # parameters known exactly: E alone
     bore = _bore_points(d)
     result = _run_on(d, bore, "circle-centre", "--json")
     assert result.exit_code == 0, result.output
@@ -375,3 +431,21 @@ def test_centres_are_positions_with_their_uncertainty(tmp_path):
     # u²(x) = (4/n²) Σ cos²θ (cos²θ σ_xx + sin²θ σ_yy + sin 2θ σ_xy) = (3σ_xx + σ_yy)/(2n).
     u_x = np.sqrt((3 * E_COV[0][0] + E_COV[1][1]) / 16) * UM
     assert doc["outputs"][0]["u"] == pytest.approx(u_x, rel=1e-5)  # δ tilts by µrad
+
+
+def test_the_calibrated_tool_compensates_the_task(tmp_path):
+    """A parameter set with an identified tool vector (tool_mm): the task's compensated
+    points are f(φ, δ̂) with that tool, not the machine's nominal one."""
+    d = _files(tmp_path)
+    pset = ParameterSet.load(d / "params.json", MACHINE)
+    tool = MACHINE.tool + np.array([0.010, -0.020, 0.030])
+    replace(pset, tool=tool).save(d / "params.json")
+    result = _run(d, "--recalibrated", "--json")
+    assert result.exit_code == 0, result.output
+    q = MACHINE.readings_from_customary(
+        {"X": [-138.565, -61.288], "Y": [94.656, 48.344], "Z": [196.232, 246.817],
+         "B": [-42.0, -64.0], "C": [-293.0, -124.0]}
+    )  # fmt: skip
+    expected = MACHINE.forward(q, pset.values, tool=tool)
+    np.testing.assert_allclose(json.loads(result.stdout)["points"]["compensated"], expected)
+    assert np.abs(MACHINE.forward(q, pset.values) - expected).max() > 0.005  # it matters

@@ -345,3 +345,21 @@ def test_a_covariance_symmetric_to_rounding_is_accepted(machine):
     block = {"names": ["E_X0C", "E_A0B"], "matrix": [[1, 0.5], [0.5 * (1 + 1e-12), 1]]}
     pset = ParameterSet.from_document(_with_covariance(block), machine)
     assert pset.covariance[0, 0] == pytest.approx(1e-6, rel=1e-15)
+
+
+def test_a_calibrated_tool_round_trips_and_is_put_on_the_machine(machine, tmp_path):
+    """tool_mm is written, read back exactly, and replaces the machine's nominal tool."""
+    tool = np.array([0.0123, -0.0045, machine.tool[2] - 0.0321])
+    pset = _two(machine, tool=tool)
+    pset.save(tmp_path / "p.json")
+    assert json.loads((tmp_path / "p.json").read_text(encoding="utf-8"))["tool_mm"] == list(tool)
+    back = ParameterSet.load(tmp_path / "p.json", machine)
+    np.testing.assert_array_equal(back.tool, tool)
+    np.testing.assert_array_equal(back.machine_for(machine).tool, tool)
+    assert ParameterSet.load(tmp_path / "p.json", machine).machine_for(machine) is not machine
+    assert _two(machine).machine_for(machine).tool is machine.tool  # none: the nominal
+
+
+@pytest.mark.parametrize("bad", [[1, 2], [1, "2", 3], "0,0,1"])
+def test_a_malformed_tool_is_refused_naming_the_key(machine, bad):
+    assert "tool_mm" in _refusal({**HEADER, "parameters": [X0C], "tool_mm": bad}, machine)

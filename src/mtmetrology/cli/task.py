@@ -2,9 +2,11 @@
 
 The probed readings are compensated with the machine parameters of a calibration and
 the feature (gauge length, sphere diameter) is evaluated with its uncertainty by the
-full-covariance GUF (Sepahi Boroujeni (2021), ch. 6–7): repeatability of the readings
-(``--repeatability``), long-term covariance of the machine parameters (``--params``) and
-unexplained volumetric errors (``--unexplained``).
+full-covariance GUF (Sepahi Boroujeni (2021), ch. 6–7; measurement model in
+:mod:`mtmetrology.omm.task`): the calibration's parameter covariance (``--params``, always),
+the long-term variation of the parameters since the calibration (``--long-term``, unless
+``--recalibrated``), repeatability of the readings (``--repeatability``) and unexplained
+volumetric errors (``--unexplained``).
 """
 
 from __future__ import annotations
@@ -163,9 +165,24 @@ def uncertainty(
     ],
     machine_name: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
     params: Annotated[
-        Path, typer.Option("--params", help="Parameter set with its long-term covariance.")
+        Path,
+        typer.Option("--params", help="The calibration that compensates, with its covariance U_θ."),
     ],
     feature: Annotated[FeatureName, typer.Option(help="Feature of the point set.")],
+    long_term: Annotated[
+        Path | None,
+        typer.Option(
+            "--long-term",
+            help="Parameter set whose covariance is the variation of the parameters between "
+            "calibrations (mtm long-term); only its covariance is used.",
+        ),
+    ] = None,
+    recalibrated: Annotated[
+        bool,
+        typer.Option(
+            "--recalibrated", help="The machine is recalibrated for the task: no long-term term."
+        ),
+    ] = False,
     repeatability: Annotated[
         Path | None, typer.Option(help="repeatability-model JSON (mtm repeatability fit).")
     ] = None,
@@ -227,15 +244,24 @@ def uncertainty(
     roundness), plane (flatness), cylinder (diameter, cylindricity), sphere-centre and
     circle-centre (positions), points (the compensated coordinates). Sizes and centres are
     least squares; ``--form minimum-zone`` evaluates the form error by the minimum zone.
-    Method: GUF with the covariance simulator (machine-parameter uncertainty cancels to
-    first order; the parameters enter the compensated value), adaptive Monte Carlo (JCGM
-    101/102), or both with the validation of the GUF.
+    The budget separates the calibration (--params covariance U_θ, always propagated:
+    the readings are compensated with its estimate), the long-term variation
+    (--long-term; one of --long-term and --recalibrated is required), the repeatability
+    and E; with neither --repeatability nor --unexplained, u is the calibration's
+    contribution.
+    Method: GUF with the covariance simulator, adaptive Monte Carlo (JCGM 101/102), or both
+    with the validation of the GUF.
     """
     tol = Tolerance.parse(tolerance) if tolerance is not None else None
-    if repeatability is None and unexplained is None:
+    if recalibrated and long_term is not None:
         raise InputError(
-            "give --repeatability and/or --unexplained: the machine-parameter uncertainty "
-            "alone cancels to first order (u would be 0)"
+            "--long-term and --recalibrated: a machine recalibrated for the task has no "
+            "long-term term; give one of them"
+        )
+    if not recalibrated and long_term is None:
+        raise InputError(
+            "state the long-term variation of the parameters since the calibration: "
+            "--long-term FILE (mtm calibrate long-term), or --recalibrated"
         )
     if side is not None and feature.value not in DEFAULT_SIDE:
         raise InputError(
@@ -248,6 +274,14 @@ def uncertainty(
     machine = pset.machine_for(base)
     if pset.covariance is None:
         raise InputError(f"{params}: no covariance; the task uncertainty needs one")
+    sigma_lt = None
+    if long_term is not None:
+        lt = ParameterSet.load(long_term, base)
+        if lt.covariance is None:
+            raise InputError(f"{long_term}: no covariance; --long-term needs one")
+        if set(lt.names) != set(pset.names):
+            raise InputError(f"{long_term}: parameter names differ from those of {params}")
+        sigma_lt = _ordered_covariance(lt, machine)
     readings, approach, senses = _points(points_csv, machine, feature, repeatability is not None)
     d_tip = 2.0 * machine.tip_radius if tip_diameter is None else tip_diameter
     feat = task_feature(feature, form, side, d_tip, len(readings))
@@ -265,8 +299,10 @@ def uncertainty(
         machine,
         readings,
         pset.vector_for(machine),
-        pset.covariance,
+        _ordered_covariance(pset, machine),
         feat,
+        long_term_covariance=sigma_lt,
+        recalibrated=recalibrated,
         reading_covariance=v,
         unexplained_covariance=cov_e,
         senses=senses,
@@ -284,8 +320,11 @@ def uncertainty(
         result = replace(result, decision=decision)
     document = result.to_dict()
     document["source"] = {"points": str(points_csv), "params": str(params)}
+    if long_term is not None:
+        document["source"]["long_term"] = str(long_term)
     if report_path is not None:
-        inputs = [points_csv, params, *(f for f in (repeatability, unexplained) if f is not None)]
+        optional = (long_term, repeatability, unexplained)
+        inputs = [points_csv, params, *(f for f in optional if f is not None)]
         _write_report(report_path, result, command_line(ctx), inputs, target)
     if output is not None:
         write_json(output, document)
@@ -293,6 +332,17 @@ def uncertainty(
         print_json(document)
     else:
         _print(result)
+
+
+def _label(group: str) -> str:
+    """A budget group's name in words: ``long_term_variation`` -> ``long-term variation``."""
+    return group.replace("long_term", "long-term").replace("_", " ")
+
+
+def _ordered_covariance(pset: ParameterSet, machine: Machine) -> np.ndarray:
+    """The set's covariance in ``machine.parameter_names`` order."""
+    order = [pset.names.index(n) for n in machine.parameter_names]
+    return pset.covariance[np.ix_(order, order)]
 
 
 def _tolerance_index(feature, name: str | None, tol: Tolerance | None) -> int:
@@ -325,8 +375,10 @@ def _write_report(
     rep.section(
         "Result",
         f"{how} of the compensated points through the feature (full-covariance method of "
-        "Sepahi Boroujeni (2021), Ch. 6): repeatability, machine parameters and unexplained "
-        f"volumetric errors; {result.inputs.simulator} covariance simulator.",
+        "Sepahi Boroujeni (2021), Ch. 6), compensated with the calibration's estimate: "
+        "repeatability, the calibration's parameter covariance, the long-term variation of "
+        f"the parameters ({result.long_term}) and unexplained volumetric errors; "
+        f"{result.inputs.simulator} covariance simulator.",
     )
     rep.table(
         ["output", "value", "u", "U", "k", "p", "interval", "unit"],
@@ -350,11 +402,11 @@ def _write_report(
     rep.section("Budget by source (first order)")
     rep.table(
         ["source", "share of u²"],
-        [[k.replace("_", " "), f"{100 * v:.1f} %"] for k, v in zip(sources, shares, strict=True)],
+        [[_label(k), f"{100 * v:.1f} %"] for k, v in zip(sources, shares, strict=True)],
     )
     rep.figure(
         figures.budget_bars(
-            [k.replace("_", " ") for k in sources],
+            [_label(k) for k in sources],
             [float(from_internal(u, "µm")) * max(v, 0.0) ** 0.5 for v in shares],
             unit="µm",
             title=f"Uncertainty budget of {name}",
@@ -382,10 +434,10 @@ def _print(result: TaskResult) -> None:
             f"U = {from_internal(o.U, 'µm'):.2f} µm (k = {o.k:.2f}, p = {o.p})"
         )
         shares = ", ".join(
-            f"{k.replace('_', ' ')} {round(100 * v[j], 1) + 0.0:.1f} %"
-            for k, v in result.shares.items()
+            f"{_label(k)} {round(100 * v[j], 1) + 0.0:.1f} %" for k, v in result.shares.items()
         )
         typer.echo(f"  first-order budget: {shares}")
+    typer.echo(f"  long-term variation of the parameters: {result.long_term}")
     if result.mcm is not None:
         typer.echo(
             f"Monte Carlo: {result.mcm.trials} trials"

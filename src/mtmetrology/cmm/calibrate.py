@@ -76,6 +76,7 @@ from mtmetrology.cmm.problem import BallPlateProblem, kabsch
 from mtmetrology.errors import RankDeficientError
 from mtmetrology.identification.diagnostics import analyse_identifiability
 from mtmetrology.identification.solver import IdentificationResult, gauss_newton
+from mtmetrology.kinematics.compensation import compensation_covariance
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.rng import as_generator
@@ -112,10 +113,11 @@ def model_machine(base: Machine, model: ModelChoice | str, basis: str | None = N
 def error_covariance(machine: Machine, theta, covariance, readings, tools) -> np.ndarray:
     """Covariance (n, 3, 3) of the predicted stylus-centre position (= of the error).
 
-    ``V_e = J_θ V_θ J_θᵀ`` with ``J_θ = ∂p/∂θ`` of the kinematic engine (JCGM 100, 5.2).
+    ``V_e = J_θ V_θ J_θᵀ`` with ``J_θ = ∂p/∂θ`` of the kinematic engine (JCGM 100, 5.2):
+    the covariance of a coordinate compensated with the estimate θ
+    (:func:`mtmetrology.kinematics.compensation.compensation_covariance`).
     """
-    jac = machine.jacobian(readings, theta, tool=tools)  # (n, 3, p)
-    return np.einsum("nip,pq,njq->nij", jac, covariance, jac)
+    return compensation_covariance(machine, readings, theta, covariance, tool=tools)[1]
 
 
 @dataclass(frozen=True, eq=False)

@@ -13,6 +13,7 @@ array([  0.,   0., -10.])
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
@@ -295,6 +296,16 @@ class Machine:
             model_name=None,
             spec=self.spec,
         )
+
+    def with_tool(self, tool) -> Machine:
+        """The same machine with another tool (stylus-centre) vector, mm (e.g. a calibrated
+        one, :attr:`ParameterSet.tool <mtmetrology.kinematics.parameter_set.ParameterSet>`)."""
+        t = np.asarray(tool, dtype=float)
+        if t.shape != (3,) or not np.all(np.isfinite(t)):
+            raise ValueError(f"tool vector must be 3 finite values (mm), got {tool!r}")
+        out = copy.copy(self)
+        out.tool = t
+        return out
 
     # ------------------------------------------------------------------ properties
     @property

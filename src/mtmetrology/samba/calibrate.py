@@ -31,7 +31,7 @@ Tool Metrology*. PhD thesis, Polytechnique Montréal, Ch. 5 (eqs 5-1 to 5-6).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -73,7 +73,8 @@ class SambaCalibration(SambaNotebookRepr):
     nominal : IdentificationResult
         The set-up unknowns alone (machine errors held at zero).
     parameters : ParameterSet
-        The machine's error parameters with ``(JᵀJ)⁻¹`` of the weighted problem.
+        The machine's error parameters with ``(JᵀJ)⁻¹`` of the weighted problem, and the
+        identified tool vector when it was estimated.
     """
 
     machine: Machine
@@ -150,6 +151,7 @@ class SambaCalibration(SambaNotebookRepr):
                 pset.provenance,
                 machine=pset.machine,
                 model=pset.model,
+                tool=pset.tool,
             )
             source = "mcm" if uncertainty.guf is None or not _validated(uncertainty) else "guf"
         doc = pset.to_document()
@@ -365,6 +367,10 @@ def calibrate(
         "records": records.source,
         "minimum_norm": result.minimum_norm,
     }
+    pset = result.parameter_set(machine, provenance)
+    if estimate_tool:  # what the calibration identifies, compensation uses
+        _, _, dtool = problem.split(result.estimate)
+        pset = replace(pset, tool=machine.tool + dtool)
     return SambaCalibration(
         machine=machine,
         records=records,
@@ -372,5 +378,5 @@ def calibrate(
         problem=problem,
         identification=result,
         nominal=nominal,
-        parameters=result.parameter_set(machine, provenance),
+        parameters=pset,
     )
