@@ -259,3 +259,15 @@ def test_predict_knows_the_gp_kind_without_importing_the_gp_machinery():
     code = "import sys, mtmetrology.cli.predict; print('sklearn' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_predict_refuses_a_probe_column_without_probes(files):
+    """Records with a 'probe' column and no --probes were compensated with the tool (0, 0, 0),
+    150 mm off, exit 0 (issue 18 §3): refuse, naming the column and the option."""
+    out = files["dir"] / "pred-noprobes.csv"
+    res = runner.invoke(app, ["predict", *M, str(files["records"]), "-o", str(out)])
+    assert res.exit_code == 2
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith(f"error: {files['records']}: column 'probe'")
+    assert "--probes" in lines[0].split("column 'probe'")[1]
+    assert not out.exists()
