@@ -331,3 +331,19 @@ def test_centres_are_positions_with_their_uncertainty(tmp_path):
     # u²(x) = (4/n²) Σ cos²θ (cos²θ σ_xx + sin²θ σ_yy + sin 2θ σ_xy) = (3σ_xx + σ_yy)/(2n).
     u_x = np.sqrt((3 * E_COV[0][0] + E_COV[1][1]) / 16) * UM
     assert doc["outputs"][0]["u"] == pytest.approx(u_x, rel=1e-5)  # δ tilts by µrad
+
+
+def test_console_names_an_absent_repeatability_model_instead_of_a_zero_share(tmp_path):
+    """Without --repeatability the console printed "repeatability 0.0 %" (issue 18 §3): the
+    source is left out of the budget line and a note says what was used instead."""
+    d = _files(tmp_path)
+    result = _run(d, "--unexplained", str(d / "E.json"))
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    budget = next(ln for ln in lines if ln.startswith("  first-order budget: "))
+    sources = [s.rsplit(" ", 2)[0] for s in budget.split(": ", 1)[1].split(", ")]
+    assert sources == ["machine parameters", "unexplained volumetric error"]
+    assert lines[-1] == (
+        "no repeatability model given (--repeatability): the readings are taken as exact "
+        "(zero reading covariance)"
+    )
