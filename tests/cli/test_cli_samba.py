@@ -372,3 +372,35 @@ def test_bad_tool_prior_is_one_line_exit_2_and_no_result(records, tmp_path, extr
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: --tool-prior-um")
     assert not out.exists()
+
+
+def test_one_coverage_factor_in_console_json_and_report(records, tmp_path):
+    """The console printed ``E_A0B -9.5874 ± 1.8433 µrad`` with ± = u, the JSON k = 1.96 and
+    the HTML parameter table k = 2 (issue 18 §3). Now: ``u = …`` and ``U = …`` with two
+    significant digits and one k, the GUF's k for p = 0.95, in all three."""
+    import re
+
+    from mtmetrology.report.format import format_uncertainty
+
+    out, page = tmp_path / "r.json", tmp_path / "r.html"
+    result = calibrate_samba(
+        records, "--noise-um", "0.5", "--uncertainty", "guf", "-o", out, "--report", page
+    )
+    assert result.exit_code == 0, result.output
+    doc = json.loads(out.read_text(encoding="utf-8"))
+    k = doc["coverage"]["k"]
+    assert doc["coverage"]["p"] == 0.95 and k == pytest.approx(1.959964, abs=1e-6)
+    assert all(o["k"] == pytest.approx(k) for o in doc["uncertainty"]["guf"]["outputs"])
+    assert "±" not in result.stdout
+    assert "U = k u (k = 1.96, p = 95 %)" in result.stdout.splitlines()[1]
+    line = re.compile(r"^  (\S+) +(\S+) (\S+) +u = (\S+) (\S+)  U = (\S+) (\S+)$")
+    printed = {m[1]: m for m in map(line.match, result.stdout.splitlines()) if m}
+    assert list(printed) == [p["name"] for p in doc["parameters"]]
+    for p in doc["parameters"]:
+        m = printed[p["name"]]
+        assert m[3] == m[5] == m[7] == p["unit"]
+        assert m[4] == format_uncertainty(p["u"]) and m[6] == format_uncertainty(k * p["u"])
+        assert len(m[4].replace(".", "").lstrip("0")) == 2  # two significant digits
+    html = page.read_text(encoding="utf-8")
+    heads = re.findall(r"<th scope=\"col\">(.*?)</th>", html)
+    assert "U (k = 1.96)" in heads and not any(h.startswith("U (k = 2") for h in heads)

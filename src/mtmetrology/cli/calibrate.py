@@ -309,13 +309,32 @@ def samba(
         _summary(doc, output)
 
 
+def _parameter_line(p: dict, k: float) -> str:
+    """``E_A0B  -9.6 µrad  u = 1.8 µrad  U = 3.6 µrad``: u and U with two significant
+    digits, the value to the same decimal (JCGM 100:2008, 7.2.6; report.format)."""
+    from mtmetrology.report.format import format_uncertainty, format_value
+
+    u, unit = p.get("u"), p["unit"]
+    if u is None:
+        return f"{p['name']:<8} {format_value(p['value']):>12} {unit}  (no uncertainty)"
+    return (
+        f"{p['name']:<8} {format_value(p['value'], u):>12} {unit:<4}  "
+        f"u = {format_uncertainty(u)} {unit}  U = {format_uncertainty(k * u)} {unit}"
+    )
+
+
 def _summary(doc: dict, output: Path | None) -> None:
     ident = doc["identification"]
     typer.echo(f"SAMBA calibration: {ident['message']}")
     if ident["minimum_norm"]:
         typer.echo("WARNING: minimum-norm solution of a rank-deficient problem", err=True)
+    cov = doc["coverage"]
+    typer.echo(
+        f"parameters: value, standard uncertainty u, expanded uncertainty U = k u "
+        f"(k = {cov['k']:.2f}, p = {100 * cov['p']:g} %)"
+    )
     for p in doc["parameters"]:
-        typer.echo(f"  {p['name']:<8} {p['value']:>12.4f} ± {p['u']:.4f} {p['unit']}")
+        typer.echo("  " + _parameter_line(p, cov["k"]))
     v = doc["volumetric_error"]
     typer.echo(
         "volumetric error norm: unexplained mean {:.3f} max {:.3f} µm; nominal model mean "
