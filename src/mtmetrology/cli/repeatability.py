@@ -30,6 +30,7 @@ from mtmetrology.io import read_csv_table, write_json
 from mtmetrology.omm.hysteresis import HYSTERESIS_KINDS, hysteresis_errors, radial_projection
 from mtmetrology.omm.repeatability import (
     COVARIANCE_OUTPUTS,
+    MIN_TARGETS_PER_COEFFICIENT,
     STD_OUTPUTS,
     factors_from_file_units,
     fit_repeatability_model,
@@ -89,6 +90,15 @@ def fit(
         typer.Option(help="Fraction of the targets held out to report validation errors."),
     ] = 0.15,
     seed: Annotated[int, typer.Option(help="Seed of the held-out draw.")] = 0,
+    allow_few_targets: Annotated[
+        bool,
+        typer.Option(
+            "--allow-few-targets",
+            help=f"Fit with fewer than {MIN_TARGETS_PER_COEFFICIENT:g} fitting targets per "
+            "coefficient (36 for the covariance model); the held-out errors say what the "
+            "model is worth.",
+        ),
+    ] = False,
     drift: Annotated[
         Literal["none", "cubic"],
         typer.Option(
@@ -154,7 +164,12 @@ def fit(
             first_iteration=window_from,
             where=data["where"],
         )
-    model = fit_repeatability_model(stats, holdout=holdout, seed=seed)
+    model = fit_repeatability_model(
+        stats,
+        holdout=holdout,
+        seed=seed,
+        min_targets_per_coefficient=0.0 if allow_few_targets else MIN_TARGETS_PER_COEFFICIENT,
+    )
     document = model.to_dict()
     document["source"] = str(records)
     document["statistics"] = stats.to_dict()
@@ -167,10 +182,43 @@ def fit(
     _write(document, output, "repeatability model", report, report_path)
     if json_output:
         print_json(document)
-    elif zero:
+    else:
+        _print_validation(document)
+    if not json_output and zero:
         typer.echo(
             f"warning: zero variance of a coordinate at {len(zero)} target(s) "
             f"({', '.join(zero[:5])}): approach slightly off the axes",
+            err=True,
+        )
+
+
+def _print_validation(document: dict) -> None:
+    """Held-out errors of every output model; a warning names those above the threshold."""
+    if not document["n_validation"]:
+        typer.echo("no targets held out (--holdout 0): the models are not validated")
+        return
+    typer.echo(
+        f"held-out errors on {document['n_validation']} targets "
+        f"({document['n_fit']} fitted); rms relative = held-out RMS error / RMS of the values"
+    )
+    typer.echo(
+        f"  {'output':<8} {'max abs':>10} {'unit':<4} {'max relative':>12} {'rms relative':>12}"
+    )
+    for o in document["outputs"]:
+        rel = o["validation_max_relative_error"]
+        rms = o["validation_rms_relative_error"]
+        typer.echo(
+            f"  {o['name']:<8} {o['validation_max_abs_error']:>10.3g} {o['unit']:<4} "
+            f"{'—' if rel is None else f'{100 * rel:.0f} %':>12} "
+            f"{'—' if rms is None else f'{100 * rms:.0f} %':>12}"
+            + ("  flagged" if o["validation_flagged"] else "")
+        )
+    flagged = [o["name"] for o in document["outputs"] if o["validation_flagged"]]
+    if flagged:
+        typer.echo(
+            f"warning: held-out rms relative error above "
+            f"{100 * document['validation_warning']:g} % for {', '.join(flagged)}: "
+            "these models do not predict held-out poses; probe more poses",
             err=True,
         )
 
