@@ -153,7 +153,13 @@ def test_auto_model_reports_scores(files):
     sel = json.loads(out.read_text())["model_selection"]
     assert [s["model"] for s in sel["scores"]] == ["seed", "full-1"]
     assert all(len(s["rms_um"]) == 4 for s in sel["scores"])  # one fold per position
-    assert sel["chosen"] in {s["model"] for s in sel["scores"]}
+    assert sel["chosen"] in {s["model"] for s in sel["scores"] if s["eligible"]}
+    # the console reports every candidate's score and AIC (issue 18 §3), as in the JSON
+    lines = {ln.split()[0]: ln for ln in res.stderr.splitlines() if ln.startswith("  ")}
+    for s in sel["scores"]:
+        line = lines[s["model"]]
+        assert f"held-out median {s['median_rms_um']:.3g} µm, AIC {s['aic']:.1f}" in line
+        assert ("[chosen" in line) == (s["model"] == sel["chosen"])
 
 
 def test_gp_fit_predict_and_predict_with_gp_file(files):

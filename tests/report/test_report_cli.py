@@ -124,7 +124,10 @@ def test_ballplate_report_shows_parameters_datum_residuals_and_selection(
     assert re.search(rf"<h2[^>]*>Model selection: {re.escape(chosen)}</h2>", page)
     for score in doc["model_selection"]["scores"]:
         name = score["model"] + (" (chosen)" if score["model"] == chosen else "")
-        assert float(_cells(page, name)[0]) == pytest.approx(score["mean_rms_um"], rel=5e-3)
+        cells = _cells(page, name)  # median, mean, AIC, verdict, one cell per fold
+        assert float(cells[0]) == pytest.approx(score["median_rms_um"], rel=5e-3)
+        assert float(cells[1]) == pytest.approx(score["mean_rms_um"], rel=5e-3)
+        assert len(cells) == 4 + len(doc["model_selection"]["positions"])
     assert re.search(r"<h2[^>]*>Datum</h2>", page)
 
 
