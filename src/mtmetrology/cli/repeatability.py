@@ -139,7 +139,8 @@ def fit(
       i, j, k         approach direction (the probe moves along it; any length)
       X, Y, Z         recorded readings (mm)
       time            time of the touch (s): orders the touches of a target
-      centre_X, centre_Y, centre_Z   optional sphere centre for the N/T projections (mm)
+      centre_X, centre_Y, centre_Z
+                      optional sphere centre for the N/T projections (mm)
 
     The first touch of every target is discarded (hysteresis of the preceding motion).
     Per target: σ of X, Y, Z and of the normal/tangential projections N, T, and
@@ -365,9 +366,10 @@ def hysteresis(
 
     \b
       psi         indexation of the touch (deg)
-      condition   direct / hysteresis (probing test: the previous touch was the same
-                  point / the opposite wall) or + / - (axis test: pre-movement along
-                  the + / - direction of the cross axis); one test per file
+      condition   direct / hysteresis (probing test: the previous touch was
+                  the same point / the opposite wall) or + / - (axis test:
+                  pre-movement along the + / - direction of the cross axis);
+                  one test per file
       r           radial projection (mm), or instead
       X, Y        readings relative to the ring centre (mm): r = X cos ψ + Y sin ψ
 
