@@ -136,7 +136,8 @@ def calibrate_ballplate_cmd(
         typer.Option(
             "--model",
             help="seed (the source's Chebyshev model), full-<d> (21 functions, degree <= d), "
-            "or auto (leave-one-position-out cross-validation over seed, full-1..3).",
+            "or auto (lowest AIC among the candidates whose leave-one-position-out held-out "
+            "RMS is within 1.25x the best).",
         ),
     ] = "seed",
     degrees: Annotated[
