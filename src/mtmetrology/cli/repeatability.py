@@ -249,7 +249,7 @@ def _report(ctx: typer.Context, records: Path, document: dict):
     )
     rows = []
     for o in document["outputs"]:
-        rel = o["validation_max_relative_error"]
+        rel, rms = o["validation_max_relative_error"], o["validation_rms_relative_error"]
         rows.append(
             [
                 o["name"],
@@ -260,11 +260,25 @@ def _report(ctx: typer.Context, records: Path, document: dict):
                 "—"
                 if o["validation_max_abs_error"] is None
                 else f"{o['validation_max_abs_error']:.3f}",
+                "—" if rms is None else f"{100 * rms:.1f} %",
+                "flagged" if o["validation_flagged"] else "",
             ]
         )
     rep.table(
-        ["output", "unit", "coefficients", "R²", "max validation error", "max abs. difference"],
+        [
+            "output",
+            "unit",
+            "coefficients",
+            "R²",
+            "max validation error",
+            "max abs. difference",
+            "rms relative error",
+            "check",
+        ],
         rows,
+        caption="Held-out targets: an output whose RMS error exceeds "
+        f"{100 * document['validation_warning']:g} % of the RMS of its held-out values is "
+        "flagged (the model does not predict held-out poses).",
     )
     rep.section("Per-target statistics")
     names = STD_OUTPUTS + COVARIANCE_OUTPUTS
