@@ -207,23 +207,26 @@ def _with_nan(line):
 
 
 @pytest.mark.parametrize(
-    ("case", "transform"),
+    ("case", "transform", "named"),
     [
-        ("ball", lambda ls: [ls[0], ls[1].replace(",00,", ",99,", 1), *ls[2:]]),
-        ("probe", lambda ls: [ls[0], ls[1].replace(",P0,", ",PZ,", 1), *ls[2:]]),
-        ("few", lambda ls: [*ls, "X,00,P0,400,300,200", "X,01,P0,500,300,200"]),
-        ("nan", lambda ls: [ls[0], _with_nan(ls[1]), *ls[2:]]),
+        ("ball", lambda ls: [ls[0], ls[1].replace(",00,", ",99,", 1), *ls[2:]],
+         ", line 2: ball '99' is not on the plate"),
+        ("probe", lambda ls: [ls[0], ls[1].replace(",P0,", ",PZ,", 1), *ls[2:]],
+         ", line 2: probe 'PZ' is not in the probe set"),
+        ("few", lambda ls: [*ls, "X,00,P0,400,300,200", "X,01,P0,500,300,200"],
+         ": position 'X' has 2 distinct"),
+        ("nan", lambda ls: [ls[0], _with_nan(ls[1]), *ls[2:]], ", line 2: column 'X' is 'nan'"),
     ],
 )  # fmt: skip
-def test_bad_records_exit_2_and_write_nothing(files, case, transform):
-    """A ball not on the plate, a probe not in the set, a position with 2 balls, NaN."""
+def test_bad_records_exit_2_and_write_nothing(files, case, transform, named):
+    """A ball not on the plate, a probe not in the set, a position with 2 balls, NaN: the
+    error names the file, the line and the ball, probe, position or column."""
     bad = _edit(files, f"bad-{case}.csv", transform)
     out = files["dir"] / f"bad-{case}.json"
     res = _calibrate(files, bad, out)
     assert res.exit_code == 2
     lines = [ln for ln in res.output.splitlines() if ln.strip()]
-    assert len(lines) == 1 and lines[0].startswith("error: ")
-    assert str(bad) in lines[0]
+    assert len(lines) == 1 and lines[0].startswith(f"error: {bad}{named}"), lines
     assert not out.exists()
 
 

@@ -84,18 +84,22 @@ def _text_reading(rows):
 
 
 @pytest.mark.parametrize(
-    ("kwargs", "args"),
+    ("kwargs", "args", "named"),
     [
-        ({"n_targets": 30}, []),  # too few targets for eq. 4-2
-        ({"touches": 3}, []),  # 2 usable touches per target
-        ({"mutate": _drop_column_x}, []),
-        ({"mutate": _zero_approach}, []),
-        ({"mutate": _text_reading}, []),
-        ({}, ["--holdout", "1.5"]),
-        ({}, []),  # 38 fitting targets for 36 coefficients without --allow-few-targets
+        # too few targets for eq. 4-2
+        ({"n_targets": 30}, [], "30 targets (4 held out): the covariance model (eq. 4-2)"),
+        # 2 usable touches per target
+        ({"touches": 3}, [], "{path}: target 'T0' has 2 usable touches"),
+        ({"mutate": _drop_column_x}, [], "{path}: missing column 'X'"),
+        ({"mutate": _zero_approach}, [], "{path}, line 4: the approach (i, j, k) is the zero"),
+        ({"mutate": _text_reading}, [], "{path}, line 6: column 'Y' holds 'abc', not a number"),
+        ({}, ["--holdout", "1.5"], "holdout: must be in [0, 1), got 1.5"),
+        # 38 fitting targets for 36 coefficients, without --allow-few-targets
+        ({}, [], "45 targets (7 held out): 38 fitting targets for the 36 coefficients"),
     ],
+    ids=["targets", "touches", "column", "approach", "text", "holdout", "sparse"],
 )
-def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, kwargs, args):
+def test_bad_input_exits_2_naming_the_file_line_and_field(tmp_path, kwargs, args, named):
     out = tmp_path / "R.json"
     rep = tmp_path / "R.html"
     path = _csv(tmp_path, **kwargs)
@@ -106,7 +110,7 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, kwargs, ar
     lines = (
         result.stderr.strip().splitlines() if result.stderr else result.output.strip().splitlines()
     )
-    assert len(lines) == 1 and lines[0].startswith("error: ")
+    assert len(lines) == 1 and lines[0].startswith("error: " + named.format(path=path)), lines
     assert not out.exists() and not rep.exists()
 
 

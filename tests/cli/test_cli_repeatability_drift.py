@@ -114,6 +114,7 @@ def test_unknown_drift_model_and_too_small_window_are_usage_errors(tmp_path):
     for args in (["--drift", "linear"], ["--window", "1"]):
         result, out, rep = _fit(tmp_path, path, *args)
         assert result.exit_code == 2
+        assert f"Invalid value for '{args[0]}'" in result.output, result.output
         assert not out.exists() and not rep.exists()
 
 

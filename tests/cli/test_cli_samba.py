@@ -267,7 +267,12 @@ def test_a_unit_that_does_not_fit_is_refused_and_nothing_written(tmp_path):
         "-o",
         out,
     )
-    assert result.exit_code == 2 and "E_X0C" in result.output and "unit" in result.output
+    assert result.exit_code == 2
+    # the file, the field (index and parameter name), the unit given and the one expected
+    assert result.output == (
+        f"error: {bad}: parameters[2] (E_X0C): unit 'µrad' does not fit this parameter "
+        "(expected a unit like 'µm')\n"
+    )
     assert not out.exists()
 
 

@@ -123,17 +123,48 @@ def test_full_task_with_repeatability_tolerance_and_output_file(tmp_path):
 
 
 @pytest.mark.parametrize(
-    ("files", "extra"),
+    ("files", "extra", "named"),
     [
-        ({"e_cov": E_PRINTED}, ["--unexplained", "E.json"]),  # eq. 6-15 as printed: not PSD
-        ({"machine": "another-machine"}, []),  # parameter file of another machine
-        ({"z_high": 200.0}, ["--repeatability", "R.json"]),  # Z = 246.8 mm outside the model
-        ({}, ["--tolerance", "500,0.1,-0.1"]),
-        ({}, ["--unexplained", "E.json", "--tip-diameter", "-1"]),
-        ({}, []),  # no repeatability nor E: u would be 0
+        # eq. 6-15 as printed: not PSD; the file, its field and the smallest eigenvalue
+        (
+            {"e_cov": E_PRINTED},
+            ["--unexplained", "E.json"],
+            lambda d: (
+                f"{d / 'E.json'}: covariance is not positive semidefinite",
+                f"smallest eigenvalue {np.linalg.eigvalsh(E_PRINTED)[0]:.3g} µm²",
+            ),
+        ),
+        # parameter file of another machine: the file and both machine names
+        (
+            {"machine": "another-machine"},
+            ["--unexplained", "E.json"],
+            lambda d: (
+                f"{d / 'params.json'}: made for machine 'another-machine'",
+                f"not '{MACHINE.name}'",
+            ),
+        ),
+        # p2 at Z = 246.817 mm is outside the model's Z range [-110, 200] mm
+        (
+            {"z_high": 200.0},
+            ["--repeatability", "R.json"],
+            lambda d: ("pose factor Z_T = 246.817 mm", "range [-110, 200] mm"),
+        ),
+        (
+            {},
+            ["--tolerance", "500,0.1,-0.1"],
+            lambda d: ("tolerance: the lower limit 500.1 is above the upper limit 499.9",),
+        ),
+        (
+            {},
+            ["--unexplained", "E.json", "--tip-diameter", "-1"],
+            lambda d: ("tip_diameter must be a finite length >= 0 mm, got -1.0",),
+        ),
+        # no repeatability nor E: u would be 0
+        ({}, [], lambda d: ("give --repeatability and/or --unexplained", "u would be 0")),
     ],
+    ids=["e-not-psd", "another-machine", "outside-model", "tolerance", "tip", "no-u"],
 )
-def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, files, extra):
+def test_bad_input_exits_2_naming_the_file_field_or_option(tmp_path, files, extra, named):
     d = _files(tmp_path, **files)
     extra = [str(d / x) if x.endswith(".json") else x for x in extra]
     out = d / "out.json"
@@ -141,6 +172,9 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, files, ext
     assert result.exit_code == 2, result.output
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ")
+    first, *rest = named(d)
+    assert lines[0].startswith(f"error: {first}"), lines[0]
+    assert all(part in lines[0] for part in rest), lines[0]
     assert not out.exists()
 
 
@@ -148,7 +182,9 @@ def test_three_points_for_a_length_are_refused(tmp_path):
     d = _files(tmp_path)
     (d / "points.csv").write_text(POINTS + "p3,0,0,0,0,0,1,0,0,2\n", encoding="utf-8")
     result = _run(d, "--unexplained", str(d / "E.json"))
-    assert result.exit_code == 2 and result.stderr.startswith("error: ")
+    assert result.exit_code == 2
+    line = f"error: {d / 'points.csv'}: a length needs exactly 2 points (one pair), got 3\n"
+    assert result.stderr == line
 
 
 def test_report_shows_the_result_budget_and_decision(tmp_path):
@@ -262,27 +298,35 @@ def test_points_of_a_length_and_a_sampled_simulator(tmp_path):
 
 
 @pytest.mark.parametrize(
-    ("feature", "extra", "n"),
+    ("feature", "extra", "n", "named"),
     [
-        ("sphere", [], 3),  # a sphere needs 4 points
-        ("circle", [], 2),
-        ("plane", ["--side", "inner"], 8),  # a plane has no side
-        ("circle", ["--tolerance-output", "roundness"], 8),  # without --tolerance
-        ("circle", ["--tolerance", "0,,1", "--tolerance-output", "flatness"], 8),
-        ("circle", ["--method", "mcm", "--simulator", "sampled", "--draws", "5"], 8),
-        ("plane", ["--form", "minimum-zone"], 3),  # a minimum-zone plane needs 4 contacts
-        ("length", ["--form", "minimum-zone"], 2),  # a length has no form
-        ("cylinder", [], 4),
+        # a sphere needs 4 points
+        ("sphere", [], 3, "{points}: a sphere needs at least 4 points (least-squares), got 3"),
+        ("circle", [], 2, "{points}: a circle needs at least 3 points (least-squares), got 2"),
+        # a plane has no side
+        ("plane", ["--side", "inner"], 8, "--side applies to a sphere, circle or cylinder"),
+        # without --tolerance
+        ("circle", ["--tolerance-output", "roundness"], 8, "--tolerance-output needs --tolerance"),
+        ("circle", ["--tolerance", "0,,1", "--tolerance-output", "flatness"], 8,
+         "--tolerance-output: 'flatness' is not an output"),
+        ("circle", ["--method", "mcm", "--simulator", "sampled", "--draws", "5"], 8,
+         "draws: the sampled simulator needs at least"),
+        # a minimum-zone plane needs 4 contacts
+        ("plane", ["--form", "minimum-zone"], 3,
+         "{points}: a plane needs at least 4 points (minimum-zone), got 3"),
+        # a length has no form
+        ("length", ["--form", "minimum-zone"], 2, "--form minimum-zone applies to a form error"),
+        ("cylinder", [], 4, "{points}: a cylinder needs at least 5 points (least-squares), got 4"),
     ],
-)
-def test_bad_feature_requests_exit_2_and_write_nothing(tmp_path, feature, extra, n):
+)  # fmt: skip
+def test_bad_feature_requests_exit_2_and_write_nothing(tmp_path, feature, extra, n, named):
     d = _files(tmp_path)
     points = _bore_points(d, n=n)
     out = d / "out.json"
     result = _run_on(d, points, feature, *extra, "-o", str(out))
     assert result.exit_code == 2, result.output
     lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: ")
+    assert len(lines) == 1 and lines[0].startswith("error: " + named.format(points=points))
     assert not out.exists()
 
 

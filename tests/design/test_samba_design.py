@@ -43,7 +43,7 @@ def test_indexation_count_rules_reproduce_the_seed004_strategies():
     assert indexation_count(3, 13, 1) == 21  # 1B.3n
     assert indexation_count(2, 13, 1) == 14  # 1B.2n
     assert indexation_count(5, 84, 4, rule="measurements") == 38  # 4B.5n
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="count rule 'nearest'"):
         indexation_count(3, 13, 1, rule="nearest")
 
 

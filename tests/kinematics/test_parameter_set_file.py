@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
+from mtmetrology.errors import InputError
 from mtmetrology.io.files import InputFileError
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics.parameter_set import MAX_MAGNITUDE, ParameterSet
@@ -112,11 +113,20 @@ def test_save_writes_the_document_in_the_format_of_the_suffix(tmp_path, machine,
     np.testing.assert_allclose(back.covariance, pset.covariance, rtol=1e-14)
 
 
-def test_a_non_finite_value_is_not_written(tmp_path, machine):
-    pset = ParameterSet(("E_X0C",), np.array([np.nan]), ("µm",), machine=NAME)
-    with pytest.raises(ValueError):
-        pset.save(tmp_path / "p.json")
-    assert not (tmp_path / "p.json").exists()
+@pytest.mark.parametrize("suffix", [".json", ".yaml"])
+def test_a_non_finite_value_is_not_written(tmp_path, machine, suffix):
+    """Refused naming the parameter, in JSON and in YAML (which would write ``.nan``)."""
+    values = np.array([1e-3, np.nan])
+    pset = ParameterSet(("E_X0C", "E_Y0C"), values, ("µm", "µm"), machine=NAME)
+    target = tmp_path / f"p{suffix}"
+    with pytest.raises(InputError, match=r"p\.\w+: E_Y0C is not finite; nothing written$"):
+        pset.save(target)
+    covariance = np.diag([1e-6, np.inf])
+    pset = ParameterSet(("E_X0C", "E_Y0C"), values[:1].repeat(2), ("µm", "µm"),
+                        covariance=covariance, machine=NAME)  # fmt: skip
+    with pytest.raises(InputError, match="covariance row E_Y0C is not finite"):
+        pset.save(target)
+    assert not target.exists()
 
 
 def test_zeros_and_vector_for(machine):
@@ -161,7 +171,7 @@ def test_check_machine_names_the_models(machine):
         (
             {**HEADER, "kind": "x", "parameters": [X0C]},
             "p.json: kind: 'x' is not a parameter set (expected 'parameter-set' or a "
-            "calibration result: samba-calibration, ballplate-calibration)",
+            "calibration result: samba-calibration, ballplate-calibration, tracker-calibration)",
         ),
         (
             {**HEADER, "version": 2, "parameters": [X0C]},

@@ -101,7 +101,7 @@ def test_lateral_deviation_threshold_is_125_3_um():
     """Sepahi Boroujeni (2021), §4: R = 15.7 mm, d = 0.5 µm → b′ = 125.3 µm."""
     b = lateral_deviation_threshold(15.7, to_internal(0.5, "µm"))
     assert round(b / UM, 1) == 125.3
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="radius > 0"):
         lateral_deviation_threshold(-1.0, 0.0005)
 
 

@@ -80,6 +80,7 @@ def test_bad_input_writes_no_report(tmp_path):
     bad.write_text("x,y\n1,2\n")
     result = runner.invoke(app, ["fit", "sphere", str(bad), "--report", str(out)])
     assert result.exit_code == 2 and not out.exists()
+    assert result.stderr.startswith(f"error: {bad}: missing column 'z'"), result.stderr
 
 
 def test_unwritable_report_path_is_one_line_and_exit_2(command_inputs, tmp_path):
@@ -89,7 +90,7 @@ def test_unwritable_report_path_is_one_line_and_exit_2(command_inputs, tmp_path)
         app, ["uncertainty", "run", str(command_inputs["model"]), "--report", str(target)]
     )
     assert result.exit_code == 2
-    assert result.stderr.startswith("error: ") and len(result.stderr.splitlines()) == 1
+    assert result.stderr.startswith(f"error: {target}: ") and len(result.stderr.splitlines()) == 1
 
 
 # -- CMM ----------------------------------------------------------------------------------
@@ -167,6 +168,7 @@ def test_ballplate_bad_probe_writes_neither_result_nor_report(command_inputs, tm
             "-o", str(out), "--report", str(rep)]  # fmt: skip
     result = runner.invoke(app, args)
     assert result.exit_code == 2 and not out.exists() and not rep.exists()
+    assert result.stderr.startswith(f"error: {bad}, line 2: probe 'P9'"), result.stderr
     assert result.stderr.startswith("error: ") and len(result.stderr.splitlines()) == 1
 
 
@@ -291,7 +293,9 @@ def test_samba_failing_renderer_writes_neither_report_nor_result(
     args = report_commands(tmp_path)["samba-calibrate"]
     args[args.index("--uncertainty") + 1] = "none"
     result = runner.invoke(app, args)
-    assert result.exit_code != 0
+    # a failing renderer is a bug (exit 1, reported as such), not a refused input
+    assert result.exit_code == 1
+    assert result.stderr.startswith("internal error: RuntimeError: renderer failure")
     assert not (tmp_path / "samba.json").exists()
     assert not (tmp_path / "samba-calibrate.html").exists()
 

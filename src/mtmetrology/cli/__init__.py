@@ -40,6 +40,7 @@ COMMANDS = {
     "repeatability": ("mtmetrology.cli.repeatability", "app", True),
     "task": ("mtmetrology.cli.task", "app", True),
     "demo": ("mtmetrology.cli.demo", "demo", False),
+    "budget": ("mtmetrology.cli.budget", "app", True),
 }
 
 #: Groups whose subcommands come from several applications (``mtm calibrate samba``,
@@ -51,11 +52,18 @@ SHARED_GROUPS = {
             ("mtmetrology.cli.calibrate", "app"),
             ("mtmetrology.cli.cmm", "calibrate_app"),
             ("mtmetrology.cli.long_term", "app"),
+            ("mtmetrology.cli.multilateration", "calibrate_app"),
+            ("mtmetrology.cli.tracker", "calibrate_app"),
         ],
     ),
     "simulate": (
         "Simulate artefact records of a machine with known errors.",
-        [("mtmetrology.cli.simulate", "app"), ("mtmetrology.cli.cmm", "simulate_app")],
+        [
+            ("mtmetrology.cli.simulate", "app"),
+            ("mtmetrology.cli.cmm", "simulate_app"),
+            ("mtmetrology.cli.multilateration", "simulate_app"),
+            ("mtmetrology.cli.tracker", "simulate_app"),
+        ],
     ),
 }
 

@@ -280,3 +280,9 @@ def _print(doc: dict, output: Path) -> None:
         pt.add_row(p["name"], f"{p['u']:.3g}", p["unit"])
     console.print(pt)
     console.print(f"programme written to {output}")
+
+
+# laser-tracker verification (mtmetrology.cli.tracker): its commands join this group
+from mtmetrology.cli.tracker import design_app as _tracker_app  # noqa: E402
+
+app.registered_commands.extend(_tracker_app.registered_commands)

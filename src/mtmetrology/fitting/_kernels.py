@@ -1,4 +1,4 @@
-"""Compiled moment matrices of the batched circle/sphere fits (numba, ``cache=True``).
+"""Compiled moment matrices of the batched circle/sphere fits (numba, cached where possible).
 
 Imported only by the compiled backend of :mod:`mtmetrology.fitting.batch`.  One pass over
 the points of each set forms the symmetric moment matrix ``A Aᵀ`` of
@@ -12,10 +12,11 @@ same way.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from mtmetrology._backend import njit_cached
 
 
-@njit(cache=True, nogil=True)
+@njit_cached(nogil=True)
 def round_moments(xt, index, centres, radii, out):  # pragma: no cover - compiled
     """out[s] = A Aᵀ for the set ``index[s]`` of ``xt`` (K, d, n), d = 2 or 3, about
     ``centres[s]``, ``radii[s]``."""
@@ -59,7 +60,7 @@ def round_moments(xt, index, centres, radii, out):  # pragma: no cover - compile
                 out[s, i, j] = out[s, j, i] = m[keep[i], keep[j]]
 
 
-@njit(cache=True, nogil=True)
+@njit_cached(nogil=True)
 def kasa_moments(xt, scale, out):  # pragma: no cover - compiled
     """out[k] = D Dᵀ of the Kåsa design ``D = [2y; 1; ‖y‖²]`` (d + 2, n) of the centred
     set ``xt[k]`` (d, n), ``y = x / scale[k]``."""

@@ -1,5 +1,6 @@
 """Identification engine: weighted non-linear least squares with identifiability diagnostics."""
 
+from mtmetrology.identification.datum import Datum, choose_datum
 from mtmetrology.identification.diagnostics import (
     IdentifiabilityReport,
     NullDirection,
@@ -19,12 +20,14 @@ from mtmetrology.identification.solver import (
 
 __all__ = [
     "BallCentreProblem",
+    "Datum",
     "IdentifiabilityReport",
     "IdentificationError",
     "IdentificationResult",
     "NullDirection",
     "ScaleBar",
     "analyse_identifiability",
+    "choose_datum",
     "gauss_newton",
     "observability_indices",
     "senses_from_sequence",

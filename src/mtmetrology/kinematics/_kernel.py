@@ -12,9 +12,11 @@ written out trial by trial (sequentially); Jacobian rows are written whole.
 
 The source of a program is stored under its hash in the kernel cache directory
 (``MTMETROLOGY_CACHE_DIR``, else ``$XDG_CACHE_HOME/mtmetrology`` or
-``~/.cache/mtmetrology``) and compiled with ``cache=True``: a program is compiled once
-per machine (about a second), later processes load it in milliseconds.  If the directory
-cannot be written the kernel is compiled in memory for the process.
+``~/.cache/mtmetrology``; created with its parents on first use) and compiled with
+``cache=True``: a program is compiled once per machine (about a second), later processes
+load it in milliseconds.  If the directory cannot be created or written (read-only home,
+no home directory, a full disk) or numba finds no place for its own cache, the kernel is
+compiled in memory for the process, silently: the cache only saves time.
 """
 
 from __future__ import annotations
@@ -26,8 +28,9 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
+from mtmetrology._backend import njit_cached
+from mtmetrology.errors import MtmetrologyError
 from mtmetrology.io.files import atomic_write
 from mtmetrology.kinematics._program import (
     ADD_RR,
@@ -136,22 +139,37 @@ def kernel(ops: np.ndarray, n_params: int):
     text = source(ops, n_params)
     key = hashlib.sha256(text.encode()).hexdigest()[:24]
     if key not in _loaded:
-        path = _cache_dir() / "kernels" / f"chain_{key}.py"
         try:
-            if not path.is_file():
-                with atomic_write(path) as fh:
-                    fh.write(text)
-            name = f"_mtmetrology_chain_{key}"
-            spec = importlib.util.spec_from_file_location(name, path)
-            module = importlib.util.module_from_spec(spec)
-            sys.modules[name] = module  # numba's cache finds the function's module by name
-            spec.loader.exec_module(module)
-            _loaded[key] = module.run
-        except OSError:
+            _loaded[key] = _load_cached(text, key)
+        except (OSError, MtmetrologyError, RuntimeError):
+            # No writable cache (OSError, or atomic_write's EnvironmentFailure), no home
+            # directory (Path.home's RuntimeError), or no place for numba's own cache
+            # ("cannot cache function ...", a RuntimeError): compile in memory.
             namespace = {"np": np}
-            exec(compile(text.replace("cache=True", "cache=False"), str(path), "exec"), namespace)
+            code = text.replace("cache=True", "cache=False")
+            exec(compile(code, f"<mtmetrology chain kernel {key}>", "exec"), namespace)
             _loaded[key] = namespace["run"]
     return _loaded[key]
+
+
+def _load_cached(text: str, key: str):
+    """Write the kernel's source into the cache directory (once) and import it from there."""
+    directory = _cache_dir() / "kernels"
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / f"chain_{key}.py"
+    if not path.is_file():
+        with atomic_write(path) as fh:
+            fh.write(text)
+    name = f"_mtmetrology_chain_{key}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # numba's cache finds the function's module by name
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[name]
+        raise
+    return module.run
 
 
 def run(ops, table, theta, n_registers, position, jacobian, generate: bool) -> None:
@@ -171,7 +189,7 @@ def run(ops, table, theta, n_registers, position, jacobian, generate: bool) -> N
         run_interpreted(ops, table, theta, n_registers, position, jacobian)
 
 
-@njit(cache=True, nogil=True)
+@njit_cached(nogil=True)
 def run_interpreted(ops, table, theta, n_registers, position, jacobian):  # pragma: no cover
     """Interpret a program: fill ``position`` (n_trials·n_poses, 3) and ``jacobian``.
 

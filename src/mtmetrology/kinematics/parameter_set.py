@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from mtmetrology.errors import InputError
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError, atomic_write
 from mtmetrology.kinematics.machine import Machine
@@ -42,7 +43,7 @@ KIND = "parameter-set"
 VERSION = 1
 #: Result documents that embed a parameter set (``mtm predict --params`` reads them as they
 #: are); their keys beyond the parameter set are the result's own.
-RESULT_KINDS = ("samba-calibration", "ballplate-calibration")
+RESULT_KINDS = ("samba-calibration", "ballplate-calibration", "tracker-calibration")
 _KEYS = {"kind", "version", "machine", "model", "parameters", "covariance", "provenance"}
 _ENTRY_KEYS = {"name", "value", "unit", "u"}
 #: Largest magnitude of a parameter in its customary unit (1 m in µm, 1 rad in µrad): far
@@ -170,8 +171,21 @@ class ParameterSet(NotebookRepr):
         return doc
 
     def save(self, path: str | Path) -> None:
-        """Write JSON (``.json``) or YAML (``.yaml``/``.yml``) atomically."""
+        """Write JSON (``.json``) or YAML (``.yaml``/``.yml``) atomically.
+
+        Raises
+        ------
+        InputError
+            A value or covariance entry that is not finite (NaN is never a result; YAML
+            would write it as ``.nan``), naming the parameter; nothing is written.
+        """
         p = Path(path)
+        bad = [n for n, v in zip(self.names, self.values, strict=True) if not math.isfinite(v)]
+        if self.covariance is not None:
+            rows = ~np.all(np.isfinite(self.covariance), axis=1)
+            bad += [f"covariance row {n}" for n, r in zip(self.names, rows, strict=True) if r]
+        if bad:
+            raise InputError(f"{p}: {bad[0]} is not finite; nothing written")
         doc = self.to_document()
         text = (
             yaml.safe_dump(doc, sort_keys=False, allow_unicode=True)

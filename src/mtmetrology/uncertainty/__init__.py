@@ -16,6 +16,7 @@
 
 from mtmetrology.uncertainty.distributions import (
     Arcsine,
+    Beta,
     CurvilinearTrapezoid,
     MultivariateNormal,
     MultivariateT,
@@ -42,6 +43,7 @@ from mtmetrology.uncertainty.validation import ValidationReport, validate_guf, v
 
 __all__ = [
     "Arcsine",
+    "Beta",
     "CurvilinearTrapezoid",
     "DaskExecutor",
     "GUFResult",

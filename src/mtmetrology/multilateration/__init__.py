@@ -1,0 +1,1 @@
+"""Sequential multilateration: machine errors from tracking-interferometer lengths."""
