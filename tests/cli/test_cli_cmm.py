@@ -153,7 +153,13 @@ def test_auto_model_reports_scores(files):
     sel = json.loads(out.read_text())["model_selection"]
     assert [s["model"] for s in sel["scores"]] == ["seed", "full-1"]
     assert all(len(s["rms_um"]) == 4 for s in sel["scores"])  # one fold per position
-    assert sel["chosen"] in {s["model"] for s in sel["scores"]}
+    assert sel["chosen"] in {s["model"] for s in sel["scores"] if s["eligible"]}
+    # the console reports every candidate's score and AIC (issue 18 §3), as in the JSON
+    lines = {ln.split()[0]: ln for ln in res.stderr.splitlines() if ln.startswith("  ")}
+    for s in sel["scores"]:
+        line = lines[s["model"]]
+        assert f"held-out median {s['median_rms_um']:.3g} µm, AIC {s['aic']:.1f}" in line
+        assert ("[chosen" in line) == (s["model"] == sel["chosen"])
 
 
 def test_gp_fit_predict_and_predict_with_gp_file(files):
@@ -262,3 +268,15 @@ def test_predict_knows_the_gp_kind_without_importing_the_gp_machinery():
     code = "import sys, mtmetrology.cli.predict; print('sklearn' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_predict_refuses_a_probe_column_without_probes(files):
+    """Records with a 'probe' column and no --probes were compensated with the tool (0, 0, 0),
+    150 mm off, exit 0 (issue 18 §3): refuse, naming the column and the option."""
+    out = files["dir"] / "pred-noprobes.csv"
+    res = runner.invoke(app, ["predict", *M, str(files["records"]), "-o", str(out)])
+    assert res.exit_code == 2
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith(f"error: {files['records']}: column 'probe'")
+    assert "--probes" in lines[0].split("column 'probe'")[1]
+    assert not out.exists()

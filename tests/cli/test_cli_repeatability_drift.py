@@ -42,7 +42,18 @@ def _records(tmp_path, touches=12, n_targets=40, seed=0):
 def _fit(tmp_path, path, *args):
     out, rep = tmp_path / "R.json", tmp_path / "R.html"
     result = runner.invoke(
-        app, ["repeatability", "fit", str(path), "-o", str(out), "--report", str(rep), *args]
+        app,
+        [
+            "repeatability",
+            "fit",
+            str(path),
+            "-o",
+            str(out),
+            "--report",
+            str(rep),
+            "--allow-few-targets",
+            *args,
+        ],
     )
     return result, out, rep
 

@@ -187,14 +187,15 @@ def test_raw_points_and_campaigns_from_simulate_are_read_by_calibrate(tmp_path):
 
 
 def test_help_documents_the_file_formats():
+    """The help names the record forms and points to docs/file-formats.md, whose section
+    holds the full formats (moved out of the help: issue 18 §3)."""
     text = mtm("calibrate", "samba", "--help").output
-    for fmt in (
-        "ball,X,Y,Z,B,C[,S]",
-        "measurement,ball,X,Y,Z,B,C",
-        "samba-artefact",
-        "samba-repeatability",
-    ):
+    for fmt in ("ball,X,Y,Z,B,C[,S]", "measurement,ball,X,Y,Z,B,C", "docs/file-formats.md"):
         assert fmt in text
+    docs = (EXAMPLES.parents[1] / "docs" / "file-formats.md").read_text(encoding="utf-8")
+    section = docs.split("## SAMBA calibration (`mtm calibrate samba`)")[1].split("\n## ")[0]
+    for fmt in ("`ball,X,Y,Z,B,C[,S]`", "`campaign,...`", '"kind": "samba-repeatability"'):
+        assert fmt in section
     assert "samba-balls" in mtm("simulate", "samba", "--help").output
     assert "pair,end,X,Y,Z,B,C" in mtm("verify", "length", "--help").output
 
@@ -411,3 +412,35 @@ def test_predict_compensates_with_the_identified_tool_and_gives_u(calibrated, re
     assert again.exit_code == 0, again.output
     row4 = np.array([float(v) for v in out4.read_text().splitlines()[1].split(",")[-3:]])
     np.testing.assert_allclose(row4, 2 * first[3:], rtol=1e-5)
+
+
+def test_one_coverage_factor_in_console_json_and_report(records, tmp_path):
+    """The console printed ``E_A0B -9.5874 ± 1.8433 µrad`` with ± = u, the JSON k = 1.96 and
+    the HTML parameter table k = 2 (issue 18 §3). Now: ``u = …`` and ``U = …`` with two
+    significant digits and one k, the GUF's k for p = 0.95, in all three."""
+    import re
+
+    from mtmetrology.report.format import format_uncertainty
+
+    out, page = tmp_path / "r.json", tmp_path / "r.html"
+    result = calibrate_samba(
+        records, "--noise-um", "0.5", "--uncertainty", "guf", "-o", out, "--report", page
+    )
+    assert result.exit_code == 0, result.output
+    doc = json.loads(out.read_text(encoding="utf-8"))
+    k = doc["coverage"]["k"]
+    assert doc["coverage"]["p"] == 0.95 and k == pytest.approx(1.959964, abs=1e-6)
+    assert all(o["k"] == pytest.approx(k) for o in doc["uncertainty"]["guf"]["outputs"])
+    assert "±" not in result.stdout
+    assert "U = k u (k = 1.96, p = 95 %)" in result.stdout.splitlines()[1]
+    line = re.compile(r"^  (\S+) +(\S+) (\S+) +u = (\S+) (\S+)  U = (\S+) (\S+)$")
+    printed = {m[1]: m for m in map(line.match, result.stdout.splitlines()) if m}
+    assert list(printed) == [p["name"] for p in doc["parameters"]]
+    for p in doc["parameters"]:
+        m = printed[p["name"]]
+        assert m[3] == m[5] == m[7] == p["unit"]
+        assert m[4] == format_uncertainty(p["u"]) and m[6] == format_uncertainty(k * p["u"])
+        assert len(m[4].replace(".", "").lstrip("0")) == 2  # two significant digits
+    html = page.read_text(encoding="utf-8")
+    heads = re.findall(r"<th scope=\"col\">(.*?)</th>", html)
+    assert "U (k = 1.96)" in heads and not any(h.startswith("U (k = 2") for h in heads)

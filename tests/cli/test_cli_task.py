@@ -449,3 +449,20 @@ def test_the_calibrated_tool_compensates_the_task(tmp_path):
     expected = MACHINE.forward(q, pset.values, tool=tool)
     np.testing.assert_allclose(json.loads(result.stdout)["points"]["compensated"], expected)
     assert np.abs(MACHINE.forward(q, pset.values) - expected).max() > 0.005  # it matters
+
+
+def test_console_names_an_absent_repeatability_model_instead_of_a_zero_share(tmp_path):
+    """Without --repeatability the console printed "repeatability 0.0 %" (issue 18 §3): the
+    source is left out of the budget line and a note says what was used instead."""
+    d = _files(tmp_path)
+    result = _run(d, "--unexplained", str(d / "E.json"))
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    budget = next(ln for ln in lines if ln.startswith("  first-order budget: "))
+    sources = [s.rsplit(" ", 2)[0] for s in budget.split(": ", 1)[1].split(", ")]
+    assert sources == ["calibration", "unexplained volumetric error"]
+    assert "  long-term variation of the parameters: recalibrated" in lines
+    assert lines[-1] == (
+        "no repeatability model given (--repeatability): the readings are taken as exact "
+        "(zero reading covariance)"
+    )

@@ -17,7 +17,7 @@ from typing import Annotated
 
 import typer
 
-from mtmetrology.cli._common import MtmGroup
+from mtmetrology.cli._common import MtmGroup, reflow_commands
 
 __all__ = ["COMMANDS", "SHARED_GROUPS", "app", "build_app"]
 
@@ -111,6 +111,7 @@ def build_app(only: str | None = None) -> typer.Typer:
     for name in SHARED_GROUPS:
         if only is None or name == only:
             application.add_typer(_shared_group(name), name=name)
+    reflow_commands(application)
     return application
 
 

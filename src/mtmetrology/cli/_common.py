@@ -16,6 +16,7 @@ line on stderr and a documented exit code (:mod:`mtmetrology.errors`):
 
 from __future__ import annotations
 
+import inspect
 import json
 import os
 import shlex
@@ -134,6 +135,43 @@ class MtmGroup(TyperGroup):
             message, code = describe_failure(err)
         typer.echo(message, err=True)
         raise typer.Exit(code)
+
+
+#: Widest verbatim help line (tables, YAML examples) that an 80-column terminal shows
+#: unwrapped: rich pads the help panel by one column each side.
+HELP_WIDTH = 78
+
+
+def reflow_help(text: str | None) -> str | None:
+    """A command's help with each prose paragraph on one line, for the terminal to wrap.
+
+    Typer keeps the line breaks of a paragraph after the first and the terminal wraps
+    each line again: at 80 columns a docstring wrapped at 90 broke mid-sentence twice
+    (issue 18).  A paragraph that starts with ``\\b`` or holds an indented line (a table,
+    a YAML example) is kept as written; its lines must fit :data:`HELP_WIDTH`.
+
+    Examples
+    --------
+    >>> reflow_help("Fit a sphere.\\n\\nPoints are\\nread in mm.\\n\\n  x  mm\\n  y  mm")
+    'Fit a sphere.\\n\\nPoints are read in mm.\\n\\n  x  mm\\n  y  mm'
+    """
+    if not text:
+        return text
+    paragraphs = inspect.cleandoc(text).split("\n\n")
+    out = []
+    for para in paragraphs:
+        lines = para.split("\n")
+        verbatim = para.startswith("\b") or any(ln.startswith((" ", "\t")) for ln in lines)
+        out.append(para if verbatim else " ".join(ln.strip() for ln in lines))
+    return "\n\n".join(out)
+
+
+def reflow_commands(app: typer.Typer) -> None:
+    """:func:`reflow_help` on every command of ``app`` and of its groups, in place."""
+    for info in app.registered_commands:
+        info.help = reflow_help(info.help or inspect.getdoc(info.callback))
+    for group in app.registered_groups:
+        reflow_commands(group.typer_instance)
 
 
 def fail(message: str) -> None:

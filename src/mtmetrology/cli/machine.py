@@ -26,15 +26,16 @@ from mtmetrology.identification import (
     analyse_identifiability,
     senses_from_sequence,
 )
-from mtmetrology.io import read_csv_table
+from mtmetrology.io import atomic_write, check_output, read_csv_table
 from mtmetrology.kinematics.conventions import machine_description
-from mtmetrology.kinematics.machine import Machine, list_presets
+from mtmetrology.kinematics.machine import Machine, list_presets, preset_text
 from mtmetrology.kinematics.parameters import MAX_DEGREE
 from mtmetrology.samba.artefact import load_artefact
 from mtmetrology.units import to_internal
 
 app = typer.Typer(
-    help="Machine definitions: list, show, check, identifiability.", no_args_is_help=True
+    help="Machine definitions: list, show, export, check, identifiability.",
+    no_args_is_help=True,
 )
 
 MachineArg = Annotated[str, typer.Argument(help="Preset name or machine YAML file.")]
@@ -123,6 +124,27 @@ def show(
         f"in the machine frame (right-hand rule). Stylus centre at zero readings: "
         f"{tuple(doc['stylus_at_zero_mm'])} mm."
     )
+
+
+@app.command("export")
+@user_errors
+def export(
+    preset: Annotated[str, typer.Argument(help="Preset name (mtm machine list).")],
+    output: Annotated[
+        Path | None,
+        typer.Option("-o", "--output", help="Machine YAML to write (standard output if omitted)."),
+    ] = None,
+) -> None:
+    """Write a preset as a machine file, to edit (travels, offsets, models) and give to
+    --machine FILE; read unchanged, it is the preset."""
+    text = preset_text(preset)
+    if output is None:
+        typer.echo(text, nl=False)
+        return
+    check_output(output)
+    with atomic_write(output, "w") as fh:
+        fh.write(text)
+    typer.echo(f"wrote {output}", err=True)
 
 
 @app.command("check")

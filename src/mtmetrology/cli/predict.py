@@ -149,6 +149,11 @@ def predict(
             f"{', '.join(added)}"
         )
     tools = None
+    if probes is None and table.has("probe"):
+        raise InputFileError(
+            f"{readings}: column 'probe' selects a stylus per row; give the probe set with "
+            "--probes (or remove the column to use the machine's tool)"
+        )
     if probes is not None:
         from mtmetrology.cli.cmm import probe_tools
         from mtmetrology.cmm.files import load_probes

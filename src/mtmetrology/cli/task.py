@@ -331,7 +331,7 @@ def uncertainty(
     if json_output:
         print_json(document)
     else:
-        _print(result)
+        _print(result, {"repeatability": repeatability, "unexplained": unexplained})
 
 
 def _label(group: str) -> str:
@@ -426,18 +426,41 @@ def _write_report(
     write_report(rep, path)
 
 
-def _print(result: TaskResult) -> None:
+#: What the computation uses for a source whose file was not given (console notes).
+NOT_GIVEN = {
+    "repeatability": (
+        "repeatability",
+        "no repeatability model given (--repeatability): the readings are taken as exact "
+        "(zero reading covariance)",
+    ),
+    "unexplained": (
+        "unexplained_volumetric_error",
+        "no unexplained-volumetric-error document given (--unexplained): taken as zero",
+    ),
+}
+
+
+def _print(result: TaskResult, given: dict[str, Path | None]) -> None:
+    """Console summary; a source without its file is named as absent, not as 0.0 %."""
     r = result.result
+    absent = [NOT_GIVEN[option] for option, path in given.items() if path is None]
+    omit = {source for source, _ in absent}
+    if result.long_term != "propagated":  # recalibrated: no such term, said on its own line
+        omit.add("long_term_variation")
     for j, o in enumerate(r.outputs):
         typer.echo(
             f"{o.name} = {o.value:.4f} mm, u = {from_internal(o.u, 'µm'):.2f} µm, "
             f"U = {from_internal(o.U, 'µm'):.2f} µm (k = {o.k:.2f}, p = {o.p})"
         )
         shares = ", ".join(
-            f"{_label(k)} {round(100 * v[j], 1) + 0.0:.1f} %" for k, v in result.shares.items()
+            f"{_label(k)} {round(100 * v[j], 1) + 0.0:.1f} %"
+            for k, v in result.shares.items()
+            if k not in omit
         )
         typer.echo(f"  first-order budget: {shares}")
     typer.echo(f"  long-term variation of the parameters: {result.long_term}")
+    for _, note in absent:
+        typer.echo(note)
     if result.mcm is not None:
         typer.echo(
             f"Monte Carlo: {result.mcm.trials} trials"

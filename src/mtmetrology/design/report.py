@@ -61,7 +61,7 @@ def _samba_design(
             ["error model", doc["model"]],
             ["criterion", doc["criterion"]],
             ["k (strategy xB.kn)", doc["k"]],
-            ["count rule", doc["count_rule"]],
+            ["count rule", f"{doc['count_rule']} ({doc['count_rule_reason']})"],
             ["indexations chosen", doc["n_indexations"]],
             ["accessible candidate indexations", doc["n_accessible_indexations"]],
             ["candidate indexations", doc["n_candidate_indexations"]],

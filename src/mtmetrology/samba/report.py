@@ -12,8 +12,9 @@
 - :class:`~mtmetrology.samba.verify.LengthCheck`: the gauge-length errors of each pair
   before and after compensation and their statistics.
 
-Values are in customary units (µm, µrad, µm/m, mm); U = k u with k = 2 in the parameter
-table (the GUF/MCM tables give their own k).
+Values are in customary units (µm, µrad, µm/m, mm); U = k u in the parameter table with
+the document's one coverage factor (``coverage.k``: 1.96 for p = 0.95, the k of the GUF
+outputs; :func:`mtmetrology.samba.calibrate.coverage`).
 
 References
 ----------
@@ -37,10 +38,8 @@ from mtmetrology.report.format import format_uncertainty, format_value
 from mtmetrology.report.results import add_result, renders
 from mtmetrology.units import from_internal
 
-__all__ = ["COVERAGE_FACTOR", "indication_residuals", "length_error_bars"]
+__all__ = ["indication_residuals", "length_error_bars"]
 
-#: k of the expanded uncertainties of the parameter table.
-COVERAGE_FACTOR = 2.0
 #: Correlation maps of the error parameters are drawn up to this many parameters.
 MAX_MAPPED = 90
 
@@ -103,9 +102,10 @@ def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
         "Error parameters",
         f"{len(doc['parameters'])} parameters; covariance from {doc['covariance_source']}.",
     )
+    k = doc["coverage"]["k"]
     rep.table(
-        figures.parameter_table_columns(COVERAGE_FACTOR),
-        figures.parameter_table_rows(doc, coverage_factor=COVERAGE_FACTOR),
+        figures.parameter_table_columns(round(k, 2)),
+        figures.parameter_table_rows(doc, coverage_factor=k),
     )
     cov = doc.get("covariance")
     if cov is not None and 1 < len(cov["names"]) <= MAX_MAPPED:
