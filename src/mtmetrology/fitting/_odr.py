@@ -16,10 +16,10 @@ from typing import Any, NamedTuple
 import numpy as np
 import scipy.linalg
 
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
 from mtmetrology.fitting.elements import Element
 from mtmetrology.optimize import LeastSquaresResult, Status, least_squares
-from mtmetrology.report.notebook import NotebookRepr
 
 # A singular value below this fraction of the largest marks a degenerate point set.
 _DEGENERATE = 1e-10

@@ -34,12 +34,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError, RankDeficientError
 from mtmetrology.identification.diagnostics import IdentifiabilityReport, analyse_identifiability
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.optimize import STATUS_MESSAGES, Status, least_squares
-from mtmetrology.report.notebook import NotebookRepr
 
 __all__ = ["IdentificationError", "IdentificationResult", "gauss_newton"]
 

@@ -19,8 +19,8 @@ from typing import ClassVar
 import numpy as np
 from scipy import stats
 
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import ConvergenceError, InputError
-from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.uncertainty.outputs import Output, json_dof, output_labels, output_records
 from mtmetrology.uncertainty.regions import (
     normal_ellipsoidal_coverage_factor,

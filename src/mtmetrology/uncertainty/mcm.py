@@ -26,8 +26,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
-from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.rng import SeedLike, chunk_generators
 from mtmetrology.uncertainty.executors import resolve_executor
 from mtmetrology.uncertainty.outputs import Output, output_labels, output_records

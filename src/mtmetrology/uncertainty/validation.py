@@ -21,8 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
-from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.uncertainty.mcm import MCMResult, Tolerance, check_tolerance, numerical_tolerance
 from mtmetrology.uncertainty.regions import normal_ellipsoidal_coverage_factor
 
