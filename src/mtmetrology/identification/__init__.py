@@ -1,4 +1,12 @@
-"""Identification engine: weighted non-linear least squares with identifiability diagnostics."""
+"""Identification engine: weighted non-linear least squares with identifiability diagnostics,
+and the uncertainty of what it identifies (:mod:`mtmetrology.identification.uncertainty`:
+GUF through the full Jacobian, Monte Carlo re-solving every trial, JCGM 102 validation).
+
+The uncertainty names load on first use (PEP 562): importing the solver does not load the
+uncertainty engine.
+"""
+
+import importlib
 
 from mtmetrology.identification.diagnostics import (
     IdentifiabilityReport,
@@ -17,6 +25,16 @@ from mtmetrology.identification.solver import (
     gauss_newton,
 )
 
+_UNCERTAINTY = (
+    "IdentificationModel",
+    "identification_guf",
+    "identification_mcm",
+    "input_sensitivities",
+    "joint_coverage",
+    "unknowns_covariance",
+    "validate_identification",
+)
+
 __all__ = [
     "BallCentreProblem",
     "IdentifiabilityReport",
@@ -28,4 +46,11 @@ __all__ = [
     "gauss_newton",
     "observability_indices",
     "senses_from_sequence",
+    *_UNCERTAINTY,
 ]
+
+
+def __getattr__(name: str):
+    if name in _UNCERTAINTY:
+        return getattr(importlib.import_module("mtmetrology.identification.uncertainty"), name)
+    raise AttributeError(f"module 'mtmetrology.identification' has no attribute {name!r}")

@@ -22,13 +22,10 @@ from mtmetrology.samba.simulate import (
     simulate_records,
 )
 from mtmetrology.samba.uncertainty import (
-    IdentificationModel,
     SambaUncertainty,
     evaluate_uncertainty,
-    identification_guf,
-    identification_mcm,
     indication_inputs,
-    joint_coverage,
+    uncertainty_model,
 )
 from mtmetrology.samba.verify import (
     LengthCheck,
@@ -39,7 +36,6 @@ from mtmetrology.samba.verify import (
 
 __all__ = [
     "BallLayout",
-    "IdentificationModel",
     "LengthCheck",
     "ProbingProgramme",
     "SambaArtefact",
@@ -49,10 +45,7 @@ __all__ = [
     "SambaUncertainty",
     "calibrate",
     "evaluate_uncertainty",
-    "identification_guf",
-    "identification_mcm",
     "indication_inputs",
-    "joint_coverage",
     "load_artefact",
     "load_balls",
     "probing_sequence",
@@ -61,5 +54,6 @@ __all__ = [
     "read_records",
     "simulate_length_readings",
     "simulate_records",
+    "uncertainty_model",
     "verify_length",
 ]
