@@ -12,7 +12,7 @@ from mtmetrology.fitting.features import GaugeLength, SphereDiameter, Sphericity
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.omm.repeatability import sphere_normal
 from mtmetrology.omm.task import task_uncertainty
-from mtmetrology.uncertainty.mcm import Tolerance
+from mtmetrology.uncertainty.mcm import NumericalTolerance
 from mtmetrology.units import to_internal
 
 MACHINE = Machine.load("five-axis-wcbxfzyst")
@@ -33,7 +33,7 @@ COV_E = np.array([[4.5, -1.7, 0.5], [-1.7, 6.6, 0.7], [0.5, 0.7, 5.8]]) * 1e-5
 SIGMA = np.diag((MACHINE.parameter_scales * 5.0) ** 2)  # 5 µm, µrad, µm/m day to day
 V = np.zeros((2, 6, 6))
 V[:, :3, :3] = np.eye(3) * (0.5 * UM) ** 2
-THESIS = Tolerance(0.05 * UM, eigenvalue=0.05, coverage_factor=0.05)  # Tables 7-1, 7-2
+THESIS = NumericalTolerance(0.05 * UM, eigenvalue=0.05, coverage_factor=0.05)  # Tables 7-1, 7-2
 
 
 def _gauge(feature, **kw):

@@ -77,7 +77,7 @@ from mtmetrology.optimize import chord_batch, least_squares
 from mtmetrology.rng import SeedLike
 from mtmetrology.uncertainty import GUFResult, InputSet, MCMResult, monte_carlo, validate_guf
 from mtmetrology.uncertainty import guf as guf_propagate
-from mtmetrology.uncertainty.mcm import Tolerance, numerical_tolerance
+from mtmetrology.uncertainty.mcm import NumericalTolerance, numerical_tolerance
 from mtmetrology.uncertainty.regions import (
     normal_ellipsoidal_coverage_factor,
     normal_rectangular_coverage_factor,
@@ -305,7 +305,7 @@ def identification_mcm(
         JCGM 101 §7.9 / JCGM 102 §7.8 adaptive procedure.
     digits : int
         Significant digits of the standard uncertainties the adaptive run stabilises.
-    tolerance : float, array or Tolerance, optional
+    tolerance : float, array or NumericalTolerance, optional
         Explicit numerical tolerances (output units).
     seed : int, SeedSequence or Generator
     executor : None, str, int or executor object
@@ -377,7 +377,7 @@ def validate_identification(guf: GUFResult, mcm: MCMResult, digits: int = 2) -> 
         guf.estimate,
         guf.covariance,
         mcm,
-        tolerance=Tolerance(delta),
+        tolerance=NumericalTolerance(delta),
         p=guf.p,
         guf_coverage_factor=guf.region_coverage_factor,
         names=guf.names,
