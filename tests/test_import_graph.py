@@ -1,8 +1,9 @@
 """The layers of the package, read from the source (ast): imports point downwards.
 
 - engines (kinematics, uncertainty, fitting, identification, optimize, io, units, rng,
-  errors, display) import nothing from ``report``, ``cli`` or an application, not even
+  errors, display, _lazy) import nothing from ``report``, ``cli`` or an application, not even
   inside a function;
+- the leaf modules (display, _lazy) import nothing of the package;
 - an application imports no other application;
 - no import cycle between modules, counting the imports inside functions;
 - ``cli/`` imports no numpy, scipy or matplotlib at module level (a command loads only
@@ -36,6 +37,7 @@ ENGINES = {
     "display",
     "_backend",
     "_memory",
+    "_lazy",
 }
 APPLICATIONS = {
     "samba",
@@ -148,6 +150,11 @@ def _edges(kinds: set[str], targets: set[str]) -> list[str]:
 
 def test_engines_import_no_report_cli_or_application():
     assert _edges(ENGINES, TOP_FLOOR | APPLICATIONS) == []
+
+
+@pytest.mark.parametrize("leaf", ["mtmetrology.display", "mtmetrology._lazy"])
+def test_leaf_modules_import_nothing_of_the_package(leaf):
+    assert [t for t, _ in imports(leaf) if t.split(".")[0] == "mtmetrology"] == []
 
 
 def test_applications_import_no_other_application():

@@ -14,8 +14,9 @@ its engine (the table ``_API`` names it) and is documented there.
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
+
+from mtmetrology._lazy import lazy_exports
 
 __version__ = "0.1.0"
 
@@ -112,14 +113,4 @@ if TYPE_CHECKING:
     from mtmetrology.units import from_internal, to_internal
 
 
-def __getattr__(name: str):
-    module = _API.get(name)
-    if module is None:
-        raise AttributeError(f"module 'mtmetrology' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later look-ups skip __getattr__
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _API)

@@ -23,7 +23,7 @@ import sys
 from collections.abc import Callable
 from functools import wraps
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import numpy as np
 import typer
@@ -37,11 +37,13 @@ from mtmetrology.errors import (
     InputError,
     MtmetrologyError,
 )
-from mtmetrology.io import InputFileError, Table
-from mtmetrology.io.files import committed
+from mtmetrology.io.files import InputFileError, committed
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.units import from_internal
+
+if TYPE_CHECKING:
+    from mtmetrology.io.tables import Table  # pyarrow: loaded by the commands that read CSV
 
 __all__ = [
     "CLICK_EXCEPTION",

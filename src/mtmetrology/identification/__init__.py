@@ -6,8 +6,7 @@ The uncertainty names load on first use (PEP 562): importing the solver does not
 uncertainty engine.
 """
 
-import importlib
-
+from mtmetrology._lazy import lazy_exports
 from mtmetrology.identification.diagnostics import (
     IdentifiabilityReport,
     NullDirection,
@@ -25,15 +24,18 @@ from mtmetrology.identification.solver import (
     gauss_newton,
 )
 
-_UNCERTAINTY = (
-    "IdentificationModel",
-    "identification_guf",
-    "identification_mcm",
-    "input_sensitivities",
-    "joint_coverage",
-    "unknowns_covariance",
-    "validate_identification",
-)
+_UNCERTAINTY = {
+    name: "mtmetrology.identification.uncertainty"
+    for name in (
+        "IdentificationModel",
+        "identification_guf",
+        "identification_mcm",
+        "input_sensitivities",
+        "joint_coverage",
+        "unknowns_covariance",
+        "validate_identification",
+    )
+}
 
 __all__ = [
     "BallCentreProblem",
@@ -49,8 +51,4 @@ __all__ = [
     *_UNCERTAINTY,
 ]
 
-
-def __getattr__(name: str):
-    if name in _UNCERTAINTY:
-        return getattr(importlib.import_module("mtmetrology.identification.uncertainty"), name)
-    raise AttributeError(f"module 'mtmetrology.identification' has no attribute {name!r}")
+__getattr__, __dir__ = lazy_exports(__name__, _UNCERTAINTY)

@@ -10,29 +10,31 @@ uncertainty through the identification (GUF and Monte Carlo), and the length che
 - :mod:`~mtmetrology.samba.verify` — the gauge-block length check.
 """
 
-from mtmetrology.samba.artefact import SambaArtefact, load_artefact
-from mtmetrology.samba.calibrate import SambaCalibration, calibrate
-from mtmetrology.samba.records import SambaRecords, read_records
-from mtmetrology.samba.setup import SambaSetup, probing_sequence
-from mtmetrology.samba.simulate import (
-    BallLayout,
-    ProbingProgramme,
-    load_balls,
-    read_poses,
-    simulate_records,
-)
-from mtmetrology.samba.uncertainty import (
-    SambaUncertainty,
-    evaluate_uncertainty,
-    indication_inputs,
-    uncertainty_model,
-)
-from mtmetrology.samba.verify import (
-    LengthCheck,
-    read_length_readings,
-    simulate_length_readings,
-    verify_length,
-)
+from mtmetrology._lazy import lazy_exports
+
+_EXPORTS = {
+    "SambaArtefact": "mtmetrology.samba.artefact",
+    "load_artefact": "mtmetrology.samba.artefact",
+    "SambaCalibration": "mtmetrology.samba.calibrate",
+    "calibrate": "mtmetrology.samba.calibrate",
+    "SambaRecords": "mtmetrology.samba.records",
+    "read_records": "mtmetrology.samba.records",
+    "SambaSetup": "mtmetrology.samba.setup",
+    "probing_sequence": "mtmetrology.samba.setup",
+    "BallLayout": "mtmetrology.samba.simulate",
+    "ProbingProgramme": "mtmetrology.samba.simulate",
+    "load_balls": "mtmetrology.samba.simulate",
+    "read_poses": "mtmetrology.samba.simulate",
+    "simulate_records": "mtmetrology.samba.simulate",
+    "SambaUncertainty": "mtmetrology.samba.uncertainty",
+    "evaluate_uncertainty": "mtmetrology.samba.uncertainty",
+    "indication_inputs": "mtmetrology.samba.uncertainty",
+    "uncertainty_model": "mtmetrology.samba.uncertainty",
+    "LengthCheck": "mtmetrology.samba.verify",
+    "read_length_readings": "mtmetrology.samba.verify",
+    "simulate_length_readings": "mtmetrology.samba.verify",
+    "verify_length": "mtmetrology.samba.verify",
+}
 
 __all__ = [
     "BallLayout",
@@ -57,3 +59,5 @@ __all__ = [
     "uncertainty_model",
     "verify_length",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
