@@ -20,17 +20,9 @@ from mtmetrology.cli._common import (
     write_report,
 )
 from mtmetrology.errors import EXIT_INPUT, InputError, RankDeficientError
-from mtmetrology.identification import (
-    BallCentreProblem,
-    ScaleBar,
-    analyse_identifiability,
-    senses_from_sequence,
-)
-from mtmetrology.io import read_csv_table
 from mtmetrology.kinematics.conventions import machine_description
 from mtmetrology.kinematics.machine import Machine, list_presets
 from mtmetrology.kinematics.parameters import MAX_DEGREE
-from mtmetrology.samba.artefact import load_artefact
 from mtmetrology.units import to_internal
 
 app = typer.Typer(
@@ -193,6 +185,17 @@ def identifiability(
     rank-deficient set-up exits with code 2 after naming the confounded parameters
     (exit 0 with --allow-deficient).
     """
+    # here, not at the top: ``mtm machine list`` needs neither the identification nor
+    # the CSV reader (pyarrow)
+    from mtmetrology.identification import (
+        BallCentreProblem,
+        ScaleBar,
+        analyse_identifiability,
+        senses_from_sequence,
+    )
+    from mtmetrology.io.tables import read_csv_table
+    from mtmetrology.samba.artefact import load_artefact
+
     if not (math.isfinite(sigma_um) and sigma_um > 0):
         raise InputError(f"--sigma-um must be a positive number of µm, got {sigma_um}")
     m = Machine.load(machine, model)
