@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-from scipy import stats
 
 from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import ConvergenceError, InputError
@@ -550,6 +549,8 @@ def guf(
 
 
 def _t_factor(p: float, nu: float, truncate: bool) -> float:
+    from scipy import stats  # here, not at the top: importing it takes 0.5 s
+
     q = 0.5 * (1.0 + p)
     if math.isinf(nu):
         return float(stats.norm.ppf(q))

@@ -19,7 +19,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
 from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
@@ -260,6 +259,8 @@ def validate_guf(
     >>> [round(row.difference, 2) for row in report.rows], report.passed
     ([0.04, 0.04], False)
     """
+    from scipy import stats  # here, not at the top: importing it takes 0.5 s
+
     m = mcm.m
     p = float(p)
     if not 0.0 < p < 1.0:
