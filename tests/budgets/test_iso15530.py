@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from mtmetrology.budgets import Tolerance
 from mtmetrology.budgets.iso15530 import (
     ISO15530Budget,
     Policy,
@@ -20,6 +19,7 @@ from mtmetrology.budgets.iso15530 import (
 )
 from mtmetrology.cli import build_app
 from mtmetrology.errors import InputError
+from mtmetrology.uncertainty.conformity import Tolerance
 from mtmetrology.units import to_internal
 
 # Seed 003, Table 1 (µm): feature, u_b, u_p, u_cal, u_MS, U_VDI, U_ISO.

@@ -225,7 +225,7 @@ def test_repeatability_from_repeated_results():
 
 
 def test_tolerance_decisions_use_iso_14253_1():
-    from mtmetrology.budgets import Tolerance
+    from mtmetrology.uncertainty.conformity import Tolerance
 
     vmap = _map(lambda x: S * x * [1.0, 1.0, 0.0])
     pts, _ = _bore(108.0, CENTRE)

@@ -12,7 +12,7 @@ from mtmetrology.fitting.features import GaugeLength, SphereDiameter, Sphericity
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.omm.repeatability import sphere_normal
 from mtmetrology.omm.task import task_uncertainty
-from mtmetrology.uncertainty.mcm import Tolerance
+from mtmetrology.uncertainty.mcm import NumericalTolerance
 from mtmetrology.units import to_internal
 
 MACHINE = Machine.load("five-axis-wcbxfzyst")
@@ -37,7 +37,7 @@ SIGMA = np.diag((MACHINE.parameter_scales * 5.0) ** 2)  # 5 µm, µrad, µm/m
 EXACT = np.zeros((13, 13))
 V = np.zeros((2, 6, 6))
 V[:, :3, :3] = np.eye(3) * (0.5 * UM) ** 2
-THESIS = Tolerance(0.05 * UM, eigenvalue=0.05, coverage_factor=0.05)  # Tables 7-1, 7-2
+THESIS = NumericalTolerance(0.05 * UM, eigenvalue=0.05, coverage_factor=0.05)  # Tables 7-1, 7-2
 
 
 def _gauge(feature, **kw):

@@ -47,8 +47,8 @@ from enum import StrEnum
 
 import numpy as np
 
-from mtmetrology.budgets.conformity import ConformityDecision, Tolerance, decide
 from mtmetrology.errors import InputError
+from mtmetrology.uncertainty.conformity import ConformityDecision, Tolerance, decide
 from mtmetrology.uncertainty.outputs import Output
 from mtmetrology.units import from_internal, to_internal
 

@@ -38,7 +38,6 @@ from typing import ClassVar
 
 import numpy as np
 
-from mtmetrology.budgets.conformity import Tolerance, decide
 from mtmetrology.budgets.iso15530 import (
     Policy,
     RepeatabilityMethod,
@@ -63,6 +62,7 @@ from mtmetrology.fitting import (
 from mtmetrology.kinematics.volumetric_map import VolumetricMap
 from mtmetrology.report.format import format_uncertainty
 from mtmetrology.rng import SeedLike, as_generator
+from mtmetrology.uncertainty.conformity import Tolerance, decide
 from mtmetrology.units import from_internal, to_internal
 
 __all__ = [

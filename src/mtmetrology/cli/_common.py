@@ -24,9 +24,8 @@ import sys
 from collections.abc import Callable
 from functools import wraps
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
-import numpy as np
 import typer
 from typer.core import TyperGroup
 
@@ -38,11 +37,14 @@ from mtmetrology.errors import (
     InputError,
     MtmetrologyError,
 )
-from mtmetrology.io import InputFileError, Table
-from mtmetrology.io.files import committed
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.io.files import InputFileError, committed
 from mtmetrology.units import from_internal
+
+if TYPE_CHECKING:  # loaded by the commands that use them: mtm --help needs none
+    import numpy as np
+
+    from mtmetrology.io.tables import Table
+    from mtmetrology.kinematics.machine import Machine
 
 __all__ = [
     "CLICK_EXCEPTION",
@@ -210,6 +212,8 @@ def readings_from_table(machine: Machine, table: Table) -> np.ndarray:
     A reading outside the travel of its axis (machine file ``travel_mm``/``travel_deg``)
     is refused with its line: no measurement was taken there.
     """
+    import numpy as np
+
     readings = np.zeros((len(table), machine.n_axes))  # a missing S stays 0
     for k, a in enumerate(machine.axis_names):
         if a == "S" and not table.has(a):
@@ -229,6 +233,8 @@ def readings_from_table(machine: Machine, table: Table) -> np.ndarray:
 
 def senses_from_table(machine: Machine, table: Table) -> np.ndarray | None:
     """``sense_<axis>`` columns (+1/−1) when present, else None."""
+    import numpy as np
+
     names = [f"sense_{a}" for a in machine.axis_names]
     if not any(table.has(n) for n in names):
         return None
@@ -296,6 +302,9 @@ def machine_with_parameters(machine: str, params: Path | None):
     (:meth:`ParameterSet.machine_for`) and their values, or the machine and None (zero
     errors) without a set.
     """
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+
     m = Machine.load(machine)
     if params is None:
         return m, None

@@ -8,7 +8,6 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from mtmetrology.budgets.conformity import Tolerance
 from mtmetrology.budgets.iso15530 import Policy, RepeatabilityMethod, iso15530_3_budget
 from mtmetrology.budgets.volumetric_map import (
     FEATURE_KINDS,
@@ -30,6 +29,7 @@ from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.volumetric_map import MAP_KIND, VolumetricMap
 from mtmetrology.report.format import format_uncertainty
+from mtmetrology.uncertainty.conformity import Tolerance
 from mtmetrology.units import to_internal
 
 app = typer.Typer(help="Task-uncertainty budgets of on-machine measurements.", no_args_is_help=True)

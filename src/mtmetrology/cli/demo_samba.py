@@ -24,7 +24,6 @@ from dataclasses import replace
 
 import numpy as np
 
-from mtmetrology.budgets.conformity import Tolerance, decide
 from mtmetrology.cli import simulate as simulate_cli
 from mtmetrology.cli._common import readings_from_table
 from mtmetrology.cli.demo import DemoContext
@@ -50,6 +49,7 @@ from mtmetrology.samba import (
     simulate_records,
     verify_length,
 )
+from mtmetrology.uncertainty.conformity import Tolerance, decide
 from mtmetrology.units import from_internal, to_internal
 
 __all__ = ["samba_calibration_section", "task_section"]

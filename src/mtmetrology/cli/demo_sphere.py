@@ -25,7 +25,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import binom
 
-from mtmetrology.budgets.conformity import Tolerance, decide
 from mtmetrology.cli._common import readings_from_table
 from mtmetrology.cli.demo import DemoContext
 from mtmetrology.cli.task import FeatureName, Form, task_feature
@@ -40,6 +39,7 @@ from mtmetrology.report import figures
 from mtmetrology.samba import simulate_records
 from mtmetrology.samba.artefact import SambaArtefact
 from mtmetrology.samba.simulate import ProbingProgramme
+from mtmetrology.uncertainty.conformity import Tolerance, decide
 from mtmetrology.units import from_internal, to_internal
 
 __all__ = ["sphere_task_section"]

@@ -19,7 +19,6 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from mtmetrology.budgets.conformity import Tolerance, decide
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
@@ -55,6 +54,7 @@ from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.omm.repeatability_file import load_repeatability_model
 from mtmetrology.omm.task import TaskResult, reading_covariance, task_uncertainty
 from mtmetrology.omm.unexplained import load_unexplained_covariance
+from mtmetrology.uncertainty.conformity import Tolerance, decide
 from mtmetrology.units import from_internal
 
 app = typer.Typer(help="Uncertainty of on-machine measurement tasks.", no_args_is_help=True)

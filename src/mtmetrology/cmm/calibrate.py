@@ -60,7 +60,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 from threadpoolctl import threadpool_limits
 
 from mtmetrology.cmm.files import BallPlate, BallPlateRecords, ProbeSet
@@ -159,6 +158,8 @@ class BallPlateCalibration(CMMNotebookRepr):
 
     def to_document(self, model_selection: dict | None = None) -> dict:
         """The result JSON: a parameter set (``kind: ballplate-calibration``) and more."""
+        from scipy import stats  # here, not at the top: importing it takes 0.5 s
+
         doc = self.parameters.to_document()
         doc["kind"] = KIND
         res = self.identification

@@ -25,6 +25,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from mtmetrology.cmm.calibrate import BallPlateCalibration
+from mtmetrology.cmm.compare import ModelComparison
+from mtmetrology.cmm.gp import GPErrorModel
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
 from mtmetrology.report.results import add_result, renders
@@ -120,7 +123,7 @@ def _correlation(covariance) -> np.ndarray:
         return np.nan_to_num(covariance / np.outer(u, u))
 
 
-@renders("mtmetrology.cmm.calibrate.BallPlateCalibration", "Ball-plate calibration of a CMM")
+@renders(BallPlateCalibration, "Ball-plate calibration of a CMM")
 def _calibration(rep: Report, cal, *, model_selection: dict | None = None, **_) -> None:
     """``model_selection``: the scores of ``cross_validate`` (``--model auto``)."""
     doc = cal.to_document(model_selection)
@@ -249,7 +252,7 @@ def _uncertainty(rep: Report, cal) -> None:
     )
 
 
-@renders("mtmetrology.cmm.gp.GPErrorModel", "Gaussian-process error model of a CMM")
+@renders(GPErrorModel, "Gaussian-process error model of a CMM")
 def _gp(rep: Report, gp, **_) -> None:
     doc = gp.to_document()
     mean = "zero mean" if gp.mean is None else f"kinematic mean ({gp.mean.model})"
@@ -296,7 +299,7 @@ def _gp(rep: Report, gp, **_) -> None:
     )
 
 
-@renders("mtmetrology.cmm.compare.ModelComparison", "Kinematic versus GP error model")
+@renders(ModelComparison, "Kinematic versus GP error model")
 def _comparison(rep: Report, comp, **_) -> None:
     k = comp.table[0]["coverage_factor"] if comp.table else COVERAGE_FACTOR
     rep.section(

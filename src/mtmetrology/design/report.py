@@ -20,6 +20,7 @@ designs. *Technometrics* 16(2), 203–210.
 from __future__ import annotations
 
 from mtmetrology.design.counts import MINUTES_PER_MEASUREMENT
+from mtmetrology.design.samba import SambaDesign
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
 from mtmetrology.report.results import renders
@@ -27,7 +28,7 @@ from mtmetrology.report.results import renders
 __all__: list[str] = []
 
 
-@renders("mtmetrology.design.samba.SambaDesign", "SAMBA calibration plan")
+@renders(SambaDesign, "SAMBA calibration plan")
 def _samba_design(
     rep: Report,
     design,

@@ -44,6 +44,7 @@ from mtmetrology.design.programme import (
     nominal_jacobian,
     programme_problem,
 )
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError, RankDeficientError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.rng import SeedLike, chunk_generators
@@ -146,8 +147,10 @@ class BallInformation:
 
 
 @dataclass(frozen=True)
-class SambaDesign:
+class SambaDesign(NotebookRepr):
     """Result of a SAMBA design: the programme, the DETMAX runs and the counts.
+
+    Shown in a notebook as the plan report (:mod:`mtmetrology.design.report`).
 
     Attributes
     ----------
@@ -176,6 +179,8 @@ class SambaDesign:
     n_candidate_indexations: int
     n_accessible: int
     count_rule_reason: str | None = None
+
+    _renderer_module = "mtmetrology.design.report"
 
     def to_dict(
         self, minutes_per_measurement=MINUTES_PER_MEASUREMENT, minutes_per_indexation=0.0

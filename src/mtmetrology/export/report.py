@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
+from mtmetrology.export.workflow import ExportResult
 from mtmetrology.report import figures
 from mtmetrology.report.results import renders
 
@@ -62,7 +63,7 @@ def _residual_map(res: dict) -> Figure | None:
     )
 
 
-@renders("mtmetrology.export.workflow.ExportResult", "Compensation export")
+@renders(ExportResult, "Compensation export")
 def _render(rep, result, **_context) -> None:
     res = result.residual
     rep.section(

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
 from mtmetrology.export import fanuc, grid, isg, linuxcnc, siemens
 from mtmetrology.export.control import ControlTable, residual
@@ -23,7 +24,6 @@ from mtmetrology.export.model import CompensationModel, compensation_model
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.topology import LINEAR_AXES
-from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.units import from_internal
 
 __all__ = ["FORMATS", "KIND", "ExportResult", "export_compensation", "residual_check"]

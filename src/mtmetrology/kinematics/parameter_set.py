@@ -30,12 +30,12 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError, atomic_write
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameters import ParameterNameError, parse_parameter
-from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.units import UnitError, parse_unit
 
 __all__ = ["KIND", "RESULT_KINDS", "ParameterSet"]

@@ -55,12 +55,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mtmetrology.budgets.conformity import ConformityDecision
 from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.omm.repeatability import RepeatabilityModel
 from mtmetrology.omm.simulator import MeasurementModel, TaskInputs, covariance_simulator
 from mtmetrology.rng import SeedLike, chunk_generators
+from mtmetrology.uncertainty.conformity import ConformityDecision
 from mtmetrology.uncertainty.guf import GUFResult, guf
 from mtmetrology.uncertainty.mcm import MCMResult, monte_carlo
 from mtmetrology.uncertainty.outputs import result_document

@@ -36,6 +36,9 @@ from mtmetrology.report import figures
 from mtmetrology.report.document import Report
 from mtmetrology.report.format import format_uncertainty, format_value
 from mtmetrology.report.results import add_result, renders
+from mtmetrology.samba.calibrate import SambaCalibration
+from mtmetrology.samba.uncertainty import SambaUncertainty
+from mtmetrology.samba.verify import LengthCheck
 from mtmetrology.units import from_internal
 
 __all__ = ["indication_residuals", "length_error_bars"]
@@ -73,7 +76,7 @@ def _correlation(covariance) -> np.ndarray:
         return np.nan_to_num(cov / np.outer(u, u))
 
 
-@renders("mtmetrology.samba.calibrate.SambaCalibration", "SAMBA calibration")
+@renders(SambaCalibration, "SAMBA calibration")
 def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
     """``uncertainty``: the SambaUncertainty that sets the parameter covariance."""
     doc = cal.to_dict(uncertainty)
@@ -150,7 +153,7 @@ def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
         add_result(rep, uncertainty)
 
 
-@renders("mtmetrology.samba.uncertainty.SambaUncertainty", "SAMBA uncertainty")
+@renders(SambaUncertainty, "SAMBA uncertainty")
 def _uncertainty(rep: Report, unc, **_) -> None:
     doc = unc.to_dict()
     g, mc = unc.guf, unc.mcm
@@ -263,7 +266,7 @@ def length_error_bars(pairs, nominal_um, compensated_um) -> Figure:
     return fig
 
 
-@renders("mtmetrology.samba.verify.LengthCheck", "Gauge-length check")
+@renders(LengthCheck, "Gauge-length check")
 def _length(rep: Report, check, **_) -> None:
     doc = check.to_dict()
     u = "" if check.u_length is None else f", u(L) = {check.u_length:g} mm"

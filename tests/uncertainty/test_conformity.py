@@ -1,4 +1,4 @@
-"""Tests for mtmetrology.budgets.conformity (ISO 14253-1:2017 decision rules).
+"""Tests for mtmetrology.uncertainty.conformity (ISO 14253-1:2017 decision rules).
 
 The boundary cases use binary-exact numbers (multiples of 1/8) so that "at the limit"
 is exact in floating point, and the next representable number on each side flips the
@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from mtmetrology.budgets import Decision, Tolerance, decide
 from mtmetrology.errors import InputError
+from mtmetrology.uncertainty.conformity import Decision, Tolerance, decide
 
 TWO_SIDED = Tolerance(10.0, -0.25, 0.5)  # LSL 9.75, USL 10.5
 U = 0.125
