@@ -73,7 +73,7 @@ SHARED_GROUPS = {
 #: The first paragraph of each command's help, shown by ``mtm --help`` without importing
 #: the command (tests/cli/test_cli_startup.py checks it against the command's own help).
 SUMMARIES = {
-    "machine": "Machine definitions: list, show, check, identifiability.",
+    "machine": "Machine definitions: list, show, export, check, identifiability.",
     "uncertainty": "Evaluate measurement uncertainty (GUF, Monte Carlo).",
     "fit": "Fit a line, plane, circle, sphere, cylinder or cone to points and report its form.",
     "predict": "Compensated stylus-centre coordinates x, y, z (mm) in the workpiece frame.",
@@ -83,6 +83,12 @@ SUMMARIES = {
     "repeatability": "Probing repeatability models (on-machine measurement).",
     "task": "Uncertainty of on-machine measurement tasks.",
     "demo": "Run the engines end to end on built-in virtual machines and write a report.",
+    "budget": "Task-uncertainty budgets of on-machine measurements.",
+    "export": (
+        "Write a control's compensation tables and check.json: the residual tool-point error "
+        "after the control's own interpolation, with its uncertainty (k = 2), on a grid over "
+        "the travel."
+    ),
     "calibrate": SHARED_GROUPS["calibrate"][0],
     "simulate": SHARED_GROUPS["simulate"][0],
 }
