@@ -198,7 +198,11 @@ def _report_calibration(ctx: DemoContext, m: Machine, cal, unc, truth) -> int:
          "true inside"],
         rows,
     )  # fmt: skip
-    add_result(ctx.report, unc.validation)
+    add_result(
+        ctx.report,
+        unc.validation,
+        units=dict(zip(m.parameter_names, m.parameter_units, strict=True)),
+    )
     add_result(ctx.report, cal.parameters)
     centres = cal.ball_centres()
     ctx.report.figure(
@@ -351,7 +355,11 @@ def task_section(ctx: DemoContext, *, preset: str) -> None:
         ]],
     )  # fmt: skip
     add_result(ctx.report, result.guf)
-    add_result(ctx.report, result.validation)
+    add_result(
+        ctx.report,
+        result.validation,
+        units=dict(zip(result.guf.names, result.guf.units, strict=True)),
+    )
     validated = "validated" if result.validation.passed else "NOT validated"
     ctx.summary.append(
         f"task: gauge length {g.value:.4f} mm, u = {u_um:.2f} µm, U = {big_u_um:.2f} µm "

@@ -53,6 +53,12 @@ from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.omm.repeatability_file import load_repeatability_model
 from mtmetrology.omm.task import TaskResult, reading_covariance, task_uncertainty
 from mtmetrology.omm.unexplained import load_unexplained_covariance
+from mtmetrology.report.format import (
+    SHARE_DEFINITION,
+    format_share,
+    format_uncertainty,
+    format_value,
+)
 from mtmetrology.units import from_internal
 
 app = typer.Typer(help="Uncertainty of on-machine measurement tasks.", no_args_is_help=True)
@@ -328,41 +334,40 @@ def _write_report(
         "Sepahi Boroujeni (2021), Ch. 6): repeatability, machine parameters and unexplained "
         f"volumetric errors; {result.inputs.simulator} covariance simulator.",
     )
-    rep.table(
-        ["output", "value", "u", "U", "k", "p", "interval", "unit"],
-        [
+    rows = []
+    for o in r.outputs:
+        u_um, big_u_um = float(from_internal(o.u, "µm")), float(from_internal(o.U, "µm"))
+        low, high = o.interval
+        rows.append(
             [
                 o.name,
-                f"{o.value:.6f}",
-                f"{from_internal(o.u, 'µm'):.3g} µm",
-                f"{from_internal(o.U, 'µm'):.3g} µm",
+                f"{format_value(o.value, o.u)} mm",
+                f"{format_uncertainty(u_um)} µm",
+                f"{format_uncertainty(big_u_um)} µm",
                 f"{o.k:.3f}",
                 o.p,
-                f"[{o.interval[0]:.6f}, {o.interval[1]:.6f}]",
-                "mm",
+                f"[{format_value(low, o.u)}, {format_value(high, o.u)}] mm",
             ]
-            for o in r.outputs
-        ],
-    )
+        )
+    rep.table(["output", "value", "u", "U", "k", "p", "interval"], rows)
     sources = list(result.shares)
     shares = [float(result.shares[k][target]) for k in sources]
-    u = float(r.outputs[target].u)
     rep.section("Budget by source (first order)")
     rep.table(
-        ["source", "share of u²"],
-        [[k.replace("_", " "), f"{100 * v:.1f} %"] for k, v in zip(sources, shares, strict=True)],
+        ["source", "share of u_c²"],
+        [[k.replace("_", " "), format_share(v)] for k, v in zip(sources, shares, strict=True)],
+        caption=f"{SHARE_DEFINITION}, summed over the inputs of each source.",
     )
     rep.figure(
         figures.budget_bars(
             [k.replace("_", " ") for k in sources],
-            [float(from_internal(u, "µm")) * max(v, 0.0) ** 0.5 for v in shares],
-            unit="µm",
+            shares,
             title=f"Uncertainty budget of {name}",
         ),
-        caption="Contribution of each source, u·√share (the squares add to u²).",
+        caption="Share of u_c² of each source, as in the table.",
     )
     if result.validation is not None:
-        add_result(rep, result.validation)
+        add_result(rep, result.validation, units=dict(zip(r.names, r.units, strict=True)))
     if result.decision is not None:
         d = result.decision.to_dict()
         tol = result.decision.tolerance
@@ -377,13 +382,13 @@ def _write_report(
 def _print(result: TaskResult) -> None:
     r = result.result
     for j, o in enumerate(r.outputs):
+        u_um, big_u_um = float(from_internal(o.u, "µm")), float(from_internal(o.U, "µm"))
         typer.echo(
-            f"{o.name} = {o.value:.4f} mm, u = {from_internal(o.u, 'µm'):.2f} µm, "
-            f"U = {from_internal(o.U, 'µm'):.2f} µm (k = {o.k:.2f}, p = {o.p})"
+            f"{o.name} = {format_value(o.value, o.u)} mm, u = {format_uncertainty(u_um)} µm, "
+            f"U = {format_uncertainty(big_u_um)} µm (k = {o.k:.2f}, p = {o.p})"
         )
         shares = ", ".join(
-            f"{k.replace('_', ' ')} {round(100 * v[j], 1) + 0.0:.1f} %"
-            for k, v in result.shares.items()
+            f"{k.replace('_', ' ')} {format_share(v[j])}" for k, v in result.shares.items()
         )
         typer.echo(f"  first-order budget: {shares}")
     if result.mcm is not None:

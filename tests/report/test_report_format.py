@@ -1,0 +1,46 @@
+"""The one rule for printed numbers: JCGM 100:2008, 7.2.6 (two significant digits of u)."""
+
+import pytest
+
+from mtmetrology.report.format import decimals_for, format_uncertainty, format_value
+
+
+@pytest.mark.parametrize(
+    ("u", "text"),
+    [
+        (0.095, "0.095"),  # already two digits
+        (9.96, "10"),  # rounds up a decade: "10", not "10.0" (three digits)
+        (0.996, "1.0"),
+        (0.0995, "0.10"),
+        (31.72, "32"),
+        (0.001234, "0.0012"),
+        (2.403635441, "2.4"),  # the validation table printed 2.403635441 µrad
+        (0.009459852299, "0.0095"),  # the plan table printed 0.009459852299
+        (9.96e-5, "1.0e-04"),  # scientific below 1e-4 keeps the second digit
+        (0.0, "0"),
+        (None, "—"),
+    ],
+)
+def test_uncertainty_has_two_significant_digits(u, text):
+    assert format_uncertainty(u) == text
+
+
+@pytest.mark.parametrize(
+    ("value", "u", "text"),
+    [
+        (50_000_838.62, 31.7, "50000839"),  # GUM H.1.6: l = 50 000 838 nm, u = 32 nm
+        (100.02147, 0.00035, "100.02147"),  # GUM 7.2.2: m_s = 100.021 47 g, u_c = 0.35 mg
+        (14.41022323, 0.0734, "14.410"),
+        (1.23456, 9.96, "1"),  # the value follows the rounded u (10): units digit
+        (-104.5912, 0.0734, "-104.591"),
+    ],
+)
+def test_value_is_rounded_to_the_decimal_of_its_uncertainty(value, u, text):
+    assert format_value(value, u) == text
+
+
+def test_decimals_of_rounded_uncertainty_and_degenerate_u():
+    assert [decimals_for(u) for u in (0.095, 9.96, 0.99)] == [3, 0, 2]
+    # u = 0 or not finite: the value keeps its digits instead of a fake precision
+    assert format_value(1.5, 0.0) == "1.5"
+    assert format_value(1.5, float("nan")) == "1.5"
