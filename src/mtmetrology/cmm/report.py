@@ -255,6 +255,15 @@ def _gp(rep: Report, gp, **_) -> None:
             for c in doc["components"]
         ],
     )
+    flags = gp.at_bounds
+    if flags:
+        rep.text(
+            "Warning: hyper-parameters at a bound of their search range, so the likelihood "
+            "has no interior optimum there: "
+            + "; ".join(str(f) for f in flags)
+            + ". A length-scale at its upper bound makes that component a constant offset; "
+            "an amplitude at its lower bound leaves the kinematic mean alone."
+        )
     fitted = np.column_stack([g.predict(gp.inputs) for g in gp.regressors])
     resid = gp.targets_um - fitted
     rep.section(
@@ -306,3 +315,14 @@ def _comparison(rep: Report, comp, **_) -> None:
         figures.length_errors(comp.plot, coverage_factor=k),
         caption=f"Length error of each model with its ±{k:g}u bar; red points are not covered.",
     )
+    if comp.gp_at_bounds:
+        rep.text(
+            "Warning: the GP's hyper-parameters ended at a bound of their search range ("
+            + "; ".join(
+                f"{f['component']}: {f['hyperparameter']} = {f['value']:.3g} {f['unit']}, "
+                f"{f['side']} bound"
+                for f in comp.gp_at_bounds
+            )
+            + "): where the amplitude is at its lower bound the GP predicts its kinematic "
+            "mean, and the two rows of the table agree by construction."
+        )
