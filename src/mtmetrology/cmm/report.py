@@ -27,6 +27,7 @@ import numpy as np
 
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
+from mtmetrology.report.format import format_uncertainty
 from mtmetrology.report.results import add_result, renders
 from mtmetrology.units import from_internal
 
@@ -217,9 +218,9 @@ def _uncertainty(rep: Report, cal) -> None:
     rep.table(
         ["quantity", "x (µm)", "y (µm)", "z (µm)"],
         [
-            ["U1: ball centres", *(f"{v:.3g}" for v in s["U1_um"])],
-            ["U2: measured region", *(f"{v:.3g}" for v in s["U2_um"])],
-            ["U3: whole volume", *(f"{v:.3g}" for v in s["U3_um"])],
+            ["U1: ball centres", *(format_uncertainty(v) for v in s["U1_um"])],
+            ["U2: measured region", *(format_uncertainty(v) for v in s["U2_um"])],
+            ["U3: whole volume", *(format_uncertainty(v) for v in s["U3_um"])],
         ],
     )
     region = np.round(np.asarray(s["region_mm"]), 1).tolist()
@@ -305,7 +306,7 @@ def _comparison(rep: Report, comp, **_) -> None:
                 r["n_lengths"],
                 f"{r['rms_error_um']:.3g}",
                 f"{r['max_error_um']:.3g}",
-                f"{r['mean_u_um']:.3g}",
+                format_uncertainty(r["mean_u_um"]),
                 f"{100 * r['coverage']:.0f} %",
             ]
             for r in comp.table
