@@ -44,3 +44,11 @@ def test_decimals_of_rounded_uncertainty_and_degenerate_u():
     # u = 0 or not finite: the value keeps its digits instead of a fake precision
     assert format_value(1.5, 0.0) == "1.5"
     assert format_value(1.5, float("nan")) == "1.5"
+
+
+def test_small_uncertainty_values_are_scientific_to_the_place_of_u():
+    """u below 1e-4 prints as 1.2e-06: the value follows in the same notation and place."""
+    assert format_value(1.15e-05, 1.2e-06) == "1.15e-05"  # GUM H.1 α_s = 11.5e-6 /°C
+    assert format_value(-9.587416744e-06, 1.8e-06) == "-9.6e-06"
+    assert format_value(0.0, 5.8e-07) == "0"  # not 0.00000000
+    assert format_value(3e-9, 1.2e-6) == "0"  # below the last digit of u

@@ -33,6 +33,14 @@ SHARE_DEFINITION = (
 )
 
 
+def _last_place(u: float) -> int:
+    """Decimals of the second significant digit of u, after rounding (negative above 10)."""
+    d = 1 - math.floor(math.log10(u))
+    if round(u, d) >= 10.0 ** (2 - d):  # 9.96 rounds to 10: two digits are one decade up
+        d -= 1
+    return d
+
+
 def decimals_for(u: float) -> int:
     """Decimals that show ``u`` with two significant digits (JCGM 100:2008, 7.2.6).
 
@@ -43,10 +51,7 @@ def decimals_for(u: float) -> int:
     """
     if not (math.isfinite(u) and u > 0):
         return 6
-    d = 1 - math.floor(math.log10(u))
-    if round(u, d) >= 10.0 ** (2 - d):  # 9.96 rounds to 10: two digits are one decade up
-        d -= 1
-    return max(0, d)
+    return max(0, _last_place(u))
 
 
 def format_uncertainty(u: float | None) -> str:
@@ -81,10 +86,16 @@ def format_value(value: float, u: float | None = None) -> str:
     '-104.591'
     >>> format_value(305.2105)
     '305.2105'
+    >>> format_value(1.15e-05, 1.2e-06), format_value(0.0, 5.8e-07), format_value(3e-9, 1.2e-6)
+    ('1.15e-05', '0', '0')
     """
     if u is None or not (math.isfinite(u) and u > 0):
         return format_cell(value)
-    return f"{value:.{decimals_for(u)}f}"
+    if 1e-4 <= u < 1e7 or not math.isfinite(value):
+        return f"{value:.{decimals_for(u)}f}"
+    # as format_uncertainty: scientific, to the same decimal place as u
+    digits = math.floor(math.log10(abs(value))) + _last_place(u) if value else -1
+    return f"{value:.{digits}e}" if digits >= 0 else "0"
 
 
 def format_cell(value: object) -> str:
@@ -157,7 +168,8 @@ def budget_cells(rows: Sequence, output_unit: str) -> tuple[list[list[str]], lis
             c = float(convert(c, output_unit, out_du))
         if du != b.unit:
             c = c / float(convert(1.0, b.unit, du))
-        c_unit = f" {out_du}/{du}" if (out_du or du) and du != out_du else ""
+        per = f"·{du[1:]}" if du.startswith("/") else f"/{du}"  # nm per /°C is nm·°C
+        c_unit = f" {out_du}{per}" if (out_du or du) and du != out_du else ""
         lines.append(
             [
                 b.input,
