@@ -52,3 +52,8 @@ def test_small_uncertainty_values_are_scientific_to_the_place_of_u():
     assert format_value(-9.587416744e-06, 1.8e-06) == "-9.6e-06"
     assert format_value(0.0, 5.8e-07) == "0"  # not 0.00000000
     assert format_value(3e-9, 1.2e-6) == "0"  # below the last digit of u
+
+
+def test_large_value_with_small_tolerance_stays_fixed_point():
+    """A validation row: 282.838772 mm against δ = 5.0e-05 mm, not 2.82838772e+02."""
+    assert format_value(282.83877231, 5e-5) == "282.838772"

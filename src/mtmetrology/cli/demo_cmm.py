@@ -196,7 +196,10 @@ def cmm_section(ctx: DemoContext) -> None:
     ctx.summary.append(
         f"CMM ball plate: held-out rms length error {raw['rms_error_um']:.2f} µm → "
         f"{kin['rms_error_um']:.2f} µm kinematic ({100 * kin['coverage']:.0f} % within 2u), "
-        f"{gpr['rms_error_um']:.2f} µm GP ({100 * gpr['coverage']:.0f} % within 2u); U3 "
+        f"{gpr['rms_error_um']:.2f} µm GP ({100 * gpr['coverage']:.0f} % within 2u"
+        f"{', GP at a bound' if comparison.gp_at_bounds else ''}); with a "
+        f"{NON_RIGID_UM:g} µm non-rigid error {_row(non_rigid, 'kinematic')['rms_error_um']:.2f}"
+        f" µm kinematic, {_row(non_rigid, 'GP')['rms_error_um']:.2f} µm GP; U3 "
         f"{np.round(cal.summary['U3_um'], 2).tolist()} µm"
     )
 

@@ -91,9 +91,9 @@ def format_value(value: float, u: float | None = None) -> str:
     """
     if u is None or not (math.isfinite(u) and u > 0):
         return format_cell(value)
-    if 1e-4 <= u < 1e7 or not math.isfinite(value):
+    if 1e-4 <= u < 1e7 or not math.isfinite(value) or 1e-3 <= abs(value) < 1e7:
         return f"{value:.{decimals_for(u)}f}"
-    # as format_uncertainty: scientific, to the same decimal place as u
+    # a small value of a small u: scientific as format_uncertainty, to the place of u
     digits = math.floor(math.log10(abs(value))) + _last_place(u) if value else -1
     return f"{value:.{digits}e}" if digits >= 0 else "0"
 
@@ -168,7 +168,8 @@ def budget_cells(rows: Sequence, output_unit: str) -> tuple[list[list[str]], lis
             c = float(convert(c, output_unit, out_du))
         if du != b.unit:
             c = c / float(convert(1.0, b.unit, du))
-        per = f"·{du[1:]}" if du.startswith("/") else f"/{du}"  # nm per /°C is nm·°C
+        # nm per /°C is nm·°C; µm per µm/m is µm/(µm/m)
+        per = f"·{du[1:]}" if du.startswith("/") else (f"/({du})" if "/" in du else f"/{du}")
         c_unit = f" {out_du}{per}" if (out_du or du) and du != out_du else ""
         lines.append(
             [
