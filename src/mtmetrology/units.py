@@ -248,9 +248,13 @@ def display_unit(symbol: str) -> str:
     --------
     >>> display_unit("mm"), display_unit("rad"), display_unit("mm/mm"), display_unit("1")
     ('µm', 'µrad', 'µm/m', '1')
-    >>> display_unit("mm/mm^2"), display_unit("rad/rad"), display_unit("nm")
-    ('µm/m^2', 'µrad/rad', 'nm')
+    >>> display_unit("mm/mm^2"), display_unit("rad/rad"), display_unit("nm"), display_unit("mg")
+    ('µm/m^2', 'µrad/rad', 'nm', 'mg')
     """
-    if parse_unit(symbol).factor != 1.0:  # not an internal unit: the file's own choice
+    try:
+        internal = parse_unit(symbol).factor == 1.0
+    except UnitError:  # a unit this module does not know (g, mg, V ...): shown as given
+        return symbol.strip()
+    if not internal:  # the file's own choice (nm, µm, deg ...)
         return symbol.strip()
     return _rewrite(symbol, _DISPLAY_NUM, _DISPLAY_DEN)

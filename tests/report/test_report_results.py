@@ -187,3 +187,18 @@ def test_budget_shows_display_units_one_share_definition_and_folds_zero_rows():
     assert drawn == sorted(r[7].removesuffix(" %") for r in table.rows if "u = 0" not in r[0])
     assert "sum to 100 %" in table.caption and "c_i Σ_j c_j u(x_i, x_j)" in figure.caption
     assert g.to_dict()["budget"]["y"][3]["display_unit"] == "µm/m"
+
+
+def test_budget_of_units_the_units_module_does_not_know_is_shown_as_given():
+    """JCGM 101 §9.3 weighs in mg: a unit outside mm/rad is neither converted nor refused."""
+    from mtmetrology.report.format import budget_cells
+    from mtmetrology.uncertainty.guf import BudgetRow
+
+    rows = (
+        BudgetRow("m_W", "g", 100.0, 5e-5, 1000.0, 0.05, float("inf"), 0.8),
+        BudgetRow("dm", "mg", 1.2, 0.025, 1.0, 0.025, float("inf"), 0.2),
+    )
+    lines, shown = budget_cells(rows, "mg")
+    assert shown == [0, 1]
+    assert [line[3] for line in lines] == ["g", "mg"]
+    assert lines[0][4] == "1000 mg/g" and lines[1][4] == "1"

@@ -170,6 +170,7 @@ def budget_cells(rows: Sequence, output_unit: str) -> tuple[list[list[str]], lis
             c = c / float(convert(1.0, b.unit, du))
         # nm per /°C is nm·°C; µm per µm/m is µm/(µm/m)
         per = f"·{du[1:]}" if du.startswith("/") else (f"/({du})" if "/" in du else f"/{du}")
+        per = per if du else ""
         c_unit = f" {out_du}{per}" if (out_du or du) and du != out_du else ""
         lines.append(
             [
