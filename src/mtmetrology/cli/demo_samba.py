@@ -350,7 +350,8 @@ def task_section(ctx: DemoContext, *, preset: str) -> None:
     ctx.report.table(
         ["length (mm)", "u (µm)", "U (µm)", "k", "acceptance zone (mm)", "decision"],
         [[
-            f"{g.value:.6f}", f"{u_um:.2f}", f"{big_u_um:.2f}", f"{g.k:.2f}",
+            format_value(g.value, g.u), format_uncertainty(u_um), format_uncertainty(big_u_um),
+            f"{g.k:.2f}",
             "[{:.6f}, {:.6f}]".format(*decision.acceptance_zone), decision.decision.value,
         ]],
     )  # fmt: skip
@@ -362,7 +363,8 @@ def task_section(ctx: DemoContext, *, preset: str) -> None:
     )
     validated = "validated" if result.validation.passed else "NOT validated"
     ctx.summary.append(
-        f"task: gauge length {g.value:.4f} mm, u = {u_um:.2f} µm, U = {big_u_um:.2f} µm "
+        f"task: gauge length {format_value(g.value, g.u)} mm, u = {format_uncertainty(u_um)} µm, "
+        f"U = {format_uncertainty(big_u_um)} µm "
         f"(k = {g.k:.2f}, Monte Carlo, {result.mcm.trials} trials; GUF {validated}); "
         f"ISO 14253-1: {decision.decision.value}"
     )
