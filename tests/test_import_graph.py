@@ -1,6 +1,6 @@
 """The layers of the package, read from the source (ast): imports point downwards.
 
-- engines (kinematics, uncertainty, fitting, identification, optimize, io, units, rng,
+- engines (kinematics, uncertainty, fitting, identification, optimize, io, units, formatting, rng,
   errors, display, _lazy) import nothing from ``report``, ``cli`` or an application, not even
   inside a function;
 - the leaf modules (display, _lazy) import nothing of the package;
@@ -32,6 +32,7 @@ ENGINES = {
     "optimize",
     "io",
     "units",
+    "formatting",
     "rng",
     "errors",
     "display",
@@ -69,7 +70,6 @@ CLI_NUMPY_PENDING = {
     "mtmetrology.cli.simulate",
     "mtmetrology.cli.task",
     "mtmetrology.cli.tracker",
-    "mtmetrology.cli.uncertainty",
 }
 #: The demo's modules import each other (the cycle is closed inside a function); issue 20
 #: turns the demo's sections into examples/ scripts, which removes it.

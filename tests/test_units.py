@@ -199,3 +199,18 @@ def test_units_are_frozen():
     unit = parse_unit("mm")
     with pytest.raises(AttributeError):
         unit.factor = 2.0  # type: ignore[misc]
+
+
+def test_display_unit_of_internal_units_and_of_others():
+    """Internal units show in the customary ISO 230-1 units; other units as given."""
+    from mtmetrology.units import display_unit, internal_unit
+
+    assert [display_unit(u) for u in ("mm", "rad", "mm/mm", "mm/mm^2", "rad/mm")] == [
+        "µm", "µrad", "µm/m", "µm/m^2", "µrad/m",
+    ]  # fmt: skip
+    assert [display_unit(u) for u in ("nm", "1", "°C", "mg", "")] == ["nm", "1", "°C", "mg", ""]
+    for customary in ("µm", "µrad", "µm/m", "µm/m^2", "µrad/rad"):
+        inner = internal_unit(customary)
+        assert parse_unit(inner).factor == 1.0  # an internal unit
+        assert parse_unit(inner).dimension == parse_unit(customary).dimension
+        assert display_unit(inner) == customary

@@ -34,7 +34,9 @@ __all__ = [
     "Unit",
     "UnitError",
     "convert",
+    "display_unit",
     "from_internal",
+    "internal_unit",
     "parse_unit",
     "to_internal",
 ]
@@ -189,3 +191,70 @@ def convert(value: float | np.ndarray, from_unit: str, to_unit: str) -> float | 
             f"cannot convert {from_unit!r} ({a.dimension}) to {to_unit!r} ({b.dimension})"
         )
     return from_internal(to_internal(value, a), b)
+
+
+# Customary display (ISO 230-1) and internal symbols of a numerator / a denominator.
+_DISPLAY_NUM = {"length": "µm", "angle": "µrad"}
+_DISPLAY_DEN = {"length": "m", "angle": "rad"}
+_INTERNAL = {"length": "mm", "angle": "rad"}
+
+
+def _parts(symbol: str) -> tuple[str, str, int] | None:
+    """(numerator, denominator, power) of a unit string; None for a simple unit."""
+    text = symbol.strip().replace(" ", "")
+    if text in _SIMPLE or "/" not in text:
+        return None
+    num, _, den = text.partition("/")
+    den, power = _split_power(den, symbol)
+    return num, den, power
+
+
+def _rewrite(symbol: str, num_map: dict, den_map: dict) -> str:
+    parse_unit(symbol)  # refuse what does not parse
+    parts = _parts(symbol)
+    if parts is None:
+        return num_map.get(parse_unit(symbol).dimension, symbol.strip())
+    num, den, power = parts
+    num_dim = parse_unit(num).dimension if num else "ratio"
+    den_dim = parse_unit(den).dimension
+    if den_dim not in den_map or (num and num_dim not in num_map):
+        return symbol.strip()
+    top = num_map[num_dim] if num else ""
+    return f"{top}/{den_map[den_dim]}" + (f"^{power}" if power > 1 else "")
+
+
+def internal_unit(symbol: str) -> str:
+    """The internal unit (mm, rad, their quotients) of the dimension of ``symbol``.
+
+    Values in ``symbol`` become values in this unit through :func:`to_internal`.
+
+    Examples
+    --------
+    >>> internal_unit("µrad"), internal_unit("µm/m"), internal_unit("µm/rad^2")
+    ('rad', 'mm/mm', 'mm/rad^2')
+    """
+    return _rewrite(symbol, _INTERNAL, _INTERNAL)
+
+
+def display_unit(symbol: str) -> str:
+    """The customary display unit (ISO 230-1) of a quantity stored in ``symbol``.
+
+    Lengths are shown in µm, angles in µrad, ratios of a length or angle to a length
+    in µm/m or µrad/m (per m^d for a coefficient of degree d), to an angle per rad.
+    Other units (a plain ``1``, °C, s, a unit such as nm that a model file chose) are
+    shown as they are.
+
+    Examples
+    --------
+    >>> display_unit("mm"), display_unit("rad"), display_unit("mm/mm"), display_unit("1")
+    ('µm', 'µrad', 'µm/m', '1')
+    >>> display_unit("mm/mm^2"), display_unit("rad/rad"), display_unit("nm"), display_unit("mg")
+    ('µm/m^2', 'µrad/rad', 'nm', 'mg')
+    """
+    try:
+        internal = parse_unit(symbol).factor == 1.0
+    except UnitError:  # a unit this module does not know (g, mg, V ...): shown as given
+        return symbol.strip()
+    if not internal:  # the file's own choice (nm, µm, deg ...)
+        return symbol.strip()
+    return _rewrite(symbol, _DISPLAY_NUM, _DISPLAY_DEN)

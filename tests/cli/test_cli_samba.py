@@ -420,7 +420,7 @@ def test_one_coverage_factor_in_console_json_and_report(records, tmp_path):
     significant digits and one k, the GUF's k for p = 0.95, in all three."""
     import re
 
-    from mtmetrology.report.format import format_uncertainty
+    from mtmetrology.formatting import format_uncertainty
 
     out, page = tmp_path / "r.json", tmp_path / "r.html"
     result = calibrate_samba(

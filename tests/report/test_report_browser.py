@@ -67,7 +67,7 @@ def test_every_figure_kind_renders(browser, artefacts, tmp_path):
     )
     rep.figure(figures.histogram_vs_normal(samples[:, 0], 0.0, 1.0, "a", "µm", dof=30))
     rep.figure(figures.coverage_ellipses(["a", "b", "c"], np.zeros(3), cov, samples=samples))
-    rep.figure(figures.budget_bars(["l_s", "d", "θ"], [25.0, 9.7, 16.6], unit="nm"))
+    rep.figure(figures.budget_bars(["l_s", "d", "θ"], [0.61, 0.09, 0.30]))
     rep.figure(figures.conformity_zones(10.008, 0.003, 9.99, 10.01, name="L", unit="mm"))
     rep.section("Machine")
     rep.figure(figures.residual_vectors(points, rng.normal(0, 2, (8, 3)), labels=list("abcdefgh")))

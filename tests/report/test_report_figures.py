@@ -75,11 +75,13 @@ def test_histogram_vs_normal_takes_a_histogram_and_draws_the_t_law():
     np.testing.assert_allclose(pdf, stats.t.pdf((x - 5.0) / 2.0, 4.0) / 2.0)
 
 
-def test_budget_bars_sorted_with_shares():
-    ax = figures.budget_bars(["a", "b", "c"], [3.0, 4.0, 0.0]).axes[0]
+def test_budget_bars_sorted_by_magnitude_with_signed_shares():
+    """Bars show the given variance shares, a negative one (correlations) to the left."""
+    ax = figures.budget_bars(["a", "b", "c"], [-0.25, 1.25, 0.0]).axes[0]
     assert [t.get_text() for t in ax.get_yticklabels()] == ["c", "a", "b"]
-    shares = sorted(t.get_text().strip() for t in ax.texts)
-    assert shares == ["0.0 %", "36.0 %", "64.0 %"]
+    assert [t.get_text().strip() for t in ax.texts] == ["0.0 %", "-25.0 %", "125.0 %"]
+    widths = [patch.get_width() for patch in ax.patches]
+    assert widths == pytest.approx([0.0, -25.0, 125.0])
 
 
 def test_residual_vectors_default_magnification_is_a_tenth_of_the_extent():

@@ -137,3 +137,68 @@ def test_engines_do_not_load_the_report_machinery():
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "[]"
+
+
+def _budget_blocks(rep: Report, output: str):
+    """The table and figure of the section "Uncertainty budget of <output>"."""
+    section = next(s for s in rep._sections if s.heading == f"Uncertainty budget of {output}")
+    table = next(b for b in section.blocks if b.kind == "table")
+    figure = next(b for b in section.blocks if b.kind == "figure")
+    return table, figure
+
+
+def _task_like_guf():
+    """A gauge length through machine parameters in internal units, correlated (issue 18)."""
+    from mtmetrology.uncertainty.inputs import InputSet
+
+    names = ["X_1", "B_1", "E_A0B", "E_XX1", "ex_1"]
+    units = ["mm", "rad", "rad", "mm/mm", "mm"]
+    x = np.array([250.0, 0.5, -9.587416744e-06, 7.9e-05, 0.0])
+    u = np.array([0.4e-3, 0.0, 1.8e-06, 0.6e-06, 0.3e-3])
+    corr = np.eye(5)
+    corr[2, 3] = corr[3, 2] = -0.8
+    cov = corr * np.outer(u, u)
+    c = np.array([[1.0, 0.0, 150.0, 200.0, 1.0]])
+    return guf(
+        lambda xx: xx @ c.T,
+        InputSet.from_covariance(names, x, cov, units),
+        jacobian=lambda _x: c,
+        output_units=["mm"],
+    )
+
+
+def test_budget_shows_display_units_one_share_definition_and_folds_zero_rows():
+    """E_A0B in µrad and E_XX1 in µm/m (not 'unit 1'); table shares = figure shares, Σ = 100 %."""
+    g = _task_like_guf()
+    rep = result_report(g)
+    table, figure = _budget_blocks(rep, "y")
+    rows = {r[0]: r for r in table.rows}
+    assert rows["E_A0B"][1:4] == ("-9.6", "1.8", "µrad")
+    assert rows["E_XX1"][1:4] == ("79.00", "0.60", "µm/m")
+    assert rows["X_1"][2:4] == ("0.40", "µm")
+    assert "B_1" not in rows and rows["1 input with u = 0: B_1"][2] == "0"
+    shares = [float(r[7].removesuffix(" %")) for r in table.rows]
+    assert sum(shares) == pytest.approx(100.0, abs=0.05 * len(shares))
+    budget = {b.input: b.share for b in g.budget(0)}
+    assert sum(budget.values()) == pytest.approx(1.0)
+    assert rows["E_XX1"][7] == f"{100 * budget['E_XX1']:.1f} %"
+    assert budget["E_XX1"] < 0  # its covariance with E_A0B cancels part of u_c²
+    drawn = sorted(re.findall(r">\s*(-?\d+\.\d) %\s*<", figure.svg))
+    assert drawn == sorted(r[7].removesuffix(" %") for r in table.rows if "u = 0" not in r[0])
+    assert "sum to 100 %" in table.caption and "c_i Σ_j c_j u(x_i, x_j)" in figure.caption
+    assert g.to_dict()["budget"]["y"][3]["display_unit"] == "µm/m"
+
+
+def test_budget_of_units_the_units_module_does_not_know_is_shown_as_given():
+    """JCGM 101 §9.3 weighs in mg: a unit outside mm/rad is neither converted nor refused."""
+    from mtmetrology.formatting import budget_cells
+    from mtmetrology.uncertainty.guf import BudgetRow
+
+    rows = (
+        BudgetRow("m_W", "g", 100.0, 5e-5, 1000.0, 0.05, float("inf"), 0.8),
+        BudgetRow("dm", "mg", 1.2, 0.025, 1.0, 0.025, float("inf"), 0.2),
+    )
+    lines, shown = budget_cells(rows, "mg")
+    assert shown == [0, 1]
+    assert [line[3] for line in lines] == ["g", "mg"]
+    assert lines[0][4] == "1000 mg/g" and lines[1][4] == "1"

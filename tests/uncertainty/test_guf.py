@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from mtmetrology.errors import InputError
 from mtmetrology.uncertainty.distributions import Normal, Rectangular, StudentT
-from mtmetrology.uncertainty.guf import guf, welch_satterthwaite
+from mtmetrology.uncertainty.guf import guf, variance_shares, welch_satterthwaite
 from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
 from mtmetrology.uncertainty.mcm import monte_carlo
 from mtmetrology.uncertainty.modelfile import load_model
@@ -162,7 +162,7 @@ def test_linear_model_gives_exact_covariance(m, n, seed):
     np.testing.assert_allclose(r.covariance, a @ cov @ a.T, rtol=1e-8, atol=1e-10)
     np.testing.assert_allclose(r.sensitivities, a, rtol=1e-8, atol=1e-10)
     # Full-covariance shares always sum to one.
-    assert sum(row.share_full for row in r.budget(0)) == pytest.approx(1.0)
+    assert sum(row.share for row in r.budget(0)) == pytest.approx(1.0)
 
 
 def test_analytic_and_numerical_sensitivities_agree_and_zero_variance_is_skipped():
@@ -300,8 +300,8 @@ def test_sepahi_boroujeni_one_dimensional_covariance_example_gives_1_um_not_2_2(
     wrong = c[0] ** 2 * cov[0, 0] + c[1] ** 2 * cov[1, 1] - 2 * c[0] * c[1] * cov[0, 1]
     assert math.sqrt(wrong) / 1e-3 == pytest.approx(math.sqrt(5.0), rel=1e-3)
     assert round(math.sqrt(wrong) / 1e-3, 1) == 2.2
-    # share_full exposes the negative covariance contribution that the thesis lost.
-    shares = [row.share_full for row in r.budget(0)]
+    # The variance shares expose the negative covariance contribution that the thesis lost.
+    shares = [row.share for row in r.budget(0)]
     assert sum(shares) == pytest.approx(1.0)
 
 
@@ -378,3 +378,21 @@ def test_linear_model_guf_equals_monte_carlo(m, n, seed):
     np.testing.assert_allclose(r.standard_uncertainty, u, rtol=5 / math.sqrt(2 * trials))
     # σ of the 2.5 % quantile of a normal: sqrt(0.025·0.975/M)/φ(1.96) · u = 2.67 u/√M.
     np.testing.assert_allclose(r.interval, g.interval, atol=5 * 2.67 * u.max() / math.sqrt(trials))
+
+
+def test_budget_shares_are_variance_contributions_that_sum_to_one_with_correlations():
+    """y = x1 − x2, u = (1, 2), u(x1, x2) = 1.5: u_c² = 1 + 4 − 2·1.5 = 2 exactly.
+
+    c_i Σ_j c_j u(x_i, x_j) / u_c²: x1 (1 − 1.5)/2 = −0.25, x2 (4 − 1.5)/2 = 1.25.
+    The former u_i²/u_c² gave 0.5 and 2.0 (250 % in all).
+    """
+    cov = np.array([[1.0, 1.5], [1.5, 4.0]])
+    s = InputSet.from_covariance(["x1", "x2"], [0.0, 0.0], cov, ["mm", "mm"])
+    r = guf(lambda x: x[..., 0] - x[..., 1], s, jacobian=lambda _x: np.array([[1.0, -1.0]]))
+    rows = r.budget(0)
+    assert r.standard_uncertainty[0] ** 2 == pytest.approx(2.0)
+    assert [b.share for b in rows] == pytest.approx([-0.25, 1.25])
+    assert [b["share"] for b in r.to_dict()["budget"]["y"]] == pytest.approx([-0.25, 1.25])
+    assert variance_shares([[1.0, -1.0]], cov, {"both": [0, 1]})["both"] == pytest.approx(1.0)
+    # uncorrelated: the shares are u_i²(y)/u_c²(y) (JCGM 100, 5.1.3)
+    assert variance_shares([1.0, 1.0], np.diag([1.0, 3.0])) == pytest.approx([0.25, 0.75])

@@ -59,8 +59,8 @@ from mtmetrology.fitting import (
     SphereDiameter,
     Sphericity,
 )
+from mtmetrology.formatting import format_uncertainty
 from mtmetrology.kinematics.volumetric_map import VolumetricMap
-from mtmetrology.report.format import format_uncertainty
 from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.uncertainty.conformity import Tolerance, decide
 from mtmetrology.units import from_internal, to_internal

@@ -22,13 +22,13 @@ from mtmetrology.cli._common import (
     write_report,
 )
 from mtmetrology.errors import InputError
+from mtmetrology.formatting import format_uncertainty
 from mtmetrology.io import check_output, read_csv_table
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import write_json
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.volumetric_map import MAP_KIND, VolumetricMap
-from mtmetrology.report.format import format_uncertainty
 from mtmetrology.uncertainty.conformity import Tolerance
 from mtmetrology.units import to_internal
 

@@ -288,7 +288,7 @@ def samba(
 def _parameter_line(p: dict, k: float) -> str:
     """``E_A0B  -9.6 µrad  u = 1.8 µrad  U = 3.6 µrad``: u and U with two significant
     digits, the value to the same decimal (JCGM 100:2008, 7.2.6; report.format)."""
-    from mtmetrology.report.format import format_uncertainty, format_value
+    from mtmetrology.formatting import format_uncertainty, format_value
 
     u, unit = p.get("u"), p["unit"]
     if u is None:

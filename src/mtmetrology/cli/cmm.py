@@ -353,6 +353,8 @@ def gp_fit(
         for c in doc["components"]
     )
     typer.echo(f"{parts}; wrote {output}", err=True)
+    for flag in gp.at_bounds:
+        typer.echo(f"warning: hyper-parameter {flag} (not a likelihood optimum)", err=True)
 
 
 @gp_app.command("predict")

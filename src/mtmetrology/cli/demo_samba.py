@@ -28,13 +28,13 @@ from mtmetrology.cli import simulate as simulate_cli
 from mtmetrology.cli._common import readings_from_table
 from mtmetrology.cli.demo import DemoContext
 from mtmetrology.fitting.features import GaugeLength
+from mtmetrology.formatting import format_uncertainty, format_value
 from mtmetrology.io import read_csv_table
 from mtmetrology.io.tables import write_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.omm.task import task_uncertainty
 from mtmetrology.report import figures
-from mtmetrology.report.format import format_uncertainty, format_value
 from mtmetrology.report.results import add_result
 from mtmetrology.samba import (
     SambaSetup,
@@ -198,7 +198,11 @@ def _report_calibration(ctx: DemoContext, m: Machine, cal, unc, truth) -> int:
          "true inside"],
         rows,
     )  # fmt: skip
-    add_result(ctx.report, unc.validation)
+    add_result(
+        ctx.report,
+        unc.validation,
+        units=dict(zip(m.parameter_names, m.parameter_units, strict=True)),
+    )
     add_result(ctx.report, cal.parameters)
     centres = cal.ball_centres()
     ctx.report.figure(
@@ -349,15 +353,21 @@ def task_section(ctx: DemoContext, *, preset: str) -> None:
     ctx.report.table(
         ["length (mm)", "u (µm)", "U (µm)", "k", "acceptance zone (mm)", "decision"],
         [[
-            f"{g.value:.6f}", f"{u_um:.2f}", f"{big_u_um:.2f}", f"{g.k:.2f}",
+            format_value(g.value, g.u), format_uncertainty(u_um), format_uncertainty(big_u_um),
+            f"{g.k:.2f}",
             "[{:.6f}, {:.6f}]".format(*decision.acceptance_zone), decision.decision.value,
         ]],
     )  # fmt: skip
     add_result(ctx.report, result.guf)
-    add_result(ctx.report, result.validation)
+    add_result(
+        ctx.report,
+        result.validation,
+        units=dict(zip(result.guf.names, result.guf.units, strict=True)),
+    )
     validated = "validated" if result.validation.passed else "NOT validated"
     ctx.summary.append(
-        f"task: gauge length {g.value:.4f} mm, u = {u_um:.2f} µm, U = {big_u_um:.2f} µm "
+        f"task: gauge length {format_value(g.value, g.u)} mm, u = {format_uncertainty(u_um)} µm, "
+        f"U = {format_uncertainty(big_u_um)} µm "
         f"(k = {g.k:.2f}, Monte Carlo, {result.mcm.trials} trials; GUF {validated}); "
         f"ISO 14253-1: {decision.decision.value}"
     )

@@ -297,7 +297,7 @@ def uncertainty_section(ctx: DemoContext) -> None:
         "u = 34 nm, as the annex's second-order analysis (H.1.7), and a shorter 99 % "
         "interval, so the GUF is not validated at two significant digits.",
     )
-    add_result(ctx.report, validation)
+    add_result(ctx.report, validation, units=dict(zip(g.names, g.units, strict=True)))
     add_result(ctx.report, g)
     add_result(ctx.report, r, names=loaded.output_names, units=loaded.output_units, guf=g)
     ctx.command(

@@ -29,6 +29,7 @@ from mtmetrology.cli._common import readings_from_table
 from mtmetrology.cli.demo import DemoContext
 from mtmetrology.cli.task import FeatureName, Form, task_feature
 from mtmetrology.fitting.features import GaugeLength
+from mtmetrology.formatting import format_uncertainty, format_value
 from mtmetrology.io import read_csv_table
 from mtmetrology.io.tables import write_csv_table
 from mtmetrology.kinematics.machine import Machine
@@ -171,11 +172,13 @@ def sphere_task_section(ctx: DemoContext, *, preset: str) -> None:
                 (stem, value, big_u, float(g.coverage_factor[0]), g.p, SPHERE_DIAMETER_MM)
             )
             big_u_um.append(float(from_internal(big_u, "µm")))
+            u = float(g.standard_uncertainty[0])
+            error_um = float(from_internal(value - SPHERE_DIAMETER_MM, "µm"))
             rows.append([
-                f"{b:+d}", f"{c:d}", f"{value:.6f}",
-                f"{from_internal(g.standard_uncertainty[0], 'µm'):.2f}",
-                f"{big_u_um[-1]:.2f}",
-                f"{from_internal(value - SPHERE_DIAMETER_MM, 'µm'):+.2f}",
+                f"{b:+d}", f"{c:d}", format_value(value, u),
+                format_uncertainty(float(from_internal(u, "µm"))),
+                format_uncertainty(big_u_um[-1]),
+                ("+" if error_um >= 0 else "") + format_value(error_um, from_internal(u, "µm")),
                 decision.decision.value,
             ])  # fmt: skip
     first = names[0].removesuffix(".csv")

@@ -84,7 +84,7 @@ def long_term(
 
 def _summary(result: ParameterSet, output: Path | None) -> None:
     """Values with their standard uncertainty u (two significant digits, JCGM 100 7.2.6)."""
-    from mtmetrology.report.format import format_uncertainty, format_value
+    from mtmetrology.formatting import format_uncertainty, format_value
 
     f = result.scales()
     u = result.standard_uncertainty

@@ -16,6 +16,7 @@ from mtmetrology.cli._common import (
     write_report,
 )
 from mtmetrology.errors import InputError
+from mtmetrology.formatting import format_uncertainty
 from mtmetrology.io import check_output
 from mtmetrology.io.files import write_json
 from mtmetrology.kinematics.machine import Machine
@@ -27,7 +28,6 @@ from mtmetrology.multilateration.workflow import (
     map_monte_carlo,
     simulate_lengths,
 )
-from mtmetrology.report.format import format_uncertainty
 from mtmetrology.units import from_internal
 
 simulate_app = typer.Typer()

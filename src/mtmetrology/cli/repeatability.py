@@ -26,6 +26,7 @@ from mtmetrology.cli._common import (
     write_report,
 )
 from mtmetrology.errors import InputError
+from mtmetrology.formatting import format_uncertainty, format_value
 from mtmetrology.io import read_csv_table, write_json
 from mtmetrology.omm.hysteresis import HYSTERESIS_KINDS, hysteresis_errors, radial_projection
 from mtmetrology.omm.repeatability import (
@@ -405,13 +406,22 @@ def hysteresis(
     typer.echo(f"{kind} hysteresis, {document['definition']} (µm), p = {p:g}")
     typer.echo(f"{'psi (deg)':>10} {'H':>8} {'u':>7} {'U':>7} {'k':>6}")
     for row, o in zip(document["indexations"], document["outputs"], strict=True):
+        value, u, big_u = format_value(o["value"], o["u"]), o["u"], o["U"]
         typer.echo(
-            f"{row['psi']:>10g} {o['value']:>8.3f} {o['u']:>7.3f} {o['U']:>7.3f} {o['k']:>6.2f}"
+            f"{row['psi']:>10g} {value:>8} {format_uncertainty(u):>7} "
+            f"{format_uncertainty(big_u):>7} {o['k']:>6.2f}"
         )
-    summary = document["summary"]
-    typer.echo(
-        f"mean H = {summary['mean']:.3f} µm (u = {summary['mean_u']:.3f} µm), "
-        f"mean |H| = {summary['mean_abs']:.3f} µm, RMS u(H) = {summary['rms_u']:.3f} µm"
+    typer.echo(f"{_summary(document['summary'])}")
+
+
+def _summary(summary: dict) -> str:
+    """Mean H with its u, mean |H| and the RMS of u(H), GUM 7.2.6 digits."""
+    mean_u = summary["mean_u"]
+    return (
+        f"mean H = {format_value(summary['mean'], mean_u)} µm "
+        f"(u = {format_uncertainty(mean_u)} µm), "
+        f"mean |H| = {format_value(summary['mean_abs'], mean_u)} µm, "
+        f"RMS u(H) = {format_uncertainty(summary['rms_u'])} µm"
     )
 
 
@@ -428,9 +438,8 @@ def _hysteresis_report(ctx: typer.Context, records: Path, document: dict):
     rep.section(
         f"{document['test'].capitalize()} hysteresis",
         f"{document['definition']} at each indexation (Sepahi Boroujeni (2021), eq. 4-3), "
-        "u(H) from the standard deviations of the two means (eq. 4-4). Mean over the "
-        f"indexations {summary['mean']:.3f} µm (u = {summary['mean_u']:.3f} µm); mean |H| "
-        f"{summary['mean_abs']:.3f} µm; RMS of u(H) {summary['rms_u']:.3f} µm.",
+        "u(H) from the standard deviations of the two means (eq. 4-4). Over the "
+        f"indexations: {_summary(summary)}.",
     )
     outputs, rows = document["outputs"], document["indexations"]
     rep.figure(
@@ -445,8 +454,8 @@ def _hysteresis_report(ctx: typer.Context, records: Path, document: dict):
     rep.table(
         ["ψ (deg)", "H (µm)", "u (µm)", "ν_eff", "k", "U (µm)"],
         [
-            [f"{r['psi']:g}", f"{o['value']:.3f}", f"{o['u']:.3f}", f"{r['dof']:.1f}",
-             f"{o['k']:.2f}", f"{o['U']:.3f}"]
+            [f"{r['psi']:g}", format_value(o["value"], o["u"]), format_uncertainty(o["u"]),
+             f"{r['dof']:.1f}", f"{o['k']:.2f}", format_uncertainty(o["U"])]
             for r, o in zip(rows, outputs, strict=True)
         ],
     )  # fmt: skip

@@ -48,6 +48,12 @@ from mtmetrology.fitting.zone_features import (
     MinimumZoneRoundness,
     MinimumZoneSphericity,
 )
+from mtmetrology.formatting import (
+    SHARE_DEFINITION,
+    format_share,
+    format_uncertainty,
+    format_value,
+)
 from mtmetrology.io import read_csv_table, write_json
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -380,41 +386,40 @@ def _write_report(
         f"the parameters ({result.long_term}) and unexplained volumetric errors; "
         f"{result.inputs.simulator} covariance simulator.",
     )
-    rep.table(
-        ["output", "value", "u", "U", "k", "p", "interval", "unit"],
-        [
+    rows = []
+    for o in r.outputs:
+        u_um, big_u_um = float(from_internal(o.u, "µm")), float(from_internal(o.U, "µm"))
+        low, high = o.interval
+        rows.append(
             [
                 o.name,
-                f"{o.value:.6f}",
-                f"{from_internal(o.u, 'µm'):.3g} µm",
-                f"{from_internal(o.U, 'µm'):.3g} µm",
+                f"{format_value(o.value, o.u)} mm",
+                f"{format_uncertainty(u_um)} µm",
+                f"{format_uncertainty(big_u_um)} µm",
                 f"{o.k:.3f}",
                 o.p,
-                f"[{o.interval[0]:.6f}, {o.interval[1]:.6f}]",
-                "mm",
+                f"[{format_value(low, o.u)}, {format_value(high, o.u)}] mm",
             ]
-            for o in r.outputs
-        ],
-    )
+        )
+    rep.table(["output", "value", "u", "U", "k", "p", "interval"], rows)
     sources = list(result.shares)
     shares = [float(result.shares[k][target]) for k in sources]
-    u = float(r.outputs[target].u)
     rep.section("Budget by source (first order)")
     rep.table(
-        ["source", "share of u²"],
-        [[_label(k), f"{100 * v:.1f} %"] for k, v in zip(sources, shares, strict=True)],
+        ["source", "share of u_c²"],
+        [[_label(k), format_share(v)] for k, v in zip(sources, shares, strict=True)],
+        caption=f"{SHARE_DEFINITION}; the sources are independent, so their shares add.",
     )
     rep.figure(
         figures.budget_bars(
             [_label(k) for k in sources],
-            [float(from_internal(u, "µm")) * max(v, 0.0) ** 0.5 for v in shares],
-            unit="µm",
+            shares,
             title=f"Uncertainty budget of {name}",
         ),
-        caption="Contribution of each source, u·√share (the squares add to u²).",
+        caption="Share of u_c² of each source, as in the table.",
     )
     if result.validation is not None:
-        add_result(rep, result.validation)
+        add_result(rep, result.validation, units=dict(zip(r.names, r.units, strict=True)))
     if result.decision is not None:
         d = result.decision.to_dict()
         tol = result.decision.tolerance
@@ -448,14 +453,13 @@ def _print(result: TaskResult, given: dict[str, Path | None]) -> None:
     if result.long_term != "propagated":  # recalibrated: no such term, said on its own line
         omit.add("long_term_variation")
     for j, o in enumerate(r.outputs):
+        u_um, big_u_um = float(from_internal(o.u, "µm")), float(from_internal(o.U, "µm"))
         typer.echo(
-            f"{o.name} = {o.value:.4f} mm, u = {from_internal(o.u, 'µm'):.2f} µm, "
-            f"U = {from_internal(o.U, 'µm'):.2f} µm (k = {o.k:.2f}, p = {o.p})"
+            f"{o.name} = {format_value(o.value, o.u)} mm, u = {format_uncertainty(u_um)} µm, "
+            f"U = {format_uncertainty(big_u_um)} µm (k = {o.k:.2f}, p = {o.p})"
         )
         shares = ", ".join(
-            f"{_label(k)} {round(100 * v[j], 1) + 0.0:.1f} %"
-            for k, v in result.shares.items()
-            if k not in omit
+            f"{_label(k)} {format_share(v[j])}" for k, v in result.shares.items() if k not in omit
         )
         typer.echo(f"  first-order budget: {shares}")
     typer.echo(f"  long-term variation of the parameters: {result.long_term}")

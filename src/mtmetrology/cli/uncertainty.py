@@ -22,18 +22,25 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 from rich.console import Console
 from rich.table import Table
 
 from mtmetrology.cli._common import ReportOption, command_line, fail, write_report
 from mtmetrology.errors import ConvergenceError, MtmetrologyError, ResourceLimitError
+from mtmetrology.formatting import (
+    SHARE_DEFINITION,
+    budget_cells,
+    budget_columns,
+    format_uncertainty,
+    format_value,
+)
 from mtmetrology.uncertainty.guf import GUFResult, guf
 from mtmetrology.uncertainty.mcm import monte_carlo
 from mtmetrology.uncertainty.modelfile import ModelFileError, load_model
 from mtmetrology.uncertainty.outputs import Output, result_document
 from mtmetrology.uncertainty.validation import validate_results
+from mtmetrology.units import display_unit
 
 #: Most Monte Carlo values kept for the coverage intervals (trials x outputs): 400 MB.
 MAX_VALUES = 50_000_000
@@ -59,38 +66,17 @@ def _fail(message: str) -> None:
     fail(message)
 
 
-def _decimals(u: float) -> int:
-    """Decimals that show u with two significant digits (JCGM 100, 7.2.6)."""
-    if not math.isfinite(u) or u <= 0:
-        return 6
-    return max(0, 1 - math.floor(math.log10(u)))
-
-
-def _fmt(value: float, u: float) -> str:
-    return f"{value:.{_decimals(u)}f}"
-
-
 def _budget_table(r: GUFResult, j: int) -> Table:
-    correlated = not np.allclose(r.input_covariance, np.diag(np.diag(r.input_covariance)))
-    unit = f" in {r.units[j]}" if r.units[j] else ""
-    table = Table(title=f"Uncertainty budget of {r.names[j]}{unit} (GUF)")
-    for col in ("input", "estimate", "u(x_i)", "unit", "c_i", "u_i(y)", "dof", "share"):
+    """The budget of output j as the HTML report shows it (display units, one share)."""
+    name = r.names[j]
+    unit = display_unit(r.units[j]) if r.units[j] else ""
+    table = Table(
+        title=f"Uncertainty budget of {name}" + (f" in {unit}" if unit else "") + " (GUF)",
+        caption=SHARE_DEFINITION,
+    )
+    for col in budget_columns(name):
         table.add_column(col, justify="left" if col in ("input", "unit") else "right")
-    if correlated:
-        table.add_column("share (with covariances)", justify="right")
-    for row in r.budget(j):
-        cells = [
-            row.input,
-            f"{row.estimate:.10g}",
-            f"{row.u:.3g}",
-            row.unit,
-            f"{row.sensitivity + 0.0:.4g}",  # + 0.0 turns -0 into 0
-            f"{row.contribution:.3g}",
-            "inf" if math.isinf(row.dof) else f"{row.dof:g}",
-            f"{100 * row.share:.1f} %",
-        ]
-        if correlated:
-            cells.append(f"{100 * row.share_full:.1f} %")
+    for cells in budget_cells(r.budget(j), r.units[j])[0]:
         table.add_row(*cells)
     return table
 
@@ -103,11 +89,11 @@ def _results_table(title: str, outputs: tuple[Output, ...], extra: dict | None =
     for j, o in enumerate(outputs):
         cells = [
             o.name,
-            _fmt(o.value, o.u),
-            f"{o.u:.2g}",
-            f"{o.U:.2g}",
+            format_value(o.value, o.u),
+            format_uncertainty(o.u),
+            format_uncertainty(o.U),
             "-" if o.k is None else f"{o.k:.3f}",
-            f"[{_fmt(o.interval[0], o.u)}, {_fmt(o.interval[1], o.u)}]",
+            f"[{format_value(o.interval[0], o.u)}, {format_value(o.interval[1], o.u)}]",
             o.unit,
             *(column[j] for column in (extra or {}).values()),
         ]
@@ -127,7 +113,8 @@ def _write_report(path: Path, loaded, model_file: Path, g, r, validation, comman
         provenance=provenance,
     )
     if validation is not None:
-        add_result(rep, validation)
+        units = dict(zip(loaded.output_names, loaded.output_units or [], strict=False))
+        add_result(rep, validation, units=units)
     if g is not None:
         add_result(rep, g)
     if r is not None:
@@ -233,7 +220,7 @@ def run(
             )
     if r is not None:
         shortest = [
-            f"[{_fmt(low, o.u)}, {_fmt(high, o.u)}]"
+            f"[{format_value(low, o.u)}, {format_value(high, o.u)}]"
             for (low, high), o in zip(r.interval_shortest, r.outputs, strict=True)
         ]
         console.print(

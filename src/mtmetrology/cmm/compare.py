@@ -22,7 +22,7 @@ JCGM 100:2008, §5.2.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -85,10 +85,14 @@ class ModelComparison(CMMNotebookRepr):
     plot : dict
         ``{model: {"length_mm", "error_um", "u_um"}}`` for a plot of length error against
         length with ±k·u bands.
+    gp_at_bounds : list of dict
+        The GP's hyper-parameters that ended at a bound of their search range
+        (:attr:`~mtmetrology.cmm.gp.GPErrorModel.at_bounds`); empty when all are interior.
     """
 
     table: list
     plot: dict
+    gp_at_bounds: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
         return {
@@ -96,6 +100,7 @@ class ModelComparison(CMMNotebookRepr):
             "version": 1,
             "table": self.table,
             "plot": self.plot,
+            "gp_at_bounds": self.gp_at_bounds,
         }
 
 
@@ -175,4 +180,4 @@ def compare_models(
             }
         )
         plot[name] = {"length_mm": L.tolist(), "error_um": e_um.tolist(), "u_um": u_um.tolist()}
-    return ModelComparison(out_rows, plot)
+    return ModelComparison(out_rows, plot, [f.to_dict() for f in gp.at_bounds])

@@ -61,11 +61,54 @@ from mtmetrology.units import from_internal, to_internal
 if TYPE_CHECKING:  # scikit-learn is imported when a model is fitted or read (0.5 s)
     from sklearn.gaussian_process import GaussianProcessRegressor
 
-__all__ = ["KIND", "GPErrorModel", "fit_gp"]
+__all__ = ["KIND", "BoundFlag", "GPErrorModel", "fit_gp"]
 
 KIND = "gp-error-model"
 KERNELS = ("rbf", "matern")
 COMPONENTS = "xyz"
+#: A fitted log hyper-parameter this close to a bound of its search range is at the bound
+#: (1 % of the value).
+AT_BOUND_LOG = 0.01
+#: What each kernel hyper-parameter is, in the words of the module notes; the display
+#: value and unit (the square root of a variance in µm², the length-scale in mm).
+_HYPER = {
+    "k1__k1__constant_value": ("amplitude s", "µm", np.sqrt),
+    "k1__k2__length_scale": ("length-scale ℓ", "mm", float),
+    "k2__noise_level": ("noise σ", "µm", np.sqrt),
+}
+
+
+@dataclass(frozen=True)
+class BoundFlag:
+    """A fitted hyper-parameter that ended at a bound of its search range.
+
+    The maximum-likelihood estimate is then not an interior optimum: a length-scale at its
+    upper bound (ℓ ≫ the travel) makes the GP a constant offset per component, an
+    amplitude at its lower bound makes it predict the kinematic mean alone.
+    """
+
+    component: str
+    name: str
+    value: float
+    bound: float
+    side: str  # "lower" or "upper"
+    unit: str
+
+    def to_dict(self) -> dict:
+        return {
+            "component": self.component,
+            "hyperparameter": self.name,
+            "value": self.value,
+            "bound": self.bound,
+            "side": self.side,
+            "unit": self.unit,
+        }
+
+    def __str__(self) -> str:
+        return (
+            f"{self.component}: {self.name} = {self.value:.3g} {self.unit} at its "
+            f"{self.side} bound {self.bound:.3g} {self.unit}"
+        )
 
 
 def _kernel(kind: str):
@@ -166,8 +209,24 @@ class GPErrorModel(CMMNotebookRepr):
         u = np.sqrt(np.clip(np.diagonal(cov, axis1=1, axis2=2).T, 0.0, None))
         return (points, u, cov) if return_cov else (points, u)
 
+    @property
+    def at_bounds(self) -> tuple[BoundFlag, ...]:
+        """Fitted hyper-parameters at a bound of their search range (empty: all interior)."""
+        flags = []
+        for c, gpr in zip(COMPONENTS, self.regressors, strict=True):
+            k = gpr.kernel_
+            for hp, theta, (low, high) in zip(k.hyperparameters, k.theta, k.bounds, strict=True):
+                name, unit, show = _HYPER[hp.name]
+                for side, bound in (("lower", low), ("upper", high)):
+                    if abs(theta - bound) <= AT_BOUND_LOG:
+                        value, limit = np.exp(theta), np.exp(bound)
+                        flags.append(
+                            BoundFlag(c, name, float(show(value)), float(show(limit)), side, unit)
+                        )
+        return tuple(flags)
+
     def to_document(self) -> dict:
-        """The JSON model file (training data and fitted hyper-parameters)."""
+        """The JSON model file (training data, fitted hyper-parameters, those at a bound)."""
         comps = []
         for c, gpr in zip(COMPONENTS, self.regressors, strict=True):
             k = gpr.kernel_
@@ -189,6 +248,7 @@ class GPErrorModel(CMMNotebookRepr):
             "inputs": ["X_mm", "Y_mm", "Z_mm"],
             "mean": None if self.mean is None else self.mean.to_document(),
             "components": comps,
+            "at_bounds": [f.to_dict() for f in self.at_bounds],
             "training": {"inputs_mm": self.inputs.tolist(), "targets_um": self.targets_um.tolist()},
             "provenance": self.provenance,
         }

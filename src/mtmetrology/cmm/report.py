@@ -28,6 +28,7 @@ import numpy as np
 from mtmetrology.cmm.calibrate import BallPlateCalibration
 from mtmetrology.cmm.compare import ModelComparison
 from mtmetrology.cmm.gp import GPErrorModel
+from mtmetrology.formatting import format_uncertainty
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
 from mtmetrology.report.results import add_result, renders
@@ -236,9 +237,9 @@ def _uncertainty(rep: Report, cal) -> None:
     rep.table(
         ["quantity", "x (µm)", "y (µm)", "z (µm)"],
         [
-            ["U1: ball centres", *(f"{v:.3g}" for v in s["U1_um"])],
-            ["U2: measured region", *(f"{v:.3g}" for v in s["U2_um"])],
-            ["U3: whole volume", *(f"{v:.3g}" for v in s["U3_um"])],
+            ["U1: ball centres", *(format_uncertainty(v) for v in s["U1_um"])],
+            ["U2: measured region", *(format_uncertainty(v) for v in s["U2_um"])],
+            ["U3: whole volume", *(format_uncertainty(v) for v in s["U3_um"])],
         ],
     )
     region = np.round(np.asarray(s["region_mm"]), 1).tolist()
@@ -274,6 +275,15 @@ def _gp(rep: Report, gp, **_) -> None:
             for c in doc["components"]
         ],
     )
+    flags = gp.at_bounds
+    if flags:
+        rep.text(
+            "Warning: hyper-parameters at a bound of their search range, so the likelihood "
+            "has no interior optimum there: "
+            + "; ".join(str(f) for f in flags)
+            + ". A length-scale at its upper bound makes that component a constant offset; "
+            "an amplitude at its lower bound leaves the kinematic mean alone."
+        )
     fitted = np.column_stack([g.predict(gp.inputs) for g in gp.regressors])
     resid = gp.targets_um - fitted
     rep.section(
@@ -315,7 +325,7 @@ def _comparison(rep: Report, comp, **_) -> None:
                 r["n_lengths"],
                 f"{r['rms_error_um']:.3g}",
                 f"{r['max_error_um']:.3g}",
-                f"{r['mean_u_um']:.3g}",
+                format_uncertainty(r["mean_u_um"]),
                 f"{100 * r['coverage']:.0f} %",
             ]
             for r in comp.table
@@ -325,3 +335,14 @@ def _comparison(rep: Report, comp, **_) -> None:
         figures.length_errors(comp.plot, coverage_factor=k),
         caption=f"Length error of each model with its ±{k:g}u bar; red points are not covered.",
     )
+    if comp.gp_at_bounds:
+        rep.text(
+            "Warning: the GP's hyper-parameters ended at a bound of their search range ("
+            + "; ".join(
+                f"{f['component']}: {f['hyperparameter']} = {f['value']:.3g} {f['unit']}, "
+                f"{f['side']} bound"
+                for f in comp.gp_at_bounds
+            )
+            + "): where the amplitude is at its lower bound the GP predicts its kinematic "
+            "mean, and the two rows of the table agree by construction."
+        )

@@ -21,11 +21,12 @@ from __future__ import annotations
 
 from mtmetrology.design.counts import MINUTES_PER_MEASUREMENT
 from mtmetrology.design.samba import SambaDesign
+from mtmetrology.formatting import format_uncertainty
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
 from mtmetrology.report.results import renders
 
-__all__: list[str] = []
+__all__ = ["add_convergence"]
 
 
 @renders(SambaDesign, "SAMBA calibration plan")
@@ -41,7 +42,7 @@ def _samba_design(
     bar = doc["scale_bar"]
     rep.section(
         "Artefact",
-        f"{len(doc['balls'])} master ball(s) and a scale bar of {bar['length_mm']:.4f} mm "
+        f"{_count(len(doc['balls']), 'master ball')} and a scale bar of {bar['length_mm']:.4f} mm "
         f"(u = {bar['u_mm']:g} mm), workpiece (C-table) frame.",
     )
     rows = [[b["id"], *b["centre_mm"], b["stem_mm"]] for b in doc["balls"]]
@@ -67,9 +68,9 @@ def _samba_design(
             ["accessible candidate indexations", doc["n_accessible_indexations"]],
             ["candidate indexations", doc["n_candidate_indexations"]],
             ["ball measurements M_T", doc["n_measurements"]],
-            ["a, min per measurement", doc["minutes_per_measurement"]],
-            ["b, min per indexation", doc["minutes_per_indexation"]],
-            ["estimated duration, h", doc["duration_h"]],
+            ["a, min per measurement", f"{doc['minutes_per_measurement']:.4g}"],
+            ["b, min per indexation", f"{doc['minutes_per_indexation']:.4g}"],
+            ["estimated duration, h", f"{doc['duration_h']:.1f}"],
         ],
     )
 
@@ -77,10 +78,10 @@ def _samba_design(
     rows = [
         ["unknowns", doc["n_unknowns"]],
         ["rank", doc["rank"]],
-        ["condition number (columns scaled)", doc["condition_scaled"]],
-        ["condition number (internal units)", doc["condition_raw"]],
+        ["condition number (columns scaled)", f"{doc['condition_scaled']:.4g}"],
+        ["condition number (internal units)", f"{doc['condition_raw']:.4g}"],
     ]
-    rows += [[f"observability {k}", v] for k, v in doc["observability"].items()]
+    rows += [[f"observability {k}", f"{v:.4g}"] for k, v in doc["observability"].items()]
     rep.table(["quantity", "value"], rows)
 
     rep.section(
@@ -90,23 +91,59 @@ def _samba_design(
     )
     rep.table(
         ["parameter", "u", "unit", "UPF", "UPF unit"],
-        [[p["name"], p["u"], p["unit"], p["upf"], p["upf_unit"]] for p in doc["parameters"]],
+        [
+            [p["name"], format_uncertainty(p["u"]), p["unit"], format_uncertainty(upf), unit]
+            for p in doc["parameters"]
+            for upf, unit in [(p["upf"], p["upf_unit"])]
+        ],
+        caption="Uncertainties with two significant digits (JCGM 100:2008, 7.2.6); the plan "
+        "file keeps full precision.",
     )
 
-    searches = [("step 1: balls", design.balls_search)]
-    searches.append(("step 2: indexations", design.indexations_search))
     rep.section("DETMAX convergence", "The criterion never decreases along a run.")
-    for name, search in searches:
-        if search is None:
-            continue
-        runs = search.runs
-        rep.figure(
-            figures.convergence(
-                [r.history for r in runs],
-                labels=[f"start {i + 1}" for i in range(len(runs))],
-                ylabel=search.criterion,
-                title=name,
-            ),
-            caption=f"{name}: best {search.best.value:.6g} after {search.best.exchanges} "
-            f"exchanges ({search.best.message}).",
+    for name, search in (
+        ("step 1: balls", design.balls_search),
+        ("step 2: indexations", design.indexations_search),
+    ):
+        if search is not None:
+            add_convergence(rep, name, search)
+
+
+_WORDS = "no one two three four five six seven eight nine ten eleven twelve".split()
+
+
+def _count(n: int, noun: str) -> str:
+    """``n`` ``noun`` in words: "one master ball", "two master balls", "13 exchanges"."""
+    number = _WORDS[n] if 0 <= n < len(_WORDS) else str(n)
+    return f"{number} {noun}" + ("" if n == 1 else "s")
+
+
+def add_convergence(rep: Report, name: str, search) -> None:
+    """The criterion of every DETMAX run against its exchanges, or why there is no curve.
+
+    A run whose random start is already a local optimum (the first candidate added is the
+    one removed) makes no exchange: its history is one value, and a figure of single
+    points would show nothing, so the section says so in words.
+    """
+    runs = search.runs
+    best = search.best
+    caption = (
+        f"{name}: best {best.value:.6g} after {_count(best.exchanges, 'exchange')} "
+        f"({best.message})."
+    )
+    if all(r.exchanges == 0 for r in runs):
+        starts = "the random start was" if len(runs) == 1 else f"each of the {len(runs)} starts was"
+        rep.text(
+            f"{caption} No curve to draw: {starts} already a local optimum of DETMAX (the first "
+            "candidate added was the one removed), so the criterion has a single value."
         )
+        return
+    rep.figure(
+        figures.convergence(
+            [r.history for r in runs],
+            labels=[f"start {i + 1}" for i in range(len(runs))],
+            ylabel=search.criterion,
+            title=name,
+        ),
+        caption=caption,
+    )

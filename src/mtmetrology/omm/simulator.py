@@ -69,6 +69,7 @@ from mtmetrology.kinematics.machine import Machine
 from mtmetrology.rng import SeedLike, as_generator, chunk_generators
 from mtmetrology.uncertainty.distributions import MultivariateNormal
 from mtmetrology.uncertainty.inputs import InputSet
+from mtmetrology.units import internal_unit
 
 __all__ = [
     "GROUPS",
@@ -94,8 +95,8 @@ class TaskInputs:
     Attributes
     ----------
     names, units : tuple of str, length N = n·n_axes + P + 3n
-        ``X_1, Y_1, ..., C_n`` (mm, rad), the parameter names (internal units: mm, rad,
-        1), ``ex_1 ... ez_n`` (mm).
+        ``X_1, Y_1, ..., C_n`` (mm, rad), the parameter names (internal units of their
+        customary ones: mm, rad, mm/mm for µm/m ...), ``ex_1 ... ez_n`` (mm).
     estimate : (N,) ndarray
         x = [φ; δ̂; 0].
     covariance : (N, N) ndarray
@@ -305,7 +306,7 @@ def covariance_simulator(
     names = [f"{ax}_{s + 1}" for s in range(n) for ax in machine.axis_names]
     names += list(machine.parameter_names) + [f"e{c}_{s + 1}" for s in range(n) for c in "xyz"]
     units = [("mm" if ax in machine.linear_axes else "rad") for ax in machine.axis_names] * n
-    units += ["1"] * n_par + ["mm"] * (3 * n)
+    units += [internal_unit(u) for u in machine.parameter_units] + ["mm"] * (3 * n)
     return TaskInputs(
         tuple(names),
         tuple(units),

@@ -10,7 +10,7 @@ calibration certificate::
     rep = Report("End gauge, GUM H.1", command="mtm uncertainty run h1.yaml")
     rep.section("Result", "GUF and Monte Carlo agree within 0.5 nm.")
     rep.table(["output", "value", "u"], [["l", 50000838.6, 31.7]], caption="nm")
-    rep.figure(figures.budget_bars(["l_s", "d", "θ"], [25.0, 9.7, 16.6], unit="nm"))
+    rep.figure(figures.budget_bars(["l_s", "d", "θ"], [0.61, 0.09, 0.30]))
     rep.write("report.html")
 
 Result objects render the same tables and figures in Jupyter through

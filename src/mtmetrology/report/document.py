@@ -23,8 +23,8 @@ from importlib import resources
 from pathlib import Path
 
 from mtmetrology import __version__
+from mtmetrology.formatting import format_cell
 from mtmetrology.io.files import atomic_write
-from mtmetrology.report.format import format_cell
 
 __all__ = ["Report", "figure_svg", "input_record"]
 

@@ -23,7 +23,7 @@ from collections.abc import Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
-from mtmetrology.report.format import format_uncertainty, format_value
+from mtmetrology.formatting import format_uncertainty, format_value
 
 __all__ = [
     "budget_bars",
@@ -295,35 +295,44 @@ def coverage_ellipses(
 
 def budget_bars(
     labels: Sequence[str],
-    contributions,
+    shares,
     *,
-    unit: str = "",
     title: str | None = None,
 ) -> Figure:
-    """Horizontal bars of uncertainty contributions |c_i| u(x_i), largest on top.
+    """Horizontal bars of the shares of u_c²(y), largest magnitude on top.
 
-    The share of each contribution in the sum of squares (JCGM 100:2008, 5.1.3) is
-    printed beside its bar.
+    ``shares`` are the variance contributions of
+    :func:`mtmetrology.uncertainty.guf.variance_shares` (they sum to 1 and may be
+    negative with correlated inputs); each bar is labelled with its share in percent, as
+    :func:`mtmetrology.formatting.format_share` prints it in the budget table.
 
     Examples
     --------
-    >>> fig = budget_bars(["l_s", "d", "θ"], [25.0, 9.7, 16.6], unit="nm")
+    >>> fig = budget_bars(["l_s", "d", "θ"], [0.6, 0.1, 0.3])
     >>> [t.get_text() for t in fig.axes[0].get_yticklabels()]
     ['d', 'θ', 'l_s']
     """
-    c = np.abs(np.asarray(contributions, dtype=float))
-    if c.shape != (len(labels),):
-        raise ValueError(f"{len(labels)} labels for {c.size} contributions")
-    order = np.argsort(c)
-    total = float(np.sum(c**2))
+    from mtmetrology.formatting import format_share
+
+    s = np.asarray(shares, dtype=float)
+    if s.shape != (len(labels),):
+        raise ValueError(f"{len(labels)} labels for {s.size} shares")
+    order = np.argsort(np.abs(s), kind="stable")
     fig = _figure(6.4, 1.2 + 0.32 * len(labels))
     ax = fig.add_subplot()
-    ax.barh([labels[i] for i in order], c[order], color=_BLUE)
+    pct = 100.0 * s
+    ax.barh(
+        [labels[i] for i in order],
+        pct[order],
+        color=[_BLUE if v >= 0 else _ORANGE for v in pct[order]],
+    )
     for pos, i in enumerate(order):
-        share = c[i] ** 2 / total if total > 0 else 0.0
-        ax.text(c[i], pos, f" {100 * share:.1f} %", va="center", fontsize=8)
-    ax.set_xlabel(_label("contribution |c_i| u(x_i)", unit))
-    ax.set_xlim(0, 1.18 * float(c.max()) if c.max() > 0 else 1.0)
+        ax.text(pct[i], pos, f" {format_share(s[i])}", va="center", fontsize=8)
+    ax.axvline(0.0, color="black", lw=0.8)
+    low = min(0.0, float(pct.min())) if pct.size else 0.0
+    high = max(0.0, float(pct.max())) if pct.size else 1.0
+    ax.set_xlim(1.25 * low, 1.25 * high if high > 0 else 1.0)
+    ax.set_xlabel("share of u_c²(y), %")
     ax.set_title(title or "Uncertainty budget")
     return fig
 

@@ -21,16 +21,22 @@ import numpy as np
 from mtmetrology import display
 from mtmetrology.fitting.least_squares import FitResult
 from mtmetrology.fitting.minimum_zone import ZoneResult
+from mtmetrology.formatting import (
+    SHARE_DEFINITION,
+    budget_cells,
+    budget_columns,
+    format_uncertainty,
+    format_value,
+)
 from mtmetrology.identification.diagnostics import IdentifiabilityReport
 from mtmetrology.identification.solver import IdentificationResult
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
-from mtmetrology.report.format import format_uncertainty, format_value
 from mtmetrology.uncertainty.guf import GUFResult
 from mtmetrology.uncertainty.mcm import MCMResult
 from mtmetrology.uncertainty.validation import ValidationReport
-from mtmetrology.units import from_internal
+from mtmetrology.units import convert, display_unit, from_internal
 
 __all__ = ["add_fit_document", "add_result", "renders", "result_report"]
 
@@ -74,6 +80,14 @@ def _dof(v: float) -> str:
     return "inf" if not math.isfinite(v) else f"{v:.1f}"
 
 
+def _uncertainty(u: float, unit: str) -> str:
+    """An uncertainty in the display unit of ``unit``, with that unit when it differs."""
+    du = display_unit(unit) if unit else unit
+    if du == unit:
+        return format_uncertainty(u)
+    return f"{format_uncertainty(float(convert(u, unit, du)))} {du}"
+
+
 def _interval(low: float, high: float, u: float) -> str:
     return f"[{format_value(low, u)}, {format_value(high, u)}]"
 
@@ -92,8 +106,8 @@ def _guf(rep: Report, g, **_) -> None:
             [
                 name,
                 format_value(float(g.estimate[j]), u),
-                format_uncertainty(u),
-                format_uncertainty(float(g.expanded_uncertainty[j])),
+                _uncertainty(u, g.units[j]),
+                _uncertainty(float(g.expanded_uncertainty[j]), g.units[j]),
                 f"{float(g.coverage_factor[j]):.3f}",
                 _interval(*g.interval[j], u),
                 _dof(float(g.dof_effective[j])),
@@ -103,33 +117,18 @@ def _guf(rep: Report, g, **_) -> None:
     rep.table(["output", "value", "u", "U", "k", "interval", "ν_eff", "unit"], rows)
     for j, name in enumerate(g.names):
         budget = g.budget(j)
-        unit = g.units[j]
+        lines, shown = budget_cells(budget, g.units[j])
+        unit = display_unit(g.units[j]) if g.units[j] else ""
         rep.section(f"Uncertainty budget of {name}")
-        rep.table(
-            ["input", "estimate", "u(x_i)", "unit", "c_i", f"u_i({name})", "ν_i", "share"],
-            [
-                [
-                    b.input,
-                    b.estimate,
-                    format_uncertainty(b.u),
-                    b.unit,
-                    f"{b.sensitivity + 0.0:.4g}",  # + 0.0 turns -0 into 0
-                    format_uncertainty(b.contribution),
-                    _dof(b.dof),
-                    f"{100 * b.share:.1f} %",
-                ]
-                for b in budget
-            ],
-            caption=f"contributions in {unit}" if unit else None,
-        )
+        caption = f"Contributions u_i({name}) = |c_i| u(x_i) in {unit}; " if unit else ""
+        rep.table(budget_columns(name), lines, caption=caption + SHARE_DEFINITION + ".")
         rep.figure(
             figures.budget_bars(
-                [b.input for b in budget],
-                [b.contribution for b in budget],
-                unit=unit,
+                [budget[i].input for i in shown],
+                [budget[i].share for i in shown],
                 title=f"Uncertainty budget of {name}",
             ),
-            caption=f"Contributions |c_i| u(x_i) to u({name}) and their shares of u²({name}).",
+            caption=f"Share of u_c²({name}) of each input, as in the table: {SHARE_DEFINITION}.",
         )
     if 1 < len(g.names) <= MAX_MAPPED:
         rep.section("Correlation of the outputs")
@@ -153,7 +152,7 @@ def _mcm(rep: Report, r, *, names=None, units=None, guf=None, **_) -> None:
             [
                 names[j],
                 format_value(float(r.estimate[j]), u),
-                format_uncertainty(u),
+                _uncertainty(u, units[j]),
                 _interval(*r.interval[j], u),
                 _interval(*r.interval_shortest[j], u),
                 units[j],
@@ -205,25 +204,29 @@ def _mcm(rep: Report, r, *, names=None, units=None, guf=None, **_) -> None:
 
 
 @renders(ValidationReport, "Validation of the GUF")
-def _validation(rep: Report, v, **_) -> None:
+def _validation(rep: Report, v, *, units=None, **_) -> None:
+    """``units``: the unit of each output by name (the rows' values are in it)."""
     verdict = "validated" if v.passed else "NOT validated"
+    units = units or {}
     rep.section(f"Validation of the GUF by Monte Carlo: {verdict}", v.message)
     rep.table(
-        ["output", "quantity", "GUF", "MCM", "|difference|", "tolerance", "ratio", "passed"],
+        ["output", "quantity", "unit", "GUF", "MCM", "|difference|", "δ", "ratio", "passed"],
         [
             [
                 w.name,
                 w.quantity,
-                w.guf,
-                w.mcm,
-                f"{w.difference:.3g}",
-                f"{w.tolerance:.3g}",
+                units.get(w.name, "—"),
+                format_value(w.guf, w.tolerance),
+                format_value(w.mcm, w.tolerance),
+                format_uncertainty(w.difference),
+                format_uncertainty(w.tolerance),
                 f"{100 * w.ratio:.0f} %",
                 w.passed,
             ]
             for w in v.rows
         ],
-        caption=f"procedure: {v.procedure}, p = {v.p:g}",
+        caption=f"procedure: {v.procedure}, p = {v.p:g}; values to the decimal of the "
+        "numerical tolerance δ (JCGM 101:2008, 7.9.2)",
     )
 
 

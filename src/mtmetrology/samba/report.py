@@ -32,9 +32,9 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
+from mtmetrology.formatting import format_uncertainty, format_value
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
-from mtmetrology.report.format import format_uncertainty, format_value
 from mtmetrology.report.results import add_result, renders
 from mtmetrology.samba.calibrate import SambaCalibration
 from mtmetrology.samba.uncertainty import SambaUncertainty
@@ -216,17 +216,18 @@ def _uncertainty(rep: Report, unc, **_) -> None:
                 [
                     t["name"],
                     t["unit"],
-                    f"{t['value_guf']:.6g}",
-                    f"{t['value_mcm']:.6g}",
-                    "—" if "u_guf" not in t else f"{t['u_guf']:.4g}",
-                    "—" if "u_mcm" not in t else f"{t['u_mcm']:.4g}",
-                    f"{t['tolerance']:.3g}",
+                    format_value(t["value_guf"], t["tolerance"]),
+                    format_value(t["value_mcm"], t["tolerance"]),
+                    format_value(t["u_guf"], t["tolerance"]) if "u_guf" in t else "—",
+                    format_value(t["u_mcm"], t["tolerance"]) if "u_mcm" in t else "—",
+                    format_uncertainty(t["tolerance"]),
                     t["validated"],
                 ]
                 for t in v["table"]
             ],
-            caption="Per parameter (Sepahi Boroujeni (2021), Table 5-2 layout) and jointly "
-            "(Table 5-3): largest eigenvalue of the covariance and the joint coverage factor.",
+            caption="Per parameter (Sepahi Boroujeni (2021), Table 5-2 layout; values to the "
+            "decimal of δ, JCGM 101:2008, 7.9.2) and jointly (Table 5-3): largest eigenvalue "
+            "of the covariance and the joint coverage factor.",
         )
     if g is not None:
         jc = doc["guf"]["joint_coverage"]

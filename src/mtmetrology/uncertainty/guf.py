@@ -25,17 +25,68 @@ from mtmetrology.uncertainty.regions import (
     normal_ellipsoidal_coverage_factor,
     normal_rectangular_coverage_factor,
 )
+from mtmetrology.units import display_unit
 
-__all__ = ["BudgetRow", "GUFResult", "guf", "welch_satterthwaite"]
+__all__ = ["BudgetRow", "GUFResult", "guf", "variance_shares", "welch_satterthwaite"]
+
+
+def variance_shares(sensitivities, covariance, groups=None) -> np.ndarray:
+    r"""Share of u_c²(y) of each input (or group of inputs), summing to 1.
+
+    .. math::
+
+        s_i = c_i \sum_j c_j\, u(x_i, x_j) / u_c^2(y), \qquad
+        u_c^2(y) = \sum_i \sum_j c_i c_j\, u(x_i, x_j) = c^T U_x c
+
+    (JCGM 100:2008, 5.2.2, eq. 16, each double-sum term split half to each of its two
+    inputs). Uncorrelated inputs give u_i²(y)/u_c²(y) (JCGM 100, 5.1.3); with
+    correlated inputs the shares still sum to 1 exactly, and an input whose covariance
+    terms cancel part of u_c²(y) has a negative share. A group's share is the sum of its
+    members' (its covariances with other groups are split half and half).
+
+    Parameters
+    ----------
+    sensitivities : (N,) or (m, N) array_like
+        c (one row per output).
+    covariance : (N, N) array_like
+        U_x.
+    groups : mapping of str to index array or slice, optional
+        Inputs reported jointly; the result is then a dict of share arrays.
+
+    Returns
+    -------
+    ndarray, shape like ``sensitivities`` (or dict of (m,) / scalar per group)
+        Zero for an output with u_c(y) = 0.
+
+    References
+    ----------
+    JCGM 100:2008. *Evaluation of measurement data — Guide to the expression of
+    uncertainty in measurement*, 5.1.3 and 5.2.2.
+
+    Examples
+    --------
+    >>> s = variance_shares([1.0, 1.0], [[1.0, -0.5], [-0.5, 4.0]])
+    >>> s.round(3).tolist(), float(s.sum())
+    ([0.125, 0.875], 1.0)
+    """
+    c = np.asarray(sensitivities, dtype=float)
+    cov = np.asarray(covariance, dtype=float)
+    full = c * (c @ cov)  # c_i (U_x c)_i, U_x symmetric
+    var = full.sum(axis=-1, keepdims=True)
+    share = np.divide(full, var, out=np.zeros_like(full), where=var > 0)
+    if groups is None:
+        return share
+    return {name: share[..., idx].sum(axis=-1) for name, idx in groups.items()}
 
 
 @dataclass(frozen=True)
 class BudgetRow:
     """One line of an uncertainty budget for one output.
 
-    ``contribution`` is u_i(y) = |c_i| u(x_i) (JCGM 100, 5.1.3); ``share`` is
-    u_i²(y)/u_c²(y) (sums to 1 for uncorrelated inputs); ``share_full`` is
-    c_i (U_x c)_i / u_c²(y), which includes the covariance terms and always sums to 1.
+    ``contribution`` is u_i(y) = |c_i| u(x_i) (JCGM 100, 5.1.3); ``share`` is the
+    variance contribution of :func:`variance_shares`, c_i Σ_j c_j u(x_i, x_j) / u_c²(y):
+    it sums to 1 with correlated inputs too, and is negative for an input whose
+    covariances cancel part of u_c²(y). ``unit`` is the unit of ``estimate`` and ``u``.
     """
 
     input: str
@@ -46,7 +97,6 @@ class BudgetRow:
     contribution: float
     dof: float
     share: float
-    share_full: float
 
 
 @dataclass(frozen=True)
@@ -145,11 +195,8 @@ class GUFResult(NotebookRepr):
         """The uncertainty budget of one output (index or name), one row per input."""
         j = self._index(output)
         c = self.sensitivities[j]  # (N,)
-        var = self.covariance[j, j]
         contrib = np.abs(c) * self.input_standard_uncertainty
-        full = c * (self.input_covariance @ c)
-        share = contrib**2 / var if var > 0 else np.zeros_like(c)
-        share_full = full / var if var > 0 else np.zeros_like(c)
+        share = variance_shares(c, self.input_covariance)
         return tuple(
             BudgetRow(
                 self.input_names[i],
@@ -160,7 +207,6 @@ class GUFResult(NotebookRepr):
                 float(contrib[i]),
                 float(self.input_dof[i]),
                 float(share[i]),
-                float(share_full[i]),
             )
             for i in range(c.size)
         )
@@ -169,7 +215,8 @@ class GUFResult(NotebookRepr):
         """JSON-ready result: ``method``, ``outputs`` (:class:`.Output` layout), joint data.
 
         ``dof_effective`` lists ν_eff per output (None for infinity); ``budget`` maps each
-        output name to its rows.
+        output name to its rows (values in ``unit``, full precision; ``display_unit`` is
+        the unit a report shows them in; ``share`` as in :func:`variance_shares`).
         """
         return {
             "method": self.method,
@@ -191,13 +238,13 @@ class GUFResult(NotebookRepr):
                     {
                         "input": r.input,
                         "unit": r.unit,
+                        "display_unit": display_unit(r.unit),
                         "estimate": r.estimate,
                         "u": r.u,
                         "sensitivity": r.sensitivity,
                         "contribution": r.contribution,
                         "dof": json_dof(r.dof),
                         "share": r.share,
-                        "share_full": r.share_full,
                     }
                     for r in self.budget(j)
                 ]
