@@ -1,8 +1,8 @@
 """On-machine measurement (OMM): probing repeatability, reference values, task uncertainty."""
 
+from mtmetrology.identification.long_term import long_term_parameters
 from mtmetrology.omm.drift import detrend_cubic, sliding_window_std
 from mtmetrology.omm.hysteresis import HysteresisResult, hysteresis_errors, radial_projection
-from mtmetrology.omm.long_term import long_term_parameters
 from mtmetrology.omm.pooling import PoolingResult, pooling_experiment
 from mtmetrology.omm.reference import (
     ReferenceValue,

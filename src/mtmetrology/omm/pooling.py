@@ -157,7 +157,8 @@ def pooling_experiment(
     parameters : (P,) array
         Machine parameters δ used for the compensation (internal units).
     parameter_covariance : (P, P) array
-        Their long-term covariance Σ (e.g. :func:`mtmetrology.omm.long_term.long_term_parameters`).
+        Their long-term covariance Σ (e.g.
+        :func:`mtmetrology.identification.long_term.long_term_parameters`).
     features : sequence of Feature
         Features of each drawn point set, sharing one unit (e.g. ``SphereDiameter``,
         ``Sphericity``); their outputs, in order, are the result's outputs.

@@ -7,7 +7,9 @@ a day for 15 days, and the 13×13 sample covariance of the 15 estimates (§5.3, 
 "Exp." and Table 5-4). :func:`long_term_parameters` does the same with any number of
 calibrations of one machine and returns a :class:`ParameterSet` that
 ``mtm task uncertainty --params`` (or :func:`mtmetrology.omm.task.task_uncertainty`)
-reads as it is.
+reads as it is. It lives in the identification engine so that ``mtm calibrate long-term``
+(on files) and ``mtm history covariance`` (on the calibration database) call the same
+statistic.
 
 References
 ----------
