@@ -40,6 +40,7 @@ COMMANDS = {
     "repeatability": ("mtmetrology.cli.repeatability", "app", True),
     "task": ("mtmetrology.cli.task", "app", True),
     "demo": ("mtmetrology.cli.demo", "demo", False),
+    "history": ("mtmetrology.cli.history", "app", True),
 }
 
 #: Groups whose subcommands come from several applications (``mtm calibrate samba``,

@@ -1,0 +1,291 @@
+"""``mtm history``: the calibration history database (issue 24).
+
+Each command parses, calls one function of :mod:`mtmetrology.history`, prints and writes.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from datetime import datetime
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from mtmetrology.cli._common import print_json, user_errors
+from mtmetrology.errors import InputError
+from mtmetrology.history import (
+    add_result,
+    export_rows,
+    list_runs,
+    long_term_covariance,
+    open_history,
+    parameter_trend,
+    show_run,
+)
+from mtmetrology.history.records import machine_names
+from mtmetrology.io.documents import load_document
+from mtmetrology.io.files import atomic_write, write_json
+from mtmetrology.kinematics.machine import Machine
+
+app = typer.Typer(
+    help="Calibration history: record results, list, trend with control limits, long-term "
+    "covariance, export. The database: --db FILE or URL, else $MTMETROLOGY_DB, else "
+    "history.sqlite in the user's data directory.",
+    no_args_is_help=True,
+)
+
+Db = Annotated[
+    str | None,
+    typer.Option("--db", help="SQLite file or URL (postgresql://...) [$MTMETROLOGY_DB]."),
+]
+CATEGORIES = ("calibration", "task", "verification")
+
+
+def _date(text: str | None, option: str) -> datetime | None:
+    if text is None:
+        return None
+    try:
+        return datetime.fromisoformat(text)
+    except ValueError:
+        raise InputError(
+            f"{option} {text!r}: not an ISO 8601 date (2026-03-01 or 2026-03-01T08:30)"
+        ) from None
+
+
+def _category(category: str) -> str:
+    if category not in CATEGORIES:
+        raise InputError(f"--category {category!r}: one of {', '.join(CATEGORIES)}")
+    return category
+
+
+def _one_machine(engine, machine: str | None) -> str:
+    if machine is not None:
+        return machine
+    names = machine_names(engine)
+    if len(names) != 1:
+        raise InputError(
+            f"the history holds {len(names)} machines ({', '.join(names) or 'none'}); "
+            "give --machine"
+        )
+    return names[0]
+
+
+@app.command("add")
+@user_errors
+def add(
+    result: Annotated[
+        Path, typer.Argument(help="RESULT.json of a calibrate, task or verify command.")
+    ],
+    machine: Annotated[
+        str | None,
+        typer.Option("--machine", help="Preset name or machine YAML [the machine the file names]."),
+    ] = None,
+    note: Annotated[str | None, typer.Option("--note", help="Operator note.")] = None,
+    date: Annotated[
+        str | None, typer.Option("--date", help="When it was measured (ISO 8601) [now].")
+    ] = None,
+    artefact: Annotated[str | None, typer.Option("--artefact", help="Artefact used.")] = None,
+    temperature: Annotated[
+        float | None, typer.Option("--temperature", help="Workshop temperature, °C.")
+    ] = None,
+    serial: Annotated[str | None, typer.Option("--serial", help="Machine serial number.")] = None,
+    inputs: Annotated[
+        list[Path] | None, typer.Option("--input", help="Input file whose SHA-256 is kept.")
+    ] = None,
+    db: Db = None,
+    json: Annotated[bool, typer.Option("--json", help="Print the stored run.")] = False,
+) -> None:
+    """Record a result in the history (one transaction: fully there or absent)."""
+    document = load_document(result, "result")
+    name = machine
+    if name is None:
+        name = document.get("machine") if isinstance(document, dict) else None
+        if not isinstance(name, str):
+            raise InputError(f"{result}: machine: missing; give --machine")
+    base = Machine.load(name)
+    when = _date(date, "--date")
+    engine = open_history(db)
+    record = add_result(
+        engine,
+        document,
+        base,
+        source=str(result),
+        performed_at=when,
+        note=note,
+        artefact=artefact,
+        temperature_c=temperature,
+        serial=serial,
+        input_files=tuple(inputs or ()),
+    )
+    if json:
+        print_json(record.to_dict())
+    else:
+        typer.echo(
+            f"recorded {record.category} run {record.id} of {record.machine} "
+            f"({record.kind}, {record.performed_at:%Y-%m-%d %H:%M} UTC)"
+        )
+
+
+@app.command("list")
+@user_errors
+def list_(
+    machine: Annotated[str | None, typer.Option("--machine", help="Only this machine.")] = None,
+    category: Annotated[
+        str, typer.Option("--category", help="calibration, task or verification.")
+    ] = "calibration",
+    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    db: Db = None,
+    json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """List the recorded runs, oldest first."""
+    runs = list_runs(
+        open_history(db),
+        machine=machine,
+        category=_category(category),
+        since=_date(since, "--since"),
+    )
+    if json:
+        print_json({"kind": "history-list", "version": 1, "runs": [r.to_dict() for r in runs]})
+        return
+    for r in runs:
+        typer.echo(
+            f"{r.id:>6}  {r.performed_at:%Y-%m-%d %H:%M}  {r.machine:<24} {r.kind:<22} "
+            f"{r.operator_note or ''}"
+        )
+    typer.echo(f"{len(runs)} {category} run(s)", err=True)
+
+
+@app.command("show")
+@user_errors
+def show(
+    run: Annotated[int, typer.Argument(help="Run number (mtm history list).")],
+    category: Annotated[
+        str, typer.Option("--category", help="calibration, task or verification.")
+    ] = "calibration",
+    db: Db = None,
+    json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """Show one recorded run."""
+    record = show_run(open_history(db), run, _category(category))
+    if json:
+        print_json(record.to_dict())
+        return
+    typer.echo(
+        f"{record.category} run {record.id}: {record.machine}, {record.kind}, performed "
+        f"{record.performed_at.isoformat()}, recorded {record.recorded_at.isoformat()} "
+        f"(mtmetrology {record.software_version})"
+    )
+    for label, value in (
+        ("note", record.operator_note),
+        ("artefact", record.artefact),
+        ("temperature", None if record.temperature_c is None else f"{record.temperature_c} °C"),
+    ):
+        if value is not None:
+            typer.echo(f"  {label}: {value}")
+    for key, value in record.residual_statistics.items():
+        typer.echo(f"  {key}: {value}")
+    for path, sha in record.input_hashes.items():
+        typer.echo(f"  sha256 {sha}  {path}")
+    for p in record.parameters:
+        u = "" if p["u"] is None else f" ± {p['u']:.2g}"
+        typer.echo(f"  {p['name']:<8} {p['value']:>12.4f}{u} {p['unit']}")
+
+
+@app.command("trend")
+@user_errors
+def trend(
+    parameter: Annotated[str, typer.Argument(help="Parameter name, e.g. E_X0C.")],
+    machine: Annotated[str | None, typer.Option("--machine", help="Machine name.")] = None,
+    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    baseline: Annotated[
+        int | None, typer.Option("--baseline", help="First runs that set the limits [all].")
+    ] = None,
+    db: Db = None,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="TREND.json.")] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print TREND.json.")] = False,
+) -> None:
+    """Individuals control chart of a parameter (Shewhart limits x̄ ± 3 MR̄/1.128)."""
+    engine = open_history(db)
+    result = parameter_trend(
+        engine,
+        _one_machine(engine, machine),
+        parameter,
+        since=_date(since, "--since"),
+        baseline=baseline,
+    )
+    document = result.to_dict()
+    if output is not None:
+        write_json(output, document)
+    if json:
+        print_json(document)
+        return
+    typer.echo(
+        f"{result.parameter} of {result.machine}: {len(result.values)} runs, centre "
+        f"{result.centre:.4f} {result.unit}, limits [{result.lower_limit:.4f}, "
+        f"{result.upper_limit:.4f}] {result.unit} (sigma {result.sigma:.2g} from "
+        f"{result.baseline} runs)"
+    )
+    for i, d, v, flag in zip(
+        result.run_ids, result.dates, result.values, result.out_of_control, strict=True
+    ):
+        if flag:
+            typer.echo(f"  out of control: run {i} ({d:%Y-%m-%d}) {v:.4f} {result.unit}")
+    typer.echo(f"{int(result.out_of_control.sum())} point(s) out of control")
+
+
+@app.command("covariance")
+@user_errors
+def covariance(
+    machine: Annotated[str, typer.Argument(help="Machine name.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="COV.json (parameter set).")],
+    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    values: Annotated[str, typer.Option("--values", help="latest or mean.")] = "latest",
+    db: Db = None,
+) -> None:
+    """Long-term covariance of the machine's calibrations, for mtm task uncertainty --params."""
+    result = long_term_covariance(
+        open_history(db), machine, since=_date(since, "--since"), values=values
+    )
+    result.save(output)
+    typer.echo(
+        f"long-term covariance of {result.provenance['calibrations']} calibrations "
+        f"(rank {result.provenance['rank']}); wrote {output}"
+    )
+
+
+@app.command("export")
+@user_errors
+def export(
+    machine: Annotated[str, typer.Argument(help="Machine name.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="FILE.csv or FILE.json.")],
+    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    db: Db = None,
+) -> None:
+    """Export a machine's calibrations: CSV (one row per run) or JSON (the full runs)."""
+    engine = open_history(db)
+    when = _date(since, "--since")
+    if output.suffix.lower() == ".json":
+        runs = list_runs(engine, machine=machine, since=when)
+        write_json(
+            output,
+            {
+                "kind": "history-export",
+                "version": 1,
+                "machine": machine,
+                "runs": [show_run(engine, r.id).to_dict() for r in runs],
+            },
+        )
+    elif output.suffix.lower() == ".csv":
+        rows = export_rows(engine, machine, since=when)
+        buffer = io.StringIO()
+        if rows:
+            writer = csv.DictWriter(buffer, fieldnames=list(rows[0]), lineterminator="\n")
+            writer.writeheader()
+            writer.writerows(rows)
+        with atomic_write(output) as fh:
+            fh.write(buffer.getvalue())
+    else:
+        raise InputError(f"{output}: give a .csv or .json file")
+    typer.echo(f"wrote {output}", err=True)
