@@ -5,6 +5,9 @@ command as it was written, with the fields a laboratory filters on pulled out in
 columns), the run's parameters one row each (``run_parameters``: the trend of one
 parameter is one indexed query), task results and verification results.
 
+``content_sha256`` (schema version 2) is unique per table through the index
+``uq_<table>_content_sha256``: the same result is not recorded twice.
+
 Values in ``run_parameters`` are in the parameter's customary unit (µm, µrad, µm/m), the
 unit stored beside them, exactly as the result document states them.
 """
@@ -57,7 +60,7 @@ class CalibrationRun(Base):
     residual_statistics: Mapped[dict] = mapped_column(JSON)
     input_hashes: Mapped[dict] = mapped_column(JSON)
     result: Mapped[dict] = mapped_column(JSON)
-    content_sha256: Mapped[str] = mapped_column(String(64), unique=True)
+    content_sha256: Mapped[str] = mapped_column(String(64))
 
 
 class RunParameter(Base):
@@ -85,7 +88,7 @@ class _Document:
     operator_note: Mapped[str | None] = mapped_column(Text)
     input_hashes: Mapped[dict] = mapped_column(JSON)
     result: Mapped[dict] = mapped_column(JSON)
-    content_sha256: Mapped[str] = mapped_column(String(64), unique=True)
+    content_sha256: Mapped[str] = mapped_column(String(64))
 
 
 class TaskResult(_Document, Base):

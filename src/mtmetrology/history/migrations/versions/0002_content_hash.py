@@ -20,32 +20,29 @@ TABLES = ("calibration_runs", "task_results", "verification_results")
 
 
 def upgrade() -> None:
+    # Only ADD COLUMN and CREATE INDEX: on SQLite nothing is rebuilt (a rebuilt
+    # calibration_runs would cascade-delete run_parameters).
     bind = op.get_bind()
     for name in TABLES:
-        with op.batch_alter_table(name) as batch:
-            batch.add_column(sa.Column("content_sha256", sa.String(64), nullable=True))
+        op.add_column(name, sa.Column("content_sha256", sa.String(64), nullable=True))
         table = sa.table(
             name,
             sa.column("id", sa.Integer),
             sa.column("result", sa.JSON),
             sa.column("content_sha256", sa.String),
         )
-        rows = bind.execute(sa.select(table.c.id, table.c.result)).all()
-        for row_id, document in rows:
+        for row_id, document in bind.execute(sa.select(table.c.id, table.c.result)).all():
             bind.execute(
                 table.update()
                 .where(table.c.id == row_id)
                 .values(content_sha256=canonical_sha256(document))
             )
-        with op.batch_alter_table(name) as batch:
-            batch.alter_column("content_sha256", existing_type=sa.String(64), nullable=False)
-            batch.create_unique_constraint(f"uq_{name}_content_sha256", ["content_sha256"])
+        op.create_index(f"uq_{name}_content_sha256", name, ["content_sha256"], unique=True)
     op.create_index("ix_run_parameters_name_run", "run_parameters", ["name", "run_id"])
 
 
 def downgrade() -> None:
     op.drop_index("ix_run_parameters_name_run", "run_parameters")
     for name in TABLES:
-        with op.batch_alter_table(name) as batch:
-            batch.drop_constraint(f"uq_{name}_content_sha256", type_="unique")
-            batch.drop_column("content_sha256")
+        op.drop_index(f"uq_{name}_content_sha256", name)
+        op.drop_column(name, "content_sha256")  # SQLite >= 3.35: no rebuild
