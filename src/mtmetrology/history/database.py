@@ -39,6 +39,7 @@ __all__ = [
     "default_location",
     "migrate",
     "open_history",
+    "writer",
 ]
 
 #: Environment variable naming the history database (a file or a URL).
@@ -90,7 +91,8 @@ def _engine(url: str) -> Engine:
 
         @event.listens_for(engine, "begin")
         def _begin(connection):
-            connection.exec_driver_sql("BEGIN IMMEDIATE")
+            write = connection.get_execution_options().get("history_write", False)
+            connection.exec_driver_sql("BEGIN IMMEDIATE" if write else "BEGIN")
 
         return engine
     if parsed.get_backend_name() == "postgresql":
@@ -103,11 +105,17 @@ def _engine(url: str) -> Engine:
     )
 
 
+def writer(engine: Engine) -> Engine:
+    """``engine`` for a write transaction (on SQLite it begins with ``BEGIN IMMEDIATE``;
+    reads begin with a plain ``BEGIN`` and never wait for a writer in WAL mode)."""
+    return engine.execution_options(history_write=True)
+
+
 def migrate(engine: Engine, revision: str = HEAD) -> None:
     """Upgrade the database to ``revision`` (default: the current schema)."""
     config = Config()
     config.set_main_option("script_location", str(_MIGRATIONS))
-    with engine.connect() as connection:
+    with writer(engine).connect() as connection:
         config.attributes["connection"] = connection
         command.upgrade(config, revision)
 

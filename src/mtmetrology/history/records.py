@@ -23,7 +23,7 @@ from sqlalchemy.orm import Session
 import mtmetrology
 from mtmetrology.errors import InputError
 from mtmetrology.history import schema
-from mtmetrology.history.database import canonical_sha256
+from mtmetrology.history.database import canonical_sha256, writer
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import KIND as PARAMETER_SET
 from mtmetrology.kinematics.parameter_set import RESULT_KINDS, ParameterSet
@@ -293,7 +293,7 @@ def add_result(
         "content_sha256": sha,
     }
     try:
-        with Session(engine) as session, session.begin():
+        with Session(writer(engine)) as session, session.begin():
             row = _machine_row(session, machine, serial)
             if category == "calibration":
                 order = _check_against_history(session, row, pset, source)
@@ -451,7 +451,7 @@ def parameter_matrix(
     with Session(engine) as session:
         row = session.scalar(select(schema.Machine).where(schema.Machine.name == machine))
         if row is None:
-            known = ", ".join(machine_names(engine)) or "none"
+            known = ", ".join(session.scalars(select(schema.Machine.name))) or "none"
             raise InputError(f"machine {machine!r}: not in the history (machines: {known})")
         runs = select(cal.id, cal.performed_at).where(cal.machine_id == row.id)
         if since is not None:
