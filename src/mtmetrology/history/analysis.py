@@ -110,8 +110,9 @@ def control_limits(values: np.ndarray) -> tuple[float, float]:
 
     Examples
     --------
-    >>> control_limits(np.array([1.0, 3.0, 2.0]))  # MR̄ = 1.5
-    (2.0, 1.329...)
+    >>> centre, sigma = control_limits(np.array([1.0, 3.0, 2.0]))  # MR̄ = 1.5
+    >>> centre, round(sigma, 6)
+    (2.0, 1.32934)
     """
     if values.size < 2:
         raise InputError(f"a control chart needs at least 2 runs, got {values.size}")

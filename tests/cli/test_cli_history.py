@@ -1,0 +1,93 @@
+"""Tests for ``mtm history`` (mtmetrology.cli.history), on a SQLite file."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+from typer.testing import CliRunner
+
+from mtmetrology.cli import app
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+
+runner = CliRunner()
+MACHINE = Machine.load("five-axis-wcbxfzyst")
+
+
+def _calibrations(tmp_path, n=4):
+    rows = np.random.default_rng(3).normal(size=(n, 13))
+    paths = []
+    for k, row in enumerate(rows):
+        path = tmp_path / f"cal{k}.json"
+        ParameterSet(
+            MACHINE.parameter_names,
+            row * MACHINE.parameter_scales,
+            MACHINE.parameter_units,
+            machine=MACHINE.name,
+            model="13",
+        ).save(path)
+        paths.append(path)
+    return paths, rows
+
+
+def _mtm(*args):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+def test_add_list_show_trend_covariance_export(tmp_path):
+    db = tmp_path / "h.sqlite"
+    paths, rows = _calibrations(tmp_path)
+    for k, path in enumerate(paths):
+        r = _mtm(
+            "history", "add", path, "--db", db, "--date", f"2026-02-0{k + 1}", "--note", f"d{k}"
+        )
+        assert r.exit_code == 0, r.output
+    listed = json.loads(_mtm("history", "list", "--db", db, "--json").stdout)
+    assert [run["operator_note"] for run in listed["runs"]] == ["d0", "d1", "d2", "d3"]
+    shown = json.loads(_mtm("history", "show", "2", "--db", db, "--json").stdout)
+    np.testing.assert_allclose([p["value"] for p in shown["parameters"]], rows[1], rtol=1e-12)
+    trend = json.loads(_mtm("history", "trend", "E_X0C", "--db", db, "--json").stdout)
+    j = MACHINE.parameter_names.index("E_X0C")
+    np.testing.assert_allclose([run["value"] for run in trend["runs"]], rows[:, j], rtol=1e-12)
+    cov = tmp_path / "COV.json"
+    assert _mtm("history", "covariance", MACHINE.name, "-o", cov, "--db", db).exit_code == 0
+    loaded = ParameterSet.load(cov, MACHINE)
+    f = MACHINE.parameter_scales
+    np.testing.assert_allclose(loaded.covariance / np.outer(f, f), np.cov(rows, rowvar=False))
+    out = tmp_path / "e.csv"
+    assert _mtm("history", "export", MACHINE.name, "-o", out, "--db", db).exit_code == 0
+    with open(out, newline="") as fh:
+        table = list(csv.DictReader(fh))
+    np.testing.assert_allclose([float(t["E_X0C [µm]"]) for t in table], rows[:, j], rtol=1e-12)
+
+
+def test_bad_inputs_are_one_line_and_exit_2_with_nothing_written(tmp_path):
+    db = tmp_path / "h.sqlite"
+    unknown = tmp_path / "fit.json"
+    unknown.write_text(json.dumps({"kind": "fit-result", "version": 1, "machine": MACHINE.name}))
+    paths, _ = _calibrations(tmp_path, 1)
+    cov = tmp_path / "COV.json"
+    cases = [
+        (("history", "add", unknown, "--db", db), f"error: {unknown}: kind: 'fit-result'"),
+        (
+            ("history", "add", paths[0], "--machine", "three-axis-xfyz", "--db", db),
+            f"error: {paths[0]}: parameters[0]: E_A0B refers to axis B",
+        ),
+        (
+            ("history", "list", "--db", "postgresql://u@127.0.0.1:1/x"),
+            "error: database postgresql://u@127.0.0.1:1/x: does not answer",
+        ),
+        (
+            ("history", "covariance", "nope", "-o", cov, "--db", db),
+            "error: machine 'nope': not in the history",
+        ),
+    ]
+    for args, start in cases:
+        r = _mtm(*args)
+        assert r.exit_code == 2, (args, r.output)
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(start), r.stderr
+    assert not cov.exists()
+    assert json.loads(_mtm("history", "list", "--db", db, "--json").stdout)["runs"] == []
