@@ -14,6 +14,7 @@ import textwrap
 from datetime import UTC, datetime
 from pathlib import Path
 
+import numpy as np
 import pytest
 from sqlalchemy import text
 
@@ -28,7 +29,8 @@ SRC = str(Path(__file__).resolve().parents[2] / "src")
 
 def test_first_schema_version_upgrades_with_its_data_intact(history_url, make_calibration):
     """A database made at revision 0001, holding a run, is upgraded to the head: the run,
-    its parameters and its document are unchanged and the new hash column is filled."""
+    its parameters and its document are unchanged, the hash (0002) and the parameter vector
+    (0003) are filled from them."""
     engine = open_history(history_url, revision="0001")
     assert schema_revision(engine) == "0001"
     document = make_calibration(range(13))
@@ -68,6 +70,9 @@ def test_first_schema_version_upgrades_with_its_data_intact(history_url, make_ca
     assert record.result == document
     assert [p["value"] for p in record.parameters] == list(range(13))
     assert record.content_sha256 == canonical_sha256(document)
+    with engine.connect() as c:  # 0003 filled the run's parameter vector from its rows
+        vector = c.execute(text("SELECT parameter_vector FROM calibration_runs")).scalar()
+    assert np.frombuffer(vector, dtype="<f8").tolist() == list(range(13))
     # the 0002 change holds: the same document cannot be recorded a second time
     with pytest.raises(InputError, match="already recorded as calibration run 1"):
         add_result(engine, document, MACHINE)

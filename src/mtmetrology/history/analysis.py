@@ -21,7 +21,7 @@ import numpy as np
 from sqlalchemy import Engine
 
 from mtmetrology.errors import InputError
-from mtmetrology.history.records import machine_model, parameter_matrix
+from mtmetrology.history.records import machine_model, parameter_matrix, parameter_series
 from mtmetrology.identification.long_term import long_term_parameters
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.units import parse_unit
@@ -145,14 +145,7 @@ def parameter_trend(
     TrendResult
         Limits x̄ ± 3 MR̄/d₂ and the points outside them.
     """
-    ids, dates, names, units, matrix = parameter_matrix(engine, machine, since=since)
-    if parameter not in names:
-        raise InputError(
-            f"parameter {parameter!r}: not a parameter of the runs of {machine!r}"
-            + (f" ({', '.join(names[:6])}{' ...' if len(names) > 6 else ''})" if names else "")
-        )
-    j = names.index(parameter)
-    values = matrix[:, j]
+    ids, dates, unit, values = parameter_series(engine, machine, parameter, since=since)
     n = len(values) if baseline is None else baseline
     if not 2 <= n <= len(values):
         raise InputError(f"--baseline {n}: must be between 2 and the {len(values)} runs")
@@ -161,7 +154,7 @@ def parameter_trend(
     return TrendResult(
         machine,
         parameter,
-        units[j],
+        unit,
         tuple(ids),
         tuple(dates),
         values,

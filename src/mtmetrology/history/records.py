@@ -16,7 +16,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
-from sqlalchemy import Engine, select
+from sqlalchemy import Engine, select, text
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
@@ -294,31 +294,38 @@ def add_result(
     }
     try:
         with Session(writer(engine)) as session, session.begin():
+            if engine.dialect.name == "postgresql":
+                # writers queue (SQLite's BEGIN IMMEDIATE does the same): two first runs of
+                # a new machine would otherwise both insert it
+                session.execute(text("SELECT pg_advisory_xact_lock(24025)"))
             row = _machine_row(session, machine, serial)
             if category == "calibration":
                 order = _check_against_history(session, row, pset, source)
+                index = [pset.names.index(name) for name in order]
+                f = pset.scales()[index]
+                values = pset.values[index] / f
+                u = pset.standard_uncertainty
+                u = [None] * len(order) if u is None else (u[index] / f).tolist()
                 run = table(
                     machine_id=row.id,
                     artefact=artefact,
                     temperature_c=temperature_c,
                     residual_statistics=_residual_statistics(document),
+                    parameter_vector=values.astype("<f8").tobytes(),
                     **common,
                 )
                 session.add(run)
                 session.flush()
-                u = pset.standard_uncertainty
-                f = pset.scales()
-                index = {n: i for i, n in enumerate(pset.names)}
                 session.add_all(
                     schema.RunParameter(
                         run_id=run.id,
                         position=k,
                         name=name,
-                        unit=pset.units[index[name]],
-                        value=float(pset.values[index[name]] / f[index[name]]),
-                        u=None if u is None else float(u[index[name]] / f[index[name]]),
+                        unit=pset.units[i],
+                        value=float(values[k]),
+                        u=u[k],
                     )
-                    for k, name in enumerate(order)
+                    for k, (name, i) in enumerate(zip(order, index, strict=True))
                 )
             else:
                 run = table(machine_id=row.id, **common)
@@ -436,10 +443,18 @@ def machine_model(engine: Engine, machine: str) -> str | None:
         return session.scalar(select(schema.Machine.model).where(schema.Machine.name == machine))
 
 
+def _machine_id(session: Session, machine: str) -> int:
+    row = session.scalar(select(schema.Machine.id).where(schema.Machine.name == machine))
+    if row is None:
+        known = ", ".join(session.scalars(select(schema.Machine.name))) or "none"
+        raise InputError(f"machine {machine!r}: not in the history (machines: {known})")
+    return row
+
+
 def parameter_matrix(
     engine: Engine, machine: str, *, since: datetime | None = None
 ) -> tuple[list[int], list[datetime], list[str], list[str], np.ndarray]:
-    """A machine's calibrations, oldest first, as arrays.
+    """A machine's calibrations, oldest first, as arrays (one row read per run).
 
     Returns
     -------
@@ -449,11 +464,10 @@ def parameter_matrix(
     """
     cal, par = schema.CalibrationRun, schema.RunParameter
     with Session(engine) as session:
-        row = session.scalar(select(schema.Machine).where(schema.Machine.name == machine))
-        if row is None:
-            known = ", ".join(session.scalars(select(schema.Machine.name))) or "none"
-            raise InputError(f"machine {machine!r}: not in the history (machines: {known})")
-        runs = select(cal.id, cal.performed_at).where(cal.machine_id == row.id)
+        machine_id = _machine_id(session, machine)
+        runs = select(cal.id, cal.performed_at, cal.parameter_vector).where(
+            cal.machine_id == machine_id
+        )
         if since is not None:
             runs = runs.where(cal.performed_at >= _utc(since))
         runs = session.execute(runs.order_by(cal.performed_at, cal.id)).all()
@@ -462,13 +476,49 @@ def parameter_matrix(
         first = session.execute(
             select(par.name, par.unit).where(par.run_id == runs[0][0]).order_by(par.position)
         ).all()
-        values = select(par.value).join(cal, cal.id == par.run_id).where(cal.machine_id == row.id)
-        if since is not None:
-            values = values.where(cal.performed_at >= _utc(since))
-        flat = session.scalars(values.order_by(cal.performed_at, cal.id, par.position)).all()
-    matrix = np.fromiter(flat, dtype=float, count=len(flat)).reshape(len(runs), len(first))
+    matrix = np.frombuffer(b"".join(r[2] for r in runs), dtype="<f8").reshape(len(runs), -1)
     ids = [r[0] for r in runs]
     return ids, [_utc(r[1]) for r in runs], [f[0] for f in first], [f[1] for f in first], matrix
+
+
+def parameter_series(
+    engine: Engine, machine: str, parameter: str, *, since: datetime | None = None
+) -> tuple[list[int], list[datetime], str, np.ndarray]:
+    """One parameter of a machine's calibrations, oldest first (one indexed query).
+
+    Returns
+    -------
+    ids, dates, unit, values
+        Run ids, dates (UTC), the unit and the (K,) values in it.
+    """
+    cal, par = schema.CalibrationRun, schema.RunParameter
+    with Session(engine) as session:
+        machine_id = _machine_id(session, machine)
+        query = (
+            select(cal.id, cal.performed_at, par.unit, par.value)
+            .join(cal, cal.id == par.run_id)
+            .where(par.name == parameter, cal.machine_id == machine_id)
+        )
+        if since is not None:
+            query = query.where(cal.performed_at >= _utc(since))
+        rows = session.execute(query.order_by(cal.performed_at, cal.id)).all()
+        if not rows:
+            first = session.scalar(select(cal.id).where(cal.machine_id == machine_id).limit(1))
+            names = (
+                []
+                if first is None
+                else list(
+                    session.scalars(
+                        select(par.name).where(par.run_id == first).order_by(par.position)
+                    )
+                )
+            )
+            shown = f" ({', '.join(names[:6])}{' ...' if len(names) > 6 else ''})" if names else ""
+            raise InputError(
+                f"parameter {parameter!r}: not a parameter of the runs of {machine!r}{shown}"
+            )
+    values = np.array([r[3] for r in rows], dtype=float)
+    return [r[0] for r in rows], [_utc(r[1]) for r in rows], rows[0][2], values
 
 
 def export_rows(engine: Engine, machine: str, *, since: datetime | None = None) -> list[dict]:

@@ -8,6 +8,10 @@ parameter is one indexed query), task results and verification results.
 ``content_sha256`` (schema version 2) is unique per table through the index
 ``uq_<table>_content_sha256``: the same result is not recorded twice.
 
+``parameter_vector`` (schema version 3) repeats a run's values as one array (little-endian
+float64 bytes) in the order of ``run_parameters.position``: the long-term covariance reads
+one row per run and decodes all of them at once.
+
 Values in ``run_parameters`` are in the parameter's customary unit (µm, µrad, µm/m), the
 unit stored beside them, exactly as the result document states them.
 """
@@ -16,7 +20,7 @@ from __future__ import annotations
 
 from datetime import datetime
 
-from sqlalchemy import JSON, DateTime, Float, ForeignKey, Index, Integer, String, Text
+from sqlalchemy import JSON, DateTime, Float, ForeignKey, Index, Integer, LargeBinary, String, Text
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
 __all__ = [
@@ -61,6 +65,7 @@ class CalibrationRun(Base):
     input_hashes: Mapped[dict] = mapped_column(JSON)
     result: Mapped[dict] = mapped_column(JSON)
     content_sha256: Mapped[str] = mapped_column(String(64))
+    parameter_vector: Mapped[bytes | None] = mapped_column(LargeBinary)
 
 
 class RunParameter(Base):
