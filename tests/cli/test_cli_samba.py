@@ -372,3 +372,18 @@ def test_bad_tool_prior_is_one_line_exit_2_and_no_result(records, tmp_path, extr
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: --tool-prior-um")
     assert not out.exists()
+
+
+def test_calibrate_history_records_the_written_result(records, tmp_path, monkeypatch):
+    """--history: the database's run is the written result, with the inputs' hashes."""
+    from mtmetrology.history import list_runs, open_history, show_run
+
+    monkeypatch.setenv("MTMETROLOGY_DB", str(tmp_path / "history.sqlite"))
+    out = tmp_path / "result.json"
+    result = calibrate_samba(records, "--noise-um", "0.5", "--history", "-o", out)
+    assert result.exit_code == 0, result.output
+    engine = open_history()
+    (run,) = list_runs(engine)
+    record = show_run(engine, run.id)
+    assert record.result == json.loads(out.read_text())
+    assert set(record.input_hashes) == {str(records), str(EXAMPLES / "artefact.yaml")}
