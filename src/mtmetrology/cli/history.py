@@ -11,6 +11,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 
 from mtmetrology.cli._common import print_json, user_errors
@@ -21,6 +22,7 @@ from mtmetrology.history import (
     list_runs,
     long_term_covariance,
     open_history,
+    parameter_drift,
     parameter_trend,
     show_run,
 )
@@ -289,3 +291,52 @@ def export(
     else:
         raise InputError(f"{output}: give a .csv or .json file")
     typer.echo(f"wrote {output}", err=True)
+
+
+@app.command("drift")
+@user_errors
+def drift(
+    parameter: Annotated[str, typer.Argument(help="Parameter name, e.g. E_X0C.")],
+    machine: Annotated[str | None, typer.Option("--machine", help="Machine name.")] = None,
+    mpe: Annotated[
+        float | None,
+        typer.Option("--mpe", help="Maximum permissible error of |value|, parameter's unit."),
+    ] = None,
+    reliability: Annotated[
+        float, typer.Option("--reliability", help="In-tolerance probability at the due date.")
+    ] = 0.95,
+    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    db: Db = None,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="DRIFT.json.")] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print DRIFT.json.")] = False,
+) -> None:
+    """Drift (constant slope + random walk, Kalman filter) and the date the next calibration
+    is due: P(|value| > MPE) passes 1 - reliability (ILAC-G24 / OIML D 10, NCSLI RP-1)."""
+    engine = open_history(db)
+    result = parameter_drift(
+        engine,
+        _one_machine(engine, machine),
+        parameter,
+        mpe=mpe,
+        reliability=reliability,
+        since=_date(since, "--since"),
+    )
+    document = result.to_dict()
+    if output is not None:
+        write_json(output, document)
+    if json:
+        print_json(document)
+        return
+    per_year = 365.25
+    typer.echo(
+        f"{result.parameter}: {result.level:.4f} {result.unit} on "
+        f"{result.last_date:%Y-%m-%d}; slope {result.slope * per_year:.3g} ± "
+        f"{result.u_slope * per_year:.2g} {result.unit}/year; random walk "
+        f"{np.sqrt(result.random_walk_variance * per_year):.2g} {result.unit}/√year"
+    )
+    if result.mpe is not None:
+        due = "beyond the horizon" if result.due_date is None else f"{result.due_date:%Y-%m-%d}"
+        typer.echo(
+            f"due: {due} (P(|{result.parameter}| > {result.mpe:g} {result.unit}) passes "
+            f"{1 - result.reliability:.3g})"
+        )

@@ -21,12 +21,13 @@ import numpy as np
 from sqlalchemy import Engine
 
 from mtmetrology.errors import InputError
+from mtmetrology.history.drift import DriftResult, fit_drift
 from mtmetrology.history.records import machine_model, parameter_matrix, parameter_series
 from mtmetrology.identification.long_term import long_term_parameters
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.units import parse_unit
 
-__all__ = ["D2", "TrendResult", "long_term_covariance", "parameter_trend"]
+__all__ = ["D2", "TrendResult", "long_term_covariance", "parameter_drift", "parameter_trend"]
 
 #: d₂ for moving ranges of two consecutive values: E[|x₁ − x₂|] = d₂ σ, d₂ = 2/√π.
 D2 = 2.0 / np.sqrt(np.pi)
@@ -145,7 +146,7 @@ def parameter_trend(
     TrendResult
         Limits x̄ ± 3 MR̄/d₂ and the points outside them.
     """
-    ids, dates, unit, values = parameter_series(engine, machine, parameter, since=since)
+    ids, dates, unit, values, _ = parameter_series(engine, machine, parameter, since=since)
     n = len(values) if baseline is None else baseline
     if not 2 <= n <= len(values):
         raise InputError(f"--baseline {n}: must be between 2 and the {len(values)} runs")
@@ -213,3 +214,19 @@ def long_term_covariance(
         machine=machine,
         model=model,
     )
+
+
+def parameter_drift(
+    engine: Engine,
+    machine: str,
+    parameter: str,
+    *,
+    mpe: float | None = None,
+    reliability: float = 0.95,
+    since: datetime | None = None,
+) -> DriftResult:
+    """The drift model of one parameter over a machine's calibrations and its due date
+    (:func:`mtmetrology.history.drift.fit_drift`; each run's u is its measurement
+    uncertainty; ``mpe`` in the parameter's customary unit)."""
+    _, dates, unit, values, u = parameter_series(engine, machine, parameter, since=since)
+    return fit_drift(parameter, unit, dates, values, u, mpe=mpe, reliability=reliability)

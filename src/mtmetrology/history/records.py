@@ -483,19 +483,20 @@ def parameter_matrix(
 
 def parameter_series(
     engine: Engine, machine: str, parameter: str, *, since: datetime | None = None
-) -> tuple[list[int], list[datetime], str, np.ndarray]:
+) -> tuple[list[int], list[datetime], str, np.ndarray, np.ndarray]:
     """One parameter of a machine's calibrations, oldest first (one indexed query).
 
     Returns
     -------
-    ids, dates, unit, values
-        Run ids, dates (UTC), the unit and the (K,) values in it.
+    ids, dates, unit, values, u
+        Run ids, dates (UTC), the unit, the (K,) values and standard uncertainties in it
+        (NaN where a run has none).
     """
     cal, par = schema.CalibrationRun, schema.RunParameter
     with Session(engine) as session:
         machine_id = _machine_id(session, machine)
         query = (
-            select(cal.id, cal.performed_at, par.unit, par.value)
+            select(cal.id, cal.performed_at, par.unit, par.value, par.u)
             .join(cal, cal.id == par.run_id)
             .where(par.name == parameter, cal.machine_id == machine_id)
         )
@@ -518,7 +519,8 @@ def parameter_series(
                 f"parameter {parameter!r}: not a parameter of the runs of {machine!r}{shown}"
             )
     values = np.array([r[3] for r in rows], dtype=float)
-    return [r[0] for r in rows], [_utc(r[1]) for r in rows], rows[0][2], values
+    u = np.array([np.nan if r[4] is None else r[4] for r in rows], dtype=float)
+    return [r[0] for r in rows], [_utc(r[1]) for r in rows], rows[0][2], values, u
 
 
 def export_rows(engine: Engine, machine: str, *, since: datetime | None = None) -> list[dict]:
