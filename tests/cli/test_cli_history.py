@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import csv
 import json
+from datetime import date, timedelta
 
 import numpy as np
+import pytest
 from typer.testing import CliRunner
 
 from mtmetrology.cli import app
@@ -91,3 +93,41 @@ def test_bad_inputs_are_one_line_and_exit_2_with_nothing_written(tmp_path):
         assert len(lines) == 1 and lines[0].startswith(start), r.stderr
     assert not cov.exists()
     assert json.loads(_mtm("history", "list", "--db", db, "--json").stdout)["runs"] == []
+
+
+def test_trend_with_mpe_writes_drift_due_date_and_the_report(tmp_path):
+    """A steady 0.2 µm/day drift of E_X0C: TREND.json carries the drift whose due date is
+    where the prediction meets the MPE; the HTML report holds the chart (an inline SVG)."""
+    db = tmp_path / "h.sqlite"
+    j = MACHINE.parameter_names.index("E_X0C")
+    scales = MACHINE.parameter_scales
+    for k in range(8):
+        row = np.zeros(13)
+        row[j] = 0.2 * 7 * k  # µm, one calibration a week
+        path = tmp_path / f"c{k}.json"
+        ParameterSet(
+            MACHINE.parameter_names,
+            row * scales,
+            MACHINE.parameter_units,
+            np.diag((0.01 * scales) ** 2),
+            machine=MACHINE.name,
+            model="13",
+        ).save(path)
+        r = _mtm(
+            "history",
+            "add",
+            path,
+            "--db",
+            db,
+            "--date",
+            (date(2026, 3, 2) + timedelta(days=7 * k)).isoformat(),
+        )
+        assert r.exit_code == 0, r.output
+    out, html = tmp_path / "trend.json", tmp_path / "trend.html"
+    r = _mtm("history", "trend", "E_X0C", "--db", db, "--mpe", "20", "-o", out, "--report", html)
+    assert r.exit_code == 0, r.output
+    drift = json.loads(out.read_text())["drift"]
+    assert drift["slope_per_day"] == pytest.approx(0.2, rel=1e-3)
+    # 9.8 µm on 2026-04-20, 0.2 µm/day: 20 µm 51 days later (u 0.01 µm: the same day)
+    assert drift["due_date"].startswith("2026-06-10")
+    assert "<svg" in html.read_text()

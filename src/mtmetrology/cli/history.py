@@ -7,14 +7,20 @@ from __future__ import annotations
 
 import csv
 import io
-from datetime import datetime
+from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Annotated
 
 import numpy as np
 import typer
 
-from mtmetrology.cli._common import print_json, user_errors
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    print_json,
+    user_errors,
+    write_report,
+)
 from mtmetrology.errors import InputError
 from mtmetrology.history import (
     add_result,
@@ -198,28 +204,43 @@ def show(
 @app.command("trend")
 @user_errors
 def trend(
+    ctx: typer.Context,
     parameter: Annotated[str, typer.Argument(help="Parameter name, e.g. E_X0C.")],
     machine: Annotated[str | None, typer.Option("--machine", help="Machine name.")] = None,
     since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
     baseline: Annotated[
         int | None, typer.Option("--baseline", help="First runs that set the limits [all].")
     ] = None,
+    mpe: Annotated[
+        float | None,
+        typer.Option("--mpe", help="Maximum permissible error: drift and due date on the plot."),
+    ] = None,
+    reliability: Annotated[
+        float, typer.Option("--reliability", help="In-tolerance probability at the due date.")
+    ] = 0.95,
     db: Db = None,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="TREND.json.")] = None,
+    report_path: ReportOption = None,
     json: Annotated[bool, typer.Option("--json", help="Print TREND.json.")] = False,
 ) -> None:
     """Individuals control chart of a parameter (Shewhart limits x̄ ± 3 MR̄/1.128)."""
     engine = open_history(db)
-    result = parameter_trend(
-        engine,
-        _one_machine(engine, machine),
-        parameter,
-        since=_date(since, "--since"),
-        baseline=baseline,
-    )
+    name = _one_machine(engine, machine)
+    when = _date(since, "--since")
+    result = parameter_trend(engine, name, parameter, since=when, baseline=baseline)
+    drifted = None
+    if mpe is not None:
+        drifted = parameter_drift(
+            engine, name, parameter, mpe=mpe, reliability=reliability, since=when
+        )
     document = result.to_dict()
+    if drifted is not None:
+        document["drift"] = drifted.to_dict()
+    report = None if report_path is None else _trend_report(ctx, result, drifted)
     if output is not None:
         write_json(output, document)
+    if report is not None:
+        write_report(report, report_path)
     if json:
         print_json(document)
         return
@@ -235,6 +256,60 @@ def trend(
         if flag:
             typer.echo(f"  out of control: run {i} ({d:%Y-%m-%d}) {v:.4f} {result.unit}")
     typer.echo(f"{int(result.out_of_control.sum())} point(s) out of control")
+
+
+def _trend_report(ctx: typer.Context, result, drifted):
+    from mtmetrology.report import Report, figures
+
+    report = Report(
+        f"Control chart of {result.parameter}, {result.machine}", command=command_line(ctx)
+    )
+    report.section(
+        "Control chart",
+        f"Individuals chart (ISO 7870-2): centre {result.centre:.4f} {result.unit}, control "
+        f"limits x̄ ± 3 MR̄/1.128 = [{result.lower_limit:.4f}, {result.upper_limit:.4f}] "
+        f"{result.unit} from the first {result.baseline} runs; "
+        f"{int(result.out_of_control.sum())} point(s) out of control.",
+    )
+    prediction = due = mpe = None
+    if drifted is not None:
+        span = (result.dates[-1] - result.dates[0]) / 2
+        end = drifted.due_date if drifted.due_date is not None else drifted.last_date + span
+        step = max((end - drifted.last_date) / 60, timedelta(days=1))
+        ahead = [drifted.last_date + k * step for k in range(61)]
+        mean, std = drifted.predict(ahead)
+        prediction = (ahead, mean, 2 * std)
+        due, mpe = drifted.due_date, drifted.mpe
+        report.text(
+            f"Drift: slope {drifted.slope * 365.25:.3g} ± {drifted.u_slope * 365.25:.2g} "
+            f"{result.unit}/year; the band is the prediction ± 2 standard deviations; due "
+            f"{'beyond the horizon' if due is None else f'{due:%Y-%m-%d}'} (P(|x| > "
+            f"{mpe:g} {result.unit}) passes {1 - drifted.reliability:.3g})."
+        )
+    report.figure(
+        figures.control_chart(
+            result.dates,
+            result.values,
+            result.centre,
+            (result.lower_limit, result.upper_limit),
+            result.out_of_control,
+            name=result.parameter,
+            unit=result.unit,
+            prediction=prediction,
+            mpe=mpe,
+            due_date=due,
+        )
+    )
+    report.table(
+        ["run", "date", f"{result.parameter} ({result.unit})", "out of control"],
+        [
+            [str(i), f"{d:%Y-%m-%d %H:%M}", float(v), "yes" if flag else ""]
+            for i, d, v, flag in zip(
+                result.run_ids, result.dates, result.values, result.out_of_control, strict=True
+            )
+        ],
+    )
+    return report
 
 
 @app.command("covariance")
