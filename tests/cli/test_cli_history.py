@@ -5,12 +5,14 @@ from __future__ import annotations
 import csv
 import json
 from datetime import date, timedelta
+from pathlib import Path
 
 import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 from mtmetrology.cli import app
+from mtmetrology.cli._history import load_parameters
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 
@@ -131,3 +133,54 @@ def test_trend_with_mpe_writes_drift_due_date_and_the_report(tmp_path):
     # 9.8 µm on 2026-04-20, 0.2 µm/day: 20 µm 51 days later (u 0.01 µm: the same day)
     assert drift["due_date"].startswith("2026-06-10")
     assert "<svg" in html.read_text()
+
+
+def test_task_uncertainty_takes_the_long_term_covariance_from_the_history(tmp_path, monkeypatch):
+    """``mtm task uncertainty --params history:MACHINE`` gives the same result as the
+    COV.json written by ``mtm history covariance`` (one statistic, two routes)."""
+    db = tmp_path / "h.sqlite"
+    monkeypatch.setenv("MTMETROLOGY_DB", str(db))
+    paths, _ = _calibrations(tmp_path, 5)
+    for k, path in enumerate(paths):
+        assert _mtm("history", "add", path, "--date", f"2026-02-0{k + 1}").exit_code == 0
+    cov = tmp_path / "COV.json"
+    assert _mtm("history", "covariance", MACHINE.name, "-o", cov).exit_code == 0
+    (tmp_path / "points.csv").write_text(
+        "point,X,Y,Z,B,C,end\n"
+        "p1,-138.5650,94.6560,196.2320,-42,-293,1\n"
+        "p2,-61.2880,48.3440,246.8170,-64,-124,2\n"
+    )
+    (tmp_path / "E.json").write_text(
+        json.dumps(
+            {
+                "kind": "unexplained-volumetric-error",
+                "version": 1,
+                "unit": "µm²",
+                "covariance": [[4.0, 0.0, 0.0], [0.0, 4.0, 0.0], [0.0, 0.0, 4.0]],
+            }
+        )
+    )
+    outputs = []
+    for params in (cov, f"history:{MACHINE.name}"):
+        r = _mtm(
+            "task",
+            "uncertainty",
+            tmp_path / "points.csv",
+            "--machine",
+            MACHINE.name,
+            "--params",
+            params,
+            "--feature",
+            "length",
+            "--unexplained",
+            tmp_path / "E.json",
+            "--json",
+        )
+        assert r.exit_code == 0, r.output
+        outputs.append(json.loads(r.stdout)["outputs"])
+    assert outputs[0] == outputs[1]
+    from_history = load_parameters(Path(f"history:{MACHINE.name}"), MACHINE)
+    from_file = ParameterSet.load(cov, MACHINE)
+    np.testing.assert_allclose(from_history.covariance, from_file.covariance, rtol=1e-12)
+    np.testing.assert_allclose(from_history.values, from_file.values, rtol=1e-12)
+    assert from_history.covariance.any()

@@ -11,7 +11,7 @@ import typer
 
 from mtmetrology.kinematics.machine import Machine
 
-__all__ = ["HistoryOption", "record_in_history"]
+__all__ = ["HISTORY_PARAMS", "HistoryOption", "load_parameters", "record_in_history"]
 
 HistoryOption = Annotated[
     bool,
@@ -35,3 +35,21 @@ def record_in_history(document: dict, machine: Machine, command: str, inputs: li
         input_files=tuple(p for p in inputs if Path(p).is_file()),
     )
     typer.echo(f"recorded calibration run {record.id} in the history", err=True)
+
+
+#: ``--params history:MACHINE``: the machine's long-term covariance from the history.
+HISTORY_PARAMS = "history:"
+
+
+def load_parameters(params: Path, machine: Machine):
+    """The parameter set of ``--params``: a file, or ``history:MACHINE`` (``history:``
+    alone: ``machine``'s name) for :func:`mtmetrology.history.long_term_covariance` on
+    the history database ($MTMETROLOGY_DB, else the default file)."""
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+
+    text = str(params)
+    if not text.startswith(HISTORY_PARAMS):
+        return ParameterSet.load(params, machine)
+    from mtmetrology.history import long_term_covariance, open_history
+
+    return long_term_covariance(open_history(), text[len(HISTORY_PARAMS) :] or machine.name)

@@ -27,6 +27,7 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
+from mtmetrology.cli._history import load_parameters
 from mtmetrology.errors import InputError
 from mtmetrology.fitting.composite import CombinedFeature, PointCoordinates
 from mtmetrology.fitting.features import (
@@ -49,7 +50,6 @@ from mtmetrology.fitting.zone_features import (
 )
 from mtmetrology.io import read_csv_table, write_json
 from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.omm.repeatability_file import load_repeatability_model
 from mtmetrology.omm.task import TaskResult, reading_covariance, task_uncertainty
 from mtmetrology.omm.unexplained import load_unexplained_covariance
@@ -163,7 +163,12 @@ def uncertainty(
     ],
     machine_name: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
     params: Annotated[
-        Path, typer.Option("--params", help="Parameter set with its long-term covariance.")
+        Path,
+        typer.Option(
+            "--params",
+            help="Parameter set with its long-term covariance, or history:MACHINE (from the "
+            "calibration history).",
+        ),
     ],
     feature: Annotated[FeatureName, typer.Option(help="Feature of the point set.")],
     repeatability: Annotated[
@@ -244,7 +249,7 @@ def uncertainty(
     if form is Form.minimum_zone and feature.value not in FORM_FEATURES:
         raise InputError(f"--form minimum-zone applies to a form error, not to a {feature.value}")
     base = Machine.load(machine_name)
-    pset = ParameterSet.load(params, base)
+    pset = load_parameters(params, base)
     machine = pset.machine_for(base)
     if pset.covariance is None:
         raise InputError(f"{params}: no covariance; the task uncertainty needs one")
