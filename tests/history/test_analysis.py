@@ -117,3 +117,20 @@ def test_control_chart_limits_in_closed_form_and_the_crash_flagged(history_url, 
         parameter_trend(engine, MACHINE.name, "E_Q0Q")
     with pytest.raises(InputError, match="--baseline 1"):
         parameter_trend(engine, MACHINE.name, "E_X0C", baseline=1)
+
+
+def test_add_within_adds_the_mean_of_the_runs_own_covariances(history_url, make_calibration):
+    """With ``add_within`` the result is the scatter plus the mean of the recorded runs'
+    covariances (here u = 0.5 µm, µrad, µm/m for every parameter: + 0.25 on the
+    diagonal), as :func:`long_term_parameters` computes it on the files."""
+    rows = np.random.default_rng(11).normal(size=(4, 13))
+    engine = open_history(history_url)
+    _record(engine, rows, make_calibration)
+    plain = long_term_covariance(engine, MACHINE.name)
+    within = long_term_covariance(engine, MACHINE.name, add_within=True)
+    np.testing.assert_allclose(
+        (within.covariance - plain.covariance) / np.outer(F, F), 0.25 * np.eye(13), atol=1e-12
+    )
+    sets = [ParameterSet.from_document(make_calibration(r), MACHINE) for r in rows]
+    files = long_term_parameters(sets, add_within=True)
+    np.testing.assert_allclose(within.covariance, files.covariance, rtol=1e-12)

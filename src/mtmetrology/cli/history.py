@@ -319,11 +319,19 @@ def covariance(
     output: Annotated[Path, typer.Option("-o", "--output", help="COV.json (parameter set).")],
     since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
     values: Annotated[str, typer.Option("--values", help="latest or mean.")] = "latest",
+    add_within: Annotated[
+        bool,
+        typer.Option("--add-within", help="Add the mean within-calibration covariance."),
+    ] = False,
     db: Db = None,
 ) -> None:
     """Long-term covariance of the machine's calibrations, for mtm task uncertainty --params."""
     result = long_term_covariance(
-        open_history(db), machine, since=_date(since, "--since"), values=values
+        open_history(db),
+        machine,
+        since=_date(since, "--since"),
+        values=values,
+        add_within=add_within,
     )
     result.save(output)
     typer.echo(

@@ -22,7 +22,12 @@ from sqlalchemy import Engine
 
 from mtmetrology.errors import InputError
 from mtmetrology.history.drift import DriftResult, fit_drift
-from mtmetrology.history.records import machine_model, parameter_matrix, parameter_series
+from mtmetrology.history.records import (
+    machine_model,
+    parameter_matrix,
+    parameter_series,
+    run_covariances,
+)
 from mtmetrology.identification.long_term import long_term_parameters
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.units import parse_unit
@@ -174,12 +179,14 @@ def long_term_covariance(
     *,
     since: datetime | None = None,
     values: str = "latest",
+    add_within: bool = False,
 ) -> ParameterSet:
     """The long-term covariance of a machine's parameters over its recorded calibrations.
 
     The statistic of :func:`mtmetrology.identification.long_term.long_term_parameters`
-    (Σ = 1/(K − 1) Σ_k (δ_k − δ̄)(δ_k − δ̄)ᵀ) on the runs since ``since``; the result is a
-    parameter set ``mtm task uncertainty --params`` reads.
+    (Σ = 1/(K − 1) Σ_k (δ_k − δ̄)(δ_k − δ̄)ᵀ, plus the mean of the runs' own covariances
+    with ``add_within``) on the runs since ``since``; the result is a parameter set
+    ``mtm task uncertainty --params`` reads.
 
     Raises
     ------
@@ -191,12 +198,16 @@ def long_term_covariance(
     internal = matrix * factors  # (K, P) in mm, rad
     shared_names, shared_units = tuple(names), tuple(units)
     model = machine_model(engine, machine)
+    within = run_covariances(engine, ids, names) if add_within else [None] * len(ids)
     sets = [
-        ParameterSet(shared_names, row, shared_units, machine=machine, model=model)
-        for row in internal
+        ParameterSet(shared_names, row, shared_units, cov, machine=machine, model=model)
+        for row, cov in zip(internal, within, strict=True)
     ]
     result = long_term_parameters(
-        sets, values=values, sources=[f"run {i}" for i in ids] if len(ids) <= 50 else None
+        sets,
+        values=values,
+        add_within=add_within,
+        sources=[f"run {i}" for i in ids] if len(ids) <= 50 else None,  # a short provenance
     )
     provenance = dict(result.provenance)
     provenance["history"] = {

@@ -27,6 +27,7 @@ from mtmetrology.history.database import canonical_sha256, writer
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import KIND as PARAMETER_SET
 from mtmetrology.kinematics.parameter_set import RESULT_KINDS, ParameterSet
+from mtmetrology.units import parse_unit
 
 __all__ = [
     "CALIBRATION_KINDS",
@@ -521,6 +522,31 @@ def parameter_series(
     values = np.array([r[3] for r in rows], dtype=float)
     u = np.array([np.nan if r[4] is None else r[4] for r in rows], dtype=float)
     return [r[0] for r in rows], [_utc(r[1]) for r in rows], rows[0][2], values, u
+
+
+def _document_covariance(doc: dict, names: list[str]) -> np.ndarray | None:
+    """A recorded document's parameter covariance (internal units) in ``names``' order: its
+    ``covariance`` block (in the units listed with the parameters), else diag(u²), else
+    None."""
+    declared = {e["name"]: parse_unit(e["unit"]).factor for e in doc["parameters"]}
+    block = doc.get("covariance")
+    if block is not None:
+        position = [block["names"].index(n) for n in names]
+        f = np.array([declared[n] for n in names])
+        return np.asarray(block["matrix"], dtype=float)[np.ix_(position, position)] * np.outer(f, f)
+    entries = {e["name"]: e for e in doc["parameters"]}
+    if all("u" in entries[n] for n in names):
+        return np.diag([(entries[n]["u"] * declared[n]) ** 2 for n in names])
+    return None
+
+
+def run_covariances(engine: Engine, ids: list[int], names: list[str]) -> list[np.ndarray | None]:
+    """Each calibration run's own parameter covariance (internal units, ``names``' order),
+    None where its document has none."""
+    cal = schema.CalibrationRun
+    with Session(engine) as session:
+        documents = dict(session.execute(select(cal.id, cal.result).where(cal.id.in_(ids))).all())
+    return [_document_covariance(documents[i], names) for i in ids]
 
 
 def export_rows(engine: Engine, machine: str, *, since: datetime | None = None) -> list[dict]:
