@@ -11,6 +11,7 @@ fail.
 from __future__ import annotations
 
 import glob
+import importlib.util
 import os
 import shutil
 import socket
@@ -46,8 +47,12 @@ def _free_port() -> int:
 def postgres_server():
     """``postgresql://postgres@127.0.0.1:PORT`` of a server started for the session."""
     binaries = _server_binaries()
+    reason = None
     if binaries is None:
         reason = "PostgreSQL server binaries not found (Debian package postgresql)"
+    elif importlib.util.find_spec("psycopg") is None:
+        reason = "the PostgreSQL driver psycopg is not installed (the test extra has it)"
+    if reason is not None:
         if os.environ.get("MTM_REQUIRE_POSTGRES") == "1":
             pytest.fail(f"{reason}, and MTM_REQUIRE_POSTGRES=1")
         pytest.skip(reason)

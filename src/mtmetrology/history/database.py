@@ -29,7 +29,7 @@ from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError, OperationalError
 from sqlalchemy.pool import NullPool
 
-from mtmetrology.errors import InputError
+from mtmetrology.errors import EnvironmentFailure, InputError
 
 __all__ = [
     "DB_ENV",
@@ -98,7 +98,13 @@ def _engine(url: str) -> Engine:
     if parsed.get_backend_name() == "postgresql":
         if parsed.drivername == "postgresql":
             parsed = parsed.set(drivername="postgresql+psycopg")
-        return create_engine(parsed, poolclass=NullPool, connect_args={"connect_timeout": 10})
+        try:
+            return create_engine(parsed, poolclass=NullPool, connect_args={"connect_timeout": 10})
+        except ModuleNotFoundError as err:
+            raise EnvironmentFailure(
+                f"database {url!r}: the driver {err.name} is not installed "
+                "(pip install 'psycopg[binary]')"
+            ) from None
     raise InputError(
         f"database URL {url!r}: {parsed.get_backend_name()} is not supported "
         "(a SQLite file or postgresql://...)"
