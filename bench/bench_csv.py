@@ -39,12 +39,12 @@ SRC = str(Path(__file__).resolve().parents[1] / "src")
 #: At exit, the process's own peak resident set (``VmHWM``, kB) into ``$MTM_BENCH_PEAK``.
 #: ``ru_maxrss`` from ``wait4`` would not do: Linux carries the peak of the memory the
 #: child had before ``exec`` — for a (v)forked child, that of this large benchmark process.
-_OWN_PEAK = (
+OWN_PEAK = (
     "import atexit, os; atexit.register(lambda: open(os.environ['MTM_BENCH_PEAK'], 'w')"
     ".write(next(x for x in open('/proc/self/status') if x.startswith('VmHWM:')).split()[1]))"
 )
 #: ``mtm`` as its console script runs it (plus the peak report above).
-MTM = [sys.executable, "-c", f"{_OWN_PEAK}; from mtmetrology.__main__ import main; main()"]
+MTM = [sys.executable, "-c", f"{OWN_PEAK}; from mtmetrology.__main__ import main; main()"]
 MACHINE = "five-axis-wcbxfzyst"
 
 

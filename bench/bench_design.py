@@ -80,7 +80,7 @@ def cholesky_exchange(space: BlockInformation, state):
 def main() -> None:
     m = Machine.load("five-axis-wcbxfzyst", "84")
     pairs = default_indexations()
-    size = indexation_count(5, m.n_params, len(IDS))
+    size = indexation_count(5, m.n_params, len(IDS), rule="indexations")  # M = 165 (RESULTS)
     fixed, blocks, counts, _, usable, n_fixed = candidate_blocks(
         m, IDS, CENTRES, pairs, ScaleBarPlacement(), AccessibilityRule(), 0.001
     )

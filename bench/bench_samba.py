@@ -29,18 +29,18 @@ import numpy as np
 import scipy.optimize
 
 from harness import Benchmark
+from mtmetrology.identification import identification_guf, identification_mcm
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.samba import (
     ProbingProgramme,
     calibrate,
-    identification_guf,
-    identification_mcm,
     indication_inputs,
     load_artefact,
     load_balls,
     read_poses,
     simulate_records,
+    uncertainty_model,
 )
 from mtmetrology.samba.records import read_records
 from mtmetrology.units import to_internal
@@ -57,6 +57,14 @@ def calibrated(machine, truth, programme, tmp: Path):
     rec = read_records(tmp, machine, art)
     cal = calibrate(machine, rec, art, sigma=NOISE, estimate_tool=True)
     return cal, indication_inputs(cal.problem, noise=NOISE)
+
+
+def guf_of(cal, inputs):
+    return identification_guf(uncertainty_model(cal), inputs)
+
+
+def mcm_of(cal, inputs, **options):
+    return identification_mcm(uncertainty_model(cal), inputs, **options)
 
 
 def scipy_trial(cal, z):
@@ -80,13 +88,11 @@ def run(name, cal, inputs, trials, bench_guf=True):
         f"{len(cal.records)} indications, {trials:,} trials",
     )
     if bench_guf:
-        bench.time(
-            "identification_guf", "ours", lambda: identification_guf(cal, inputs), repeats=20
-        )
+        bench.time("identification_guf", "ours", lambda: guf_of(cal, inputs), repeats=20)
     bench.time(
         f"identification_mcm {trials:,}, 2 processes",
         "ours",
-        lambda: identification_mcm(cal, inputs, trials=trials, seed=1, executor="processes:2"),
+        lambda: mcm_of(cal, inputs, trials=trials, seed=1, executor="processes:2"),
         repeats=5,
         warmup=0,
         note="cold: each repeat starts its pool",
@@ -94,7 +100,7 @@ def run(name, cal, inputs, trials, bench_guf=True):
     bench.time(
         f"identification_mcm {trials:,}, in-process",
         "ours",
-        lambda: identification_mcm(cal, inputs, trials=trials, seed=1),
+        lambda: mcm_of(cal, inputs, trials=trials, seed=1),
         repeats=5,
     )
     z = inputs.sample(np.random.default_rng(2), LOOP_TRIALS)
@@ -113,8 +119,8 @@ def run(name, cal, inputs, trials, bench_guf=True):
         repeats=5,
     )
     # the same numbers on both executors and against the scipy loop
-    a = identification_mcm(cal, inputs, trials=4000, seed=7)
-    b = identification_mcm(cal, inputs, trials=4000, seed=7, executor="processes:2")
+    a = mcm_of(cal, inputs, trials=4000, seed=7)
+    b = mcm_of(cal, inputs, trials=4000, seed=7, executor="processes:2")
     assert np.array_equal(a.estimate, b.estimate), "executors must agree"
     bench.notes.append(
         "in-process and 2-process results are bit-identical for a seed; GUF/MCM validation "

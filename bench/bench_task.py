@@ -2,7 +2,8 @@
 
 The thesis' sphere task (Sepahi Boroujeni (2021), ch. 7): 25 points on a Ø 19.05 mm
 sphere probed with a Ø 5.925 mm tip on the five-axis preset, 1 µm repeatability per
-reading, a correlated 13×13 long-term parameter covariance and unexplained errors E.
+reading, a correlated 13×13 parameter covariance (as the calibration's U_θ and as the
+long-term variation Σ_lt) and unexplained errors E.
 The thesis took 12 s for its GUF and 1967 s for its adaptive Monte Carlo.
 
 GUF contenders:
@@ -84,6 +85,7 @@ def sampled_route(machine, readings, delta, sigma, v, cov_e, feature, seed=7):
         readings,
         delta,
         sigma,
+        long_term_covariance=sigma,
         reading_covariance=v,
         unexplained_covariance=cov_e,
         simulator="sampled",
@@ -110,7 +112,14 @@ def main() -> None:
     machine, readings, delta, sigma, v, cov_e = setup()
     feature = SphereDiameter(tip_diameter=5.925)
     ours = task_uncertainty(
-        machine, readings, delta, sigma, feature, reading_covariance=v, unexplained_covariance=cov_e
+        machine,
+        readings,
+        delta,
+        sigma,
+        feature,
+        long_term_covariance=sigma,
+        reading_covariance=v,
+        unexplained_covariance=cov_e,
     )
     base = sampled_route(machine, readings, delta, sigma, v, cov_e, feature)
     b = Benchmark("omm_task_guf", "GUF of a 25-point sphere diameter (full-covariance method)")
@@ -123,6 +132,7 @@ def main() -> None:
             delta,
             sigma,
             feature,
+            long_term_covariance=sigma,
             reading_covariance=v,
             unexplained_covariance=cov_e,
         ),
@@ -155,6 +165,7 @@ def monte_carlo_benchmark(machine, readings, delta, sigma, v, cov_e, feature) ->
             delta,
             sigma,
             feature,
+            long_term_covariance=sigma,
             reading_covariance=v,
             unexplained_covariance=cov_e,
             method="mcm",

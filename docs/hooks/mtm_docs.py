@@ -1,7 +1,9 @@
 """MkDocs hook: pages generated from the code, so they cannot drift from it.
 
 - ``<!-- mtm:cli-reference -->`` becomes the reference of every ``mtm`` command, from the
-  Typer application itself (help texts, arguments, options and defaults);
+  Typer application itself (help texts, arguments, options and defaults); the help texts
+  are escaped, so the page shows them as ``--help`` prints them (``[,i,j,k][,end]`` is not
+  a Markdown reference link, ``sense_<axis>`` not an HTML tag);
 - ``<!-- mtm:conventions PRESET MODEL -->`` becomes the table of that error model's
   parameters with their unit, what a positive value does and where it is referred to
   (:func:`mtmetrology.kinematics.conventions.describe_parameters`, the text that
@@ -15,6 +17,34 @@ import re
 # Markers stand alone on their line (a marker quoted in a sentence is left alone).
 CLI_MARKER = re.compile(r"^<!-- mtm:cli-reference -->$", re.MULTILINE)
 CONVENTIONS = re.compile(r"^<!-- mtm:conventions (\S+) (\S+) -->$", re.MULTILINE)
+# The Markdown that Typer's generator adds around the help texts (left as it is): headings,
+# section labels, the fences of the usage blocks, and the "* `name`: " of each list item.
+STRUCTURE = re.compile(r"^(#+ `[^`]*`|\*\*\w+\*\*:|```\w*)$")
+ITEM = re.compile(r"^(\* `[^`]*`)(: )?(.*)$")
+# Python-Markdown's backslash escapes; "<" and "&" become entities (no escape exists).
+SPECIAL = re.compile(r"([\\`*_{}\[\]()#+\-.!>])")
+
+
+def escape_markdown(text: str) -> str:
+    """Text that Markdown renders as it is: ``[a][b]``, ``x_<axis>``, ``*`` stay literal."""
+    text = text.replace("&", "&amp;").replace("<", "&lt;")
+    return SPECIAL.sub(r"\\\1", text)
+
+
+def _escape_help_texts(generated: str) -> str:
+    """Escape the help texts in Typer's Markdown, not the Markdown Typer wrote around them."""
+    lines, in_fence = [], False
+    for line in generated.splitlines():
+        if line.startswith("```"):
+            in_fence = not in_fence
+            lines.append(line)
+        elif in_fence or STRUCTURE.match(line) or not line.strip():
+            lines.append(line)
+        elif item := ITEM.match(line):
+            lines.append(item.group(1) + (item.group(2) or "") + escape_markdown(item.group(3)))
+        else:
+            lines.append(escape_markdown(line))
+    return "\n".join(lines) + "\n"
 
 
 def _cli_reference() -> str:
@@ -25,7 +55,9 @@ def _cli_reference() -> str:
     from mtmetrology.cli import app
 
     command = get_command(app)
-    text = get_docs_for_click(obj=command, ctx=typer.Context(command), name="mtm")
+    text = _escape_help_texts(
+        get_docs_for_click(obj=command, ctx=typer.Context(command), name="mtm")
+    )
     # the page has its own title: every generated heading goes one level down
     return re.sub(r"^(#+) ", r"#\1 ", text, flags=re.MULTILINE)
 

@@ -42,10 +42,10 @@ def main(args: list[str] | None = None) -> None:
         import typer
 
         argv = sys.argv[1:] if args is None else list(args)
-        from mtmetrology.cli import COMMANDS, SHARED_GROUPS, _common, build_app
+        from mtmetrology.cli import _common, build_app, command_of
 
-        named = argv[0] if argv and (argv[0] in COMMANDS or argv[0] in SHARED_GROUPS) else None
-        app = build_app(named)
+        named = command_of(argv)
+        app = build_app(named, listing=named is None)
         try:
             try:
                 code = app(args=argv, prog_name="mtm", standalone_mode=False)

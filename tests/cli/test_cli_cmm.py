@@ -153,7 +153,13 @@ def test_auto_model_reports_scores(files):
     sel = json.loads(out.read_text())["model_selection"]
     assert [s["model"] for s in sel["scores"]] == ["seed", "full-1"]
     assert all(len(s["rms_um"]) == 4 for s in sel["scores"])  # one fold per position
-    assert sel["chosen"] in {s["model"] for s in sel["scores"]}
+    assert sel["chosen"] in {s["model"] for s in sel["scores"] if s["eligible"]}
+    # the console reports every candidate's score and AIC (issue 18 §3), as in the JSON
+    lines = {ln.split()[0]: ln for ln in res.stderr.splitlines() if ln.startswith("  ")}
+    for s in sel["scores"]:
+        line = lines[s["model"]]
+        assert f"held-out median {s['median_rms_um']:.3g} µm, AIC {s['aic']:.1f}" in line
+        assert ("[chosen" in line) == (s["model"] == sel["chosen"])
 
 
 def test_gp_fit_predict_and_predict_with_gp_file(files):
@@ -201,23 +207,26 @@ def _with_nan(line):
 
 
 @pytest.mark.parametrize(
-    ("case", "transform"),
+    ("case", "transform", "named"),
     [
-        ("ball", lambda ls: [ls[0], ls[1].replace(",00,", ",99,", 1), *ls[2:]]),
-        ("probe", lambda ls: [ls[0], ls[1].replace(",P0,", ",PZ,", 1), *ls[2:]]),
-        ("few", lambda ls: [*ls, "X,00,P0,400,300,200", "X,01,P0,500,300,200"]),
-        ("nan", lambda ls: [ls[0], _with_nan(ls[1]), *ls[2:]]),
+        ("ball", lambda ls: [ls[0], ls[1].replace(",00,", ",99,", 1), *ls[2:]],
+         ", line 2: ball '99' is not on the plate"),
+        ("probe", lambda ls: [ls[0], ls[1].replace(",P0,", ",PZ,", 1), *ls[2:]],
+         ", line 2: probe 'PZ' is not in the probe set"),
+        ("few", lambda ls: [*ls, "X,00,P0,400,300,200", "X,01,P0,500,300,200"],
+         ": position 'X' has 2 distinct"),
+        ("nan", lambda ls: [ls[0], _with_nan(ls[1]), *ls[2:]], ", line 2: column 'X' is 'nan'"),
     ],
 )  # fmt: skip
-def test_bad_records_exit_2_and_write_nothing(files, case, transform):
-    """A ball not on the plate, a probe not in the set, a position with 2 balls, NaN."""
+def test_bad_records_exit_2_and_write_nothing(files, case, transform, named):
+    """A ball not on the plate, a probe not in the set, a position with 2 balls, NaN: the
+    error names the file, the line and the ball, probe, position or column."""
     bad = _edit(files, f"bad-{case}.csv", transform)
     out = files["dir"] / f"bad-{case}.json"
     res = _calibrate(files, bad, out)
     assert res.exit_code == 2
     lines = [ln for ln in res.output.splitlines() if ln.strip()]
-    assert len(lines) == 1 and lines[0].startswith("error: ")
-    assert str(bad) in lines[0]
+    assert len(lines) == 1 and lines[0].startswith(f"error: {bad}{named}"), lines
     assert not out.exists()
 
 
@@ -259,6 +268,18 @@ def test_predict_knows_the_gp_kind_without_importing_the_gp_machinery():
     code = "import sys, mtmetrology.cli.predict; print('sklearn' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_predict_refuses_a_probe_column_without_probes(files):
+    """Records with a 'probe' column and no --probes were compensated with the tool (0, 0, 0),
+    150 mm off, exit 0 (issue 18 §3): refuse, naming the column and the option."""
+    out = files["dir"] / "pred-noprobes.csv"
+    res = runner.invoke(app, ["predict", *M, str(files["records"]), "-o", str(out)])
+    assert res.exit_code == 2
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith(f"error: {files['records']}: column 'probe'")
+    assert "--probes" in lines[0].split("column 'probe'")[1]
+    assert not out.exists()
 
 
 def test_calibrate_history_records_the_result_in_the_same_step(files, tmp_path, monkeypatch):

@@ -72,7 +72,8 @@ def test_84_model_programme_states_approach_senses(tmp_path):
     (tmp_path / "balls.yaml").write_text(BALLS)
     out = tmp_path / "prog.csv"
     args = ["design", "samba", *MACHINE, "--model", "84", "--balls", str(tmp_path / "balls.yaml")]
-    args += ["--k", "1", "--criterion", "D", "--starts", "1", "--seed", "1", "-o", str(out)]
+    args += ["--k", "1", "--count-rule", "indexations", "--criterion", "D", "--starts", "1"]
+    args += ["--seed", "1", "-o", str(out)]
     args += ["--b-grid", "-90:90:15", "--c-grid", "0:315:45"]
     args += ["--artefact-out", str(tmp_path / "art.yaml")]
     result = runner.invoke(app, args)
@@ -111,5 +112,26 @@ def test_too_small_k_is_refused_naming_k(tmp_path):
     args = ["design", "samba", *MACHINE, "--model", "84", "--balls", str(tmp_path / "balls.yaml")]
     args += ["--k", "0.1", "--criterion", "D", "--starts", "1", "-o", str(out)]
     result = runner.invoke(app, args)
-    assert result.exit_code == 2 and "--k" in result.output
+    assert result.exit_code == 2
+    assert result.output.startswith("error: the best ")
+    assert "design found is rank deficient for the 84-parameter model: raise --k" in result.output
     assert not out.exists()
+
+
+def test_default_count_rule_reproduces_4b5n_for_the_84_parameter_model(tmp_path):
+    """`--model 84 --k 5` with 4 balls planned 165 indexations, 671 measurements, 15 h by
+    default where the source's 4B.5n is 38, 163 and 3.7 h (Alami Mchichi 2018, Table 5.5;
+    issue 18 §3): the default rule is the source's for the model, and the result says so."""
+    (tmp_path / "balls.yaml").write_text(BALLS)
+    args = [
+        "design", "samba", *MACHINE, "--model", "84", "--balls", str(tmp_path / "balls.yaml"),
+        "--k", "5", "--criterion", "D", "--starts", "1", "--seed", "1",
+        "-o", str(tmp_path / "p.csv"), "--json",
+    ]  # fmt: skip
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.output)
+    assert doc["count_rule"] == "measurements"
+    assert "84-parameter model" in doc["count_rule_reason"]
+    assert (doc["n_indexations"], doc["n_measurements"]) == (38, 163)
+    assert round(doc["duration_h"], 1) == 3.7

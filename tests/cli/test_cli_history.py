@@ -136,7 +136,7 @@ def test_trend_with_mpe_writes_drift_due_date_and_the_report(tmp_path):
 
 
 def test_task_uncertainty_takes_the_long_term_covariance_from_the_history(tmp_path, monkeypatch):
-    """``mtm task uncertainty --params history:MACHINE`` gives the same result as the
+    """``mtm task uncertainty --long-term history:MACHINE`` gives the same result as the
     COV.json written by ``mtm history covariance`` (one statistic, two routes)."""
     db = tmp_path / "h.sqlite"
     monkeypatch.setenv("MTMETROLOGY_DB", str(db))
@@ -161,7 +161,7 @@ def test_task_uncertainty_takes_the_long_term_covariance_from_the_history(tmp_pa
         )
     )
     outputs = []
-    for params in (cov, f"history:{MACHINE.name}"):
+    for long_term in (cov, f"history:{MACHINE.name}"):
         r = _mtm(
             "task",
             "uncertainty",
@@ -169,7 +169,9 @@ def test_task_uncertainty_takes_the_long_term_covariance_from_the_history(tmp_pa
             "--machine",
             MACHINE.name,
             "--params",
-            params,
+            cov,
+            "--long-term",
+            long_term,
             "--feature",
             "length",
             "--unexplained",

@@ -58,6 +58,10 @@ def test_mean_values_and_within_covariance_options(tmp_path):
     assert result.exit_code == 0, result.output
     loaded = ParameterSet.load(out, MACHINE)
     assert np.allclose(loaded.values, values.mean(axis=0), rtol=1e-12, atol=1e-15)
+    # the console states u by name, not as "value ± u" (read as U; issue 18 §3)
+    printed = [ln.split() for ln in result.stdout.splitlines() if ln.startswith("  ")]
+    assert [r[0] for r in printed] == list(MACHINE.parameter_names)
+    assert all(r[3:5] == ["u", "="] and r[2] == r[6] for r in printed)
     expected = np.cov(values.T, ddof=1) + np.diag((SCALES * 0.5) ** 2)
     assert np.allclose(loaded.covariance, expected, rtol=1e-9, atol=0)
 

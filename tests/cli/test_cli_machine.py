@@ -9,6 +9,7 @@ from typer.testing import CliRunner
 from mtmetrology.cli import app
 from mtmetrology.io import read_csv_table
 from mtmetrology.kinematics import Machine
+from mtmetrology.kinematics.machine import list_presets
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.samba import SambaSetup, probing_sequence
 
@@ -229,3 +230,34 @@ def test_show_states_each_parameters_convention(preset, model):
             assert p["positive"].count("relative to the workpiece") == 1
         assert p["side"] in ("tool", "workpiece")
         assert len(p["reference_point_mm"]) == 3 and p["reference"]
+
+
+@pytest.mark.parametrize("name", list_presets())
+def test_export_writes_a_machine_file_read_back_as_the_preset(name, tmp_path):
+    """A user had no way to get a preset's file to edit (issue 18 §3): `mtm machine export`
+    writes it, and `--machine FILE` reads it back as the preset, every error model alike."""
+    path = tmp_path / f"{name}.yaml"
+    res = runner.invoke(app, ["machine", "export", name, "-o", str(path)])
+    assert res.exit_code == 0, res.output
+    shown = [runner.invoke(app, ["machine", "show", m, "--json"]) for m in (name, str(path))]
+    assert json.loads(shown[0].stdout) == json.loads(shown[1].stdout)
+    preset = Machine.load(name)
+    rng = np.random.default_rng(7)
+    for model in preset.spec.error_models:
+        a, b = Machine.load(name, model), Machine.load(path, model)
+        assert a.parameter_names == b.parameter_names and a.parameter_units == b.parameter_units
+        lo, hi = np.array([ax.travel for ax in a.axes.values()]).T
+        q = lo + (hi - lo) * rng.random((5, len(lo)))
+        theta = rng.normal(size=a.n_params) * a.parameter_scales * 10
+        senses = rng.choice([-1.0, 1.0], size=q.shape) if a.chain.has_reversal else None
+        np.testing.assert_array_equal(
+            a.forward(q, theta, senses=senses), b.forward(q, theta, senses=senses)
+        )
+
+
+def test_export_refuses_an_unknown_preset_and_writes_nothing(tmp_path):
+    path = tmp_path / "m.yaml"
+    res = runner.invoke(app, ["machine", "export", "no-such-machine", "-o", str(path)])
+    assert res.exit_code == 2
+    assert res.output.startswith("error: no-such-machine: not a preset (presets: ")
+    assert not path.exists()

@@ -42,7 +42,18 @@ def _records(tmp_path, touches=12, n_targets=40, seed=0):
 def _fit(tmp_path, path, *args):
     out, rep = tmp_path / "R.json", tmp_path / "R.html"
     result = runner.invoke(
-        app, ["repeatability", "fit", str(path), "-o", str(out), "--report", str(rep), *args]
+        app,
+        [
+            "repeatability",
+            "fit",
+            str(path),
+            "-o",
+            str(out),
+            "--report",
+            str(rep),
+            "--allow-few-targets",
+            *args,
+        ],
     )
     return result, out, rep
 
@@ -103,6 +114,7 @@ def test_unknown_drift_model_and_too_small_window_are_usage_errors(tmp_path):
     for args in (["--drift", "linear"], ["--window", "1"]):
         result, out, rep = _fit(tmp_path, path, *args)
         assert result.exit_code == 2
+        assert f"Invalid value for '{args[0]}'" in result.output, result.output
         assert not out.exists() and not rep.exists()
 
 

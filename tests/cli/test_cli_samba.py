@@ -187,14 +187,15 @@ def test_raw_points_and_campaigns_from_simulate_are_read_by_calibrate(tmp_path):
 
 
 def test_help_documents_the_file_formats():
+    """The help names the record forms and points to docs/file-formats.md, whose section
+    holds the full formats (moved out of the help: issue 18 §3)."""
     text = mtm("calibrate", "samba", "--help").output
-    for fmt in (
-        "ball,X,Y,Z,B,C[,S]",
-        "measurement,ball,X,Y,Z,B,C",
-        "samba-artefact",
-        "samba-repeatability",
-    ):
+    for fmt in ("ball,X,Y,Z,B,C[,S]", "measurement,ball,X,Y,Z,B,C", "docs/file-formats.md"):
         assert fmt in text
+    docs = (EXAMPLES.parents[1] / "docs" / "file-formats.md").read_text(encoding="utf-8")
+    section = docs.split("## SAMBA calibration (`mtm calibrate samba`)")[1].split("\n## ")[0]
+    for fmt in ("`ball,X,Y,Z,B,C[,S]`", "`campaign,...`", '"kind": "samba-repeatability"'):
+        assert fmt in section
     assert "samba-balls" in mtm("simulate", "samba", "--help").output
     assert "pair,end,X,Y,Z,B,C" in mtm("verify", "length", "--help").output
 
@@ -266,7 +267,12 @@ def test_a_unit_that_does_not_fit_is_refused_and_nothing_written(tmp_path):
         "-o",
         out,
     )
-    assert result.exit_code == 2 and "E_X0C" in result.output and "unit" in result.output
+    assert result.exit_code == 2
+    # the file, the field (index and parameter name), the unit given and the one expected
+    assert result.output == (
+        f"error: {bad}: parameters[2] (E_X0C): unit 'µrad' does not fit this parameter "
+        "(expected a unit like 'µm')\n"
+    )
     assert not out.exists()
 
 
@@ -372,6 +378,72 @@ def test_bad_tool_prior_is_one_line_exit_2_and_no_result(records, tmp_path, extr
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: --tool-prior-um")
     assert not out.exists()
+
+
+def test_predict_compensates_with_the_identified_tool_and_gives_u(calibrated, records, tmp_path):
+    """The calibration's tool_mm (--estimate-tool) is the tool of the compensation, and
+    --u appends √diag(G U_θ Gᵀ): a covariance four times larger doubles every u."""
+    from mtmetrology.kinematics import Machine
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+
+    path, doc = calibrated
+    base = Machine.load(MACHINE)
+    pset = ParameterSet.load(path, base)
+    m = pset.machine_for(base)
+    np.testing.assert_allclose(m.tool, doc["tool_mm"], rtol=0, atol=1e-12)
+    out = tmp_path / "xyz.csv"
+    result = mtm("predict", "--machine", MACHINE, "--params", path, records, "--u", "-o", out)
+    assert result.exit_code == 0, result.output
+    lines = out.read_text(encoding="utf-8").splitlines()
+    assert lines[0].endswith("x,y,z,u_x_um,u_y_um,u_z_um")
+    first = np.array([float(v) for v in lines[1].split(",")[-6:]])
+    header = lines[0].split(",")
+    row = dict(zip(header, lines[1].split(","), strict=True))
+    q = m.readings_from_customary({a: [float(row[a])] for a in m.axis_names if a in row})
+    expected = m.forward(q, pset.vector_for(m), tool=np.array(doc["tool_mm"]))[0]
+    np.testing.assert_allclose(first[:3], expected, rtol=0, atol=1e-6)
+    assert np.all(first[3:] > 0)
+    doc4 = json.loads(path.read_text(encoding="utf-8"))
+    doc4["covariance"]["matrix"] = (4 * np.array(doc4["covariance"]["matrix"])).tolist()
+    path4 = tmp_path / "result4.json"
+    path4.write_text(json.dumps(doc4), encoding="utf-8")
+    out4 = tmp_path / "xyz4.csv"
+    again = mtm("predict", "--machine", MACHINE, "--params", path4, records, "--u", "-o", out4)
+    assert again.exit_code == 0, again.output
+    row4 = np.array([float(v) for v in out4.read_text().splitlines()[1].split(",")[-3:]])
+    np.testing.assert_allclose(row4, 2 * first[3:], rtol=1e-5)
+
+
+def test_one_coverage_factor_in_console_json_and_report(records, tmp_path):
+    """The console printed ``E_A0B -9.5874 ± 1.8433 µrad`` with ± = u, the JSON k = 1.96 and
+    the HTML parameter table k = 2 (issue 18 §3). Now: ``u = …`` and ``U = …`` with two
+    significant digits and one k, the GUF's k for p = 0.95, in all three."""
+    import re
+
+    from mtmetrology.report.format import format_uncertainty
+
+    out, page = tmp_path / "r.json", tmp_path / "r.html"
+    result = calibrate_samba(
+        records, "--noise-um", "0.5", "--uncertainty", "guf", "-o", out, "--report", page
+    )
+    assert result.exit_code == 0, result.output
+    doc = json.loads(out.read_text(encoding="utf-8"))
+    k = doc["coverage"]["k"]
+    assert doc["coverage"]["p"] == 0.95 and k == pytest.approx(1.959964, abs=1e-6)
+    assert all(o["k"] == pytest.approx(k) for o in doc["uncertainty"]["guf"]["outputs"])
+    assert "±" not in result.stdout
+    assert "U = k u (k = 1.96, p = 95 %)" in result.stdout.splitlines()[1]
+    line = re.compile(r"^  (\S+) +(\S+) (\S+) +u = (\S+) (\S+)  U = (\S+) (\S+)$")
+    printed = {m[1]: m for m in map(line.match, result.stdout.splitlines()) if m}
+    assert list(printed) == [p["name"] for p in doc["parameters"]]
+    for p in doc["parameters"]:
+        m = printed[p["name"]]
+        assert m[3] == m[5] == m[7] == p["unit"]
+        assert m[4] == format_uncertainty(p["u"]) and m[6] == format_uncertainty(k * p["u"])
+        assert len(m[4].replace(".", "").lstrip("0")) == 2  # two significant digits
+    html = page.read_text(encoding="utf-8")
+    heads = re.findall(r"<th scope=\"col\">(.*?)</th>", html)
+    assert "U (k = 1.96)" in heads and not any(h.startswith("U (k = 2") for h in heads)
 
 
 def test_calibrate_history_records_the_written_result(records, tmp_path, monkeypatch):

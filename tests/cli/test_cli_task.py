@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -33,7 +34,7 @@ E_COV = [[45.0, -17.0, 5.0], [-17.0, 66.0, 7.0], [5.0, 7.0, 58.0]]  # µm²
 E_PRINTED = [[45.0, -17.0, -220.0], [-17.0, 66.0, 7.0], [-220.0, 7.0, 58.0]]  # eq. 6-15
 
 
-def _files(tmp_path, *, e_cov=E_COV, machine=MACHINE.name, z_high=260.0):
+def _files(tmp_path, *, e_cov=E_COV, machine=MACHINE.name, z_high=260.0, cov_scale=1.0):
     (tmp_path / "points.csv").write_text(POINTS, encoding="utf-8")
     rng = np.random.default_rng(1)
     a = MACHINE.parameter_scales[:, None] * rng.normal(size=(13, 13))  # row i in its unit
@@ -41,7 +42,7 @@ def _files(tmp_path, *, e_cov=E_COV, machine=MACHINE.name, z_high=260.0):
         MACHINE.parameter_names,
         rng.normal(size=13) * MACHINE.parameter_scales * 3,
         MACHINE.parameter_units,
-        covariance=a @ a.T,
+        covariance=cov_scale * a @ a.T,
         machine=machine,
     ).save(tmp_path / "params.json")
     write_json(
@@ -65,6 +66,11 @@ def _files(tmp_path, *, e_cov=E_COV, machine=MACHINE.name, z_high=260.0):
     return tmp_path
 
 
+def _statement(extra) -> list[str]:
+    """--recalibrated unless the call states the long-term variation itself."""
+    return [] if {"--long-term", "--recalibrated"} & set(extra) else ["--recalibrated"]
+
+
 def _run(tmp_path, *extra):
     base = [
         "task",
@@ -77,11 +83,11 @@ def _run(tmp_path, *extra):
         "--feature",
         "length",
     ]
-    return runner.invoke(app, [*base, *extra])
+    return runner.invoke(app, [*base, *_statement(extra), *extra])
 
 
 def test_length_with_unexplained_errors_only_matches_the_closed_form(tmp_path):
-    d = _files(tmp_path)
+    d = _files(tmp_path, cov_scale=0.0)  # parameters known exactly
     result = _run(d, "--unexplained", str(d / "E.json"), "--json")
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
@@ -94,6 +100,31 @@ def test_length_with_unexplained_errors_only_matches_the_closed_form(tmp_path):
     assert doc["budget_groups"]["gauge_length"]["unexplained_volumetric_error"] == pytest.approx(
         1.0
     )
+
+
+def test_without_repeatability_or_e_u_is_the_calibration_contribution(tmp_path):
+    """u² = c G U_θ Gᵀ cᵀ (c: the length's gradient, G = ∂f/∂δ at the compensated points);
+    with --long-term the same covariance once more: u² doubles."""
+    d = _files(tmp_path)
+    result = _run(d, "--recalibrated", "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    pset = ParameterSet.load(d / "params.json", MACHINE)
+    q = MACHINE.readings_from_customary(
+        {"X": [-138.565, -61.288], "Y": [94.656, 48.344], "Z": [196.232, 246.817],
+         "B": [-42.0, -64.0], "C": [-293.0, -124.0]}
+    )  # fmt: skip
+    g = MACHINE.jacobian(q, pset.values).reshape(6, 13)
+    p = np.array(doc["points"]["compensated"])
+    e = (p[1] - p[0]) / np.linalg.norm(p[1] - p[0])
+    c = np.concatenate([-e, e]) @ g
+    u = doc["outputs"][0]["u"]
+    assert u == pytest.approx(np.sqrt(c @ pset.covariance @ c), rel=1e-9)
+    assert doc["budget_groups"]["gauge_length"]["calibration"] == pytest.approx(1.0)
+    assert doc["measurement_model"]["long_term_variation"] == "recalibrated"
+    both = json.loads(_run(d, "--long-term", str(d / "params.json"), "--json").stdout)
+    assert both["outputs"][0]["u"] == pytest.approx(np.sqrt(2) * u, rel=1e-9)
+    assert both["budget_groups"]["gauge_length"]["long_term_variation"] == pytest.approx(0.5)
 
 
 def test_full_task_with_repeatability_tolerance_and_output_file(tmp_path):
@@ -116,24 +147,60 @@ def test_full_task_with_repeatability_tolerance_and_output_file(tmp_path):
     doc = json.loads(out_path.read_text(encoding="utf-8"))
     groups = doc["budget_groups"]["gauge_length"]
     # 1 µm isotropic repeatability per point adds 2 µm² along the gauge axis.
-    assert groups["repeatability"] > 0 and abs(groups["machine_parameters"]) < 1e-9
+    assert groups["repeatability"] > 0 and groups["calibration"] > 0
+    assert sum(groups.values()) == pytest.approx(1.0, abs=1e-12)
     u_e = first["outputs"][0]["u"]
     assert doc["outputs"][0]["u"] == pytest.approx(np.sqrt(u_e**2 + 2 * UM**2), rel=1e-6)
     assert doc["decision"]["decision"] == "conformance"
 
 
 @pytest.mark.parametrize(
-    ("files", "extra"),
+    ("files", "extra", "named"),
     [
-        ({"e_cov": E_PRINTED}, ["--unexplained", "E.json"]),  # eq. 6-15 as printed: not PSD
-        ({"machine": "another-machine"}, []),  # parameter file of another machine
-        ({"z_high": 200.0}, ["--repeatability", "R.json"]),  # Z = 246.8 mm outside the model
-        ({}, ["--tolerance", "500,0.1,-0.1"]),
-        ({}, ["--unexplained", "E.json", "--tip-diameter", "-1"]),
-        ({}, []),  # no repeatability nor E: u would be 0
+        # eq. 6-15 as printed: not PSD; the file, its field and the smallest eigenvalue
+        (
+            {"e_cov": E_PRINTED},
+            ["--unexplained", "E.json"],
+            lambda d: (
+                f"{d / 'E.json'}: covariance is not positive semidefinite",
+                f"smallest eigenvalue {np.linalg.eigvalsh(E_PRINTED)[0]:.3g} µm²",
+            ),
+        ),
+        # parameter file of another machine: the file and both machine names
+        (
+            {"machine": "another-machine"},
+            ["--unexplained", "E.json"],
+            lambda d: (
+                f"{d / 'params.json'}: made for machine 'another-machine'",
+                f"not '{MACHINE.name}'",
+            ),
+        ),
+        # p2 at Z = 246.817 mm is outside the model's Z range [-110, 200] mm
+        (
+            {"z_high": 200.0},
+            ["--repeatability", "R.json"],
+            lambda d: ("pose factor Z_T = 246.817 mm", "range [-110, 200] mm"),
+        ),
+        (
+            {},
+            ["--tolerance", "500,0.1,-0.1"],
+            lambda d: ("tolerance: the lower limit 500.1 is above the upper limit 499.9",),
+        ),
+        (
+            {},
+            ["--unexplained", "E.json", "--tip-diameter", "-1"],
+            lambda d: ("tip_diameter must be a finite length >= 0 mm, got -1.0",),
+        ),
+        # a machine recalibrated for the task has no long-term term: contradictory
+        (
+            {},
+            ["--recalibrated", "--long-term", "params.json"],
+            lambda d: ("--long-term and --recalibrated: a machine recalibrated",),
+        ),
     ],
+    ids=["e-not-psd", "another-machine", "outside-model", "tolerance", "tip", "contradictory"],
 )
-def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, files, extra):
+def test_bad_input_exits_2_naming_the_file_field_or_option(tmp_path, files, extra, named):
     d = _files(tmp_path, **files)
     extra = [str(d / x) if x.endswith(".json") else x for x in extra]
     out = d / "out.json"
@@ -141,6 +208,29 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, files, ext
     assert result.exit_code == 2, result.output
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ")
+    first, *rest = named(d)
+    assert lines[0].startswith(f"error: {first}"), lines[0]
+    assert all(part in lines[0] for part in rest), lines[0]
+    assert not out.exists()
+
+
+def test_the_long_term_variation_must_be_stated(tmp_path):
+    """Neither --long-term nor --recalibrated: refused, one line, nothing written."""
+    d = _files(tmp_path)
+    out = d / "out.json"
+    result = runner.invoke(
+        app,
+        [
+            "task", "uncertainty", str(d / "points.csv"), "--machine", MACHINE.name,
+            "--params", str(d / "params.json"), "--feature", "length", "-o", str(out),
+        ],
+    )  # fmt: skip
+    assert result.exit_code == 2
+    (line,) = result.stderr.strip().splitlines()
+    assert line == (
+        "error: state the long-term variation of the parameters since the calibration: "
+        "--long-term FILE (mtm calibrate long-term), or --recalibrated"
+    )
     assert not out.exists()
 
 
@@ -148,7 +238,9 @@ def test_three_points_for_a_length_are_refused(tmp_path):
     d = _files(tmp_path)
     (d / "points.csv").write_text(POINTS + "p3,0,0,0,0,0,1,0,0,2\n", encoding="utf-8")
     result = _run(d, "--unexplained", str(d / "E.json"))
-    assert result.exit_code == 2 and result.stderr.startswith("error: ")
+    assert result.exit_code == 2
+    line = f"error: {d / 'points.csv'}: a length needs exactly 2 points (one pair), got 3\n"
+    assert result.stderr == line
 
 
 def test_report_shows_the_result_budget_and_decision(tmp_path):
@@ -195,7 +287,7 @@ def _run_on(d, points, feature, *extra):
         [
             "task", "uncertainty", str(points), "--machine", MACHINE.name,
             "--params", str(d / "params.json"), "--feature", feature,
-            "--unexplained", str(d / "E.json"), *extra,
+            "--unexplained", str(d / "E.json"), *_statement(extra), *extra,
         ],
     )  # fmt: skip
 
@@ -244,7 +336,7 @@ def test_plane_flatness_and_monte_carlo_validation(tmp_path):
 
 def test_points_of_a_length_and_a_sampled_simulator(tmp_path):
     """--feature points: the compensated coordinates (Sepahi Boroujeni (2021), Table 7-1)."""
-    d = _files(tmp_path)
+    d = _files(tmp_path, cov_scale=0.0)  # parameters known exactly: E alone
     result = _run(
         d, "--unexplained", str(d / "E.json"), "--feature", "points", "--simulator", "sampled",
         "--draws", "2000", "--seed", "1", "--json",
@@ -262,27 +354,35 @@ def test_points_of_a_length_and_a_sampled_simulator(tmp_path):
 
 
 @pytest.mark.parametrize(
-    ("feature", "extra", "n"),
+    ("feature", "extra", "n", "named"),
     [
-        ("sphere", [], 3),  # a sphere needs 4 points
-        ("circle", [], 2),
-        ("plane", ["--side", "inner"], 8),  # a plane has no side
-        ("circle", ["--tolerance-output", "roundness"], 8),  # without --tolerance
-        ("circle", ["--tolerance", "0,,1", "--tolerance-output", "flatness"], 8),
-        ("circle", ["--method", "mcm", "--simulator", "sampled", "--draws", "5"], 8),
-        ("plane", ["--form", "minimum-zone"], 3),  # a minimum-zone plane needs 4 contacts
-        ("length", ["--form", "minimum-zone"], 2),  # a length has no form
-        ("cylinder", [], 4),
+        # a sphere needs 4 points
+        ("sphere", [], 3, "{points}: a sphere needs at least 4 points (least-squares), got 3"),
+        ("circle", [], 2, "{points}: a circle needs at least 3 points (least-squares), got 2"),
+        # a plane has no side
+        ("plane", ["--side", "inner"], 8, "--side applies to a sphere, circle or cylinder"),
+        # without --tolerance
+        ("circle", ["--tolerance-output", "roundness"], 8, "--tolerance-output needs --tolerance"),
+        ("circle", ["--tolerance", "0,,1", "--tolerance-output", "flatness"], 8,
+         "--tolerance-output: 'flatness' is not an output"),
+        ("circle", ["--method", "mcm", "--simulator", "sampled", "--draws", "5"], 8,
+         "draws: the sampled simulator needs at least"),
+        # a minimum-zone plane needs 4 contacts
+        ("plane", ["--form", "minimum-zone"], 3,
+         "{points}: a plane needs at least 4 points (minimum-zone), got 3"),
+        # a length has no form
+        ("length", ["--form", "minimum-zone"], 2, "--form minimum-zone applies to a form error"),
+        ("cylinder", [], 4, "{points}: a cylinder needs at least 5 points (least-squares), got 4"),
     ],
-)
-def test_bad_feature_requests_exit_2_and_write_nothing(tmp_path, feature, extra, n):
+)  # fmt: skip
+def test_bad_feature_requests_exit_2_and_write_nothing(tmp_path, feature, extra, n, named):
     d = _files(tmp_path)
     points = _bore_points(d, n=n)
     out = d / "out.json"
     result = _run_on(d, points, feature, *extra, "-o", str(out))
     assert result.exit_code == 2, result.output
     lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: ")
+    assert len(lines) == 1 and lines[0].startswith("error: " + named.format(points=points))
     assert not out.exists()
 
 
@@ -318,7 +418,7 @@ def test_cylinder_diameter_cylindricity_and_minimum_zone_form(tmp_path):
 
 
 def test_centres_are_positions_with_their_uncertainty(tmp_path):
-    d = _files(tmp_path)
+    d = _files(tmp_path, cov_scale=0.0)  # parameters known exactly: E alone
     bore = _bore_points(d)
     result = _run_on(d, bore, "circle-centre", "--json")
     assert result.exit_code == 0, result.output
@@ -331,3 +431,38 @@ def test_centres_are_positions_with_their_uncertainty(tmp_path):
     # u²(x) = (4/n²) Σ cos²θ (cos²θ σ_xx + sin²θ σ_yy + sin 2θ σ_xy) = (3σ_xx + σ_yy)/(2n).
     u_x = np.sqrt((3 * E_COV[0][0] + E_COV[1][1]) / 16) * UM
     assert doc["outputs"][0]["u"] == pytest.approx(u_x, rel=1e-5)  # δ tilts by µrad
+
+
+def test_the_calibrated_tool_compensates_the_task(tmp_path):
+    """A parameter set with an identified tool vector (tool_mm): the task's compensated
+    points are f(φ, δ̂) with that tool, not the machine's nominal one."""
+    d = _files(tmp_path)
+    pset = ParameterSet.load(d / "params.json", MACHINE)
+    tool = MACHINE.tool + np.array([0.010, -0.020, 0.030])
+    replace(pset, tool=tool).save(d / "params.json")
+    result = _run(d, "--recalibrated", "--json")
+    assert result.exit_code == 0, result.output
+    q = MACHINE.readings_from_customary(
+        {"X": [-138.565, -61.288], "Y": [94.656, 48.344], "Z": [196.232, 246.817],
+         "B": [-42.0, -64.0], "C": [-293.0, -124.0]}
+    )  # fmt: skip
+    expected = MACHINE.forward(q, pset.values, tool=tool)
+    np.testing.assert_allclose(json.loads(result.stdout)["points"]["compensated"], expected)
+    assert np.abs(MACHINE.forward(q, pset.values) - expected).max() > 0.005  # it matters
+
+
+def test_console_names_an_absent_repeatability_model_instead_of_a_zero_share(tmp_path):
+    """Without --repeatability the console printed "repeatability 0.0 %" (issue 18 §3): the
+    source is left out of the budget line and a note says what was used instead."""
+    d = _files(tmp_path)
+    result = _run(d, "--unexplained", str(d / "E.json"))
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    budget = next(ln for ln in lines if ln.startswith("  first-order budget: "))
+    sources = [s.rsplit(" ", 2)[0] for s in budget.split(": ", 1)[1].split(", ")]
+    assert sources == ["calibration", "unexplained volumetric error"]
+    assert "  long-term variation of the parameters: recalibrated" in lines
+    assert lines[-1] == (
+        "no repeatability model given (--repeatability): the readings are taken as exact "
+        "(zero reading covariance)"
+    )

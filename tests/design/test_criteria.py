@@ -56,5 +56,5 @@ def test_upf_is_the_root_diagonal_of_the_inverse_information():
     j = rng.standard_normal((20, 4)) * np.array([1e-3, 1.0, 1e3, 5.0])
     expected = np.sqrt(np.diag(np.linalg.inv(j.T @ j)))
     np.testing.assert_allclose(uncertainty_propagation_factors(j), expected, rtol=1e-9)
-    with pytest.raises(RankDeficientError):
+    with pytest.raises(RankDeficientError, match="no propagation factor"):
         uncertainty_propagation_factors(np.column_stack([j[:, 0], j[:, 0]]))

@@ -96,7 +96,7 @@ def test_bad_sizes_name_the_parameter():
     with pytest.raises(InputError) as err:
         detmax(space, 0)
     assert "design size" in str(err.value)
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match=r"^starts must be at least 1, got 0"):
         detmax(space, 5, starts=0)
 
 

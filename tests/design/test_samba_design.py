@@ -7,6 +7,7 @@ from lab_balls import LAB_CENTRES, LAB_IDS
 from mtmetrology.cli.design import SEED004_GRID
 from mtmetrology.design.accessibility import AccessibilityRule
 from mtmetrology.design.counts import (
+    count_rule_for,
     estimate_test_duration_h,
     indexation_count,
     measurement_count,
@@ -42,8 +43,28 @@ def test_indexation_count_rules_reproduce_the_seed004_strategies():
     assert indexation_count(3, 13, 1) == 21  # 1B.3n
     assert indexation_count(2, 13, 1) == 14  # 1B.2n
     assert indexation_count(5, 84, 4, rule="measurements") == 38  # 4B.5n
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="count rule 'nearest'"):
         indexation_count(3, 13, 1, rule="nearest")
+
+
+@pytest.mark.parametrize(
+    ("n_balls", "hours"),
+    [(3, (1.6, 2.3, 3.1, 3.8, 7.4)), (4, (1.6, 2.4, 3.1, 3.9, 7.6))],
+)
+def test_default_count_rule_follows_the_source_for_each_model(n_balls, hours):
+    """The default reads "k × unknowns/3" as the source does for the model (issue 18 §3:
+    the 84-parameter 4B.5n came out 165 indexations): 13 parameters, k·⌈U/3⌉ indexations
+    (1B.2n = 14, 1B.3n = 21); 84 parameters, k·U/3 measurements, whose durations match every
+    row of Table 5.3 (k = 2, 3, 4, 5, 10) within 12 %, where the other reading is 2-4x off."""
+    assert count_rule_for("source", 13)[0] == "indexations"
+    assert (indexation_count(2, 13, 1), indexation_count(3, 13, 1)) == (14, 21)
+    assert count_rule_for("source", 84)[0] == "measurements"
+    assert indexation_count(5, 84, 4) == 38  # 4B.5n
+    for k, h in zip((2, 3, 4, 5, 10), hours, strict=True):
+        for rule, close in (("source", True), ("indexations", False)):
+            m = indexation_count(k, 84, n_balls, rule=rule)
+            t = estimate_test_duration_h(measurement_count(m, n_balls))
+            assert (abs(t / h - 1) < 0.12) == close, (k, rule, t, h)
 
 
 def test_duration_reproduces_seed004_table_5_5_within_10_percent():

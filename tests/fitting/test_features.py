@@ -181,5 +181,6 @@ def test_min_points_is_what_the_fit_refuses_below(feature):
     d = rng.normal(size=(feature.min_points, 3))
     points = 10.0 * d / np.linalg.norm(d, axis=1, keepdims=True)
     assert np.all(np.isfinite(feature.value(points)))
-    with pytest.raises(ValueError):
+    short = feature.min_points - 1
+    with pytest.raises(ValueError, match=rf"^{feature.name}: needs at least .*, got {short}$"):
         feature.value(points[:-1])

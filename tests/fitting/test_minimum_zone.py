@@ -20,6 +20,7 @@ from scipy.optimize import minimize
 from scipy.spatial import Delaunay, Voronoi
 from scipy.spatial.transform import Rotation
 
+from mtmetrology.fitting import minimax
 from mtmetrology.fitting.elements import Circle, Cylinder, Line, Plane, Sphere
 from mtmetrology.fitting.least_squares import (
     FitError,
@@ -467,10 +468,21 @@ def test_zone_result_is_frozen_and_reports_its_method():
     result = circumscribed_circle(_ring(rng, 10, 5.0, 0.01))
     assert isinstance(result, ZoneResult)
     assert result.method == "circumscribed"
-    assert "converged" in result.message
+    assert result.converged is True and result.iterations >= 1
+    s = "" if result.iterations == 1 else "s"
+    assert result.message == f"converged: {result.iterations} linear programme{s}"
     with pytest.raises(dataclasses.FrozenInstanceError):
         result.form_error = 0.0  # type: ignore[misc]
     assert isinstance(sphericity(_ball(rng, 10, 5.0, 0.01)).element, Sphere)
+
+
+def test_a_zone_stopped_by_the_iteration_limit_is_flagged_not_converged(monkeypatch):
+    """The failure path (scipy's ``max_nfev=1`` test): one linear programme is not enough
+    to reach the circumscribed circle from the least-squares start."""
+    monkeypatch.setattr(minimax, "_MAX_ITERATIONS", 1)
+    result = circumscribed_circle(_ring(np.random.default_rng(10), 10, 5.0, 0.01))
+    assert (result.converged, result.iterations) == (False, 1)
+    assert result.message == "no convergence in 1 linear programme"
 
 
 def test_inscribed_circle_of_a_partial_arc_is_refused_as_unbounded():

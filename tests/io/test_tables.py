@@ -41,6 +41,20 @@ def test_unusual_but_valid_files_read_as_the_plain_one(tmp_path):
     np.testing.assert_array_equal(plain.lines, [2, 3])
 
 
+def test_cr_only_line_ends_read_as_the_plain_file_with_editor_line_numbers(tmp_path):
+    """Old Mac exports end lines with a bare CR (issue 18 §3: an internal csv error before)."""
+    plain = read_csv_table(_write(tmp_path, "X,Y,id\n1,2,00\n\n3.5,-4e-1,07\n", "plain.csv"))
+    cr = read_csv_table(_write(tmp_path, b"X,Y,id\r1,2,00\r\r3.5,-4e-1,07\r", "cr.csv"))
+    assert cr.header == plain.header == ("X", "Y", "id")
+    np.testing.assert_array_equal(cr.floats("Y"), plain.floats("Y"))
+    assert cr.strings("id") == ["00", "07"]
+    np.testing.assert_array_equal(cr.lines, plain.lines)
+    np.testing.assert_array_equal(cr.lines, [2, 4])
+    with pytest.raises(InputFileError) as err:
+        read_csv_table(_write(tmp_path, b"X,Y\r1,2\r3,x\r", "bad.csv")).floats("Y")
+    assert str(err.value).endswith("bad.csv, line 3: column 'Y' holds 'x', not a number")
+
+
 @pytest.mark.parametrize(
     ("cell", "why"),
     [

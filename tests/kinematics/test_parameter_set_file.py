@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
+from mtmetrology.errors import InputError
 from mtmetrology.io.files import InputFileError
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics.parameter_set import MAX_MAGNITUDE, ParameterSet
@@ -112,11 +113,20 @@ def test_save_writes_the_document_in_the_format_of_the_suffix(tmp_path, machine,
     np.testing.assert_allclose(back.covariance, pset.covariance, rtol=1e-14)
 
 
-def test_a_non_finite_value_is_not_written(tmp_path, machine):
-    pset = ParameterSet(("E_X0C",), np.array([np.nan]), ("µm",), machine=NAME)
-    with pytest.raises(ValueError):
-        pset.save(tmp_path / "p.json")
-    assert not (tmp_path / "p.json").exists()
+@pytest.mark.parametrize("suffix", [".json", ".yaml"])
+def test_a_non_finite_value_is_not_written(tmp_path, machine, suffix):
+    """Refused naming the parameter, in JSON and in YAML (which would write ``.nan``)."""
+    values = np.array([1e-3, np.nan])
+    pset = ParameterSet(("E_X0C", "E_Y0C"), values, ("µm", "µm"), machine=NAME)
+    target = tmp_path / f"p{suffix}"
+    with pytest.raises(InputError, match=r"p\.\w+: E_Y0C is not finite; nothing written$"):
+        pset.save(target)
+    covariance = np.diag([1e-6, np.inf])
+    pset = ParameterSet(("E_X0C", "E_Y0C"), values[:1].repeat(2), ("µm", "µm"),
+                        covariance=covariance, machine=NAME)  # fmt: skip
+    with pytest.raises(InputError, match="covariance row E_Y0C is not finite"):
+        pset.save(target)
+    assert not target.exists()
 
 
 def test_zeros_and_vector_for(machine):
@@ -161,7 +171,7 @@ def test_check_machine_names_the_models(machine):
         (
             {**HEADER, "kind": "x", "parameters": [X0C]},
             "p.json: kind: 'x' is not a parameter set (expected 'parameter-set' or a "
-            "calibration result: samba-calibration, ballplate-calibration)",
+            "calibration result: samba-calibration, ballplate-calibration, tracker-calibration)",
         ),
         (
             {**HEADER, "version": 2, "parameters": [X0C]},
@@ -335,3 +345,21 @@ def test_a_covariance_symmetric_to_rounding_is_accepted(machine):
     block = {"names": ["E_X0C", "E_A0B"], "matrix": [[1, 0.5], [0.5 * (1 + 1e-12), 1]]}
     pset = ParameterSet.from_document(_with_covariance(block), machine)
     assert pset.covariance[0, 0] == pytest.approx(1e-6, rel=1e-15)
+
+
+def test_a_calibrated_tool_round_trips_and_is_put_on_the_machine(machine, tmp_path):
+    """tool_mm is written, read back exactly, and replaces the machine's nominal tool."""
+    tool = np.array([0.0123, -0.0045, machine.tool[2] - 0.0321])
+    pset = _two(machine, tool=tool)
+    pset.save(tmp_path / "p.json")
+    assert json.loads((tmp_path / "p.json").read_text(encoding="utf-8"))["tool_mm"] == list(tool)
+    back = ParameterSet.load(tmp_path / "p.json", machine)
+    np.testing.assert_array_equal(back.tool, tool)
+    np.testing.assert_array_equal(back.machine_for(machine).tool, tool)
+    assert ParameterSet.load(tmp_path / "p.json", machine).machine_for(machine) is not machine
+    assert _two(machine).machine_for(machine).tool is machine.tool  # none: the nominal
+
+
+@pytest.mark.parametrize("bad", [[1, 2], [1, "2", 3], "0,0,1"])
+def test_a_malformed_tool_is_refused_naming_the_key(machine, bad):
+    assert "tool_mm" in _refusal({**HEADER, "parameters": [X0C], "tool_mm": bad}, machine)

@@ -145,20 +145,20 @@ def test_each_k_has_its_own_stream_and_k_1_draws_are_whole_sets():
 
 
 @pytest.mark.parametrize(
-    "kw",
+    ("kw", "named"),
     [
-        {"k_values": [0]},
-        {"k_values": [4]},
-        {"points_per_draw": 26},
-        {"references": [(DIAMETER, 0.0)]},
-        {"reading_covariance": np.eye(3)},
-        {"draws": 0},
+        ({"k_values": [0]}, r"k_values: each must be an integer in 1 … 3, got \[0\]"),
+        ({"k_values": [4]}, r"k_values: each must be an integer in 1 … 3, got \[4\]"),
+        ({"points_per_draw": 26}, "points_per_draw = 26, but 1 set"),
+        ({"references": [(DIAMETER, 0.0)]}, "references: 1 given for 2 outputs"),
+        ({"reading_covariance": np.eye(3)}, r"reading_covariance: .* got shape \(3, 3\)"),
+        ({"draws": 0}, "draws: must be a positive integer, got 0"),
     ],
     ids=["k0", "k-too-large", "too-few-points", "references", "covariance-shape", "draws"],
 )
-def test_bad_arguments_are_refused(kw):
+def test_bad_arguments_are_refused_naming_the_argument(kw, named):
     sets, delta, sigma = _point_sets(0.0)
     args = dict(references=REFERENCES, draws=2, seed=1, k_values=[1])
     args.update(kw)
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match=f"^{named}"):
         pooling_experiment(MACHINE, sets[:3], delta, sigma, FEATURES, **args)

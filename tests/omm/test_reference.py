@@ -94,7 +94,8 @@ def test_mean_coverage_of_honest_k2_intervals_is_95_4_percent():
     ],
 )
 def test_bad_reference_inputs_are_refused(kwargs):
-    with pytest.raises(InputError):
+    (name,) = kwargs
+    with pytest.raises(InputError, match=f"^{name}: "):
         thermal_reference_value(500.0, 0.15 * UM, **{**THESIS, **kwargs})
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match=r"^expanded_uncertainty must be >= 0"):
         coverage_probability(1.0, -0.1, 1.0, 0.1)

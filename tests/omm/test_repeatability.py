@@ -101,7 +101,7 @@ def test_lateral_deviation_threshold_is_125_3_um():
     """Sepahi Boroujeni (2021), §4: R = 15.7 mm, d = 0.5 µm → b′ = 125.3 µm."""
     b = lateral_deviation_threshold(15.7, to_internal(0.5, "µm"))
     assert round(b / UM, 1) == 125.3
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match="radius > 0"):
         lateral_deviation_threshold(-1.0, 0.0005)
 
 
@@ -239,9 +239,20 @@ def test_too_few_targets_and_too_few_levels_are_refused():
     with pytest.raises(InputError, match="more than 36"):
         fit_repeatability_model(st, holdout=0.15)
     rec = _records(45, 5, seed=2)
+    with pytest.raises(InputError, match=r"45 fitting targets .* fewer than 3 per coefficient"):
+        fit_repeatability_model(target_statistics(**rec), holdout=0.0)
     rec["factors"][:, 6] = 7.0  # Z_T constant
     with pytest.raises(InputError, match="Z_T"):
-        fit_repeatability_model(target_statistics(**rec), holdout=0.0)
+        fit_repeatability_model(
+            target_statistics(**rec), holdout=0.0, min_targets_per_coefficient=0
+        )
+
+
+def test_held_out_rms_relative_error_is_bounded_by_the_largest(fitted):
+    """√(Σd²/Σy²) ≤ max |d|/|y| (Σd² = Σ(d/y)² y²); flagged exactly above 50 %."""
+    for fit in fitted[1].fits:
+        assert 0 <= fit.validation_rms_relative_error <= fit.validation_max_relative_error
+        assert fit.validation_flagged == (fit.validation_rms_relative_error > 0.5)
 
 
 def test_model_document_round_trips_through_a_strict_file(fitted, tmp_path):

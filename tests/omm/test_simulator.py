@@ -8,8 +8,13 @@ import pytest
 from mtmetrology.errors import InputError
 from mtmetrology.fitting.features import GaugeLength
 from mtmetrology.kinematics.machine import Machine
-from mtmetrology.omm.simulator import MeasurementModel, covariance_simulator
+from mtmetrology.omm.simulator import (
+    MeasurementModel,
+    covariance_simulator,
+    population_covariance,
+)
 from mtmetrology.uncertainty.guf import guf
+from mtmetrology.uncertainty.inputs import InputSet
 from mtmetrology.units import to_internal
 
 MACHINE = Machine.load("five-axis-wcbxfzyst")
@@ -26,7 +31,7 @@ def _one_axis_example(simulator: str, draws: int = 10_000):
     sigma[XX, XX] = to_internal(10.0, "µm/m") ** 2
     v = np.zeros((1, 6, 6))
     v[0, 0, 0] = UM**2
-    inputs = covariance_simulator(
+    joint = population_covariance(
         MACHINE,
         readings,
         delta,
@@ -37,8 +42,8 @@ def _one_axis_example(simulator: str, draws: int = 10_000):
         seed=12,
     )
     p = MACHINE.n_axes  # index of the first parameter in x
-    block = inputs.covariance[np.ix_([0, p + XX], [0, p + XX])]
-    return inputs, block
+    block = joint[np.ix_([0, p + XX], [0, p + XX])]
+    return (readings, delta, joint), block
 
 
 def test_linear_simulator_reproduces_eq_6_12_exactly():
@@ -63,8 +68,17 @@ def test_sampled_simulator_reproduces_eq_6_12_within_sampling_error():
 def test_joint_pdf_gives_u_psi_of_1_um_not_the_printed_2_2_um():
     """§6.2.1 prints u(ψ) = 2.2 µm "using the joint PDF"; propagating ψ = f(Γ, Δ) with the
     eq. 6-12 covariance gives u² = 2.0 + 1.0 − 2·1.0 = 1.0 µm² (first-order cancellation;
-    2.2 µm = √5 would add the covariance term instead of subtracting it)."""
-    inputs, _ = _one_axis_example("linear")
+    2.2 µm = √5 would add the covariance term instead of subtracting it).  This joint PDF
+    is the model of readings compensated with the machine's true parameters of the day;
+    a task compensated with a calibration is in tests/omm/test_task_calibration.py."""
+    (readings, delta, joint), _ = _one_axis_example("linear")
+    n_x = joint.shape[0]
+    ux = np.zeros((n_x + 3, n_x + 3))
+    ux[:n_x, :n_x] = joint
+    names = [f"x{i}" for i in range(n_x + 3)]
+    inputs = InputSet.from_covariance(
+        names, np.concatenate([readings.ravel(), delta, np.zeros(3)]), ux
+    )
 
     class X:
         unit, output_names = "mm", ("x",)
@@ -73,14 +87,15 @@ def test_joint_pdf_gives_u_psi_of_1_um_not_the_printed_2_2_um():
         def value(points):
             return points[..., 0, 0]
 
-    r = guf(MeasurementModel(MACHINE, X(), 1), inputs.input_set())
+    r = guf(MeasurementModel(MACHINE, X(), 1), inputs)
     assert r.standard_uncertainty[0] / UM == pytest.approx(1.0, rel=1e-3)
     assert abs(r.standard_uncertainty[0] / UM - 2.2) > 1.0
 
 
 def test_sampled_and_linear_simulators_agree_on_a_gauge_task():
-    """Table 7-1 readings, 1 µm repeatability, 5-unit day-to-day parameters: the sampled
-    U_x (Q = 2·10⁴) against the linearised one, every variance within 5 %."""
+    """Table 7-1 readings, 1 µm repeatability, 5-unit calibration u and day-to-day
+    variation: the sampled U_x (Q = 2·10⁴ for each of the repeatability and long-term
+    parts) against the linearised one, every variance within 5 %."""
     readings = MACHINE.readings_from_customary(
         {
             "X": [-138.5650, -61.2880],
@@ -94,8 +109,9 @@ def test_sampled_and_linear_simulators_agree_on_a_gauge_task():
     v = np.zeros((2, 6, 6))
     v[:, :3, :3] = np.eye(3) * UM**2
     args = (MACHINE, readings, np.zeros(13), sigma)
-    lin = covariance_simulator(*args, reading_covariance=v)
-    smp = covariance_simulator(*args, reading_covariance=v, simulator="sampled", draws=20_000)
+    kw = dict(reading_covariance=v, long_term_covariance=sigma)
+    lin = covariance_simulator(*args, **kw)
+    smp = covariance_simulator(*args, **kw, simulator="sampled", draws=20_000, seed=3)
     live = np.diag(lin.covariance) > 0
     np.testing.assert_allclose(
         np.diag(smp.covariance)[live], np.diag(lin.covariance)[live], rtol=0.05
@@ -111,7 +127,8 @@ def test_sampled_and_linear_simulators_agree_on_a_gauge_task():
     [
         (dict(simulator="bootstrap"), "simulator must be one of"),
         (dict(simulator="sampled", draws=10), "needs at least"),
-        (dict(parameter_covariance=-np.eye(13) * 1e-6), "not positive semidefinite"),
+        (dict(calibration_covariance=-np.eye(13) * 1e-6), "not positive semidefinite"),
+        (dict(long_term_covariance=-np.eye(13) * 1e-6), "long-term covariance: not positive"),
         (dict(readings=np.zeros((2, 5))), r"shape \(n, 6\)"),
     ],
 )
@@ -119,7 +136,7 @@ def test_bad_input_is_refused_naming_the_argument(kwargs, message):
     args = dict(
         readings=np.tile([0.0, 0.0, 100.0, 0.0, 0.0, 0.0], (2, 1)),
         parameters=np.zeros(13),
-        parameter_covariance=np.eye(13) * 1e-12,
+        calibration_covariance=np.eye(13) * 1e-12,
     )
     args.update(kwargs)
     with pytest.raises(InputError, match=message):

@@ -29,14 +29,16 @@ TIP = 2 * MACHINE.tip_radius
 N_POINTS, N_TASKS, N_WITHOUT_E = 25, 500, 200
 COV_E = np.array([[4.5, -1.7, 0.5], [-1.7, 6.6, 0.7], [0.5, 0.7, 5.8]]) * 1e-5  # eq. 6-15, fixed
 REPEATABILITY = 0.5 * UM
+U_THETA = np.diag((MACHINE.parameter_scales * 3.0) ** 2)  # a calibration's U_θ, 3 units
 
 
 def _virtual_sphere_tasks(seed=12):
     """Readings of ``N_TASKS`` sphere tasks, simulated for all tasks at once.
 
-    The machine: calibration δ (~10 µm, µrad, µm/m); its day-to-day variation Σ_day
-    (correlated, ~2 units); the budget's Σ is the long-term covariance of 15 simulated
-    daily calibrations (:func:`long_term_parameters`). Each task: B ∈ [−60°, 60°],
+    The machine: state δ (~10 µm, µrad, µm/m) at its calibration; its day-to-day
+    variation Σ_day (correlated, ~2 units), whose estimate in the budget is the long-term
+    covariance of 15 simulated daily states (:func:`long_term_parameters`). Each task: a
+    fresh calibration δ̂ ~ N(δ, U_θ) that compensates it, B ∈ [−60°, 60°],
     C ∈ [−180°, 180°], 25 points on the upper part of the sphere (polar angle ≤ 80°), the
     day's true parameters drawn from N(δ, Σ_day), one e per point from cov(e), 0.5 µm
     repeatability on X, Y, Z.
@@ -65,29 +67,31 @@ def _virtual_sphere_tasks(seed=12):
     e = rng.multivariate_normal(np.zeros(3), COV_E, (N_TASKS, N_POINTS))
     readings = MACHINE.inverse(targets - e, start, truth)
     readings[..., :3] += rng.normal(0.0, REPEATABILITY, (N_TASKS, N_POINTS, 3))
-    return readings, long_term
+    estimates = rng.multivariate_normal(delta, U_THETA, N_TASKS)  # a calibration per task
+    return readings, estimates, long_term
 
 
 @pytest.fixture(scope="module")
 def tasks():
-    readings, long_term = _virtual_sphere_tasks()
+    readings, estimates, long_term = _virtual_sphere_tasks()
     v = np.zeros((N_POINTS, 6, 6))
     v[:, :3, :3] = np.eye(3) * REPEATABILITY**2
     feature = SphereDiameter(tip_diameter=TIP)
 
-    def run(r, with_e):
+    def run(r, estimate, with_e):
         return task_uncertainty(
             MACHINE,
             r,
-            long_term.values,
-            long_term.covariance,
+            estimate,
+            U_THETA,
             feature,
+            long_term_covariance=long_term.covariance,
             reading_covariance=v,
             unexplained_covariance=COV_E if with_e else None,
         ).guf
 
-    with_e = [run(r, True) for r in readings]
-    without_e = [run(r, False) for r in readings[:N_WITHOUT_E]]
+    with_e = [run(r, d, True) for r, d in zip(readings, estimates, strict=True)]
+    without_e = [run(r, d, False) for r, d in zip(readings[:N_WITHOUT_E], estimates, strict=False)]
     return with_e, without_e
 
 
@@ -95,9 +99,11 @@ def test_sphere_diameter_intervals_cover_the_truth_95_percent(tasks):
     """500 tasks: the number of k = 2 (p = 0.95) intervals holding the true 19.05 mm
     must lie in the two-sided 99 % binomial acceptance region of p = 0.95 (462 … 487).
 
-    The day-to-day parameter change moves the 25 points almost rigidly (its effect on the
-    diameter is ~0.1 µm against u ≈ 9 µm), so the first-order cancellation of the
-    parameter uncertainty does not bias the coverage."""
+    Each task is compensated with its own calibration (U_θ in the budget) on a machine
+    drifted since (Σ_lt in the budget).  The parameters move the 25 points almost rigidly
+    (their effect on the diameter is ~0.1 µm against u ≈ 9 µm): this test checks the E and
+    repeatability terms; the gauge-length tests of test_task.py and
+    test_task_calibration.py check the parameter terms."""
     with_e, _ = tasks
     hits = sum(abs(r.estimate[0] - DIAMETER) <= r.expanded_uncertainty[0] for r in with_e)
     low, high = stats.binom.ppf([0.005, 0.995], N_TASKS, 0.95)

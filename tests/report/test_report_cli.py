@@ -9,6 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from mtmetrology.cli import app
+from mtmetrology.report.format import format_uncertainty
 
 runner = CliRunner()
 
@@ -79,6 +80,7 @@ def test_bad_input_writes_no_report(tmp_path):
     bad.write_text("x,y\n1,2\n")
     result = runner.invoke(app, ["fit", "sphere", str(bad), "--report", str(out)])
     assert result.exit_code == 2 and not out.exists()
+    assert result.stderr.startswith(f"error: {bad}: missing column 'z'"), result.stderr
 
 
 def test_unwritable_report_path_is_one_line_and_exit_2(command_inputs, tmp_path):
@@ -88,7 +90,7 @@ def test_unwritable_report_path_is_one_line_and_exit_2(command_inputs, tmp_path)
         app, ["uncertainty", "run", str(command_inputs["model"]), "--report", str(target)]
     )
     assert result.exit_code == 2
-    assert result.stderr.startswith("error: ") and len(result.stderr.splitlines()) == 1
+    assert result.stderr.startswith(f"error: {target}: ") and len(result.stderr.splitlines()) == 1
 
 
 # -- CMM ----------------------------------------------------------------------------------
@@ -123,7 +125,10 @@ def test_ballplate_report_shows_parameters_datum_residuals_and_selection(
     assert re.search(rf"<h2[^>]*>Model selection: {re.escape(chosen)}</h2>", page)
     for score in doc["model_selection"]["scores"]:
         name = score["model"] + (" (chosen)" if score["model"] == chosen else "")
-        assert float(_cells(page, name)[0]) == pytest.approx(score["mean_rms_um"], rel=5e-3)
+        cells = _cells(page, name)  # median, mean, AIC, verdict, one cell per fold
+        assert float(cells[0]) == pytest.approx(score["median_rms_um"], rel=5e-3)
+        assert float(cells[1]) == pytest.approx(score["mean_rms_um"], rel=5e-3)
+        assert len(cells) == 4 + len(doc["model_selection"]["positions"])
     assert re.search(r"<h2[^>]*>Datum</h2>", page)
 
 
@@ -163,6 +168,7 @@ def test_ballplate_bad_probe_writes_neither_result_nor_report(command_inputs, tm
             "-o", str(out), "--report", str(rep)]  # fmt: skip
     result = runner.invoke(app, args)
     assert result.exit_code == 2 and not out.exists() and not rep.exists()
+    assert result.stderr.startswith(f"error: {bad}, line 2: probe 'P9'"), result.stderr
     assert result.stderr.startswith("error: ") and len(result.stderr.splitlines()) == 1
 
 
@@ -229,10 +235,12 @@ def test_samba_calibration_report_shows_parameters_uncertainty_and_validation(
     assert int(_cell_after(page, "rank")) == doc["identification"]["rank"]
     rows = {r[0]: r for r in _table(page, "parameter", "value", "unit", "u")}
     assert list(rows) == names
-    for p in doc["parameters"]:  # u and U = 2u, rounded to two significant digits
+    k = doc["coverage"]["k"]  # the one k of the document (the GUF's, 1.96 for p = 0.95)
+    assert f"U (k = {k:.2f})" in _tables_with_head(page, "parameter", "value", "unit", "u")
+    for p in doc["parameters"]:  # u and U = k u, rounded to two significant digits
         assert rows[p["name"]][2] == p["unit"]
-        assert float(rows[p["name"]][3]) == pytest.approx(p["u"], rel=0.05)
-        assert float(rows[p["name"]][4]) == pytest.approx(2 * p["u"], rel=0.05)
+        assert rows[p["name"]][3] == format_uncertainty(p["u"])
+        assert rows[p["name"]][4] == format_uncertainty(k * p["u"])
     conventions = _table(page, "parameter", "unit", "axis", "positive value")
     assert [r[0] for r in conventions] == [c["name"] for c in doc["conventions"]]
     assert [r[3] for r in conventions] == [c["positive"] for c in doc["conventions"]]
@@ -244,6 +252,12 @@ def test_samba_calibration_report_shows_parameters_uncertainty_and_validation(
     assert [r[-1] == "yes" for r in table] == [t["validated"] for t in validation["table"]]
     guf, mcm = _tables_with(page, "parameter", "value", "u", "U", "k")
     assert [r[0] for r in guf] == [r[0] for r in mcm] == names
+
+
+def _tables_with_head(page: str, *heads: str) -> list[str]:
+    """Column headers of the one table whose headers start with ``heads``."""
+    (head,) = [h for h, _ in _tables(page) if tuple(h[: len(heads)]) == heads]
+    return head
 
 
 def _tables_with(page: str, *heads: str) -> list[list[list[str]]]:
@@ -279,7 +293,9 @@ def test_samba_failing_renderer_writes_neither_report_nor_result(
     args = report_commands(tmp_path)["samba-calibrate"]
     args[args.index("--uncertainty") + 1] = "none"
     result = runner.invoke(app, args)
-    assert result.exit_code != 0
+    # a failing renderer is a bug (exit 1, reported as such), not a refused input
+    assert result.exit_code == 1
+    assert result.stderr.startswith("internal error: RuntimeError: renderer failure")
     assert not (tmp_path / "samba.json").exists()
     assert not (tmp_path / "samba-calibrate.html").exists()
 

@@ -269,7 +269,8 @@ def test_demo_refuses_a_folder_it_did_not_write(tmp_path):
     keep.mkdir()
     (keep / "precious.csv").write_text("x\n")
     result = runner.invoke(app, ["demo", "--out", str(keep)])
-    assert result.exit_code == 2 and result.stderr.startswith("error: ")
+    assert result.exit_code == 2
+    assert result.stderr == f"error: {keep} exists and is not a demo folder; choose another --out\n"
     assert [p.name for p in keep.iterdir()] == ["precious.csv"]
 
 

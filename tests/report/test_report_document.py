@@ -98,7 +98,7 @@ def test_table_row_of_wrong_length_is_refused():
 
 
 def test_empty_title_is_refused():
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="non-empty title"):
         Report("  ")
 
 

@@ -39,9 +39,9 @@ def test_conformity_zones_iso_14253_1_decision(value, decision):
 def test_conformity_zones_one_sided_and_bad_limits():
     fig = figures.conformity_zones(2.0, 0.5, None, 3.0, name="flatness", unit="µm")
     assert fig.axes[0].get_title().endswith("conformity proven")
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="needs at least one limit"):
         figures.conformity_zones(1.0, 0.1, None, None)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"lower limit 2\.0 must be below upper limit 1\.0"):
         figures.conformity_zones(1.0, 0.1, 2.0, 1.0)
 
 
@@ -88,7 +88,7 @@ def test_residual_vectors_default_magnification_is_a_tenth_of_the_extent():
     fig = figures.residual_vectors(pts, res)
     quiver = fig.axes[0].collections[-1]
     assert np.max(np.hypot(quiver.U, quiver.V)) == pytest.approx(20.0)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"got \(3, 3\) and \(2, 3\)"):
         figures.residual_vectors(pts, res[:2])
 
 
@@ -98,19 +98,19 @@ def test_error_map_grid_and_scattered_forms():
     rng = np.random.default_rng(0)
     x, y = rng.random(20), rng.random(20)
     assert len(figures.error_map(x, y, x + y).axes) == 2
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"got \(4,\), \(3,\), \(4, 3\)$"):
         figures.error_map(gx, gy, np.zeros((4, 3)))
 
 
 def test_coverage_ellipses_pairs_and_shape_checks():
     fig = figures.coverage_ellipses(list("abcd"), np.zeros(4), np.eye(4), max_pairs=6)
     assert len(fig.axes) == 6
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="m >= 2 names"):
         figures.coverage_ellipses(["a"], [0.0], [[1.0]])
 
 
 def test_correlation_heatmap_refuses_a_wrong_shape():
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"2 x 2 for 2 names, got \(3, 3\)"):
         figures.correlation_heatmap(["a", "b"], np.eye(3))
 
 

@@ -115,10 +115,10 @@ def test_unregistered_result_is_a_type_error_and_registration_works():
     class Custom:
         pass
 
-    with pytest.raises(TypeError, match="no report renderer"):
+    with pytest.raises(TypeError, match="no renderer registered"):
         result_report(Custom())
 
-    @renders(f"{Custom.__module__}.{Custom.__qualname__}", "Custom result")
+    @renders(Custom, "Custom result")
     def _custom(rep, result, **_):
         rep.section("custom", "drawn")
 

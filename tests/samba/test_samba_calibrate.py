@@ -156,3 +156,16 @@ def test_c_equals_3b_is_refused_with_the_six_confounded_pairs(tmp_path, machine8
     expected |= {frozenset({f"E_CB{k}", f"E_CC{k}"}) for k in (1, 2, 3)}
     assert pairs == expected
     assert "off any straight line" in str(err.value)
+
+
+def test_the_estimated_tool_is_in_the_parameter_set_and_read_back(noisy_calibration):
+    """What the calibration identifies (--estimate-tool), compensation uses: the result
+    document's tool_mm is read back into the parameter set and onto the machine."""
+    cal = noisy_calibration
+    np.testing.assert_array_equal(cal.parameters.tool, cal.tool)
+    back = ParameterSet.from_document(cal.to_dict(), cal.machine, "result.json")
+    np.testing.assert_allclose(back.tool, cal.tool, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(back.machine_for(cal.machine).tool, cal.tool, rtol=0, atol=1e-12)
+    assert np.linalg.norm(cal.tool - cal.machine.tool) > 0  # identified, not the nominal
+    doc = {**cal.to_dict(), "tool_estimated": False}  # a calibration that did not estimate it
+    assert ParameterSet.from_document(doc, cal.machine, "result.json").tool is None

@@ -10,13 +10,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mtmetrology.samba import (
-    calibrate,
+from mtmetrology.identification import (
     identification_guf,
     identification_mcm,
-    indication_inputs,
+    unknowns_covariance,
+    validate_identification,
 )
-from mtmetrology.samba.uncertainty import unknowns_covariance, validate
+from mtmetrology.samba import calibrate, indication_inputs, uncertainty_model
 
 from .samba_helpers import NOISE
 
@@ -29,7 +29,9 @@ def _with_prior(cal, prior):
 
 def _tool_covariance(cal):
     """GUF covariance (3, 3) of the tool vector, mm², inputs = readings, bar, prior."""
-    return unknowns_covariance(cal, indication_inputs(cal.problem, noise=NOISE))[-3:, -3:]
+    return unknowns_covariance(
+        cal.problem, cal.identification, indication_inputs(cal.problem, noise=NOISE)
+    )[-3:, -3:]
 
 
 @pytest.fixture(scope="module")
@@ -88,9 +90,10 @@ def test_vague_prior_changes_nothing(noisy_calibration):
     u0 = np.sqrt(np.diag(noisy_calibration.identification.covariance))
     assert np.all(np.abs(cal.identification.estimate - x0) < 1e-6 * u0)
     g0 = identification_guf(
-        noisy_calibration, indication_inputs(noisy_calibration.problem, noise=NOISE)
+        uncertainty_model(noisy_calibration),
+        indication_inputs(noisy_calibration.problem, noise=NOISE),
     )
-    g = identification_guf(cal, indication_inputs(cal.problem, noise=NOISE))
+    g = identification_guf(uncertainty_model(cal), indication_inputs(cal.problem, noise=NOISE))
     np.testing.assert_allclose(g.standard_uncertainty, g0.standard_uncertainty, rtol=1e-6)
     np.testing.assert_allclose(
         _tool_covariance(cal), _tool_covariance(noisy_calibration), rtol=1e-6
@@ -104,11 +107,12 @@ def test_monte_carlo_with_the_prior_validates_the_guf(noisy_calibration, data_on
     _, cov_data = data_only
     cal = _with_prior(noisy_calibration, 0.5 * np.sqrt(np.diag(cov_data)))
     inputs = indication_inputs(cal.problem, noise=NOISE)
-    g = identification_guf(cal, inputs)
+    g = identification_guf(uncertainty_model(cal), inputs)
     g0 = identification_guf(
-        noisy_calibration, indication_inputs(noisy_calibration.problem, noise=NOISE)
+        uncertainty_model(noisy_calibration),
+        indication_inputs(noisy_calibration.problem, noise=NOISE),
     )
     assert np.min(g.standard_uncertainty / g0.standard_uncertainty) < 0.9
-    mc = identification_mcm(cal, inputs, trials=20_000, seed=7)
-    report = validate(g, mc, digits=1)
+    mc = identification_mcm(uncertainty_model(cal), inputs, trials=20_000, seed=7)
+    report = validate_identification(g, mc, digits=1)
     assert report.passed

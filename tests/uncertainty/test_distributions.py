@@ -192,7 +192,8 @@ def test_registry_builds_every_kind_and_forms():
         make_distribution("multivariate-normal", mean=[0, 0], covariance=np.eye(2)).dimension == 2
     )
     assert make_distribution("multivariate-t", mean=[0], scale=[[1.0]], dof=5).dimension == 1
-    assert len(DISTRIBUTION_KINDS) == 10
+    assert make_distribution("beta", x=0, a=1, alpha=2, beta=2).alpha == 2
+    assert len(DISTRIBUTION_KINDS) == 11
 
 
 def test_unknown_distribution_lists_known_kinds():

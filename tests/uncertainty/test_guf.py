@@ -90,12 +90,24 @@ def test_gum_h1_combined_uncertainty_is_32_nm():
 def test_gum_h1_effective_dof_16_and_expanded_uncertainty_93_nm():
     """JCGM 100:2008 H.1.6: ν_eff = 16.7 → 16 (G.4.1 truncation), t_99(16) = 2.92, U_99 = 93 nm.
 
-    Our ν_eff is 16.66: the annex rounds the δθ contribution 575 nm/°C × 0.029 °C = 16.675 nm
-    to 16.6 nm before forming ν_eff; either way the truncated value is 16.
+    Welch–Satterthwaite (G.2b) on the Table H.2 contributions, unrounded: l_s 25 nm (ν = 18),
+    d 9.7 nm (ν = 25.6), δα l_s·0.1 °C·0.58e-6/°C = 2.90 nm (ν = 50), δθ l_s·11.5e-6/°C·0.029
+    °C = 16.675 nm (ν = 2) give ν_eff = 16.656; the annex rounds δθ to 16.6 nm first and
+    prints 16.7.  The tolerance 0.01 catches a ν_eff that drops the ν(d) = 25.6 term
+    (16.751); either way the truncated value is 16.
     """
     m = load_model(EXAMPLE)
     r = guf(m.model, m.inputs, p=0.99)
-    assert r.dof_effective[0] == pytest.approx(16.7, abs=0.1)
+    l_s = 50_000_623.6  # nm
+    contributions = np.array([25.0, 9.7, l_s * 0.1 * 0.58e-6, l_s * 11.5e-6 * 0.029])  # nm
+    dof = np.array([18.0, 25.6, 50.0, 2.0])
+    u_c = math.sqrt(np.sum(contributions**2))
+    nu_eff = u_c**4 / np.sum(contributions**4 / dof)
+    assert nu_eff == pytest.approx(16.656, abs=0.0005)
+    assert r.dof_effective[0] == pytest.approx(nu_eff, rel=1e-9)
+    assert r.dof_effective[0] == pytest.approx(16.656, abs=0.01)
+    without_d = u_c**4 / np.sum(np.delete(contributions**4 / dof, 1))
+    assert abs(without_d - 16.656) > 0.05
     assert r.coverage_factor[0] == pytest.approx(2.92, abs=0.005)
     assert round(r.expanded_uncertainty[0]) == 93
     rows = {row.input: row for row in r.budget("l")}

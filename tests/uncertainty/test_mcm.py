@@ -8,7 +8,7 @@ from mtmetrology.uncertainty.distributions import Rectangular
 from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
 from mtmetrology.uncertainty.mcm import (
     ModelEvaluationError,
-    Tolerance,
+    NumericalTolerance,
     monte_carlo,
     numerical_tolerance,
 )
@@ -146,7 +146,7 @@ def test_adaptive_vector_model_checks_eigenvalue_and_coverage_factor():
         SUM_INPUTS,
         adaptive=True,
         seed=23,
-        tolerance=Tolerance([0.004, 0.004], eigenvalue=0.02, coverage_factor=0.02),
+        tolerance=NumericalTolerance([0.004, 0.004], eigenvalue=0.02, coverage_factor=0.02),
     )
     # Same seed, same sequences, every tolerance tighter: the first h that passes can only
     # come later.
@@ -277,7 +277,7 @@ def test_non_finite_model_values_name_trials_and_output():
         ({"p": 0.0}, "p must lie"),
         ({"adaptive": True, "tolerance": 0.0}, "positive"),
         ({"adaptive": True, "tolerance": -1.0}, "positive"),
-        ({"adaptive": True, "tolerance": Tolerance(0.1, eigenvalue=-1)}, "eigenvalue"),
+        ({"adaptive": True, "tolerance": NumericalTolerance(0.1, eigenvalue=-1)}, "eigenvalue"),
         ({"adaptive": True, "criterion": "loose"}, "criterion"),
         ({"adaptive": True, "sequence_size": 500}, "100/\\(1 - p\\)"),
         ({"adaptive": True, "trials": 100}, "either trials"),

@@ -45,7 +45,7 @@ def test_dimensioned_exponent_message():
 def test_sqrt_halves_and_abs_keeps_dimension():
     model = CompiledModel(["a"], [("y", "sqrt(a * a)"), ("z", "abs(a)")])
     check_output_units(model, ["m"], ["m", "m"], "m.yaml")
-    with pytest.raises(ModelFileError):
+    with pytest.raises(ModelFileError, match=r"^m\.yaml: outputs\.1 \('z'\): unit 's' is time"):
         check_output_units(model, ["m"], ["mm", "s"], "m.yaml")
 
 

@@ -2,12 +2,12 @@
 
 Published numbers are asserted to the digits printed in the documents (half a unit of the
 last digit).  Monte Carlo numbers depend on the random draws, so each is checked against an
-*exact* reference where one exists (Irwin–Hall sums, noncentral χ², with mpmath), with a
-tolerance of 4 Monte Carlo standard deviations at the M used: for an interval end y_α,
-σ = sqrt(α(1 − α)/M) / g(y_α) with g the exact density; for an estimate u/√M; for u(y)
-u·sqrt((κ − 1)/(4M)) with κ the kurtosis (≤ 3 here, so u/√M bounds it).  Where no exact
-reference exists (9.3) the published Monte Carlo figures themselves carry this noise and
-the tolerance is stated with the test.  The cases themselves are defined once, in
+*exact* reference (Irwin–Hall sums, noncentral χ², with mpmath; 9.3 in closed form and by
+quadrature), with a tolerance of 4 Monte Carlo standard deviations at the M used: for an
+interval end y_α, σ = sqrt(α(1 − α)/M) / g(y_α) with g the exact density; for an estimate
+u/√M; for u(y) u·sqrt((κ − 1)/(4M)) with κ the kurtosis.  The published Monte Carlo
+figures carry the noise of their own run; where they are compared, the tolerance is
+stated with the test.  The cases themselves are defined once, in
 ``examples/gum_jcgm_cases.py``.
 """
 
@@ -192,24 +192,89 @@ def test_jcgm101_9_2_3_gum_framework_is_validated_for_two_digits():
 
 
 # --------------------------------------------------------------------------- JCGM 101 9.3
+# The exact law of δm = X (1 + Z) − m_nom (JCGM 101:2008, 9.3.1, Table 5), with
+# X = m_R,c + δm_R,c ~ N(100 001.234, 0.050² + 0.020²) mg and Z = (ρ_a − ρ_a0)(1/ρ_W − 1/ρ_R),
+# ρ_a − ρ_a0 ~ R(−0.1, 0.1), ρ_W ~ R(7000, 9000), ρ_R ~ R(7950, 8050) kg/m³, all independent.
+# Given Z, δm is normal; its distribution function is the mean over Z of those normal ones,
+# an integral over the three rectangular inputs done by Gauss–Legendre quadrature (smooth
+# integrand: 20 nodes a side already agree with 80 to 1e-12 mg).
+MASS_X = (100_001.234, math.hypot(0.050, 0.020))  # mean and standard deviation of X, mg
+MASS_NOMINAL = 100_000.0
 
 
-def test_jcgm101_9_3_mass_calibration():
+def _mass_law(nodes: int = 24) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mean, standard deviation (mg) and weight of the normal law of δm at each node."""
+    x, w = np.polynomial.legendre.leggauss(nodes)
+    a, rho_w, rho_r = np.meshgrid(0.1 * x, 8000.0 + 1000.0 * x, 8000.0 + 50.0 * x,
+                                  indexing="ij")  # fmt: skip
+    z = (a * (1.0 / rho_w - 1.0 / rho_r)).ravel()
+    weight = (w[:, None, None] * w[None, :, None] * w[None, None, :]).ravel() / 8.0
+    mean_x, sd_x = MASS_X
+    return (mean_x - MASS_NOMINAL) + mean_x * z, sd_x * (1.0 + z), weight
+
+
+def _mass_quantile(probability: float) -> float:
+    mean, sd, weight = _mass_law()
+    return optimize.brentq(lambda t: weight @ stats.norm.cdf(t, mean, sd) - probability,
+                           0.5, 2.0, xtol=1e-12)  # fmt: skip
+
+
+def _mass_density(t: float) -> float:
+    mean, sd, weight = _mass_law()
+    return float(weight @ stats.norm.pdf(t, mean, sd))
+
+
+def _mass_moments() -> tuple[float, float, float]:
+    """Exact mean, standard deviation and kurtosis of δm (normal moments given Z)."""
+    mean, sd, weight = _mass_law()
+    mu = float(weight @ mean)
+    d = mean - mu
+    variance = float(weight @ (d**2 + sd**2))
+    fourth = float(weight @ (d**4 + 6 * d**2 * sd**2 + 3 * sd**4))
+    return mu, math.sqrt(variance), fourth / variance**2
+
+
+def _mass_u_closed_form() -> float:
+    """u(δm)² = σ_X² + (μ_X² + σ_X²) Var(ρ_a) E[(1/ρ_W − 1/ρ_R)²], with E[1/ρ] = ln(b/a)/(b − a)
+    and E[1/ρ²] = 1/(ab) for ρ ~ R(a, b) (E[ρ_a − ρ_a0] = 0 removes every other term)."""
+    mean_x, sd_x = MASS_X
+    inverse_w, inverse_r = math.log(9000 / 7000) / 2000, math.log(8050 / 7950) / 100
+    b2 = 1 / (7000 * 9000) - 2 * inverse_w * inverse_r + 1 / (7950 * 8050)
+    return math.sqrt(sd_x**2 + (mean_x**2 + sd_x**2) * (0.1**2 / 3) * b2)
+
+
+@pytest.fixture(scope="module")
+def mass_guf_and_mcm():
+    case = cases.case_jcgm101_9_3()
+    return case.guf(), case.monte_carlo(M, seed=93)
+
+
+def test_jcgm101_9_3_exact_law_by_closed_form_and_quadrature():
+    """u(δm) = 0.075480 mg in closed form, the same by quadrature, E[δm] = 1.234 mg; the
+    probabilistically symmetric 95 % interval [1.08443, 1.38357] mg by quadrature."""
+    mu, u, _ = _mass_moments()
+    assert _mass_u_closed_form() == pytest.approx(0.075480, abs=half_ulp(6))
+    assert u == pytest.approx(_mass_u_closed_form(), rel=1e-10)
+    assert mu == pytest.approx(1.234, abs=1e-9)
+    ends = [_mass_quantile(0.025), _mass_quantile(0.975)]
+    np.testing.assert_allclose(ends, [1.08443, 1.38357], atol=half_ulp(5))
+
+
+def test_jcgm101_9_3_mass_calibration_matches_the_published_figures(mass_guf_and_mcm):
     """JCGM 101:2008, 9.3, Table 6: GUF δm = 1.2340 mg, u = 0.0539 mg, [1.1285, 1.3395];
     MCM (M = 10⁶) 1.2341 mg, u = 0.0754 mg, shortest [1.0834, 1.3825]; d_low = 0.0451,
     d_high = 0.0430 > δ = 0.0005: the GUF is not validated.
 
-    No exact reference: both the published run and ours carry Monte Carlo noise.  At
-    M = 10⁶ the estimate has σ = u/√M = 7.5e-5 mg, u(δm) less than that, and the ends of
-    the shortest interval σ ≈ 6.5e-4 mg (measured over 8 seeds; the location of a shortest
-    interval is flatter than a quantile).  Allowed: ½ unit of the last digit + 4√2 σ
+    The published Monte Carlo figures carry the noise of their own run (the exact law, in
+    the next test, gives u = 0.075480 mg and the shortest interval [1.08443, 1.38357] mg:
+    the published ends are 1 mg·10⁻³ off).  The ends of a shortest interval of a nearly
+    symmetric law vary by σ ≈ 6.5e-4 mg between seeds (measured over 8 seeds: the start
+    of the shortest interval is a flat minimum).  Allowed: ½ unit of the last digit + 4√2 σ
     (two independent runs): 0.0005 mg for y and u, 0.0037 mg for the interval ends."""
-    case = cases.case_jcgm101_9_3()
-    g = case.guf()
+    g, r = mass_guf_and_mcm
     assert g.output().value == pytest.approx(1.2340, abs=half_ulp(4))
     assert g.output().u == pytest.approx(0.0539, abs=half_ulp(4))
     np.testing.assert_allclose(g.output().interval, [1.1285, 1.3395], atol=half_ulp(4))
-    r = case.monte_carlo(M, seed=93)
     noise_y = half_ulp(4) + 4 * math.sqrt(2) * 0.0754 / math.sqrt(M)
     assert r.output().value == pytest.approx(1.2341, abs=noise_y)
     assert r.output().u == pytest.approx(0.0754, abs=noise_y)
@@ -219,6 +284,37 @@ def test_jcgm101_9_3_mass_calibration():
     assert not report.passed
     assert report.rows[0].tolerance == pytest.approx(0.0005)
     assert [row.difference for row in report.rows] == pytest.approx([0.0451, 0.0430], abs=0.004)
+
+
+def test_jcgm101_9_3_monte_carlo_agrees_with_the_exact_law(mass_guf_and_mcm):
+    """Our M = 10⁶ run against the exact law within 4 of its own standard deviations:
+    y to 4u/√M = 3.0e-4 mg; u to 4u·sqrt((κ − 1)/(4M)) = 2.2e-4 mg (κ = 3.10, exact);
+    each end of the probabilistically symmetric interval to 4·sqrt(α(1 − α)/M)/g = 8.4e-4
+    mg (g = 0.739 /mg, the exact density there); the length of the shortest interval to
+    4·sqrt((2·0.025·0.975 − 2·0.025²)/M)/g = 1.2e-3 mg (the covariance of two quantiles).
+
+    A normal interval with the exact u, 1.234 ± 1.96 u = [1.0861, 1.3819] mg, misses the
+    ends by 1.6e-3 mg (7.7 σ) and the length by 3.3e-3 mg (11 σ): these tolerances tell it
+    apart, which the published figures' (0.0037 mg) could not."""
+    _, r = mass_guf_and_mcm
+    mu, u, kurtosis = _mass_moments()
+    assert 3.0 < kurtosis < 3.2
+    assert r.output().value == pytest.approx(mu, abs=4 * u / math.sqrt(M))
+    assert r.output().u == pytest.approx(u, abs=4 * u * math.sqrt((kurtosis - 1) / (4 * M)))
+    ends = np.array([_mass_quantile(0.025), _mass_quantile(0.975)])
+    sigma = [end_sigma(0.025, _mass_density(ends[0])), end_sigma(0.975, _mass_density(ends[1]))]
+    np.testing.assert_allclose(r.interval[0], ends, rtol=0, atol=4 * max(sigma))
+    normal = mu + np.array([-1.0, 1.0]) * stats.norm.ppf(0.975) * u
+    assert np.all(np.abs(normal - ends) > 7 * max(sigma))
+    # The exact shortest interval is the symmetric one to 3e-8 mg (the law is nearly
+    # symmetric): its length is ends[1] − ends[0].
+    length = ends[1] - ends[0]
+    covariance = (2 * 0.025 * 0.975 - 2 * 0.025**2) / M
+    sigma_length = math.sqrt(covariance) / _mass_density(ends[0])
+    shortest = r.interval_shortest[0]
+    assert shortest[1] - shortest[0] == pytest.approx(length, abs=4 * sigma_length)
+    assert shortest[1] - shortest[0] <= r.interval[0][1] - r.interval[0][0]
+    assert abs(np.diff(normal)[0] - length) > 2 * 4 * sigma_length
 
 
 # --------------------------------------------------------------------------- JCGM 101 9.4

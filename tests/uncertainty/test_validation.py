@@ -10,7 +10,7 @@ from rich.console import Console
 from mtmetrology.uncertainty.inputs import InputSet
 from mtmetrology.uncertainty.mcm import monte_carlo
 from mtmetrology.uncertainty.validation import (
-    Tolerance,
+    NumericalTolerance,
     ValidationRow,
     validate_guf,
 )
@@ -85,7 +85,7 @@ def test_polar_coordinates_of_jcgm102_9_3_are_not_validated():
         [0.001, 0.0],
         covariance,
         mcm,
-        tolerance=Tolerance([0.0005, 0.05], 0.05, 0.05),
+        tolerance=NumericalTolerance([0.0005, 0.05], 0.05, 0.05),
         names=["R", "phi"],
     )
     assert not report.passed
@@ -104,7 +104,7 @@ def test_row_ratio_reproduces_sepahi_boroujeni_table_7_1():
 
 
 def test_default_rho_and_kappa_follow_two_digits_of_the_mcm_values():
-    """Without a Tolerance, ρ and κ_p are ½·10^l of λ_max and k_p to two digits
+    """Without a NumericalTolerance, ρ and κ_p are ½·10^l of λ_max and k_p to two digits
     (λ ≈ 1.6 and k_p ≈ 2.45 both give 0.05, the values of Sepahi Boroujeni 2021, Ch. 7)."""
     a = np.array([[1.0, 1.0, 0.0], [0.0, 1.0, 1.0]])
     mcm = monte_carlo(lambda x: x @ a.T, normal_inputs([0, 0, 0], [1, 1, 1]), trials=50_000, seed=5)

@@ -7,7 +7,9 @@ traceback.
 
 ``app`` is the whole command line.  :func:`build_app` builds it with only the command a
 run asks for (``mtm predict ...`` then imports neither the fitting nor the uncertainty
-engine: a smaller, faster start on large records).
+engine: a smaller, faster start on large records), or, for the bare listing (``mtm``,
+``mtm --help``), with each command's one-line summary from :data:`SUMMARIES` and no
+command module imported at all.
 """
 
 from __future__ import annotations
@@ -17,9 +19,9 @@ from typing import Annotated
 
 import typer
 
-from mtmetrology.cli._common import MtmGroup
+from mtmetrology.cli._common import MtmGroup, reflow_commands
 
-__all__ = ["COMMANDS", "SHARED_GROUPS", "app", "build_app"]
+__all__ = ["COMMANDS", "SHARED_GROUPS", "SUMMARIES", "app", "build_app", "command_of"]
 
 _HELP = (
     "mtmetrology: machine-tool and CMM metrology from the command line.\n\n"
@@ -40,6 +42,8 @@ COMMANDS = {
     "repeatability": ("mtmetrology.cli.repeatability", "app", True),
     "task": ("mtmetrology.cli.task", "app", True),
     "demo": ("mtmetrology.cli.demo", "demo", False),
+    "budget": ("mtmetrology.cli.budget", "app", True),
+    "export": ("mtmetrology.cli.export", "export", False),
     "history": ("mtmetrology.cli.history", "app", True),
 }
 
@@ -52,13 +56,50 @@ SHARED_GROUPS = {
             ("mtmetrology.cli.calibrate", "app"),
             ("mtmetrology.cli.cmm", "calibrate_app"),
             ("mtmetrology.cli.long_term", "app"),
+            ("mtmetrology.cli.multilateration", "calibrate_app"),
+            ("mtmetrology.cli.tracker", "calibrate_app"),
         ],
     ),
     "simulate": (
         "Simulate artefact records of a machine with known errors.",
-        [("mtmetrology.cli.simulate", "app"), ("mtmetrology.cli.cmm", "simulate_app")],
+        [
+            ("mtmetrology.cli.simulate", "app"),
+            ("mtmetrology.cli.cmm", "simulate_app"),
+            ("mtmetrology.cli.multilateration", "simulate_app"),
+            ("mtmetrology.cli.tracker", "simulate_app"),
+        ],
     ),
 }
+
+#: The first paragraph of each command's help, shown by ``mtm --help`` without importing
+#: the command (tests/cli/test_cli_startup.py checks it against the command's own help).
+SUMMARIES = {
+    "machine": "Machine definitions: list, show, check, identifiability.",
+    "uncertainty": "Evaluate measurement uncertainty (GUF, Monte Carlo).",
+    "fit": "Fit a line, plane, circle, sphere, cylinder or cone to points and report its form.",
+    "predict": "Compensated stylus-centre coordinates x, y, z (mm) in the workpiece frame.",
+    "gp": "Gaussian-process error model of a CMM (fit on ball-plate records, predict).",
+    "design": "Plan calibrations: artefact layout and probing programme.",
+    "verify": "Independent checks of a calibrated machine.",
+    "repeatability": "Probing repeatability models (on-machine measurement).",
+    "task": "Uncertainty of on-machine measurement tasks.",
+    "demo": "Run the engines end to end on built-in virtual machines and write a report.",
+    "history": "Calibration history: record results, control charts, drift, long-term covariance.",
+    "calibrate": SHARED_GROUPS["calibrate"][0],
+    "simulate": SHARED_GROUPS["simulate"][0],
+}
+
+
+def command_of(argv: list[str]) -> str | None:
+    """The command a command line names (its first argument not an option), if it is one."""
+    first = next((a for a in argv if not a.startswith("-")), None)
+    return first if first in COMMANDS or first in SHARED_GROUPS else None
+
+
+def _summary_group(name: str) -> typer.Typer:
+    group = typer.Typer(help=SUMMARIES[name])
+    group.callback()(lambda: None)
+    return group
 
 
 def _shared_group(name: str) -> typer.Typer:
@@ -81,8 +122,12 @@ def _options(
     """mtmetrology: machine-tool and CMM metrology from the command line."""
 
 
-def build_app(only: str | None = None) -> typer.Typer:
-    """The ``mtm`` application, with every command or only the one named ``only``."""
+def build_app(only: str | None = None, *, listing: bool = False) -> typer.Typer:
+    """The ``mtm`` application, with every command or only the one named ``only``.
+
+    ``listing``: every command as its summary only (nothing imported), for ``mtm --help``
+    and for a command line naming no command.
+    """
     application = typer.Typer(
         name="mtm",
         cls=MtmGroup,
@@ -95,6 +140,12 @@ def build_app(only: str | None = None) -> typer.Typer:
     for name, (module, attribute, group) in COMMANDS.items():
         if only is not None and name != only:
             continue
+        if listing:
+            if group:
+                application.add_typer(_summary_group(name), name=name)
+            else:
+                application.command(name, help=SUMMARIES[name])(lambda: None)
+            continue
         target = getattr(importlib.import_module(module), attribute)
         if group:
             application.add_typer(target, name=name)
@@ -102,7 +153,9 @@ def build_app(only: str | None = None) -> typer.Typer:
             application.command(name)(target)
     for name in SHARED_GROUPS:
         if only is None or name == only:
-            application.add_typer(_shared_group(name), name=name)
+            group = _summary_group(name) if listing else _shared_group(name)
+            application.add_typer(group, name=name)
+    reflow_commands(application)
     return application
 
 

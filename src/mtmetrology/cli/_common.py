@@ -16,6 +16,7 @@ line on stderr and a documented exit code (:mod:`mtmetrology.errors`):
 
 from __future__ import annotations
 
+import inspect
 import json
 import os
 import shlex
@@ -23,9 +24,8 @@ import sys
 from collections.abc import Callable
 from functools import wraps
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
-import numpy as np
 import typer
 from typer.core import TyperGroup
 
@@ -37,11 +37,14 @@ from mtmetrology.errors import (
     InputError,
     MtmetrologyError,
 )
-from mtmetrology.io import InputFileError, Table
-from mtmetrology.io.files import committed
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.io.files import InputFileError, committed
 from mtmetrology.units import from_internal
+
+if TYPE_CHECKING:  # loaded by the commands that use them: mtm --help needs none
+    import numpy as np
+
+    from mtmetrology.io.tables import Table
+    from mtmetrology.kinematics.machine import Machine
 
 __all__ = [
     "CLICK_EXCEPTION",
@@ -136,6 +139,43 @@ class MtmGroup(TyperGroup):
         raise typer.Exit(code)
 
 
+#: Widest verbatim help line (tables, YAML examples) that an 80-column terminal shows
+#: unwrapped: rich pads the help panel by one column each side.
+HELP_WIDTH = 78
+
+
+def reflow_help(text: str | None) -> str | None:
+    """A command's help with each prose paragraph on one line, for the terminal to wrap.
+
+    Typer keeps the line breaks of a paragraph after the first and the terminal wraps
+    each line again: at 80 columns a docstring wrapped at 90 broke mid-sentence twice
+    (issue 18).  A paragraph that starts with ``\\b`` or holds an indented line (a table,
+    a YAML example) is kept as written; its lines must fit :data:`HELP_WIDTH`.
+
+    Examples
+    --------
+    >>> reflow_help("Fit a sphere.\\n\\nPoints are\\nread in mm.\\n\\n  x  mm\\n  y  mm")
+    'Fit a sphere.\\n\\nPoints are read in mm.\\n\\n  x  mm\\n  y  mm'
+    """
+    if not text:
+        return text
+    paragraphs = inspect.cleandoc(text).split("\n\n")
+    out = []
+    for para in paragraphs:
+        lines = para.split("\n")
+        verbatim = para.startswith("\b") or any(ln.startswith((" ", "\t")) for ln in lines)
+        out.append(para if verbatim else " ".join(ln.strip() for ln in lines))
+    return "\n\n".join(out)
+
+
+def reflow_commands(app: typer.Typer) -> None:
+    """:func:`reflow_help` on every command of ``app`` and of its groups, in place."""
+    for info in app.registered_commands:
+        info.help = reflow_help(info.help or inspect.getdoc(info.callback))
+    for group in app.registered_groups:
+        reflow_commands(group.typer_instance)
+
+
 def fail(message: str) -> None:
     """Refuse the request: raise :class:`InputError` (``error: message``, exit code 2)."""
     raise InputError(message)
@@ -172,6 +212,8 @@ def readings_from_table(machine: Machine, table: Table) -> np.ndarray:
     A reading outside the travel of its axis (machine file ``travel_mm``/``travel_deg``)
     is refused with its line: no measurement was taken there.
     """
+    import numpy as np
+
     readings = np.zeros((len(table), machine.n_axes))  # a missing S stays 0
     for k, a in enumerate(machine.axis_names):
         if a == "S" and not table.has(a):
@@ -191,6 +233,8 @@ def readings_from_table(machine: Machine, table: Table) -> np.ndarray:
 
 def senses_from_table(machine: Machine, table: Table) -> np.ndarray | None:
     """``sense_<axis>`` columns (+1/−1) when present, else None."""
+    import numpy as np
+
     names = [f"sense_{a}" for a in machine.axis_names]
     if not any(table.has(n) for n in names):
         return None
@@ -258,6 +302,9 @@ def machine_with_parameters(machine: str, params: Path | None):
     (:meth:`ParameterSet.machine_for`) and their values, or the machine and None (zero
     errors) without a set.
     """
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+
     m = Machine.load(machine)
     if params is None:
         return m, None

@@ -37,12 +37,12 @@ def record_in_history(document: dict, machine: Machine, command: str, inputs: li
     typer.echo(f"recorded calibration run {record.id} in the history", err=True)
 
 
-#: ``--params history:MACHINE``: the machine's long-term covariance from the history.
+#: ``--long-term history:MACHINE``: the machine's long-term covariance from the history.
 HISTORY_PARAMS = "history:"
 
 
 def load_parameters(params: Path, machine: Machine):
-    """The parameter set of ``--params``: a file, or ``history:MACHINE`` (``history:``
+    """The parameter set of ``--long-term``: a file, or ``history:MACHINE`` (``history:``
     alone: ``machine``'s name) for :func:`mtmetrology.history.long_term_covariance` on
     the history database ($MTMETROLOGY_DB, else the default file)."""
     from mtmetrology.kinematics.parameter_set import ParameterSet

@@ -37,46 +37,22 @@ app = typer.Typer(help="Calibrate a machine from artefact measurements.", no_arg
 
 CALIBRATE_HELP = """Identify a five-axis machine's geometric errors from a SAMBA test.
 
-RECORDS.csv (mm, degrees; one header line, '#' comments) in one of three forms:
-
-  ball,X,Y,Z,B,C[,S]                      ball-centre indications (readings that put
-                                          the stylus centre on the ball centre)
-
-  measurement,ball,X,Y,Z,B,C[,S,i,j,k]    raw probed points; rows sharing a
-                                          measurement id are one probing, reduced to
-                                          its centre by the sphere of radius
-                                          (ball + tip diameter)/2
-
-  campaign,...                            either form repeated K times (same balls and
-                                          indexations): mean indications, and their
-                                          sample covariance for the uncertainty
-
-Optional sense_<axis> columns (+1/-1) feed reversal terms (else: the row order).
-
-ARTEFACT.yaml:
-
-  kind: samba-artefact
-  balls: [{id: "1", diameter_mm: 19.05}, {id: SB1, diameter_mm: 19.05}, ...]
-  scale_bar: {ends: [SB1, SB2], length_mm: 305.569, u_mm: 0.001}
-  stylus_tip_diameter_mm: 6.0
-
-REPEATABILITY.json: {"kind": "samba-repeatability", "version": 1,
-  "u_um": {"X": 0.4, "Y": 0.5, "Z": 0.6}}  (standard uncertainty per reading)
+RECORDS.csv (mm, degrees) holds ball-centre indications (ball,X,Y,Z,B,C[,S]), raw
+probed points (measurement,ball,X,Y,Z,B,C[,S,i,j,k]: one sphere fit per measurement)
+or either form repeated K times (campaign,...: mean indications and their sample
+covariance); optional sense_<axis> columns (+1/-1) feed reversal terms. ARTEFACT.yaml
+names the balls, the scale bar and the stylus tip; REPEATABILITY.json the standard
+uncertainty of a reading per axis. Formats: docs/file-formats.md, "SAMBA calibration".
 
 RESULT.json (kind samba-calibration) is a parameter set that 'mtm predict --params'
-reads as it is (parameters [{name, value, unit, u}], covariance {names, matrix} in the
-listed units), plus ball centres, tool vector, residual vector of every indication,
-mean/max unexplained volumetric error and the same for the nominal model, rank,
-condition numbers, O1-O5, the parameter sign conventions and, with --uncertainty, the
-GUF and MCM outputs [{name, value, unit, u, U, k, p, interval}], the JCGM 102
-validation table and the joint coverage factors.
+reads as it is, plus the ball centres, tool vector, residuals, volumetric errors,
+identifiability indices, sign conventions and, with --uncertainty, the GUF and Monte
+Carlo outputs and their JCGM 102 validation. U = k u with one coverage factor (k of
+the normal distribution for p = 0.95) in the console, RESULT.json and the report.
 
---tool-prior-um U (or UX,UY,UZ) with --estimate-tool: the tool vector is known a priori
-to U µm (standard uncertainty of each component) about the machine's nominal tool
-vector; entered as weighted pseudo-observations (t - t0)/U, the prior's value an
-uncertain input of the GUF and the Monte Carlo, and recorded in RESULT.json 'priors'
-[{name, value, unit, u}] (mm).  Alami Mchichi (2018) takes the tool length as known
-with u = 1 mm: --tool-prior-um 1000.
+--tool-prior-um U (or UX,UY,UZ) with --estimate-tool: the tool vector is known to U µm
+(standard uncertainty of each component) about the machine's nominal tool vector
+(Alami Mchichi (2018): the tool length to 1 mm, --tool-prior-um 1000).
 
 A rank-deficient test is refused, naming the confounded parameters and what to add;
 --min-norm returns the minimum-norm solution instead, flagged in the result.
@@ -170,7 +146,7 @@ def samba_report(ctx: typer.Context, title: str, inputs: list, result, **context
 @user_errors
 def samba(
     ctx: typer.Context,
-    records: Annotated[Path, typer.Argument(help="RECORDS.csv (see the formats above).")],
+    records: Annotated[Path, typer.Argument(help="RECORDS.csv (formats: docs/file-formats.md).")],
     machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
     artefact: Annotated[Path, typer.Option("--artefact", help="ARTEFACT.yaml.")],
     model: Annotated[
@@ -313,13 +289,32 @@ def samba(
         _summary(doc, output)
 
 
+def _parameter_line(p: dict, k: float) -> str:
+    """``E_A0B  -9.6 µrad  u = 1.8 µrad  U = 3.6 µrad``: u and U with two significant
+    digits, the value to the same decimal (JCGM 100:2008, 7.2.6; report.format)."""
+    from mtmetrology.report.format import format_uncertainty, format_value
+
+    u, unit = p.get("u"), p["unit"]
+    if u is None:
+        return f"{p['name']:<8} {format_value(p['value']):>12} {unit}  (no uncertainty)"
+    return (
+        f"{p['name']:<8} {format_value(p['value'], u):>12} {unit:<4}  "
+        f"u = {format_uncertainty(u)} {unit}  U = {format_uncertainty(k * u)} {unit}"
+    )
+
+
 def _summary(doc: dict, output: Path | None) -> None:
     ident = doc["identification"]
     typer.echo(f"SAMBA calibration: {ident['message']}")
     if ident["minimum_norm"]:
         typer.echo("WARNING: minimum-norm solution of a rank-deficient problem", err=True)
+    cov = doc["coverage"]
+    typer.echo(
+        f"parameters: value, standard uncertainty u, expanded uncertainty U = k u "
+        f"(k = {cov['k']:.2f}, p = {100 * cov['p']:g} %)"
+    )
     for p in doc["parameters"]:
-        typer.echo(f"  {p['name']:<8} {p['value']:>12.4f} ± {p['u']:.4f} {p['unit']}")
+        typer.echo("  " + _parameter_line(p, cov["k"]))
     v = doc["volumetric_error"]
     typer.echo(
         "volumetric error norm: unexplained mean {:.3f} max {:.3f} µm; nominal model mean "

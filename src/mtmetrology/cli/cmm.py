@@ -137,7 +137,8 @@ def calibrate_ballplate_cmd(
         typer.Option(
             "--model",
             help="seed (the source's Chebyshev model), full-<d> (21 functions, degree <= d), "
-            "or auto (leave-one-position-out cross-validation over seed, full-1..3).",
+            "or auto (lowest AIC among the candidates whose leave-one-position-out held-out "
+            "RMS is within 1.25x the best).",
         ),
     ] = "seed",
     degrees: Annotated[
@@ -191,6 +192,8 @@ def calibrate_ballplate_cmd(
         write_report(report, report_path)
     if json_out:
         print_json(doc)
+    if selection is not None:
+        _print_selection(selection)
     u = cal.summary
     if not cal.identification.success:
         typer.echo(f"warning: {cal.identification.message}", err=True)
@@ -209,6 +212,34 @@ def calibrate_ballplate_cmd(
         f"wrote {output}",
         err=True,
     )
+
+
+def _print_selection(selection: dict) -> None:
+    """Every candidate's held-out scores, AIC and flags (standard error, like the summary)."""
+    typer.echo(f"model selection: {selection['method']}", err=True)
+    for s in selection["scores"]:
+        folds = ", ".join(
+            f"{p} {'rank deficient' if v is None else f'{v:.3g}'}"
+            + (" absurd" if st == "absurd" else "")
+            for p, v, st in zip(selection["positions"], s["rms_um"], s["status"], strict=True)
+        )
+        score = "not scored" if s["median_rms_um"] is None else f"{s['median_rms_um']:.3g} µm"
+        aic = "—" if s["aic"] is None else f"{s['aic']:.1f}"
+        flags = [
+            f
+            for f, on in (
+                ("chosen", s["model"] == selection["chosen"]),
+                ("eligible", s["eligible"] and s["model"] != selection["chosen"]),
+                ("ABSURD fold", s["absurd"]),
+            )
+            if on
+        ]
+        typer.echo(
+            f"  {s['model']:<7} held-out median {score}, AIC {aic}"
+            + (f" [{', '.join(flags)}]" if flags else "")
+            + f"; folds: {folds}",
+            err=True,
+        )
 
 
 @user_errors

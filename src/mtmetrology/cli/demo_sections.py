@@ -231,7 +231,9 @@ def prediction_section(ctx: DemoContext) -> None:
     header = ["id", *GAUGE_READINGS]
     rows = [[f"p{i + 1}", *(f"{GAUGE_READINGS[a][i]:g}" for a in GAUGE_READINGS)] for i in range(2)]
     write_csv_table(ctx.path("prediction", "gauge.csv"), header, rows)
-    nominal, identified, true = (m.forward(q, theta) for theta in (None, pset.values, _truth(m)))
+    nominal, true = (m.forward(q, theta) for theta in (None, _truth(m)))
+    # compensated as `mtm predict` does: the identified parameters and tool vector
+    identified = pset.machine_for(m).forward(q, pset.values)
     # written as `mtm predict -o` writes them, so that its rerun rewrites the same file
     xyz = [format_decimal(identified[:, k], 6).to_pylist() for k in range(3)]
     xyz_rows = [[*r, *(c[i] for c in xyz)] for i, r in enumerate(rows)]

@@ -25,7 +25,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import binom
 
-from mtmetrology.budgets.conformity import Tolerance, decide
 from mtmetrology.cli._common import readings_from_table
 from mtmetrology.cli.demo import DemoContext
 from mtmetrology.cli.task import FeatureName, Form, task_feature
@@ -40,6 +39,7 @@ from mtmetrology.report import figures
 from mtmetrology.samba import simulate_records
 from mtmetrology.samba.artefact import SambaArtefact
 from mtmetrology.samba.simulate import ProbingProgramme
+from mtmetrology.uncertainty.conformity import Tolerance, decide
 from mtmetrology.units import from_internal, to_internal
 
 __all__ = ["sphere_task_section"]
@@ -128,13 +128,15 @@ def _simulate_sphere(ctx: DemoContext, m: Machine, truth: np.ndarray, seed: int)
 
 
 def _evaluate(m: Machine, pset: ParameterSet, readings, feature, unexplained):
-    """GUF of a feature over the compensation and the unexplained volumetric error."""
+    """GUF of a feature over the calibration's covariance (the compensation uses its
+    estimate) and the unexplained volumetric error; the virtual machine does not drift."""
     return task_uncertainty(
         m,
         readings,
         pset.vector_for(m),
         pset.covariance,
         feature,
+        recalibrated=True,
         unexplained_covariance=unexplained,
     )
 
@@ -181,7 +183,7 @@ def sphere_task_section(ctx: DemoContext, *, preset: str) -> None:
         f"the sphere diameter at B = {SPHERE_BC[0][0]}°, C = {SPHERE_BC[0][1]}° with its "
         "ISO 14253-1 decision",
         "task", "uncertainty", ctx.shown("task", names[0]), "--machine", preset,
-        "--params", ctx.shown("samba", "params.json"), "--feature", "sphere",
+        "--params", ctx.shown("samba", "params.json"), "--feature", "sphere", "--recalibrated",
         "--unexplained", ctx.shown("task", "unexplained.json"),
         "--tolerance", SPHERE_TOLERANCE, "-o", ctx.shown("task", f"{first}.json"),
     )  # fmt: skip

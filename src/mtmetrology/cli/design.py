@@ -113,9 +113,11 @@ def samba(
         str,
         typer.Option(
             "--count-rule",
-            help="indexations: M = k*ceil(U/3) indexations; measurements: M_T ~ k*U/3.",
+            help="source: the source's reading for the model (13: indexations, else "
+            "measurements); indexations: M = k*ceil(U/3) indexations; measurements: "
+            "M_T ~ k*U/3.",
         ),
-    ] = "indexations",
+    ] = "source",
     criterion: Annotated[
         str,
         typer.Option(
@@ -243,7 +245,7 @@ def _print(doc: dict, output: Path) -> None:
     console = Console()
     console.print(
         f"[bold]{doc['machine']}[/bold] model {doc['model']}: criterion {doc['criterion']}, "
-        f"k = {doc['k']:g} ({doc['count_rule']} rule)"
+        f"k = {doc['k']:g}, {doc['count_rule']} count rule ({doc['count_rule_reason']})"
     )
     bt = RichTable(title="master balls")
     for col in ("id", "x mm", "y mm", "z mm (stem)"):
@@ -278,3 +280,9 @@ def _print(doc: dict, output: Path) -> None:
         pt.add_row(p["name"], f"{p['u']:.3g}", p["unit"])
     console.print(pt)
     console.print(f"programme written to {output}")
+
+
+# laser-tracker verification (mtmetrology.cli.tracker): its commands join this group
+from mtmetrology.cli.tracker import design_app as _tracker_app  # noqa: E402
+
+app.registered_commands.extend(_tracker_app.registered_commands)

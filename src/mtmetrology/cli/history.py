@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from mtmetrology.cli._common import (
@@ -325,7 +325,7 @@ def covariance(
     ] = False,
     db: Db = None,
 ) -> None:
-    """Long-term covariance of the machine's calibrations, for mtm task uncertainty --params."""
+    """Long-term covariance of the machine's calibrations, for mtm task uncertainty --long-term."""
     result = long_term_covariance(
         open_history(db),
         machine,
@@ -415,7 +415,7 @@ def drift(
         f"{result.parameter}: {result.level:.4f} {result.unit} on "
         f"{result.last_date:%Y-%m-%d}; slope {result.slope * per_year:.3g} ± "
         f"{result.u_slope * per_year:.2g} {result.unit}/year; random walk "
-        f"{np.sqrt(result.random_walk_variance * per_year):.2g} {result.unit}/√year"
+        f"{math.sqrt(result.random_walk_variance * per_year):.2g} {result.unit}/√year"
     )
     if result.mpe is not None:
         due = "beyond the horizon" if result.due_date is None else f"{result.due_date:%Y-%m-%d}"

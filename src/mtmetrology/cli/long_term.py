@@ -83,6 +83,9 @@ def long_term(
 
 
 def _summary(result: ParameterSet, output: Path | None) -> None:
+    """Values with their standard uncertainty u (two significant digits, JCGM 100 7.2.6)."""
+    from mtmetrology.report.format import format_uncertainty, format_value
+
     f = result.scales()
     u = result.standard_uncertainty
     prov = result.provenance
@@ -93,6 +96,10 @@ def _summary(result: ParameterSet, output: Path | None) -> None:
     for name, value, unc, unit, scale in zip(
         result.names, result.values, u, result.units, f, strict=True
     ):
-        typer.echo(f"  {name:<8} {value / scale:>12.4f} ± {unc / scale:.4f} {unit}")
+        u_c = float(unc / scale)
+        typer.echo(
+            f"  {name:<8} {format_value(float(value / scale), u_c):>12} {unit:<4}  "
+            f"u = {format_uncertainty(u_c)} {unit}"
+        )
     if output is not None:
         typer.echo(f"wrote {output}", err=True)

@@ -20,21 +20,14 @@ from mtmetrology.cli._common import (
     write_report,
 )
 from mtmetrology.errors import EXIT_INPUT, InputError, RankDeficientError
-from mtmetrology.identification import (
-    BallCentreProblem,
-    ScaleBar,
-    analyse_identifiability,
-    senses_from_sequence,
-)
-from mtmetrology.io import read_csv_table
 from mtmetrology.kinematics.conventions import machine_description
-from mtmetrology.kinematics.machine import Machine, list_presets
+from mtmetrology.kinematics.machine import Machine, list_presets, preset_text
 from mtmetrology.kinematics.parameters import MAX_DEGREE
-from mtmetrology.samba.artefact import load_artefact
 from mtmetrology.units import to_internal
 
 app = typer.Typer(
-    help="Machine definitions: list, show, check, identifiability.", no_args_is_help=True
+    help="Machine definitions: list, show, export, check, identifiability.",
+    no_args_is_help=True,
 )
 
 MachineArg = Annotated[str, typer.Argument(help="Preset name or machine YAML file.")]
@@ -125,6 +118,29 @@ def show(
     )
 
 
+@app.command("export")
+@user_errors
+def export(
+    preset: Annotated[str, typer.Argument(help="Preset name (mtm machine list).")],
+    output: Annotated[
+        Path | None,
+        typer.Option("-o", "--output", help="Machine YAML to write (standard output if omitted)."),
+    ] = None,
+) -> None:
+    """Write a preset as a machine file, to edit (travels, offsets, models) and give to
+    --machine FILE; read unchanged, it is the preset."""
+    text = preset_text(preset)
+    if output is None:
+        typer.echo(text, nl=False)
+        return
+    from mtmetrology.io.files import atomic_write, check_output
+
+    check_output(output)
+    with atomic_write(output, "w") as fh:
+        fh.write(text)
+    typer.echo(f"wrote {output}", err=True)
+
+
 @app.command("check")
 @user_errors
 def check(machine_file: Annotated[Path, typer.Argument(help="Machine YAML file.")]) -> None:
@@ -193,6 +209,17 @@ def identifiability(
     rank-deficient set-up exits with code 2 after naming the confounded parameters
     (exit 0 with --allow-deficient).
     """
+    # here, not at the top: ``mtm machine list`` needs neither the identification nor
+    # the CSV reader (pyarrow)
+    from mtmetrology.identification import (
+        BallCentreProblem,
+        ScaleBar,
+        analyse_identifiability,
+        senses_from_sequence,
+    )
+    from mtmetrology.io.tables import read_csv_table
+    from mtmetrology.samba.artefact import load_artefact
+
     if not (math.isfinite(sigma_um) and sigma_um > 0):
         raise InputError(f"--sigma-um must be a positive number of µm, got {sigma_um}")
     m = Machine.load(machine, model)

@@ -26,14 +26,15 @@ from mtmetrology.io import (
     write_columns,
 )
 from mtmetrology.io.documents import load_document
+from mtmetrology.kinematics.compensation import compensated_points
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.units import from_internal
 
 
 def add_compensation(report, machine: Machine, xyz: np.ndarray, nominal: np.ndarray) -> None:
     """The correction each point receives from the error model: statistics and vectors."""
     from mtmetrology.report import figures
-    from mtmetrology.units import from_internal
 
     correction = from_internal(xyz - nominal, "µm")  # (n, 3)
     size = np.linalg.norm(correction, axis=1)
@@ -79,6 +80,9 @@ def read_error_model(path: Path, machine: Machine):
     return m, pset.vector_for(m), None, pset
 
 
+#: Standard uncertainty columns of ``--u``, µm.
+U_COLUMNS = ("u_x_um", "u_y_um", "u_z_um")
+
 #: Rows evaluated at once: bounds the memory of the kinematic chain on large records.
 CHUNK_ROWS = 1 << 16
 
@@ -102,13 +106,24 @@ def predict(
     output: Annotated[
         Path | None, typer.Option("-o", "--output", help="Output CSV (standard output if omitted).")
     ] = None,
+    with_u: Annotated[
+        bool,
+        typer.Option(
+            "--u",
+            help="Append u_x_um, u_y_um, u_z_um: the standard uncertainty of each coordinate "
+            "from the parameter covariance (or the GP's posterior).",
+        ),
+    ] = False,
     report_path: ReportOption = None,
 ) -> None:
     """Compensated stylus-centre coordinates x, y, z (mm) in the workpiece frame.
 
     Readings are stylus-centre readings (mm, degrees); input columns are copied and
     x, y, z appended. Sense-of-motion columns sense_<axis> (+1/-1) feed reversal terms.
-    With --probes, each row's 'probe' column selects the stylus (tool vector).
+    With --probes, each row's 'probe' column selects the stylus (tool vector). A tool
+    vector identified by the calibration (tool_mm) replaces the machine's nominal one.
+    With --u, u_x_um, u_y_um, u_z_um (µm) follow: √diag(G U_θ Gᵀ), G = ∂f/∂δ, the
+    compensation with the estimate δ̂ of covariance U_θ (readings taken as exact).
     """
     inputs = [readings, *(p for p in (params, probes) if p is not None)]
     if Path(machine).suffix.lower() in (".yaml", ".yml", ".json"):
@@ -119,14 +134,26 @@ def predict(
     theta, gp, pset = None, None, None
     if params is not None:
         m, theta, gp, pset = read_error_model(params, m)
+    if with_u and (pset is None or pset.covariance is None) and gp is None:
+        raise InputFileError(
+            f"--u needs a parameter set with a covariance (--params), got "
+            f"{'none' if params is None else str(params) + ' without one'}"
+        )
     table = read_csv_table(readings)
     release_free_memory()  # the reader's scratch (file bytes, parse buffers) before compute
-    clash = sorted(set(table.header) & {"x", "y", "z"})
+    added = ["x", "y", "z", *(U_COLUMNS if with_u else ())]
+    clash = sorted(set(table.header) & set(added))
     if clash:
         raise InputFileError(
-            f"{readings}: column(s) {', '.join(clash)} already present; predict appends x, y, z"
+            f"{readings}: column(s) {', '.join(clash)} already present; predict appends "
+            f"{', '.join(added)}"
         )
     tools = None
+    if probes is None and table.has("probe"):
+        raise InputFileError(
+            f"{readings}: column 'probe' selects a stylus per row; give the probe set with "
+            "--probes (or remove the column to use the machine's tool)"
+        )
     if probes is not None:
         from mtmetrology.cli.cmm import probe_tools
         from mtmetrology.cmm.files import load_probes
@@ -145,15 +172,21 @@ def predict(
             f"add the sense-of-motion column(s) {columns} (+1 or -1)"
         )
     xyz = np.empty((len(table), 3))
+    u = np.empty((len(table), 3)) if with_u else None
     for start in range(0, len(table), CHUNK_ROWS):
         rows = slice(start, start + CHUNK_ROWS)
         tool = m.tool if tools is None else tools[rows]
+        s_rows = None if senses is None else senses[rows]
         if gp is not None:
-            xyz[rows] = gp.predict(q[rows], tool)[0]
-        else:
-            xyz[rows] = m.forward(
-                q[rows], theta, senses=None if senses is None else senses[rows], tool=tool
+            xyz[rows], u_gp = gp.predict(q[rows], tool)
+            if u is not None:
+                u[rows] = u_gp
+        elif u is not None:
+            xyz[rows], u[rows] = compensated_points(
+                m, q[rows], theta, pset.covariance, senses=s_rows, tool=tool
             )
+        else:
+            xyz[rows] = m.forward(q[rows], theta, senses=s_rows, tool=tool)
     bad = ~np.isfinite(xyz).all(axis=1)
     if bad.any():
         raise InputFileError(
@@ -179,6 +212,8 @@ def predict(
     del q, senses, tools
     columns = {c: table.text.column(c) for c in table.header}
     columns.update({c: xyz[:, k] for k, c in enumerate("xyz")})
+    if u is not None:
+        columns.update({c: from_internal(u[:, k], "µm") for k, c in enumerate(U_COLUMNS)})
     plain = () if table.quoted else table.header
     if output is None:
         write_columns(sys.stdout.buffer, columns, decimals=6, plain=plain)

@@ -30,6 +30,7 @@ from mtmetrology.io import read_csv_table, write_json
 from mtmetrology.omm.hysteresis import HYSTERESIS_KINDS, hysteresis_errors, radial_projection
 from mtmetrology.omm.repeatability import (
     COVARIANCE_OUTPUTS,
+    MIN_TARGETS_PER_COEFFICIENT,
     STD_OUTPUTS,
     factors_from_file_units,
     fit_repeatability_model,
@@ -89,6 +90,15 @@ def fit(
         typer.Option(help="Fraction of the targets held out to report validation errors."),
     ] = 0.15,
     seed: Annotated[int, typer.Option(help="Seed of the held-out draw.")] = 0,
+    allow_few_targets: Annotated[
+        bool,
+        typer.Option(
+            "--allow-few-targets",
+            help=f"Fit with fewer than {MIN_TARGETS_PER_COEFFICIENT:g} fitting targets per "
+            "coefficient (36 for the covariance model); the held-out errors say what the "
+            "model is worth.",
+        ),
+    ] = False,
     drift: Annotated[
         Literal["none", "cubic"],
         typer.Option(
@@ -129,7 +139,8 @@ def fit(
       i, j, k         approach direction (the probe moves along it; any length)
       X, Y, Z         recorded readings (mm)
       time            time of the touch (s): orders the touches of a target
-      centre_X, centre_Y, centre_Z   optional sphere centre for the N/T projections (mm)
+      centre_X, centre_Y, centre_Z
+                      optional sphere centre for the N/T projections (mm)
 
     The first touch of every target is discarded (hysteresis of the preceding motion).
     Per target: σ of X, Y, Z and of the normal/tangential projections N, T, and
@@ -154,7 +165,12 @@ def fit(
             first_iteration=window_from,
             where=data["where"],
         )
-    model = fit_repeatability_model(stats, holdout=holdout, seed=seed)
+    model = fit_repeatability_model(
+        stats,
+        holdout=holdout,
+        seed=seed,
+        min_targets_per_coefficient=0.0 if allow_few_targets else MIN_TARGETS_PER_COEFFICIENT,
+    )
     document = model.to_dict()
     document["source"] = str(records)
     document["statistics"] = stats.to_dict()
@@ -167,10 +183,43 @@ def fit(
     _write(document, output, "repeatability model", report, report_path)
     if json_output:
         print_json(document)
-    elif zero:
+    else:
+        _print_validation(document)
+    if not json_output and zero:
         typer.echo(
             f"warning: zero variance of a coordinate at {len(zero)} target(s) "
             f"({', '.join(zero[:5])}): approach slightly off the axes",
+            err=True,
+        )
+
+
+def _print_validation(document: dict) -> None:
+    """Held-out errors of every output model; a warning names those above the threshold."""
+    if not document["n_validation"]:
+        typer.echo("no targets held out (--holdout 0): the models are not validated")
+        return
+    typer.echo(
+        f"held-out errors on {document['n_validation']} targets "
+        f"({document['n_fit']} fitted); rms relative = held-out RMS error / RMS of the values"
+    )
+    typer.echo(
+        f"  {'output':<8} {'max abs':>10} {'unit':<4} {'max relative':>12} {'rms relative':>12}"
+    )
+    for o in document["outputs"]:
+        rel = o["validation_max_relative_error"]
+        rms = o["validation_rms_relative_error"]
+        typer.echo(
+            f"  {o['name']:<8} {o['validation_max_abs_error']:>10.3g} {o['unit']:<4} "
+            f"{'—' if rel is None else f'{100 * rel:.0f} %':>12} "
+            f"{'—' if rms is None else f'{100 * rms:.0f} %':>12}"
+            + ("  flagged" if o["validation_flagged"] else "")
+        )
+    flagged = [o["name"] for o in document["outputs"] if o["validation_flagged"]]
+    if flagged:
+        typer.echo(
+            f"warning: held-out rms relative error above "
+            f"{100 * document['validation_warning']:g} % for {', '.join(flagged)}: "
+            "these models do not predict held-out poses; probe more poses",
             err=True,
         )
 
@@ -200,7 +249,7 @@ def _report(ctx: typer.Context, records: Path, document: dict):
     )
     rows = []
     for o in document["outputs"]:
-        rel = o["validation_max_relative_error"]
+        rel, rms = o["validation_max_relative_error"], o["validation_rms_relative_error"]
         rows.append(
             [
                 o["name"],
@@ -211,11 +260,25 @@ def _report(ctx: typer.Context, records: Path, document: dict):
                 "—"
                 if o["validation_max_abs_error"] is None
                 else f"{o['validation_max_abs_error']:.3f}",
+                "—" if rms is None else f"{100 * rms:.1f} %",
+                "flagged" if o["validation_flagged"] else "",
             ]
         )
     rep.table(
-        ["output", "unit", "coefficients", "R²", "max validation error", "max abs. difference"],
+        [
+            "output",
+            "unit",
+            "coefficients",
+            "R²",
+            "max validation error",
+            "max abs. difference",
+            "rms relative error",
+            "check",
+        ],
         rows,
+        caption="Held-out targets: an output whose RMS error exceeds "
+        f"{100 * document['validation_warning']:g} % of the RMS of its held-out values is "
+        "flagged (the model does not predict held-out poses).",
     )
     rep.section("Per-target statistics")
     names = STD_OUTPUTS + COVARIANCE_OUTPUTS
@@ -317,9 +380,10 @@ def hysteresis(
 
     \b
       psi         indexation of the touch (deg)
-      condition   direct / hysteresis (probing test: the previous touch was the same
-                  point / the opposite wall) or + / - (axis test: pre-movement along
-                  the + / - direction of the cross axis); one test per file
+      condition   direct / hysteresis (probing test: the previous touch was
+                  the same point / the opposite wall) or + / - (axis test:
+                  pre-movement along the + / - direction of the cross axis);
+                  one test per file
       r           radial projection (mm), or instead
       X, Y        readings relative to the ring centre (mm): r = X cos ψ + Y sin ψ
 

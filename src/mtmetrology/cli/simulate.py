@@ -34,7 +34,9 @@ the true errors, e.g. {"kind": "parameter-set", "version": 1, "machine":
 BALLS.yaml: true ball centres in the workpiece frame:
 
   kind: samba-balls
-  balls: [{id: "1", centre_mm: [-50, -50, 50]}, {id: SB1, centre_mm: [-152.78, 0, 30]}]
+  balls:
+    - {id: "1", centre_mm: [-50, -50, 50]}
+    - {id: SB1, centre_mm: [-152.78, 0, 30]}
 
 ARTEFACT.yaml: as for 'mtm calibrate samba' (ball and stylus tip diameters).
 

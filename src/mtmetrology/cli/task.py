@@ -2,9 +2,11 @@
 
 The probed readings are compensated with the machine parameters of a calibration and
 the feature (gauge length, sphere diameter) is evaluated with its uncertainty by the
-full-covariance GUF (Sepahi Boroujeni (2021), ch. 6–7): repeatability of the readings
-(``--repeatability``), long-term covariance of the machine parameters (``--params``) and
-unexplained volumetric errors (``--unexplained``).
+full-covariance GUF (Sepahi Boroujeni (2021), ch. 6–7; measurement model in
+:mod:`mtmetrology.omm.task`): the calibration's parameter covariance (``--params``, always),
+the long-term variation of the parameters since the calibration (``--long-term``, unless
+``--recalibrated``), repeatability of the readings (``--repeatability``) and unexplained
+volumetric errors (``--unexplained``).
 """
 
 from __future__ import annotations
@@ -17,7 +19,6 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from mtmetrology.budgets.conformity import Tolerance, decide
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
@@ -50,9 +51,11 @@ from mtmetrology.fitting.zone_features import (
 )
 from mtmetrology.io import read_csv_table, write_json
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.omm.repeatability_file import load_repeatability_model
 from mtmetrology.omm.task import TaskResult, reading_covariance, task_uncertainty
 from mtmetrology.omm.unexplained import load_unexplained_covariance
+from mtmetrology.uncertainty.conformity import Tolerance, decide
 from mtmetrology.units import from_internal
 
 app = typer.Typer(help="Uncertainty of on-machine measurement tasks.", no_args_is_help=True)
@@ -164,13 +167,24 @@ def uncertainty(
     machine_name: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
     params: Annotated[
         Path,
-        typer.Option(
-            "--params",
-            help="Parameter set with its long-term covariance, or history:MACHINE (from the "
-            "calibration history).",
-        ),
+        typer.Option("--params", help="The calibration that compensates, with its covariance U_θ."),
     ],
     feature: Annotated[FeatureName, typer.Option(help="Feature of the point set.")],
+    long_term: Annotated[
+        Path | None,
+        typer.Option(
+            "--long-term",
+            help="Parameter set whose covariance is the variation of the parameters between "
+            "calibrations (mtm long-term), or history:MACHINE (from the calibration "
+            "history); only its covariance is used.",
+        ),
+    ] = None,
+    recalibrated: Annotated[
+        bool,
+        typer.Option(
+            "--recalibrated", help="The machine is recalibrated for the task: no long-term term."
+        ),
+    ] = False,
     repeatability: Annotated[
         Path | None, typer.Option(help="repeatability-model JSON (mtm repeatability fit).")
     ] = None,
@@ -232,15 +246,24 @@ def uncertainty(
     roundness), plane (flatness), cylinder (diameter, cylindricity), sphere-centre and
     circle-centre (positions), points (the compensated coordinates). Sizes and centres are
     least squares; ``--form minimum-zone`` evaluates the form error by the minimum zone.
-    Method: GUF with the covariance simulator (machine-parameter uncertainty cancels to
-    first order; the parameters enter the compensated value), adaptive Monte Carlo (JCGM
-    101/102), or both with the validation of the GUF.
+    The budget separates the calibration (--params covariance U_θ, always propagated:
+    the readings are compensated with its estimate), the long-term variation
+    (--long-term; one of --long-term and --recalibrated is required), the repeatability
+    and E; with neither --repeatability nor --unexplained, u is the calibration's
+    contribution.
+    Method: GUF with the covariance simulator, adaptive Monte Carlo (JCGM 101/102), or both
+    with the validation of the GUF.
     """
     tol = Tolerance.parse(tolerance) if tolerance is not None else None
-    if repeatability is None and unexplained is None:
+    if recalibrated and long_term is not None:
         raise InputError(
-            "give --repeatability and/or --unexplained: the machine-parameter uncertainty "
-            "alone cancels to first order (u would be 0)"
+            "--long-term and --recalibrated: a machine recalibrated for the task has no "
+            "long-term term; give one of them"
+        )
+    if not recalibrated and long_term is None:
+        raise InputError(
+            "state the long-term variation of the parameters since the calibration: "
+            "--long-term FILE (mtm calibrate long-term), or --recalibrated"
         )
     if side is not None and feature.value not in DEFAULT_SIDE:
         raise InputError(
@@ -249,10 +272,18 @@ def uncertainty(
     if form is Form.minimum_zone and feature.value not in FORM_FEATURES:
         raise InputError(f"--form minimum-zone applies to a form error, not to a {feature.value}")
     base = Machine.load(machine_name)
-    pset = load_parameters(params, base)
+    pset = ParameterSet.load(params, base)
     machine = pset.machine_for(base)
     if pset.covariance is None:
         raise InputError(f"{params}: no covariance; the task uncertainty needs one")
+    sigma_lt = None
+    if long_term is not None:
+        lt = load_parameters(long_term, base)
+        if lt.covariance is None:
+            raise InputError(f"{long_term}: no covariance; --long-term needs one")
+        if set(lt.names) != set(pset.names):
+            raise InputError(f"{long_term}: parameter names differ from those of {params}")
+        sigma_lt = _ordered_covariance(lt, machine)
     readings, approach, senses = _points(points_csv, machine, feature, repeatability is not None)
     d_tip = 2.0 * machine.tip_radius if tip_diameter is None else tip_diameter
     feat = task_feature(feature, form, side, d_tip, len(readings))
@@ -270,8 +301,10 @@ def uncertainty(
         machine,
         readings,
         pset.vector_for(machine),
-        pset.covariance,
+        _ordered_covariance(pset, machine),
         feat,
+        long_term_covariance=sigma_lt,
+        recalibrated=recalibrated,
         reading_covariance=v,
         unexplained_covariance=cov_e,
         senses=senses,
@@ -289,15 +322,29 @@ def uncertainty(
         result = replace(result, decision=decision)
     document = result.to_dict()
     document["source"] = {"points": str(points_csv), "params": str(params)}
+    if long_term is not None:
+        document["source"]["long_term"] = str(long_term)
     if report_path is not None:
-        inputs = [points_csv, params, *(f for f in (repeatability, unexplained) if f is not None)]
+        optional = (long_term, repeatability, unexplained)
+        inputs = [points_csv, params, *(f for f in optional if f is not None)]
         _write_report(report_path, result, command_line(ctx), inputs, target)
     if output is not None:
         write_json(output, document)
     if json_output:
         print_json(document)
     else:
-        _print(result)
+        _print(result, {"repeatability": repeatability, "unexplained": unexplained})
+
+
+def _label(group: str) -> str:
+    """A budget group's name in words: ``long_term_variation`` -> ``long-term variation``."""
+    return group.replace("long_term", "long-term").replace("_", " ")
+
+
+def _ordered_covariance(pset: ParameterSet, machine: Machine) -> np.ndarray:
+    """The set's covariance in ``machine.parameter_names`` order."""
+    order = [pset.names.index(n) for n in machine.parameter_names]
+    return pset.covariance[np.ix_(order, order)]
 
 
 def _tolerance_index(feature, name: str | None, tol: Tolerance | None) -> int:
@@ -330,8 +377,10 @@ def _write_report(
     rep.section(
         "Result",
         f"{how} of the compensated points through the feature (full-covariance method of "
-        "Sepahi Boroujeni (2021), Ch. 6): repeatability, machine parameters and unexplained "
-        f"volumetric errors; {result.inputs.simulator} covariance simulator.",
+        "Sepahi Boroujeni (2021), Ch. 6), compensated with the calibration's estimate: "
+        "repeatability, the calibration's parameter covariance, the long-term variation of "
+        f"the parameters ({result.long_term}) and unexplained volumetric errors; "
+        f"{result.inputs.simulator} covariance simulator.",
     )
     rep.table(
         ["output", "value", "u", "U", "k", "p", "interval", "unit"],
@@ -355,11 +404,11 @@ def _write_report(
     rep.section("Budget by source (first order)")
     rep.table(
         ["source", "share of u²"],
-        [[k.replace("_", " "), f"{100 * v:.1f} %"] for k, v in zip(sources, shares, strict=True)],
+        [[_label(k), f"{100 * v:.1f} %"] for k, v in zip(sources, shares, strict=True)],
     )
     rep.figure(
         figures.budget_bars(
-            [k.replace("_", " ") for k in sources],
+            [_label(k) for k in sources],
             [float(from_internal(u, "µm")) * max(v, 0.0) ** 0.5 for v in shares],
             unit="µm",
             title=f"Uncertainty budget of {name}",
@@ -379,18 +428,41 @@ def _write_report(
     write_report(rep, path)
 
 
-def _print(result: TaskResult) -> None:
+#: What the computation uses for a source whose file was not given (console notes).
+NOT_GIVEN = {
+    "repeatability": (
+        "repeatability",
+        "no repeatability model given (--repeatability): the readings are taken as exact "
+        "(zero reading covariance)",
+    ),
+    "unexplained": (
+        "unexplained_volumetric_error",
+        "no unexplained-volumetric-error document given (--unexplained): taken as zero",
+    ),
+}
+
+
+def _print(result: TaskResult, given: dict[str, Path | None]) -> None:
+    """Console summary; a source without its file is named as absent, not as 0.0 %."""
     r = result.result
+    absent = [NOT_GIVEN[option] for option, path in given.items() if path is None]
+    omit = {source for source, _ in absent}
+    if result.long_term != "propagated":  # recalibrated: no such term, said on its own line
+        omit.add("long_term_variation")
     for j, o in enumerate(r.outputs):
         typer.echo(
             f"{o.name} = {o.value:.4f} mm, u = {from_internal(o.u, 'µm'):.2f} µm, "
             f"U = {from_internal(o.U, 'µm'):.2f} µm (k = {o.k:.2f}, p = {o.p})"
         )
         shares = ", ".join(
-            f"{k.replace('_', ' ')} {round(100 * v[j], 1) + 0.0:.1f} %"
+            f"{_label(k)} {round(100 * v[j], 1) + 0.0:.1f} %"
             for k, v in result.shares.items()
+            if k not in omit
         )
         typer.echo(f"  first-order budget: {shares}")
+    typer.echo(f"  long-term variation of the parameters: {result.long_term}")
+    for _, note in absent:
+        typer.echo(note)
     if result.mcm is not None:
         typer.echo(
             f"Monte Carlo: {result.mcm.trials} trials"

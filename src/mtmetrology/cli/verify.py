@@ -90,3 +90,9 @@ def length(
         )
     if u_length is not None:
         typer.echo(f"  u(L) = {u_length:g} mm")
+
+
+# laser-tracker verification (mtmetrology.cli.tracker): its commands join this group
+from mtmetrology.cli.tracker import verify_app as _tracker_app  # noqa: E402
+
+app.registered_commands.extend(_tracker_app.registered_commands)

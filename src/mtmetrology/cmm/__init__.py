@@ -15,23 +15,32 @@ Based on Kinematic Error Models and Gaussian Processes*. MPhil thesis, Brunel Un
 London.
 """
 
-from mtmetrology.cmm.budget import ballplate_budget, edlen_refractivity
-from mtmetrology.cmm.calibrate import BallPlateCalibration, calibrate_ballplate, cross_validate
-from mtmetrology.cmm.compare import ModelComparison, compare_models
-from mtmetrology.cmm.files import (
-    BallPlate,
-    BallPlateRecords,
-    PositionSet,
-    ProbeSet,
-    load_plate,
-    load_positions,
-    load_probes,
-    read_records,
-)
-from mtmetrology.cmm.gp import GPErrorModel, fit_gp
-from mtmetrology.cmm.models import choose_datum, parse_model
-from mtmetrology.cmm.problem import BallPlateProblem
-from mtmetrology.cmm.simulate import SimulatedCampaign, simulate_ballplate
+from mtmetrology._lazy import lazy_exports
+
+_EXPORTS = {
+    "ballplate_budget": "mtmetrology.cmm.budget",
+    "edlen_refractivity": "mtmetrology.cmm.budget",
+    "BallPlateCalibration": "mtmetrology.cmm.calibrate",
+    "calibrate_ballplate": "mtmetrology.cmm.calibrate",
+    "cross_validate": "mtmetrology.cmm.calibrate",
+    "ModelComparison": "mtmetrology.cmm.compare",
+    "compare_models": "mtmetrology.cmm.compare",
+    "BallPlate": "mtmetrology.cmm.files",
+    "BallPlateRecords": "mtmetrology.cmm.files",
+    "PositionSet": "mtmetrology.cmm.files",
+    "ProbeSet": "mtmetrology.cmm.files",
+    "load_plate": "mtmetrology.cmm.files",
+    "load_positions": "mtmetrology.cmm.files",
+    "load_probes": "mtmetrology.cmm.files",
+    "read_records": "mtmetrology.cmm.files",
+    "GPErrorModel": "mtmetrology.cmm.gp",
+    "fit_gp": "mtmetrology.cmm.gp",
+    "choose_datum": "mtmetrology.cmm.models",
+    "parse_model": "mtmetrology.cmm.models",
+    "BallPlateProblem": "mtmetrology.cmm.problem",
+    "SimulatedCampaign": "mtmetrology.cmm.simulate",
+    "simulate_ballplate": "mtmetrology.cmm.simulate",
+}
 
 __all__ = [
     "BallPlate",
@@ -57,3 +66,5 @@ __all__ = [
     "read_records",
     "simulate_ballplate",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

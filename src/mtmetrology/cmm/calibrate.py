@@ -60,7 +60,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 from threadpoolctl import threadpool_limits
 
 from mtmetrology.cmm.files import BallPlate, BallPlateRecords, ProbeSet
@@ -76,12 +75,15 @@ from mtmetrology.cmm.problem import BallPlateProblem, kabsch
 from mtmetrology.errors import RankDeficientError
 from mtmetrology.identification.diagnostics import analyse_identifiability
 from mtmetrology.identification.solver import IdentificationResult, gauss_newton
+from mtmetrology.kinematics.compensation import compensation_covariance
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.rng import as_generator
 from mtmetrology.units import from_internal
 
 __all__ = [
+    "ABSURD_FACTOR",
+    "CHECK_FACTOR",
     "BallPlateCalibration",
     "calibrate_ballplate",
     "check_design",
@@ -112,10 +114,11 @@ def model_machine(base: Machine, model: ModelChoice | str, basis: str | None = N
 def error_covariance(machine: Machine, theta, covariance, readings, tools) -> np.ndarray:
     """Covariance (n, 3, 3) of the predicted stylus-centre position (= of the error).
 
-    ``V_e = J_θ V_θ J_θᵀ`` with ``J_θ = ∂p/∂θ`` of the kinematic engine (JCGM 100, 5.2).
+    ``V_e = J_θ V_θ J_θᵀ`` with ``J_θ = ∂p/∂θ`` of the kinematic engine (JCGM 100, 5.2):
+    the covariance of a coordinate compensated with the estimate θ
+    (:func:`mtmetrology.kinematics.compensation.compensation_covariance`).
     """
-    jac = machine.jacobian(readings, theta, tool=tools)  # (n, 3, p)
-    return np.einsum("nip,pq,njq->nij", jac, covariance, jac)
+    return compensation_covariance(machine, readings, theta, covariance, tool=tools)[1]
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,6 +158,8 @@ class BallPlateCalibration(CMMNotebookRepr):
 
     def to_document(self, model_selection: dict | None = None) -> dict:
         """The result JSON: a parameter set (``kind: ballplate-calibration``) and more."""
+        from scipy import stats  # here, not at the top: importing it takes 0.5 s
+
         doc = self.parameters.to_document()
         doc["kind"] = KIND
         res = self.identification
@@ -340,6 +345,15 @@ def _held_out_rms(cal: BallPlateCalibration, records: BallPlateRecords, plate, p
     return float(np.sqrt(np.mean((pts - (y @ r.T + t)) ** 2)))
 
 
+#: A fold whose held-out RMS exceeds this many times the fold's reference (the best
+#: candidate on that fold, or the candidate's own median fold if smaller) is absurd: the
+#: model, fitted without that position, extrapolates (1 885 µm was seen against ~1 µm).
+ABSURD_FACTOR = 10.0
+#: The candidate with the lowest AIC is chosen among those whose robust held-out score is
+#: within this factor of the best (the criterion checked against held-out data).
+CHECK_FACTOR = 1.25
+
+
 def cross_validate(
     base: Machine,
     records: BallPlateRecords,
@@ -349,23 +363,60 @@ def cross_validate(
     *,
     sigma: float,
 ) -> dict:
-    """Leave-one-position-out scores of candidate models; the best is the lowest mean RMS.
+    """Choose a model by AIC, checked against leave-one-position-out held-out scores.
 
     For each candidate and each plate position, the model is identified without that
     position; the held-out indications are compensated, fitted rigidly to the calibrated
-    plate, and the RMS of the remaining deviations is the score.  A candidate that is rank
-    deficient without some position cannot be cross-validated and scores None.
+    plate, and the RMS of the remaining deviations is the fold's score.  A fold decides
+    nothing when
+
+    - its reduced set-up is rank deficient for the candidate (status ``rank-deficient``:
+      the model cannot be identified without that position), or
+    - its RMS exceeds :data:`ABSURD_FACTOR` times the fold's reference (status ``absurd``:
+      the model extrapolates from the other positions), the reference being the smaller of
+      the best RMS of any candidate on that fold and the candidate's median fold RMS.
+
+    A candidate is scored when at least half its folds are usable (status ``ok``); the
+    scored candidates are compared on their *common* usable folds (while fewer than two
+    remain, the scored candidate with the fewest usable folds is dropped).  The held-out
+    score is the median RMS over those folds (robust: one fold that extrapolates does not
+    decide); the mean is reported too.  Each candidate is also fitted to all the records:
+
+        AIC = χ² + 2p,    χ² = Σ r_i² / σ²
+
+    (``p`` unknowns, ``σ`` the stated reading uncertainty).  The chosen model has the lowest
+    AIC among the scored candidates whose held-out score is within :data:`CHECK_FACTOR` of
+    the best: leave-one-position-out folds alone favour small models (each fold
+    extrapolates to a position), the AIC alone trusts ``σ``.  A candidate with an absurd
+    fold is flagged (``absurd``) whatever its score.
 
     Returns
     -------
     dict
-        ``{"method", "scores": [{"model", "rms_um": [...per fold], "mean_rms_um"}], "chosen"}``
+        ``{"method", "positions", "common_folds", "absurd_factor", "check_factor",
+        "scores": [{"model", "rms_um": [per fold, None if rank deficient], "status": [per
+        fold], "median_rms_um", "mean_rms_um" (None if not scored), "aic", "n_unknowns",
+        "scored", "eligible", "absurd"}], "chosen"}``
+
+    References
+    ----------
+    Akaike, H. (1974). A new look at the statistical model identification. *IEEE Trans.
+    Automatic Control* 19(6), 716–723.
     """
-    scores = []
-    positions = records.position_ids
+    positions = list(records.position_ids)
+    names, rms, aic, n_unknowns = [], [], [], []
     for cand in candidates:
-        name = cand if isinstance(cand, str) else cand.name
-        folds = []
+        names.append(cand if isinstance(cand, str) else cand.name)
+        try:
+            res = calibrate_ballplate(
+                base, records, plate, probes, model=cand, sigma=sigma
+            ).identification
+            aic.append(2.0 * res.cost + 2.0 * len(res.names))
+            n_unknowns.append(len(res.names))
+        except RankDeficientError:
+            aic.append(np.inf)
+            n_unknowns.append(None)
+        row = []
         for pid in positions:
             held = np.array([p == pid for p in records.positions])
             try:
@@ -373,22 +424,61 @@ def cross_validate(
                     base, records.subset(~held), plate, probes, model=cand, sigma=sigma
                 )
             except RankDeficientError:
-                folds = None
-                break
-            folds.append(
-                from_internal(_held_out_rms(cal, records.subset(held), plate, probes), "µm")
+                row.append(np.nan)
+                continue
+            row.append(
+                float(from_internal(_held_out_rms(cal, records.subset(held), plate, probes), "µm"))
             )
-        mean = None if folds is None else float(np.mean(folds))
-        scores.append({"model": name, "rms_um": folds, "mean_rms_um": mean})
-    valid = [s for s in scores if s["mean_rms_um"] is not None]
-    if not valid:
+        rms.append(row)
+    rms = np.array(rms, dtype=float).reshape(len(names), len(positions))
+    aic = np.array(aic)
+    with np.errstate(all="ignore"):
+        best = np.nanmin(np.where(np.isfinite(rms), rms, np.inf), axis=0)  # per fold
+        own = np.array([np.nanmedian(r) if np.isfinite(r).any() else np.inf for r in rms])
+        reference = np.minimum(best[None, :], own[:, None])
+    absurd = np.isfinite(rms) & (rms > ABSURD_FACTOR * reference)
+    usable = np.isfinite(rms) & ~absurd
+    status = np.where(~np.isfinite(rms), "rank-deficient", np.where(absurd, "absurd", "ok"))
+    scored = usable.sum(axis=1) >= max(1, len(positions) / 2)
+    common = usable[scored].all(axis=0) if scored.any() else np.zeros(len(positions), bool)
+    while scored.sum() > 1 and common.sum() < 2:
+        worst = np.flatnonzero(scored)[np.argmin(usable[scored].sum(axis=1))]
+        scored[worst] = False
+        common = usable[scored].all(axis=0)
+    if not scored.any() or not common.any():
         raise RankDeficientError(
-            "no candidate model can be cross-validated: every one is rank deficient when a "
-            "plate position is left out; add positions or choose --model explicitly"
+            "no candidate model can be cross-validated: each is rank deficient or absurd when "
+            "plate positions are left out; add positions or choose --model explicitly"
         )
-    chosen = min(valid, key=lambda s: s["mean_rms_um"])["model"]
+    scored &= np.isfinite(aic)
+    median = np.where(scored, np.median(rms[:, common], axis=1), np.nan)
+    mean = np.where(scored, rms[:, common].mean(axis=1), np.nan)
+    eligible = scored & (median <= CHECK_FACTOR * np.nanmin(median))
+    scores = [
+        {
+            "model": name,
+            "rms_um": [None if not np.isfinite(v) else float(v) for v in rms[i]],
+            "status": [str(v) for v in status[i]],
+            "median_rms_um": float(median[i]) if scored[i] else None,
+            "mean_rms_um": float(mean[i]) if scored[i] else None,
+            "aic": float(aic[i]) if np.isfinite(aic[i]) else None,
+            "n_unknowns": n_unknowns[i],
+            "scored": bool(scored[i]),
+            "eligible": bool(eligible[i]),
+            "absurd": bool(absurd[i].any()),
+        }
+        for i, name in enumerate(names)
+    ]
+    chosen = names[int(np.argmin(np.where(eligible, aic, np.inf)))]
     return {
-        "method": "leave-one-position-out cross-validation, RMS after a rigid fit",
+        "method": "lowest AIC (chi-square at the stated sigma + 2 x unknowns) among the "
+        f"candidates whose held-out score is within {CHECK_FACTOR:g} x the best; held-out "
+        "score: median RMS after a rigid fit of the leave-one-position-out folds usable by "
+        "every scored candidate",
+        "positions": positions,
+        "common_folds": [p for p, c in zip(positions, common, strict=True) if c],
+        "absurd_factor": ABSURD_FACTOR,
+        "check_factor": CHECK_FACTOR,
         "scores": scores,
         "chosen": chosen,
     }

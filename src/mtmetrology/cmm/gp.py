@@ -43,11 +43,9 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from sklearn.exceptions import ConvergenceWarning
-from sklearn.gaussian_process import GaussianProcessRegressor
-from sklearn.gaussian_process.kernels import RBF, ConstantKernel, Matern, WhiteKernel
 from threadpoolctl import threadpool_limits
 
 from mtmetrology.cmm.calibrate import calibrate_ballplate
@@ -60,6 +58,9 @@ from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.units import from_internal, to_internal
 
+if TYPE_CHECKING:  # scikit-learn is imported when a model is fitted or read (0.5 s)
+    from sklearn.gaussian_process import GaussianProcessRegressor
+
 __all__ = ["KIND", "GPErrorModel", "fit_gp"]
 
 KIND = "gp-error-model"
@@ -68,6 +69,8 @@ COMPONENTS = "xyz"
 
 
 def _kernel(kind: str):
+    from sklearn.gaussian_process.kernels import RBF, ConstantKernel, Matern, WhiteKernel
+
     if kind not in KERNELS:
         raise InputError(f"kernel {kind!r}: use one of {', '.join(KERNELS)}")
     # isotropic length-scale on the readings (mm), as the source's covSEiso (§5.3)
@@ -76,7 +79,15 @@ def _kernel(kind: str):
     return ConstantKernel(1.0, (1e-6, 1e4)) * corr + WhiteKernel(0.25, (1e-8, 1e2))
 
 
+def _regressor(kernel, **options) -> GaussianProcessRegressor:
+    from sklearn.gaussian_process import GaussianProcessRegressor
+
+    return GaussianProcessRegressor(kernel, normalize_y=False, **options)
+
+
 def _fit(gpr: GaussianProcessRegressor, x: np.ndarray, y: np.ndarray):
+    from sklearn.exceptions import ConvergenceWarning
+
     # n ~ 10^3: one BLAS thread is fastest and avoids oversubscribing shared cores
     with threadpool_limits(1), warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
@@ -217,7 +228,7 @@ class GPErrorModel(CMMNotebookRepr):
         regs = []
         for c, th in enumerate(thetas):
             k = _kernel(kernel).clone_with_theta(th)
-            gpr = GaussianProcessRegressor(k, optimizer=None, normalize_y=False)
+            gpr = _regressor(k, optimizer=None)
             regs.append(_fit(gpr, x, y[:, c]))
         return cls(machine, mean, kernel, tuple(regs), x, y, dict(doc.get("provenance") or {}))
 
@@ -292,7 +303,7 @@ def fit_gp(
         pts, d = _targets(machine, theta, q, tools, rot, trans, pos_idx, balls[ball_idx])
         y = from_internal(d, "µm")
         for c in range(3):
-            gpr = GaussianProcessRegressor(kern[c], normalize_y=False, random_state=seed)
+            gpr = _regressor(kern[c], random_state=seed)
             regs[c] = _fit(gpr, x, y[:, c])
             kern[c] = regs[c].kernel_  # warm start of the next round
         if it == n_alternations:

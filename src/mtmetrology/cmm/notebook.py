@@ -7,13 +7,13 @@ that importing :mod:`mtmetrology.cmm` stays free of the plotting stack.
 
 from __future__ import annotations
 
-from mtmetrology.report.notebook import NotebookRepr
+from mtmetrology.display import NotebookRepr
 
 __all__ = ["CMMNotebookRepr"]
 
 
 class CMMNotebookRepr(NotebookRepr):
-    """:class:`~mtmetrology.report.notebook.NotebookRepr` that registers the CMM renderers."""
+    """:class:`~mtmetrology.display.NotebookRepr` that registers the CMM renderers."""
 
     __slots__ = ()
     _renderer_module = "mtmetrology.cmm.report"

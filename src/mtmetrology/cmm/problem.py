@@ -151,10 +151,6 @@ class BallPlateProblem:
         return float(np.finfo(float).eps) * size / self.sigma
 
     @property
-    def machine_slice(self) -> slice:
-        return slice(0, self.n_params)
-
-    @property
     def ball_slice(self) -> slice:
         start = self.n_params + 6 * self.n_positions
         return slice(start, start + 3 * self.n_balls)

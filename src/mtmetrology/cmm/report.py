@@ -25,6 +25,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from mtmetrology.cmm.calibrate import BallPlateCalibration
+from mtmetrology.cmm.compare import ModelComparison
+from mtmetrology.cmm.gp import GPErrorModel
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
 from mtmetrology.report.results import add_result, renders
@@ -120,7 +123,7 @@ def _correlation(covariance) -> np.ndarray:
         return np.nan_to_num(covariance / np.outer(u, u))
 
 
-@renders("mtmetrology.cmm.calibrate.BallPlateCalibration", "Ball-plate calibration of a CMM")
+@renders(BallPlateCalibration, "Ball-plate calibration of a CMM")
 def _calibration(rep: Report, cal, *, model_selection: dict | None = None, **_) -> None:
     """``model_selection``: the scores of ``cross_validate`` (``--model auto``)."""
     doc = cal.to_document(model_selection)
@@ -183,26 +186,42 @@ def _calibration(rep: Report, cal, *, model_selection: dict | None = None, **_) 
 def _model_selection(rep: Report, selection: dict) -> None:
     rep.section(
         f"Model selection: {selection['chosen']}",
-        f"{selection['method']}; the candidate with the lowest mean held-out RMS is chosen. "
-        "A candidate that is rank deficient without some position has no score.",
+        f"{selection['method']}. A fold is rank deficient when the model cannot be identified "
+        f"without that position, absurd when its RMS exceeds {selection['absurd_factor']:g} "
+        "times the fold's best; neither decides. Folds compared: "
+        f"{', '.join(selection['common_folds'])}.",
     )
-    scores = selection["scores"]
-    n_folds = max((len(s["rms_um"]) for s in scores if s["rms_um"] is not None), default=0)
+    positions = selection["positions"]
     rows = []
-    for s in scores:
-        folds = s["rms_um"] or []
-        mean = s["mean_rms_um"]
+    for s in selection["scores"]:
+        folds = [
+            "rank deficient" if v is None else f"{v:.3g}" + (" (absurd)" if st == "absurd" else "")
+            for v, st in zip(s["rms_um"], s["status"], strict=True)
+        ]
+        verdict = (
+            "chosen"
+            if s["model"] == selection["chosen"]
+            else "eligible"
+            if s["eligible"]
+            else "scored"
+            if s["scored"]
+            else "not scored"
+        )
         rows.append(
             [
                 s["model"] + (" (chosen)" if s["model"] == selection["chosen"] else ""),
-                "rank deficient" if mean is None else f"{mean:.3g}",
-                *([f"{v:.3g}" for v in folds] + ["—"] * (n_folds - len(folds))),
+                "—" if s["median_rms_um"] is None else f"{s['median_rms_um']:.3g}",
+                "—" if s["mean_rms_um"] is None else f"{s['mean_rms_um']:.3g}",
+                "—" if s["aic"] is None else f"{s['aic']:.1f}",
+                verdict + (", absurd fold" if s["absurd"] else ""),
+                *folds,
             ]
         )
     rep.table(
-        ["model", "mean RMS (µm)", *[f"fold {i + 1}" for i in range(n_folds)]],
+        ["model", "median RMS (µm)", "mean RMS (µm)", "AIC", "verdict", *positions],
         rows,
-        caption="RMS of the held-out indications after compensation and a rigid fit, µm",
+        caption="RMS of the held-out indications of each left-out position after "
+        "compensation and a rigid fit, µm; median and mean over the folds compared.",
     )
 
 
@@ -233,7 +252,7 @@ def _uncertainty(rep: Report, cal) -> None:
     )
 
 
-@renders("mtmetrology.cmm.gp.GPErrorModel", "Gaussian-process error model of a CMM")
+@renders(GPErrorModel, "Gaussian-process error model of a CMM")
 def _gp(rep: Report, gp, **_) -> None:
     doc = gp.to_document()
     mean = "zero mean" if gp.mean is None else f"kinematic mean ({gp.mean.model})"
@@ -280,7 +299,7 @@ def _gp(rep: Report, gp, **_) -> None:
     )
 
 
-@renders("mtmetrology.cmm.compare.ModelComparison", "Kinematic versus GP error model")
+@renders(ModelComparison, "Kinematic versus GP error model")
 def _comparison(rep: Report, comp, **_) -> None:
     k = comp.table[0]["coverage_factor"] if comp.table else COVERAGE_FACTOR
     rep.section(

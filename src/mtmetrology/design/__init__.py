@@ -1,25 +1,29 @@
 """Calibration planning: design criteria, DETMAX exchange, SAMBA artefact and programme."""
 
-from mtmetrology.design.accessibility import AccessibilityRule, accessible
-from mtmetrology.design.counts import (
-    estimate_test_duration_h,
-    indexation_count,
-    measurement_count,
-)
-from mtmetrology.design.criteria import (
-    CRITERIA,
-    criterion_from_spectrum,
-    scaled_spectrum,
-    uncertainty_propagation_factors,
-)
-from mtmetrology.design.detmax import BlockInformation, DetmaxResult, DetmaxRun, detmax, detmax_run
-from mtmetrology.design.programme import SambaProgramme, evaluate_programme
-from mtmetrology.design.samba import (
-    SambaDesign,
-    choose_balls,
-    choose_indexations,
-    plan_samba,
-)
+from mtmetrology._lazy import lazy_exports
+
+_EXPORTS = {
+    "AccessibilityRule": "mtmetrology.design.accessibility",
+    "accessible": "mtmetrology.design.accessibility",
+    "estimate_test_duration_h": "mtmetrology.design.counts",
+    "indexation_count": "mtmetrology.design.counts",
+    "measurement_count": "mtmetrology.design.counts",
+    "CRITERIA": "mtmetrology.design.criteria",
+    "criterion_from_spectrum": "mtmetrology.design.criteria",
+    "scaled_spectrum": "mtmetrology.design.criteria",
+    "uncertainty_propagation_factors": "mtmetrology.design.criteria",
+    "BlockInformation": "mtmetrology.design.detmax",
+    "DetmaxResult": "mtmetrology.design.detmax",
+    "DetmaxRun": "mtmetrology.design.detmax",
+    "detmax": "mtmetrology.design.detmax",
+    "detmax_run": "mtmetrology.design.detmax",
+    "SambaProgramme": "mtmetrology.design.programme",
+    "evaluate_programme": "mtmetrology.design.programme",
+    "SambaDesign": "mtmetrology.design.samba",
+    "choose_balls": "mtmetrology.design.samba",
+    "choose_indexations": "mtmetrology.design.samba",
+    "plan_samba": "mtmetrology.design.samba",
+}
 
 __all__ = [
     "CRITERIA",
@@ -43,3 +47,5 @@ __all__ = [
     "scaled_spectrum",
     "uncertainty_propagation_factors",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -20,6 +20,8 @@ from mtmetrology.errors import InputError
 __all__ = [
     "COUNT_RULES",
     "MINUTES_PER_MEASUREMENT",
+    "SOURCE_RULES",
+    "count_rule_for",
     "estimate_test_duration_h",
     "indexation_count",
     "measurement_count",
@@ -27,7 +29,45 @@ __all__ = [
 
 #: Minutes per ball measurement, from seed 004's reported durations (digest 004 §3.10).
 MINUTES_PER_MEASUREMENT = 1.36
-COUNT_RULES = ("indexations", "measurements")
+#: ``"source"`` (the default) picks the reading of the source for the model; the other two
+#: are the readings themselves (:func:`indexation_count`).
+COUNT_RULES = ("source", "indexations", "measurements")
+#: The reading of "k × unknowns/3" that reproduces the source's counts, by the number of
+#: error parameters of the model (digest 004 §3.10): 1B.2n = 14 and 1B.3n = 21 indexations
+#: for 13 parameters; 4B.5n = 38 indexations, 163 measurements, 3.7 h for 84, whose Table 5.3
+#: durations (1.6 h at k = 2 … 7.6 h at k = 10, 4 balls) follow the same reading.  Another
+#: model gets the text's own words, "the minimum number of measurements is unknowns/3".
+SOURCE_RULES = {13: "indexations", 84: "measurements"}
+
+
+def count_rule_for(rule: str, n_params: int) -> tuple[str, str]:
+    """The reading that runs for ``rule`` and a model of ``n_params``, and why.
+
+    Parameters
+    ----------
+    rule : {"source", "indexations", "measurements"}
+    n_params : int
+        Machine error parameters of the model.
+
+    Returns
+    -------
+    (str, str)
+        ``"indexations"`` or ``"measurements"``, and the reason (reported).
+
+    Examples
+    --------
+    >>> count_rule_for("source", 84)[0], count_rule_for("source", 13)[0]
+    ('measurements', 'indexations')
+    """
+    if rule not in COUNT_RULES:
+        raise InputError(f"count rule {rule!r}: choose one of {', '.join(COUNT_RULES)}")
+    if rule != "source":
+        return rule, "asked for"
+    if n_params in SOURCE_RULES:
+        return SOURCE_RULES[n_params], (
+            f"the source's reading for the {n_params}-parameter model (Alami Mchichi 2018)"
+        )
+    return "measurements", "the source's text: minimum measurements = unknowns/3"
 
 
 def measurement_count(n_indexations: int, n_balls: int, tools: int = 1) -> int:
@@ -42,7 +82,7 @@ def measurement_count(n_indexations: int, n_balls: int, tools: int = 1) -> int:
 
 
 def indexation_count(
-    k: float, n_params: int, n_balls: int, *, rule: str = "indexations", tool: bool = True
+    k: float, n_params: int, n_balls: int, *, rule: str = "source", tool: bool = True
 ) -> int:
     """Number of (B, C) indexations M of a strategy ``xB.kn`` (seed 004 §5.5.2).
 
@@ -54,8 +94,9 @@ def indexation_count(
         Machine error parameters of the model.
     n_balls : int
         Master balls.
-    rule : {"indexations", "measurements"}
-        How ``k × unknowns/3`` is read, the unknowns being ``U = n_params + 3·n_balls +
+    rule : {"source", "indexations", "measurements"}
+        How ``k × unknowns/3`` is read (``"source"``: as the source does for the model,
+        :func:`count_rule_for`), the unknowns being ``U = n_params + 3·n_balls +
         3`` (tool). ``"indexations"``: ``M = k·⌈U/3⌉`` indexations — reproduces 1B.2n = 14
         and 1B.3n = 21 (13 parameters). ``"measurements"``: ``M_T ≈ k·U/3`` measurements
         in total, ``M = ⌊(k·U/3 − fixed)/n⌋`` — reproduces 4B.5n = 38 (84 parameters).
@@ -67,11 +108,10 @@ def indexation_count(
     --------
     >>> indexation_count(3, 13, 1), indexation_count(2, 13, 1)
     (21, 14)
-    >>> indexation_count(5, 84, 4, rule="measurements")
-    38
+    >>> indexation_count(5, 84, 4), indexation_count(5, 84, 4, rule="indexations")
+    (38, 165)
     """
-    if rule not in COUNT_RULES:
-        raise InputError(f"count rule {rule!r}: choose one of {', '.join(COUNT_RULES)}")
+    rule = count_rule_for(rule, n_params)[0]
     if not (k > 0 and math.isfinite(k)):
         raise InputError(f"k must be a positive number, got {k}")
     unknowns = n_params + 3 * n_balls + (3 if tool else 0)

@@ -42,7 +42,6 @@ from collections.abc import Sequence
 import numpy as np
 
 from mtmetrology.errors import InputError
-from mtmetrology.identification.diagnostics import observability_indices
 
 __all__ = [
     "CRITERIA",
@@ -143,15 +142,6 @@ def criterion_from_spectrum(
             "O5": lambda: 1.0 / np.sum(1.0 / s, axis=-1),
         }[key]()
     return np.where(deficient, -np.inf, value)
-
-
-def design_indices(eigenvalues: np.ndarray, n_measurements: int) -> dict:
-    """O1–O5 (from the diagnostics) and the D, A, E values of one full-rank design."""
-    lam = np.asarray(eigenvalues, dtype=float)
-    out = observability_indices(np.sqrt(lam), n_measurements)
-    for key in ("D", "A", "E"):
-        out[key] = float(criterion_from_spectrum(key, lam, n_measurements))
-    return out
 
 
 def uncertainty_propagation_factors(

@@ -20,6 +20,7 @@ designs. *Technometrics* 16(2), 203–210.
 from __future__ import annotations
 
 from mtmetrology.design.counts import MINUTES_PER_MEASUREMENT
+from mtmetrology.design.samba import SambaDesign
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
 from mtmetrology.report.results import renders
@@ -27,7 +28,7 @@ from mtmetrology.report.results import renders
 __all__: list[str] = []
 
 
-@renders("mtmetrology.design.samba.SambaDesign", "SAMBA calibration plan")
+@renders(SambaDesign, "SAMBA calibration plan")
 def _samba_design(
     rep: Report,
     design,
@@ -61,7 +62,7 @@ def _samba_design(
             ["error model", doc["model"]],
             ["criterion", doc["criterion"]],
             ["k (strategy xB.kn)", doc["k"]],
-            ["count rule", doc["count_rule"]],
+            ["count rule", f"{doc['count_rule']} ({doc['count_rule_reason']})"],
             ["indexations chosen", doc["n_indexations"]],
             ["accessible candidate indexations", doc["n_accessible_indexations"]],
             ["candidate indexations", doc["n_candidate_indexations"]],

@@ -20,7 +20,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from mtmetrology.design.accessibility import AccessibilityRule, accessible
-from mtmetrology.design.counts import MINUTES_PER_MEASUREMENT, indexation_count, measurement_count
+from mtmetrology.design.counts import (
+    MINUTES_PER_MEASUREMENT,
+    count_rule_for,
+    indexation_count,
+    measurement_count,
+)
 from mtmetrology.design.criteria import (
     SCALED_CRITERIA,
     check_criterion,
@@ -39,6 +44,7 @@ from mtmetrology.design.programme import (
     nominal_jacobian,
     programme_problem,
 )
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError, RankDeficientError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.rng import SeedLike, chunk_generators
@@ -141,8 +147,10 @@ class BallInformation:
 
 
 @dataclass(frozen=True)
-class SambaDesign:
+class SambaDesign(NotebookRepr):
     """Result of a SAMBA design: the programme, the DETMAX runs and the counts.
+
+    Shown in a notebook as the plan report (:mod:`mtmetrology.design.report`).
 
     Attributes
     ----------
@@ -150,6 +158,7 @@ class SambaDesign:
     criterion : str
     k : float or None
     count_rule : str or None
+        The reading of "k × unknowns/3" that ran: ``indexations`` or ``measurements``.
     balls_search : DetmaxResult or None
         Step 1 runs (None when the balls were given).
     indexations_search : DetmaxResult
@@ -157,6 +166,8 @@ class SambaDesign:
     n_candidate_indexations : int
     n_accessible : int
         Candidate indexations at which at least one ball is accessible.
+    count_rule_reason : str or None
+        Why that reading (asked for, or the source's for the model).
     """
 
     programme: SambaProgramme
@@ -167,6 +178,9 @@ class SambaDesign:
     indexations_search: DetmaxResult
     n_candidate_indexations: int
     n_accessible: int
+    count_rule_reason: str | None = None
+
+    _renderer_module = "mtmetrology.design.report"
 
     def to_dict(
         self, minutes_per_measurement=MINUTES_PER_MEASUREMENT, minutes_per_indexation=0.0
@@ -197,6 +211,7 @@ class SambaDesign:
             "criterion": self.criterion,
             "k": self.k,
             "count_rule": self.count_rule,
+            "count_rule_reason": self.count_rule_reason,
             "balls": [
                 {"id": b, "centre_mm": c.tolist(), "stem_mm": float(c[2])}
                 for b, c in zip(p.ball_ids, p.centres, strict=True)
@@ -505,7 +520,7 @@ def plan_samba(
     candidates: tuple[list[str], np.ndarray] | None = None,
     n_balls: int | None = None,
     k: float = 3.0,
-    count_rule: str = "indexations",
+    count_rule: str = "source",
     criterion: str = "O2",
     bar: ScaleBarPlacement | None = None,
     rule: AccessibilityRule | None = None,
@@ -528,7 +543,8 @@ def plan_samba(
         Candidate balls for step 1, with ``n_balls``.
     n_balls : int, optional
     k, count_rule
-        Indexations ``M`` (:func:`indexation_count`).
+        Indexations ``M`` (:func:`indexation_count`); the default ``"source"`` reads
+        "k × unknowns/3" as the source does for the model (:func:`count_rule_for`).
     criterion : str
         D, A, E or O1–O5, for both steps.
     bar, rule, sigma_mm, starts, seed, executor
@@ -589,6 +605,7 @@ def plan_samba(
         )
     else:
         ids, centres = [str(b) for b in balls[0]], np.asarray(balls[1], dtype=float)
+    count_rule, reason = count_rule_for(count_rule, machine.n_params)
     size = indexation_count(k, machine.n_params, len(ids), rule=count_rule)
     pairs, senses, search = choose_indexations(
         machine,
@@ -617,4 +634,5 @@ def plan_samba(
         indexations_search=search,
         n_candidate_indexations=len(indexations_deg),
         n_accessible=int(mask.any(axis=1).sum()),
+        count_rule_reason=reason,
     )

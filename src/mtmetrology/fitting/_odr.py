@@ -14,12 +14,11 @@ from functools import cached_property
 from typing import Any, NamedTuple
 
 import numpy as np
-import scipy.linalg
 
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
 from mtmetrology.fitting.elements import Element
 from mtmetrology.optimize import LeastSquaresResult, Status, least_squares
-from mtmetrology.report.notebook import NotebookRepr
 
 # A singular value below this fraction of the largest marks a degenerate point set.
 _DEGENERATE = 1e-10
@@ -301,6 +300,8 @@ def _hyper_fit(x: np.ndarray) -> tuple[np.ndarray, float]:
     hyper constraint ``N = 2 N_Taubin − N_Pratt`` (Al-Sharadqah & Chernov, Electron. J.
     Stat. 3 (2009) 886), which has no essential bias; used only as a starting value.
     """
+    import scipy.linalg  # here, not at the top: importing it takes 0.5 s
+
     n, d = x.shape
     scale = float(np.sqrt(np.einsum("ij,ij->", x, x) / n))
     zmat = np.empty((n, d + 2))  # columns ‖y‖², y, 1 for y = x / scale

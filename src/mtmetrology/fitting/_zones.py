@@ -11,9 +11,9 @@ from typing import Literal
 
 import numpy as np
 
+from mtmetrology.display import NotebookRepr
 from mtmetrology.fitting.elements import Circle, Cylinder, Line, Plane, Sphere
 from mtmetrology.fitting.least_squares import FitError
-from mtmetrology.report.notebook import NotebookRepr
 
 Kind = Literal["zone", "outer", "inner"]
 

@@ -229,7 +229,7 @@ def _sequential_lp(model, kind: Kind, size: float, what: str) -> _Solution:
                     f"below the rounding level with {decrease:.3g} mm of predicted decrease",
                 )
     return _Solution(
-        model, d, _MAX_ITERATIONS, False, f"no convergence in {_MAX_ITERATIONS} linear programmes"
+        model, d, _MAX_ITERATIONS, False, f"no convergence in {_count(_MAX_ITERATIONS)}"
     )
 
 

@@ -186,7 +186,7 @@ def long_term_covariance(
     The statistic of :func:`mtmetrology.identification.long_term.long_term_parameters`
     (Σ = 1/(K − 1) Σ_k (δ_k − δ̄)(δ_k − δ̄)ᵀ, plus the mean of the runs' own covariances
     with ``add_within``) on the runs since ``since``; the result is a parameter set
-    ``mtm task uncertainty --params`` reads.
+    ``mtm task uncertainty --long-term`` reads.
 
     Raises
     ------

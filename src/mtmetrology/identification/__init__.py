@@ -1,5 +1,13 @@
-"""Identification engine: weighted non-linear least squares with identifiability diagnostics."""
+"""Identification engine: weighted non-linear least squares with identifiability diagnostics,
+and the uncertainty of what it identifies (:mod:`mtmetrology.identification.uncertainty`:
+GUF through the full Jacobian, Monte Carlo re-solving every trial, JCGM 102 validation).
 
+The uncertainty names load on first use (PEP 562): importing the solver does not load the
+uncertainty engine.
+"""
+
+from mtmetrology._lazy import lazy_exports
+from mtmetrology.identification.datum import Datum, choose_datum
 from mtmetrology.identification.diagnostics import (
     IdentifiabilityReport,
     NullDirection,
@@ -17,15 +25,33 @@ from mtmetrology.identification.solver import (
     gauss_newton,
 )
 
+_UNCERTAINTY = {
+    name: "mtmetrology.identification.uncertainty"
+    for name in (
+        "IdentificationModel",
+        "identification_guf",
+        "identification_mcm",
+        "input_sensitivities",
+        "joint_coverage",
+        "unknowns_covariance",
+        "validate_identification",
+    )
+}
+
 __all__ = [
     "BallCentreProblem",
+    "Datum",
     "IdentifiabilityReport",
     "IdentificationError",
     "IdentificationResult",
     "NullDirection",
     "ScaleBar",
     "analyse_identifiability",
+    "choose_datum",
     "gauss_newton",
     "observability_indices",
     "senses_from_sequence",
+    *_UNCERTAINTY,
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _UNCERTAINTY)

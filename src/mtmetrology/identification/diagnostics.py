@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mtmetrology.report.notebook import NotebookRepr
+from mtmetrology.display import NotebookRepr
 
 __all__ = [
     "IdentifiabilityReport",

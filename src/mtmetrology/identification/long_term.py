@@ -5,11 +5,14 @@ how much the machine's geometric errors move from one day to the next (Sepahi Bo
 (2021), eq. 6-4, Δ ~ N(δ, Σ)). The thesis measures it directly: a SAMBA calibration once
 a day for 15 days, and the 13×13 sample covariance of the 15 estimates (§5.3, Table 5-2
 "Exp." and Table 5-4). :func:`long_term_parameters` does the same with any number of
-calibrations of one machine and returns a :class:`ParameterSet` that
-``mtm task uncertainty --params`` (or :func:`mtmetrology.omm.task.task_uncertainty`)
-reads as it is. It lives in the identification engine so that ``mtm calibrate long-term``
-(on files) and ``mtm history covariance`` (on the calibration database) call the same
-statistic.
+calibrations of one machine and returns a :class:`ParameterSet` whose covariance is the
+long-term variation Σ_lt of a task's budget (``mtm task uncertainty --long-term``, or
+``long_term_covariance`` of :func:`mtmetrology.omm.task.task_uncertainty`); the
+calibration that compensates brings its own U_θ (``--params``).  The scatter of the
+estimates holds their estimation noise too, so Σ_lt from it counts part of U_θ again
+(conservative).
+It lives in the identification engine so that ``mtm calibrate long-term`` (on files) and
+``mtm history covariance`` (on the calibration database) call the same statistic.
 
 References
 ----------

@@ -34,12 +34,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError, RankDeficientError
 from mtmetrology.identification.diagnostics import IdentifiabilityReport, analyse_identifiability
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.optimize import STATUS_MESSAGES, Status, least_squares
-from mtmetrology.report.notebook import NotebookRepr
 
 __all__ = ["IdentificationError", "IdentificationResult", "gauss_newton"]
 
@@ -140,7 +140,7 @@ def gauss_newton(
     *,
     xtol: float = 1e-8,
     max_iter: int = 50,
-    rtol_rank: float = 1e-8,
+    rank_rtol: float = 1e-8,
     minimum_norm: bool = False,
     report_names=None,
 ) -> IdentificationResult:
@@ -160,7 +160,7 @@ def gauss_newton(
         uncertainties): 1e-8 is far below any meaningful change and above the rounding
         noise of positions of a few hundred mm.
     max_iter : int
-    rtol_rank : float
+    rank_rtol : float
         Rank tolerance of the column-scaled Jacobian.
     minimum_norm : bool
         Solve a rank-deficient problem by its minimum-norm solution instead of refusing
@@ -235,13 +235,13 @@ def gauss_newton(
         xtol=xtol,
         max_iter=max_iter,
         residual_rounding=float(getattr(problem, "residual_rounding", 0.0)),
-        rank_rtol=rtol_rank,
+        rank_rtol=rank_rtol,
         require_full_rank=not minimum_norm,
     )
     report = analyse_identifiability(
         solve.jacobian,
         names,
-        rtol=rtol_rank,
+        rtol=rank_rtol,
         report_names=report_names,
         svd=(solve.column_norms, solve.singular_values, solve.right_singular_vectors),
     )

@@ -1,20 +1,21 @@
 """Readers, writers and file schemas."""
 
-from mtmetrology.io.documents import load_document, parse_document
-from mtmetrology.io.files import (
-    InputFileError,
-    atomic_write,
-    check_output,
-    sweep_temporaries,
-    write_json,
-)
-from mtmetrology.io.tables import (
-    Table,
-    format_decimal,
-    read_csv_table,
-    write_columns,
-    write_csv_table,
-)
+from mtmetrology._lazy import lazy_exports
+
+_EXPORTS = {
+    "load_document": "mtmetrology.io.documents",
+    "parse_document": "mtmetrology.io.documents",
+    "InputFileError": "mtmetrology.io.files",
+    "atomic_write": "mtmetrology.io.files",
+    "check_output": "mtmetrology.io.files",
+    "sweep_temporaries": "mtmetrology.io.files",
+    "write_json": "mtmetrology.io.files",
+    "Table": "mtmetrology.io.tables",
+    "format_decimal": "mtmetrology.io.tables",
+    "read_csv_table": "mtmetrology.io.tables",
+    "write_columns": "mtmetrology.io.tables",
+    "write_csv_table": "mtmetrology.io.tables",
+}
 
 __all__ = [
     "InputFileError",
@@ -30,3 +31,5 @@ __all__ = [
     "write_csv_table",
     "write_json",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

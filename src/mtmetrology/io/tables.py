@@ -6,7 +6,8 @@ worse than no number, so the reader is both a C parser (Apache Arrow) and strict
 - the header is the first line that is neither blank nor a ``#`` comment; column names
   are stripped (padded headers are fine) and must be unique and non-empty;
 - blank lines (only spaces, tabs or commas) and ``#`` comment lines are skipped anywhere;
-  a UTF-8 byte-order mark and CRLF line ends are accepted; extra columns are kept;
+  a UTF-8 byte-order mark, CRLF and CR-only line ends (old Mac exports) are accepted;
+  extra columns are kept;
 - every row must have as many fields as the header (the error names the line);
 - numbers follow the C grammar ``[+-]digits[.digits][e[+-]digits]`` of Arrow's parser:
   ``1_000``, ``1,5``, ``0x10``, Arabic-Indic or full-width digits, which Python's
@@ -233,7 +234,12 @@ def _read_bytes(p: Path) -> bytes:
         raise InputFileError(f"{p}: file not found") from None
     except OSError as err:
         raise InputFileError(f"{p}: cannot read the file ({err.strerror})") from None
-    return data[3:] if data.startswith(_BOM) else data
+    data = data[3:] if data.startswith(_BOM) else data
+    if data.count(b"\r") != data.count(b"\r\n"):
+        # A CR that does not start a CRLF ends a line (classic Mac OS): one line end per CR,
+        # so that line numbers in messages count as an editor shows them.
+        data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    return data
 
 
 def _header(p: Path, data: bytes) -> tuple[int, list[str], int]:

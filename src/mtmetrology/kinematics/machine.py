@@ -13,6 +13,7 @@ array([  0.,   0., -10.])
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
@@ -38,7 +39,7 @@ from mtmetrology.kinematics.parameters import (
 from mtmetrology.kinematics.topology import LINEAR_AXES, Topology, parse_topology
 from mtmetrology.units import parse_unit
 
-__all__ = ["Machine", "list_presets"]
+__all__ = ["Machine", "list_presets", "preset_text"]
 
 _UNIT_VECTORS = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 _ROTARY_DIRECTION = {"A": "X", "B": "Y", "C": "Z", "S": "Z"}
@@ -53,6 +54,32 @@ def list_presets() -> list[str]:
 
 def _preset_path(name: str):
     return resources.files("mtmetrology.kinematics").joinpath("presets", f"{name}.yaml")
+
+
+def preset_text(name: str) -> str:
+    """The machine file of a preset, as shipped (comments included).
+
+    Written to a file, it is a machine file that ``Machine.load(path)`` reads as the
+    preset: the starting point for a user's own travels, offsets or error models.
+
+    Parameters
+    ----------
+    name : str
+        A preset name (:func:`list_presets`).
+
+    Returns
+    -------
+    str
+        The YAML text.
+
+    Raises
+    ------
+    MachineFileError
+        ``name`` is not a preset.
+    """
+    if name not in list_presets():
+        raise MachineFileError(f"{name}: not a preset (presets: {', '.join(list_presets())})")
+    return _preset_path(name).read_text(encoding="utf-8")
 
 
 def _direction(spec, axis: str) -> np.ndarray:
@@ -295,6 +322,16 @@ class Machine:
             model_name=None,
             spec=self.spec,
         )
+
+    def with_tool(self, tool) -> Machine:
+        """The same machine with another tool (stylus-centre) vector, mm (e.g. a calibrated
+        one, :attr:`ParameterSet.tool <mtmetrology.kinematics.parameter_set.ParameterSet>`)."""
+        t = np.asarray(tool, dtype=float)
+        if t.shape != (3,) or not np.all(np.isfinite(t)):
+            raise ValueError(f"tool vector must be 3 finite values (mm), got {tool!r}")
+        out = copy.copy(self)
+        out.tool = t
+        return out
 
     # ------------------------------------------------------------------ properties
     @property

@@ -6,6 +6,7 @@ The file form follows ARCHITECTURE.md::
      "machine": "five-axis-wcbxfzyst", "model": "13",
      "parameters": [{"name": "E_X0C", "value": -104.59, "unit": "µm", "u": 0.48}, ...],
      "covariance": {"names": [...], "matrix": [[...]]},      # in the listed units
+     "tool_mm": [0.0, 0.0, -150.0],                           # optional: a calibrated tool
      "provenance": {...}}
 
 Values are converted to internal units on reading (µm -> mm, µrad -> rad, µm/m -> 1)
@@ -29,11 +30,12 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from mtmetrology.display import NotebookRepr
+from mtmetrology.errors import InputError
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError, atomic_write
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameters import ParameterNameError, parse_parameter
-from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.units import UnitError, parse_unit
 
 __all__ = ["KIND", "RESULT_KINDS", "ParameterSet"]
@@ -42,8 +44,8 @@ KIND = "parameter-set"
 VERSION = 1
 #: Result documents that embed a parameter set (``mtm predict --params`` reads them as they
 #: are); their keys beyond the parameter set are the result's own.
-RESULT_KINDS = ("samba-calibration", "ballplate-calibration")
-_KEYS = {"kind", "version", "machine", "model", "parameters", "covariance", "provenance"}
+RESULT_KINDS = ("samba-calibration", "ballplate-calibration", "tracker-calibration")
+_KEYS = {"kind", "version", "machine", "model", "parameters", "covariance", "tool_mm", "provenance"}
 _ENTRY_KEYS = {"name", "value", "unit", "u"}
 #: Largest magnitude of a parameter in its customary unit (1 m in µm, 1 rad in µrad): far
 #: beyond any machine error, and far below values that overflow the kinematic chain.
@@ -78,6 +80,10 @@ class ParameterSet(NotebookRepr):
         Name of the machine the set belongs to (its definition's ``name``).
     model : str or None
         The machine's error model the set was made with, when it was a named model.
+    tool : ndarray, shape (3,) or None
+        Tool (stylus-centre) vector identified with the parameters (e.g. SAMBA
+        ``--estimate-tool``), mm; :meth:`machine_for` puts it on the machine, so what the
+        calibration identified, compensation uses. None: the machine's nominal tool.
     """
 
     names: tuple[str, ...]
@@ -87,6 +93,7 @@ class ParameterSet(NotebookRepr):
     provenance: dict = field(default_factory=dict)
     machine: str | None = None
     model: str | None = None
+    tool: np.ndarray | None = None
 
     @property
     def standard_uncertainty(self) -> np.ndarray | None:
@@ -110,7 +117,8 @@ class ParameterSet(NotebookRepr):
         """``base`` with exactly these parameters active, under the set's error model.
 
         The named model of the set is activated first (its basis defines what the
-        coefficients mean), then the parameter list is matched.
+        coefficients mean), then the parameter list is matched; a calibrated tool vector
+        replaces the nominal one.
 
         Raises
         ------
@@ -120,9 +128,9 @@ class ParameterSet(NotebookRepr):
         self.check_machine(base)
         if self.model is not None and base.spec is not None and base.model_name != self.model:
             base = Machine.from_spec(base.spec, model=self.model, source=base.name)
-        if base.parameter_names == self.names:
-            return base
-        return base.with_parameters(self.names)
+        if base.parameter_names != self.names:
+            base = base.with_parameters(self.names)
+        return base if self.tool is None else base.with_tool(self.tool)
 
     def check_machine(self, machine: Machine, source: str = "parameter set") -> None:
         """Refuse a set made for another machine or model."""
@@ -165,13 +173,28 @@ class ParameterSet(NotebookRepr):
                 "names": list(self.names),
                 "matrix": (self.covariance / np.outer(f, f)).tolist(),
             }
+        if self.tool is not None:
+            doc["tool_mm"] = [float(v) for v in self.tool]
         if self.provenance:
             doc["provenance"] = self.provenance
         return doc
 
     def save(self, path: str | Path) -> None:
-        """Write JSON (``.json``) or YAML (``.yaml``/``.yml``) atomically."""
+        """Write JSON (``.json``) or YAML (``.yaml``/``.yml``) atomically.
+
+        Raises
+        ------
+        InputError
+            A value or covariance entry that is not finite (NaN is never a result; YAML
+            would write it as ``.nan``), naming the parameter; nothing is written.
+        """
         p = Path(path)
+        bad = [n for n, v in zip(self.names, self.values, strict=True) if not math.isfinite(v)]
+        if self.covariance is not None:
+            rows = ~np.all(np.isfinite(self.covariance), axis=1)
+            bad += [f"covariance row {n}" for n, r in zip(self.names, rows, strict=True) if r]
+        if bad:
+            raise InputError(f"{p}: {bad[0]} is not finite; nothing written")
         doc = self.to_document()
         text = (
             yaml.safe_dump(doc, sort_keys=False, allow_unicode=True)
@@ -274,6 +297,14 @@ class ParameterSet(NotebookRepr):
             if np.any(u < 0):
                 raise InputFileError(f"{source}: standard uncertainties u must be >= 0")
             cov = np.diag((u * np.array(factors)) ** 2)
+        tool = None
+        # A calibration result writes its tool always; it is the identified one only when
+        # it says so (otherwise the nominal tool of the machine it was made on).
+        if "tool_mm" in doc and (kind == KIND or doc.get("tool_estimated") is True):
+            t = doc["tool_mm"]
+            if not isinstance(t, list) or len(t) != 3:
+                raise InputFileError(f"{source}: tool_mm: must be a list of 3 numbers (mm)")
+            tool = np.array([_number(v, f"{source}: tool_mm[{i}]") for i, v in enumerate(t)])
         provenance = doc.get("provenance") or {}
         if not isinstance(provenance, dict):
             raise InputFileError(f"{source}: provenance: must be a mapping")
@@ -285,6 +316,7 @@ class ParameterSet(NotebookRepr):
             dict(provenance),
             machine=doc["machine"],
             model=doc.get("model"),
+            tool=tool,
         )
         pset.check_machine(machine, source)
         return pset

@@ -1,27 +1,34 @@
 """On-machine measurement (OMM): probing repeatability, reference values, task uncertainty."""
 
-from mtmetrology.identification.long_term import long_term_parameters
-from mtmetrology.omm.drift import detrend_cubic, sliding_window_std
-from mtmetrology.omm.hysteresis import HysteresisResult, hysteresis_errors, radial_projection
-from mtmetrology.omm.pooling import PoolingResult, pooling_experiment
-from mtmetrology.omm.reference import (
-    ReferenceValue,
-    coverage_probability,
-    thermal_reference_value,
-)
-from mtmetrology.omm.repeatability import (
-    RepeatabilityModel,
-    TargetStatistics,
-    fit_repeatability_model,
-    lateral_deviation_threshold,
-    normal_tangential,
-    sphere_normal,
-    target_statistics,
-)
-from mtmetrology.omm.repeatability_file import load_repeatability_model
-from mtmetrology.omm.repeatability_windows import WindowStatistics, window_statistics
-from mtmetrology.omm.simulator import TaskInputs, covariance_simulator
-from mtmetrology.omm.task import TaskResult, task_uncertainty
+from mtmetrology._lazy import lazy_exports
+
+_EXPORTS = {
+    "detrend_cubic": "mtmetrology.omm.drift",
+    "sliding_window_std": "mtmetrology.omm.drift",
+    "HysteresisResult": "mtmetrology.omm.hysteresis",
+    "hysteresis_errors": "mtmetrology.omm.hysteresis",
+    "radial_projection": "mtmetrology.omm.hysteresis",
+    "long_term_parameters": "mtmetrology.identification.long_term",
+    "PoolingResult": "mtmetrology.omm.pooling",
+    "pooling_experiment": "mtmetrology.omm.pooling",
+    "ReferenceValue": "mtmetrology.omm.reference",
+    "coverage_probability": "mtmetrology.omm.reference",
+    "thermal_reference_value": "mtmetrology.omm.reference",
+    "RepeatabilityModel": "mtmetrology.omm.repeatability",
+    "TargetStatistics": "mtmetrology.omm.repeatability",
+    "fit_repeatability_model": "mtmetrology.omm.repeatability",
+    "lateral_deviation_threshold": "mtmetrology.omm.repeatability",
+    "normal_tangential": "mtmetrology.omm.repeatability",
+    "sphere_normal": "mtmetrology.omm.repeatability",
+    "target_statistics": "mtmetrology.omm.repeatability",
+    "load_repeatability_model": "mtmetrology.omm.repeatability_file",
+    "WindowStatistics": "mtmetrology.omm.repeatability_windows",
+    "window_statistics": "mtmetrology.omm.repeatability_windows",
+    "TaskInputs": "mtmetrology.omm.simulator",
+    "covariance_simulator": "mtmetrology.omm.simulator",
+    "TaskResult": "mtmetrology.omm.task",
+    "task_uncertainty": "mtmetrology.omm.task",
+}
 
 __all__ = [
     "HysteresisResult",
@@ -50,3 +57,5 @@ __all__ = [
     "thermal_reference_value",
     "window_statistics",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

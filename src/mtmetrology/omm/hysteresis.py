@@ -23,7 +23,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
 from mtmetrology.errors import InputError
 from mtmetrology.uncertainty.guf import welch_satterthwaite
@@ -257,6 +256,8 @@ def hysteresis_errors(
     >>> round(float(h), 9), round(float(u) ** 2, 9)
     (-3.0, 2.0)
     """
+    from scipy import stats  # here, not at the top: importing it takes 0.5 s
+
     if kind not in HYSTERESIS_KINDS:
         raise InputError(f"kind: must be one of {sorted(HYSTERESIS_KINDS)}, got {kind!r}")
     if not (0.0 < p < 1.0):

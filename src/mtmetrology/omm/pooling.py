@@ -157,8 +157,10 @@ def pooling_experiment(
     parameters : (P,) array
         Machine parameters δ used for the compensation (internal units).
     parameter_covariance : (P, P) array
-        Their long-term covariance Σ (e.g.
-        :func:`mtmetrology.identification.long_term.long_term_parameters`).
+        Their covariance, propagated as the calibration's U_θ (the ``calibration`` group of
+        :func:`~mtmetrology.omm.task.task_uncertainty`; a covariance from
+        :func:`mtmetrology.identification.long_term.long_term_parameters` stands in for both U_θ and
+        the long-term variation).
     features : sequence of Feature
         Features of each drawn point set, sharing one unit (e.g. ``SphereDiameter``,
         ``Sphericity``); their outputs, in order, are the result's outputs.

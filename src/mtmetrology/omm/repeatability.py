@@ -43,7 +43,9 @@ __all__ = [
     "COVARIANCE_OUTPUTS",
     "FACTORS",
     "FACTOR_UNITS",
+    "MIN_TARGETS_PER_COEFFICIENT",
     "STD_OUTPUTS",
+    "VALIDATION_WARNING",
     "OutputFit",
     "PoseRangeWarning",
     "RepeatabilityModel",
@@ -58,6 +60,12 @@ __all__ = [
 ]
 
 FACTORS = ("phi", "theta", "B", "C", "X_T", "Y_T", "Z_T")
+#: Fewest fitting targets per coefficient a model is fitted with unless asked: with 36
+#: coefficients on 38 targets the held-out errors of cov(X,Y) reached 5 200 % (issue 18).
+MIN_TARGETS_PER_COEFFICIENT = 3.0
+#: Held-out RMS error, as a fraction of the RMS of the held-out values, above which an
+#: output is flagged: the model then predicts its values no better than half their size.
+VALIDATION_WARNING = 0.5
 FACTOR_UNITS = ("deg", "deg", "deg", "deg", "mm", "mm", "mm")
 STD_OUTPUTS = ("sigma_X", "sigma_Y", "sigma_Z", "sigma_N", "sigma_T")
 COVARIANCE_OUTPUTS = ("cov_XY", "cov_XZ", "cov_YZ", "cov_NT")
@@ -440,6 +448,10 @@ class OutputFit:
         max |pred − meas| / |meas| over the held-out targets (None without them).
     validation_max_abs_error : float or None
         max |pred − meas| over the held-out targets (mm or mm²).
+    validation_rms_relative_error : float or None
+        √(Σ(pred − meas)² / Σ meas²) over the held-out targets: the held-out RMS error
+        relative to the RMS of the held-out values, defined where a covariance near zero
+        makes the largest relative error meaningless.
     """
 
     name: str
@@ -448,6 +460,13 @@ class OutputFit:
     r_squared: float
     validation_max_relative_error: float | None
     validation_max_abs_error: float | None
+    validation_rms_relative_error: float | None = None
+
+    @property
+    def validation_flagged(self) -> bool:
+        """Whether the held-out RMS error exceeds :data:`VALIDATION_WARNING`."""
+        e = self.validation_rms_relative_error
+        return e is not None and e > VALIDATION_WARNING
 
 
 @dataclass(frozen=True)
@@ -562,6 +581,8 @@ class RepeatabilityModel:
                     "validation_max_abs_error": None
                     if fit.validation_max_abs_error is None
                     else float(conv(fit.validation_max_abs_error)),
+                    "validation_rms_relative_error": fit.validation_rms_relative_error,
+                    "validation_flagged": fit.validation_flagged,
                 }
             )
         return {
@@ -581,6 +602,7 @@ class RepeatabilityModel:
             "normalisation": "z = 2 (factor - low) / (high - low) - 1",
             "n_fit": self.n_fit,
             "n_validation": self.n_validation,
+            "validation_warning": VALIDATION_WARNING,
             "outputs": outputs,
         }
 
@@ -610,6 +632,7 @@ def fit_repeatability_model(
     holdout: float = 0.15,
     seed: SeedLike = 0,
     factor_ranges: tuple[np.ndarray, np.ndarray] | None = None,
+    min_targets_per_coefficient: float = MIN_TARGETS_PER_COEFFICIENT,
 ) -> RepeatabilityModel:
     """Fit the standard-deviation (eq. 4-1) and covariance (eq. 4-2) models.
 
@@ -625,6 +648,10 @@ def fit_repeatability_model(
     factor_ranges : ((7,), (7,)) arrays, optional
         Low and high of each factor (rad, mm) for the normalisation; the targets' range
         by default. A pose outside it is refused (or warned about) at prediction.
+    min_targets_per_coefficient : float, default 3
+        Fewest fitting targets per coefficient of the largest model (36 of eq. 4-2, so
+        108 fitting targets by default); 0 asks for any count above the 36 that the least
+        squares needs (the held-out errors then say what the model is worth).
 
     Returns
     -------
@@ -633,7 +660,8 @@ def fit_repeatability_model(
     Raises
     ------
     InputError
-        Fewer than 37 fitting targets, a factor with too few distinct values, a target
+        Fewer than 37 fitting targets, or fewer than ``min_targets_per_coefficient`` per
+        coefficient, a factor with too few distinct values, a target
         outside ``factor_ranges`` or a holdout outside [0, 1).
 
     Notes
@@ -663,6 +691,14 @@ def fit_repeatability_model(
             f"{n} targets ({n_val} held out): the covariance model (eq. 4-2) needs more than "
             f"{p_max} fitting targets; probe more poses or lower the holdout"
         )
+    if n - n_val < min_targets_per_coefficient * p_max:
+        raise InputError(
+            f"{n} targets ({n_val} held out): {n - n_val} fitting targets for the {p_max} "
+            f"coefficients of the covariance model (eq. 4-2), fewer than "
+            f"{min_targets_per_coefficient:g} per coefficient "
+            f"({math.ceil(min_targets_per_coefficient * p_max)}); probe more poses, or accept the "
+            "sparse model with its held-out errors (--allow-few-targets)"
+        )
     rng = as_generator(seed)
     val = np.zeros(n, bool)
     val[rng.choice(n, n_val, replace=False)] = True
@@ -689,7 +725,7 @@ def _fit_output(name: str, a: np.ndarray, y: np.ndarray, val: np.ndarray) -> Out
     s2 = rss / (m - p)
     tss = float(np.sum((y_fit - y_fit.mean()) ** 2))
     r2 = 1.0 - rss / tss if tss > 0 else 1.0
-    rel = absolute = None
+    rel = absolute = rms = None
     if val.any():
         pred = a[val] @ res.x
         if name in STD_OUTPUTS:
@@ -698,8 +734,10 @@ def _fit_output(name: str, a: np.ndarray, y: np.ndarray, val: np.ndarray) -> Out
         absolute = float(diff.max())
         nonzero = y[val] != 0
         rel = float(np.max(diff[nonzero] / np.abs(y[val][nonzero]))) if nonzero.any() else None
+        size = float(np.sum(y[val] ** 2))
+        rms = float(np.sqrt(np.sum(diff**2) / size)) if size > 0 else None
     u = np.sqrt(s2 * np.diag(res.covariance()))
-    return OutputFit(name, res.x, u, float(r2), rel, absolute)
+    return OutputFit(name, res.x, u, float(r2), rel, absolute, rms)
 
 
 def factors_from_file_units(

@@ -51,6 +51,8 @@ class _Output(BaseModel):
     r_squared: float
     validation_max_relative_error: float | None
     validation_max_abs_error: float | None
+    validation_rms_relative_error: float | None = None
+    validation_flagged: bool | None = None
 
 
 class _Document(BaseModel):
@@ -61,6 +63,7 @@ class _Document(BaseModel):
     normalisation: str
     n_fit: int
     n_validation: int
+    validation_warning: float | None = None
     outputs: list[_Output]
     source: str | None = None
     statistics: dict | None = None
@@ -115,6 +118,7 @@ def repeatability_model_from_document(document: object, source: str) -> Repeatab
                 o.r_squared,
                 o.validation_max_relative_error,
                 None if o.validation_max_abs_error is None else o.validation_max_abs_error * scale,
+                o.validation_rms_relative_error,
             )
         )
     return RepeatabilityModel(low, high, tuple(fits), doc.n_fit, doc.n_validation)

@@ -1,24 +1,41 @@
-"""Task uncertainty of an on-machine measurement by the full-covariance method.
+"""Task uncertainty of an on-machine measurement compensated with a calibration.
 
-The inputs of the on-machine measurement function are the long-term axis positions Γ
-of every probed point and the machine parameters Δ (Sepahi Boroujeni (2021), §6.2), plus
-the unexplained volumetric errors E added to the compensated points (eq. 6-14). Their
-covariance U_x comes from the covariance simulator (Populations I–IV, §6.2.2,
-:mod:`mtmetrology.omm.simulator`), linearised (default, no sampling noise) or sampled as
-in the thesis. The compensated points q_s = f(Γ_s, Δ) + e_s and the feature g(q) are
-propagated
+Measurement model (Sepahi Boroujeni (2021), §6.2, eq. 6-14, with the calibration's
+uncertainty carried; derivation in :mod:`mtmetrology.omm.simulator`): the compensated
+points and the feature are
+
+    q_s = f(Γ_s, Δ) + E_s,    y = g(q_1, ..., q_n),
+
+with the inputs
+
+* Γ_s, the readings φ_s: probing repeatability v_s (pose-dependent model) and, unless the
+  machine is recalibrated for the task, the long-term variation Σ_lt of the parameters
+  between the calibration and the task (Populations I–IV, §6.2.2: the readings the
+  drifted machine needs to reach the fixed workpiece);
+* Δ, the calibration's estimate δ̂ that compensates, with its covariance U_θ (the
+  identification's GUF or Monte Carlo result), independent of the readings;
+* E_s, the unexplained volumetric errors, 0 with cov(e) (eqs. 6-13 to 6-15).
+
+To first order, with A_s = ∂f/∂q, G_s = ∂f/∂δ and c = ∂g/∂q,
+
+    u²(y) = c [⊕ A_s v_s A_sᵀ + G U_θ Gᵀ + G Σ_lt Gᵀ + I ⊗ cov(e)] cᵀ,
+
+the four terms being the budget groups ``repeatability``, ``calibration``,
+``long_term_variation`` and ``unexplained_volumetric_error``; they add exactly to u².
+The calibration term does not cancel: the part is probed with the machine as it is and
+compensated with δ̂ = Δ + ε, ε ~ (0, U_θ) independent of the probing noise.  (It cancels
+only in a simulation that compensates with the parameters that generated the readings.)
+In the 1-D example of eqs. 6-8 to 6-12, q = φ(1 + δ̂): u² = v + φ² u²(δ̂).
+
+The model is propagated
 
 * by the GUF (JCGM 102:2011, 6.2.1.3) with the analytic sensitivities
-  [G A_s, G G_s, G] (A_s = ∂f/∂q, G_s = ∂f/∂δ, G = the feature's Jacobian), and/or
+  [c A_s, c G, c], and/or
 * by Monte Carlo (JCGM 101:2008 and JCGM 102:2011, adaptive 7.9 / 7.8) with
-  x ~ N([φ; δ; 0], U_x) through the kinematic model and the feature, vectorised over
-  trials; with both, the GUF is validated against the Monte Carlo result (JCGM 101:2008,
-  8; JCGM 102:2011, 8).
-
-To first order the machine-parameter uncertainty cancels: A_s (Γ_s − φ_s) + G_s (Δ − δ)
-= Ψ_s − ψ_s, so U_q = blockdiag(A_s v_s A_sᵀ) + I ⊗ cov(e) whatever Σ is, and the
-budget's machine-parameter share is zero up to rounding. The parameters enter the
-*value* (the compensation), not its first-order uncertainty.
+  x ~ N([φ; δ̂; 0], U_x) through the kinematic model and the feature, vectorised over
+  trials: each trial draws the parameters from U_θ independently of the readings; with
+  both, the GUF is validated against the Monte Carlo result (JCGM 101:2008, 8;
+  JCGM 102:2011, 8).
 
 References
 ----------
@@ -38,12 +55,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mtmetrology.budgets.conformity import ConformityDecision
 from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.omm.repeatability import RepeatabilityModel
 from mtmetrology.omm.simulator import MeasurementModel, TaskInputs, covariance_simulator
 from mtmetrology.rng import SeedLike, chunk_generators
+from mtmetrology.uncertainty.conformity import ConformityDecision
 from mtmetrology.uncertainty.guf import GUFResult, guf
 from mtmetrology.uncertainty.mcm import MCMResult, monte_carlo
 from mtmetrology.uncertainty.outputs import result_document
@@ -153,8 +170,10 @@ class TaskResult:
     points_covariance : (3n, 3n) ndarray, mm²
         U_q of the compensated points (first order).
     shares : dict of str to (m,) ndarray
-        First-order variance share of each output from the repeatability, the machine
-        parameters (zero to first order, see the module notes) and E.
+        First-order variance share of each output from each independent source
+        (:data:`~mtmetrology.omm.simulator.GROUPS`); they add to 1.
+    long_term : {"propagated", "recalibrated", "not given"}
+        Whether the long-term variation of the parameters is in the budget.
     decision : ConformityDecision or None
         ISO 14253-1:2017 decision when a tolerance was given (first output of ``result``).
     """
@@ -167,6 +186,7 @@ class TaskResult:
     points: np.ndarray
     points_covariance: np.ndarray
     shares: dict
+    long_term: str = "not given"
     decision: ConformityDecision | None = None
 
     @property
@@ -180,6 +200,10 @@ class TaskResult:
         doc["covariance_simulator"] = {
             "method": self.inputs.simulator,
             "draws": self.inputs.draws,
+        }
+        doc["measurement_model"] = {
+            "equation": "y = g(f(Γ, Δ) + E); Δ = the calibration's estimate, u(Δ) = U_θ",
+            "long_term_variation": self.long_term,
         }
         doc["budget_groups"] = {
             name: {g: float(share[j]) for g, share in self.shares.items()}
@@ -195,9 +219,11 @@ def task_uncertainty(
     machine: Machine,
     readings: np.ndarray,
     parameters: np.ndarray,
-    parameter_covariance: np.ndarray,
+    calibration_covariance: np.ndarray,
     feature,
     *,
+    long_term_covariance: np.ndarray | None = None,
+    recalibrated: bool = False,
     reading_covariance: np.ndarray | None = None,
     unexplained_covariance: np.ndarray | None = None,
     senses: np.ndarray | None = None,
@@ -222,12 +248,20 @@ def task_uncertainty(
     readings : (n, n_axes) array
         Probed readings φ_s (mm, rad).
     parameters : (P,) array
-        Machine parameters δ (internal units, ``machine.parameter_names`` order).
-    parameter_covariance : (P, P) array
-        Long-term covariance Σ of the parameters.
+        The calibration's estimate δ̂ that compensates the readings (internal units,
+        ``machine.parameter_names`` order).
+    calibration_covariance : (P, P) array
+        U_θ of δ̂, always propagated (the ``calibration`` group).
     feature : mtmetrology.fitting.features.Feature
         ``value(points (..., n, 3))`` vectorised over trials and
         ``jacobian(points) -> (m, 3n)``.
+    long_term_covariance : (P, P) array, optional
+        Σ_lt, the variation of the parameters between calibrations (e.g. the covariance
+        of :func:`~mtmetrology.identification.long_term.long_term_parameters`): the
+        ``long_term_variation`` group; none leaves it out (``long_term = "not given"``).
+    recalibrated : bool
+        The machine is recalibrated for the task: no long-term term (refused together
+        with ``long_term_covariance``).
     reading_covariance : (n, n_axes, n_axes) array, optional
         v_s of each reading (e.g. :func:`reading_covariance`); none means perfect
         repeatability.
@@ -260,16 +294,27 @@ def task_uncertainty(
     ------
     InputError
         Shapes that do not match the machine, a singular linear-axis Jacobian, a
-        covariance that is not positive semidefinite, an unknown method or simulator.
+        covariance that is not positive semidefinite, an unknown method or simulator, a
+        long-term covariance for a recalibrated machine.
     """
     if method not in METHODS:
         raise InputError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    if recalibrated and long_term_covariance is not None:
+        raise InputError(
+            "long-term covariance given for a machine recalibrated for the task: give one"
+        )
+    long_term = (
+        "recalibrated"
+        if recalibrated
+        else ("not given" if long_term_covariance is None else "propagated")
+    )
     sim_seed, mc_seed = chunk_generators(seed, 2)  # independent: simulator, Monte Carlo
     inputs = covariance_simulator(
         machine,
         readings,
         parameters,
-        parameter_covariance,
+        calibration_covariance,
+        long_term_covariance=long_term_covariance,
         reading_covariance=reading_covariance,
         unexplained_covariance=unexplained_covariance,
         senses=senses,
@@ -296,14 +341,12 @@ def task_uncertainty(
         output_names=list(model.output_names),
         output_units=list(model.output_units),
     )
-    ux = inputs.covariance
-    full = guf_result.sensitivities * (ux @ guf_result.sensitivities.T).T  # (m, N)
     var = np.diag(guf_result.covariance)
     shares = {
-        name: np.where(var > 0, full[:, sl].sum(axis=1) / np.where(var > 0, var, 1.0), 0.0)
-        for name, sl in inputs.groups.items()
+        name: np.where(var > 0, part / np.where(var > 0, var, 1.0), 0.0)
+        for name, part in inputs.group_variances(guf_result.sensitivities).items()
     }
-    u_q = c_points @ ux @ c_points.T
+    u_q = c_points @ inputs.covariance @ c_points.T
     mcm_result = validation = None
     if method != "guf":
         mcm_result = monte_carlo(
@@ -334,4 +377,5 @@ def task_uncertainty(
         points,
         0.5 * (u_q + u_q.T),
         shares,
+        long_term,
     )

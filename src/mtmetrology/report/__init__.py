@@ -14,12 +14,12 @@ calibration certificate::
     rep.write("report.html")
 
 Result objects render the same tables and figures in Jupyter through
-:class:`mtmetrology.report.notebook.NotebookRepr` (``_repr_html_``); the renderers of
-the engines' results are in :mod:`mtmetrology.report.results`.
+:class:`mtmetrology.display.NotebookRepr` (``_repr_html_``) and the renderer
+registry of :mod:`mtmetrology.display`; the renderers of the engines' results are in
+:mod:`mtmetrology.report.results`.
 
 ``Report`` is loaded on first use (PEP 562), so that the result classes of the lower
-layers can import :mod:`mtmetrology.report.notebook` without loading Jinja2 or
-matplotlib.
+layers never load Jinja2 or matplotlib before a result is shown.
 """
 
 from __future__ import annotations

@@ -1,10 +1,11 @@
 """What a report shows for each result object of the engines.
 
-One renderer per result class, registered by the class's import path (so that this
-module needs to import no engine): ``add_result(rep, result)`` appends its sections to a
-:class:`~mtmetrology.report.Report`, ``result_report(result)`` makes a report of one
-result (what Jupyter shows through :class:`~mtmetrology.report.notebook.NotebookRepr`).
-Applications register theirs with :func:`renders`.
+One renderer per result class, registered by class in the registry of
+:mod:`mtmetrology.display` (looked up through the MRO): ``add_result(rep, result)``
+appends its sections to a :class:`~mtmetrology.report.Report`, ``result_report(result)``
+makes a report of one result, and its fragment is what Jupyter shows through
+:class:`~mtmetrology.display.NotebookRepr`. Applications register theirs with
+:func:`renders` (that is, :func:`mtmetrology.display.register`) in their report module.
 
 Values are shown in the units of the result: customary units (µm, µrad, µm/m) for
 parameter sets and documents, the model's units for uncertainty results, and the internal
@@ -14,54 +15,30 @@ units (mm, rad) for the unknowns of an identification, which carry no unit label
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 
+from mtmetrology import display
+from mtmetrology.fitting.least_squares import FitResult
+from mtmetrology.fitting.minimum_zone import ZoneResult
+from mtmetrology.identification.diagnostics import IdentifiabilityReport
+from mtmetrology.identification.solver import IdentificationResult
+from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
 from mtmetrology.report.format import format_uncertainty, format_value
+from mtmetrology.uncertainty.guf import GUFResult
+from mtmetrology.uncertainty.mcm import MCMResult
+from mtmetrology.uncertainty.validation import ValidationReport
 from mtmetrology.units import from_internal
 
 __all__ = ["add_fit_document", "add_result", "renders", "result_report"]
 
-Renderer = Callable[..., None]
-_RENDERERS: dict[str, Renderer] = {}
-_TITLES: dict[str, str] = {}
-
 #: Correlation maps and coverage ellipses are drawn up to this many quantities.
 MAX_MAPPED = 40
 
-
-def renders(path: str, title: str | None = None) -> Callable[[Renderer], Renderer]:
-    """Register ``func(rep, result, **context)`` as the renderer of the class at ``path``.
-
-    Parameters
-    ----------
-    path : str
-        ``module.ClassName`` of the result class (its ``__module__`` and
-        ``__qualname__``).
-    title : str, optional
-        The title of a report made of that result alone.
-    """
-
-    def register(func: Renderer) -> Renderer:
-        _RENDERERS[path] = func
-        _TITLES[path] = title or path.rsplit(".", 1)[-1]
-        return func
-
-    return register
-
-
-def _path(cls: type) -> str:
-    return f"{cls.__module__}.{cls.__qualname__}"
-
-
-def _lookup(result: object) -> str:
-    for cls in type(result).__mro__:
-        if _path(cls) in _RENDERERS:
-            return _path(cls)
-    raise TypeError(f"no report renderer for {_path(type(result))}")
+#: ``@renders(cls, title)``: register the renderer of a result class (one registry, by class).
+renders = display.register
 
 
 def add_result(rep: Report, result: object, **context) -> Report:
@@ -72,14 +49,25 @@ def add_result(rep: Report, result: object, **context) -> Report:
     TypeError
         If no renderer is registered for the result's class or its bases.
     """
-    _RENDERERS[_lookup(result)](rep, result, **context)
+    display.renderer_for(result).func(rep, result, **context)
     return rep
 
 
 def result_report(result: object, title: str | None = None, **context) -> Report:
     """A report of one result (no command line, versions and date in its provenance)."""
-    rep = Report(title or _TITLES[_lookup(result)])
-    return add_result(rep, result, **context)
+    renderer = display.renderer_for(result)
+    rep = Report(title or renderer.title)
+    renderer.func(rep, result, **context)
+    return rep
+
+
+def _fragment(renderer: display.Renderer, result: object) -> str:
+    rep = Report(renderer.title)
+    renderer.func(rep, result)
+    return rep.fragment()
+
+
+display.set_html_builder(_fragment)
 
 
 def _dof(v: float) -> str:
@@ -91,7 +79,7 @@ def _interval(low: float, high: float, u: float) -> str:
 
 
 # -- uncertainty ---------------------------------------------------------------------------
-@renders("mtmetrology.uncertainty.guf.GUFResult", "GUF uncertainty evaluation")
+@renders(GUFResult, "GUF uncertainty evaluation")
 def _guf(rep: Report, g, **_) -> None:
     how = f"sensitivities: {g.sensitivity_method}"
     if g.newton_iterations:
@@ -152,7 +140,7 @@ def _guf(rep: Report, g, **_) -> None:
         )
 
 
-@renders("mtmetrology.uncertainty.mcm.MCMResult", "Monte Carlo uncertainty evaluation")
+@renders(MCMResult, "Monte Carlo uncertainty evaluation")
 def _mcm(rep: Report, r, *, names=None, units=None, guf=None, **_) -> None:
     """``names``, ``units``: of the outputs; ``guf``: a GUFResult drawn over the histograms."""
     names = list(names or r.names)
@@ -216,7 +204,7 @@ def _mcm(rep: Report, r, *, names=None, units=None, guf=None, **_) -> None:
             )
 
 
-@renders("mtmetrology.uncertainty.validation.ValidationReport", "Validation of the GUF")
+@renders(ValidationReport, "Validation of the GUF")
 def _validation(rep: Report, v, **_) -> None:
     verdict = "validated" if v.passed else "NOT validated"
     rep.section(f"Validation of the GUF by Monte Carlo: {verdict}", v.message)
@@ -240,7 +228,7 @@ def _validation(rep: Report, v, **_) -> None:
 
 
 # -- identification ------------------------------------------------------------------------
-@renders("mtmetrology.identification.diagnostics.IdentifiabilityReport", "Identifiability")
+@renders(IdentifiabilityReport, "Identifiability")
 def _identifiability(rep: Report, d, **_) -> None:
     rep.section("Identifiability", d.message)
     rows = [
@@ -262,7 +250,7 @@ def _identifiability(rep: Report, d, **_) -> None:
     )
 
 
-@renders("mtmetrology.identification.solver.IdentificationResult", "Identification")
+@renders(IdentificationResult, "Identification")
 def _identification(rep: Report, result, **_) -> None:
     rep.section("Identification", result.message)
     vf = result.variance_factor
@@ -339,8 +327,8 @@ def add_fit_document(rep: Report, document: dict, residuals, points=None) -> Rep
     return rep
 
 
-@renders("mtmetrology.fitting._odr.FitResult", "Least-squares fit")
-@renders("mtmetrology.fitting._zones.ZoneResult", "Chebyshev fit")
+@renders(FitResult, "Least-squares fit")
+@renders(ZoneResult, "Chebyshev fit")
 def _fit(rep: Report, result, *, points=None, source: str = "points", **_) -> None:
     """``points``: the fitted (n, 3) points, to draw their deviations."""
     from mtmetrology.fitting.documents import fit_document
@@ -359,7 +347,7 @@ def _fit(rep: Report, result, *, points=None, source: str = "points", **_) -> No
     add_fit_document(rep, document, result.residuals, points)
 
 
-@renders("mtmetrology.kinematics.parameter_set.ParameterSet", "Parameter set")
+@renders(ParameterSet, "Parameter set")
 def _parameter_set(rep: Report, pset, *, coverage_factor: float = 2.0, **_) -> None:
     where = ", ".join(
         f"{k} {v}" for k, v in (("machine", pset.machine), ("model", pset.model)) if v

@@ -10,36 +10,34 @@ uncertainty through the identification (GUF and Monte Carlo), and the length che
 - :mod:`~mtmetrology.samba.verify` — the gauge-block length check.
 """
 
-from mtmetrology.samba.artefact import SambaArtefact, load_artefact
-from mtmetrology.samba.calibrate import SambaCalibration, calibrate
-from mtmetrology.samba.records import SambaRecords, read_records
-from mtmetrology.samba.setup import SambaSetup, probing_sequence
-from mtmetrology.samba.simulate import (
-    BallLayout,
-    ProbingProgramme,
-    load_balls,
-    read_poses,
-    simulate_records,
-)
-from mtmetrology.samba.uncertainty import (
-    IdentificationModel,
-    SambaUncertainty,
-    evaluate_uncertainty,
-    identification_guf,
-    identification_mcm,
-    indication_inputs,
-    joint_coverage,
-)
-from mtmetrology.samba.verify import (
-    LengthCheck,
-    read_length_readings,
-    simulate_length_readings,
-    verify_length,
-)
+from mtmetrology._lazy import lazy_exports
+
+_EXPORTS = {
+    "SambaArtefact": "mtmetrology.samba.artefact",
+    "load_artefact": "mtmetrology.samba.artefact",
+    "SambaCalibration": "mtmetrology.samba.calibrate",
+    "calibrate": "mtmetrology.samba.calibrate",
+    "SambaRecords": "mtmetrology.samba.records",
+    "read_records": "mtmetrology.samba.records",
+    "SambaSetup": "mtmetrology.samba.setup",
+    "probing_sequence": "mtmetrology.samba.setup",
+    "BallLayout": "mtmetrology.samba.simulate",
+    "ProbingProgramme": "mtmetrology.samba.simulate",
+    "load_balls": "mtmetrology.samba.simulate",
+    "read_poses": "mtmetrology.samba.simulate",
+    "simulate_records": "mtmetrology.samba.simulate",
+    "SambaUncertainty": "mtmetrology.samba.uncertainty",
+    "evaluate_uncertainty": "mtmetrology.samba.uncertainty",
+    "indication_inputs": "mtmetrology.samba.uncertainty",
+    "uncertainty_model": "mtmetrology.samba.uncertainty",
+    "LengthCheck": "mtmetrology.samba.verify",
+    "read_length_readings": "mtmetrology.samba.verify",
+    "simulate_length_readings": "mtmetrology.samba.verify",
+    "verify_length": "mtmetrology.samba.verify",
+}
 
 __all__ = [
     "BallLayout",
-    "IdentificationModel",
     "LengthCheck",
     "ProbingProgramme",
     "SambaArtefact",
@@ -49,10 +47,7 @@ __all__ = [
     "SambaUncertainty",
     "calibrate",
     "evaluate_uncertainty",
-    "identification_guf",
-    "identification_mcm",
     "indication_inputs",
-    "joint_coverage",
     "load_artefact",
     "load_balls",
     "probing_sequence",
@@ -61,5 +56,8 @@ __all__ = [
     "read_records",
     "simulate_length_readings",
     "simulate_records",
+    "uncertainty_model",
     "verify_length",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

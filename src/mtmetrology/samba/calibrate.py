@@ -31,7 +31,7 @@ Tool Metrology*. PhD thesis, Polytechnique Montréal, Ch. 5 (eqs 5-1 to 5-6).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -49,9 +49,48 @@ from mtmetrology.samba.notebook import SambaNotebookRepr
 from mtmetrology.samba.records import SambaRecords
 from mtmetrology.units import from_internal
 
-__all__ = ["SambaCalibration", "calibrate", "separation_advice"]
+__all__ = ["COVERAGE_PROBABILITY", "SambaCalibration", "calibrate", "coverage", "separation_advice"]
 
 KIND = "samba-calibration"
+#: Coverage probability of the expanded uncertainties U = k u of the parameters when no
+#: uncertainty evaluation states its own (the identification covariance alone).
+COVERAGE_PROBABILITY = 0.95
+
+
+def coverage(uncertainty=None) -> dict:
+    """The one coverage factor of a calibration's parameters: console, JSON and report.
+
+    ``k`` is the normal quantile of the coverage probability ``p`` of the uncertainty
+    evaluation (its GUF, else its Monte Carlo run, else :data:`COVERAGE_PROBABILITY`):
+    ``k = Φ⁻¹((1 + p)/2)``, 1.96 for p = 0.95 (JCGM 100:2008, G.1.3), the k the GUF
+    outputs of the same document state.
+
+    Parameters
+    ----------
+    uncertainty : SambaUncertainty, optional
+
+    Returns
+    -------
+    dict
+        ``{"p": p, "k": k, "rule": ...}``.
+
+    References
+    ----------
+    JCGM 100:2008, 6.2.1 (U = k u) and G.1.3 (Table G.1).
+    """
+    from scipy import stats
+
+    p = COVERAGE_PROBABILITY
+    if uncertainty is not None:
+        run = uncertainty.guf if uncertainty.guf is not None else uncertainty.mcm
+        p = run.p if run is not None else p
+    return {
+        "p": p,
+        "k": float(stats.norm.ppf((1.0 + p) / 2.0)),
+        "rule": "U = k u of every parameter, k = normal quantile of p",
+    }
+
+
 #: Converged when the scaled Gauss–Newton step is below a millionth of the input standard
 #: uncertainties.  Tighter is below the rounding of the 84-coefficient chain (its
 #: residuals carry ~1e-8 σ of rounding, which the undamped step amplifies by 1/s_min).
@@ -73,7 +112,8 @@ class SambaCalibration(SambaNotebookRepr):
     nominal : IdentificationResult
         The set-up unknowns alone (machine errors held at zero).
     parameters : ParameterSet
-        The machine's error parameters with ``(JᵀJ)⁻¹`` of the weighted problem.
+        The machine's error parameters with ``(JᵀJ)⁻¹`` of the weighted problem, and the
+        identified tool vector when it was estimated.
     """
 
     machine: Machine
@@ -150,6 +190,7 @@ class SambaCalibration(SambaNotebookRepr):
                 pset.provenance,
                 machine=pset.machine,
                 model=pset.model,
+                tool=pset.tool,
             )
             source = "mcm" if uncertainty.guf is None or not _validated(uncertainty) else "guf"
         doc = pset.to_document()
@@ -163,6 +204,7 @@ class SambaCalibration(SambaNotebookRepr):
         res = from_internal(self.residual_vectors, "µm")
         norms = np.linalg.norm(res, axis=1)
         nominal = np.linalg.norm(from_internal(self.nominal_vectors, "µm"), axis=1)
+        doc["coverage"] = coverage(uncertainty)
         doc["conventions"] = [c.to_dict() for c in describe_parameters(self.machine)]
         doc["identification"] = {
             "status": ident.status,
@@ -365,6 +407,10 @@ def calibrate(
         "records": records.source,
         "minimum_norm": result.minimum_norm,
     }
+    pset = result.parameter_set(machine, provenance)
+    if estimate_tool:  # what the calibration identifies, compensation uses
+        _, _, dtool = problem.split(result.estimate)
+        pset = replace(pset, tool=machine.tool + dtool)
     return SambaCalibration(
         machine=machine,
         records=records,
@@ -372,5 +418,5 @@ def calibrate(
         problem=problem,
         identification=result,
         nominal=nominal,
-        parameters=result.parameter_set(machine, provenance),
+        parameters=pset,
     )

@@ -7,13 +7,13 @@ that importing :mod:`mtmetrology.samba` stays free of the plotting stack.
 
 from __future__ import annotations
 
-from mtmetrology.report.notebook import NotebookRepr
+from mtmetrology.display import NotebookRepr
 
 __all__ = ["SambaNotebookRepr"]
 
 
 class SambaNotebookRepr(NotebookRepr):
-    """:class:`~mtmetrology.report.notebook.NotebookRepr` that registers the SAMBA renderers."""
+    """:class:`~mtmetrology.display.NotebookRepr` that registers the SAMBA renderers."""
 
     __slots__ = ()
     _renderer_module = "mtmetrology.samba.report"

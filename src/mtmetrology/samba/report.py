@@ -12,8 +12,9 @@
 - :class:`~mtmetrology.samba.verify.LengthCheck`: the gauge-length errors of each pair
   before and after compensation and their statistics.
 
-Values are in customary units (µm, µrad, µm/m, mm); U = k u with k = 2 in the parameter
-table (the GUF/MCM tables give their own k).
+Values are in customary units (µm, µrad, µm/m, mm); U = k u in the parameter table with
+the document's one coverage factor (``coverage.k``: 1.96 for p = 0.95, the k of the GUF
+outputs; :func:`mtmetrology.samba.calibrate.coverage`).
 
 References
 ----------
@@ -35,12 +36,13 @@ from mtmetrology.report import figures
 from mtmetrology.report.document import Report
 from mtmetrology.report.format import format_uncertainty, format_value
 from mtmetrology.report.results import add_result, renders
+from mtmetrology.samba.calibrate import SambaCalibration
+from mtmetrology.samba.uncertainty import SambaUncertainty
+from mtmetrology.samba.verify import LengthCheck
 from mtmetrology.units import from_internal
 
-__all__ = ["COVERAGE_FACTOR", "indication_residuals", "length_error_bars"]
+__all__ = ["indication_residuals", "length_error_bars"]
 
-#: k of the expanded uncertainties of the parameter table.
-COVERAGE_FACTOR = 2.0
 #: Correlation maps of the error parameters are drawn up to this many parameters.
 MAX_MAPPED = 90
 
@@ -74,7 +76,7 @@ def _correlation(covariance) -> np.ndarray:
         return np.nan_to_num(cov / np.outer(u, u))
 
 
-@renders("mtmetrology.samba.calibrate.SambaCalibration", "SAMBA calibration")
+@renders(SambaCalibration, "SAMBA calibration")
 def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
     """``uncertainty``: the SambaUncertainty that sets the parameter covariance."""
     doc = cal.to_dict(uncertainty)
@@ -103,9 +105,10 @@ def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
         "Error parameters",
         f"{len(doc['parameters'])} parameters; covariance from {doc['covariance_source']}.",
     )
+    k = doc["coverage"]["k"]
     rep.table(
-        figures.parameter_table_columns(COVERAGE_FACTOR),
-        figures.parameter_table_rows(doc, coverage_factor=COVERAGE_FACTOR),
+        figures.parameter_table_columns(round(k, 2)),
+        figures.parameter_table_rows(doc, coverage_factor=k),
     )
     cov = doc.get("covariance")
     if cov is not None and 1 < len(cov["names"]) <= MAX_MAPPED:
@@ -150,7 +153,7 @@ def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
         add_result(rep, uncertainty)
 
 
-@renders("mtmetrology.samba.uncertainty.SambaUncertainty", "SAMBA uncertainty")
+@renders(SambaUncertainty, "SAMBA uncertainty")
 def _uncertainty(rep: Report, unc, **_) -> None:
     doc = unc.to_dict()
     g, mc = unc.guf, unc.mcm
@@ -263,7 +266,7 @@ def length_error_bars(pairs, nominal_um, compensated_um) -> Figure:
     return fig
 
 
-@renders("mtmetrology.samba.verify.LengthCheck", "Gauge-length check")
+@renders(LengthCheck, "Gauge-length check")
 def _length(rep: Report, check, **_) -> None:
     doc = check.to_dict()
     u = "" if check.u_length is None else f", u(L) = {check.u_length:g} mm"

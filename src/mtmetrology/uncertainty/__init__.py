@@ -11,11 +11,15 @@
 - :mod:`~mtmetrology.uncertainty.regions` — coverage intervals and regions;
 - :mod:`~mtmetrology.uncertainty.validation` — GUF validated by Monte Carlo;
 - :mod:`~mtmetrology.uncertainty.executors` — in-process, process pool, Dask;
-- :mod:`~mtmetrology.uncertainty.modelfile` — measurement models in YAML.
+- :mod:`~mtmetrology.uncertainty.modelfile` — measurement models in YAML;
+- :mod:`~mtmetrology.uncertainty.conformity` — ISO 14253-1 decision rules (JCGM 106): a
+  specification ``Tolerance`` and ``decide``.
 """
 
+from mtmetrology.uncertainty.conformity import ConformityDecision, Decision, Tolerance, decide
 from mtmetrology.uncertainty.distributions import (
     Arcsine,
+    Beta,
     CurvilinearTrapezoid,
     MultivariateNormal,
     MultivariateT,
@@ -42,8 +46,11 @@ from mtmetrology.uncertainty.validation import ValidationReport, validate_guf, v
 
 __all__ = [
     "Arcsine",
+    "Beta",
+    "ConformityDecision",
     "CurvilinearTrapezoid",
     "DaskExecutor",
+    "Decision",
     "GUFResult",
     "InProcessExecutor",
     "InputQuantity",
@@ -58,9 +65,11 @@ __all__ = [
     "Rectangular",
     "Samples",
     "StudentT",
+    "Tolerance",
     "Trapezoidal",
     "Triangular",
     "ValidationReport",
+    "decide",
     "guf",
     "load_model",
     "make_distribution",

@@ -22,6 +22,7 @@ import numpy as np
 __all__ = [
     "DISTRIBUTION_KINDS",
     "Arcsine",
+    "Beta",
     "CurvilinearTrapezoid",
     "Distribution",
     "MultivariateNormal",
@@ -290,6 +291,63 @@ class Arcsine(_SymmetricInterval):
 
     def sample(self, rng, size):
         return self.mean + 0.5 * (self.high - self.low) * np.sin(2.0 * np.pi * rng.random(size))
+
+
+@dataclass(frozen=True)
+class Beta(Distribution):
+    """Beta distribution with shape parameters ``alpha``, ``beta`` on [low, high].
+
+    Parameters
+    ----------
+    low, high : float
+        Limits of the support (high > low).
+    alpha, beta : float
+        Shape parameters, > 0 (alpha = beta: symmetric about the centre; alpha = beta = 1:
+        rectangular).
+
+    Notes
+    -----
+    With ``w = high − low`` and ``s = alpha + beta``::
+
+        E = low + w·alpha/s,     V = w²·alpha·beta / (s²·(s + 1)).
+
+    The random part of a geometric error (Aguado et al. (2019), eqs 18–20) is modelled by
+    a normal or a beta distribution (Ahn and Cho (2000), cited there).
+
+    References
+    ----------
+    N. L. Johnson, S. Kotz, N. Balakrishnan, *Continuous Univariate Distributions*, vol. 2,
+    2nd ed., Wiley, 1995, ch. 25.
+    """
+
+    low: float
+    high: float
+    alpha: float
+    beta: float
+
+    def __post_init__(self):
+        lo, hi = _limits(self.low, self.high)
+        if hi == lo:
+            raise ValueError(f"high ({hi}) must be > low ({lo}) for a beta distribution")
+        for name in ("alpha", "beta"):
+            if _finite(name, getattr(self, name)) <= 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        object.__setattr__(self, "low", lo)
+        object.__setattr__(self, "high", hi)
+        object.__setattr__(self, "alpha", float(self.alpha))
+        object.__setattr__(self, "beta", float(self.beta))
+
+    @property
+    def mean(self) -> float:
+        return self.low + (self.high - self.low) * self.alpha / (self.alpha + self.beta)
+
+    @property
+    def standard_uncertainty(self) -> float:
+        s = self.alpha + self.beta
+        return (self.high - self.low) * math.sqrt(self.alpha * self.beta / (s * s * (s + 1.0)))
+
+    def sample(self, rng, size):
+        return self.low + (self.high - self.low) * rng.beta(self.alpha, self.beta, size)
 
 
 @dataclass(frozen=True)
@@ -619,6 +677,11 @@ def _trapezoidal(p: dict) -> Trapezoidal:
     return Trapezoidal(lo, hi, p.pop("beta"))
 
 
+def _beta(p: dict) -> Beta:
+    lo, hi = _bounded("beta", p, ("alpha", "beta"))
+    return Beta(lo, hi, p.pop("alpha"), p.pop("beta"))
+
+
 def _curvilinear(p: dict) -> CurvilinearTrapezoid:
     lo, hi = _bounded("curvilinear-trapezoid", p, ("d",))
     return CurvilinearTrapezoid(lo, hi, p.pop("d"))
@@ -631,6 +694,7 @@ _REGISTRY: dict[str, tuple[Callable[[dict], Distribution], str]] = {
     "trapezoidal": (_trapezoidal, "low, high, beta  or  x, a, beta"),
     "curvilinear-trapezoid": (_curvilinear, "low, high, d  or  x, a, d"),
     "arcsine": (lambda p: Arcsine(*_bounded("arcsine", p)), "low, high  or  x, a"),
+    "beta": (_beta, "low, high, alpha, beta  or  x, a, alpha, beta"),
     "student-t": (lambda p: StudentT(p.pop("x"), p.pop("s"), p.pop("dof")), "x, s, dof"),
     "samples": (lambda p: Samples(p.pop("values")), "values"),
     "multivariate-normal": (

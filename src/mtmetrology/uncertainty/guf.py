@@ -17,10 +17,9 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-from scipy import stats
 
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import ConvergenceError, InputError
-from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.uncertainty.outputs import Output, json_dof, output_labels, output_records
 from mtmetrology.uncertainty.regions import (
     normal_ellipsoidal_coverage_factor,
@@ -550,6 +549,8 @@ def guf(
 
 
 def _t_factor(p: float, nu: float, truncate: bool) -> float:
+    from scipy import stats  # here, not at the top: importing it takes 0.5 s
+
     q = 0.5 * (1.0 + p)
     if math.isinf(nu):
         return float(stats.norm.ppf(q))

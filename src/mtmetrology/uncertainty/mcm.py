@@ -26,8 +26,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
-from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.rng import SeedLike, chunk_generators
 from mtmetrology.uncertainty.executors import resolve_executor
 from mtmetrology.uncertainty.outputs import Output, output_labels, output_records
@@ -48,7 +48,7 @@ __all__ = [
     "ConvergenceCheck",
     "MCMResult",
     "ModelEvaluationError",
-    "Tolerance",
+    "NumericalTolerance",
     "check_tolerance",
     "monte_carlo",
     "numerical_tolerance",
@@ -104,8 +104,9 @@ def numerical_tolerance(value, digits: int = 2):
 
 
 @dataclass(frozen=True, eq=False)
-class Tolerance:
-    """Numerical tolerances of the adaptive procedure and of GUF validation.
+class NumericalTolerance:
+    """Numerical tolerances (JCGM 101:2008, 7.9.2) of the adaptive procedure and of GUF
+    validation (a specification is :class:`~mtmetrology.uncertainty.conformity.Tolerance`).
 
     Attributes
     ----------
@@ -134,8 +135,9 @@ class Tolerance:
         return np.broadcast_to(output, (m,)).copy()
 
 
-def check_tolerance(tolerance) -> Tolerance | None:
-    """A user's tolerance (None, a number, a 1-D array or a Tolerance) checked and wrapped.
+def check_tolerance(tolerance) -> NumericalTolerance | None:
+    """A user's tolerance (None, a number, a 1-D array or a NumericalTolerance), checked
+    and wrapped.
 
     Raises
     ------
@@ -144,8 +146,8 @@ def check_tolerance(tolerance) -> Tolerance | None:
     """
     if tolerance is None:
         return None
-    if not isinstance(tolerance, Tolerance):
-        tolerance = Tolerance(tolerance)
+    if not isinstance(tolerance, NumericalTolerance):
+        tolerance = NumericalTolerance(tolerance)
     output = np.asarray(tolerance.output, dtype=float)
     if output.ndim > 1 or not np.all(np.isfinite(output)) or np.any(output <= 0):
         raise ValueError(
@@ -212,7 +214,7 @@ class MCMResult(NotebookRepr):
         Number of sequences h (1 for a fixed number of trials).
     converged : bool or None
         Whether the adaptive procedure met its tolerances; None for a fixed run.
-    tolerance : Tolerance or None
+    tolerance : NumericalTolerance or None
         Tolerances of the adaptive procedure as applied (None for a fixed run).
     criterion : str or None
         "jcgm" or "strict" for an adaptive run.
@@ -245,7 +247,7 @@ class MCMResult(NotebookRepr):
     trials: int
     sequences: int
     converged: bool | None
-    tolerance: Tolerance | None
+    tolerance: NumericalTolerance | None
     criterion: str | None
     checks: tuple[ConvergenceCheck, ...]
     scalar_model: bool
@@ -566,7 +568,7 @@ def _stability_checks(per_sequence, moments, m, tolerance, digits, criterion):
     if m > 1:
         checks.append(ConvergenceCheck("largest eigenvalue", None, float(spread[4 * m]), rho))
         checks.append(ConvergenceCheck("coverage factor", None, float(spread[4 * m + 1]), kappa))
-    return checks, Tolerance(delta, rho, kappa)
+    return checks, NumericalTolerance(delta, rho, kappa)
 
 
 def _freeze(array: np.ndarray) -> np.ndarray:
@@ -648,7 +650,7 @@ def monte_carlo(
     digits : int
         Significant digits n_dig from which the tolerances are derived when ``tolerance``
         does not give them (JCGM 101, 7.9.2).
-    tolerance : float, (m,) array or Tolerance, optional
+    tolerance : float, (m,) array or NumericalTolerance, optional
         Explicit δ (output units) per output, or a :class:`Tolerance` with ρ and κ_p too.
     criterion : {"jcgm", "strict"}
         "jcgm": 2·s/√h ≤ δ, s the standard deviation of the h sequence values (JCGM 101,

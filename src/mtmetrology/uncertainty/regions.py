@@ -17,7 +17,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
 __all__ = [
     "Histogram",
@@ -402,6 +401,8 @@ def normal_ellipsoidal_coverage_factor(m: int, p: float = 0.95) -> float:
     JCGM 102:2011, 6.5.2.3; Sepahi Boroujeni (2021), Table 5-3 and Ch. 7: 1.96, 2.4477,
     3.5485, 4.7289 for m = 1, 2, 6, 13 and p = 0.95.
     """
+    from scipy import stats  # here, not at the top: importing it takes 0.5 s
+
     if int(m) < 1:
         raise ValueError(f"m must be a positive number of outputs, got {m}")
     return float(np.sqrt(stats.chi2.ppf(_check_probability(p), int(m))))
@@ -425,6 +426,8 @@ def normal_rectangular_coverage_factor(m: int, p: float = 0.95, *, independent: 
     JCGM 102:2011, 6.5.4; the pairwise rectangles of Sepahi Boroujeni (2021), Ch. 5: 2.2365
     (independent) and 2.2414 (Bonferroni) for m = 2, p = 0.95.
     """
+    from scipy import stats  # here, not at the top: importing it takes 0.5 s
+
     if int(m) < 1:
         raise ValueError(f"m must be a positive number of outputs, got {m}")
     p = _check_probability(p)

@@ -19,15 +19,19 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
-from mtmetrology.report.notebook import NotebookRepr
-from mtmetrology.uncertainty.mcm import MCMResult, Tolerance, check_tolerance, numerical_tolerance
+from mtmetrology.uncertainty.mcm import (
+    MCMResult,
+    NumericalTolerance,
+    check_tolerance,
+    numerical_tolerance,
+)
 from mtmetrology.uncertainty.regions import normal_ellipsoidal_coverage_factor
 
 __all__ = [
-    "Tolerance",
+    "NumericalTolerance",
     "ValidationReport",
     "ValidationRow",
     "validate_guf",
@@ -188,7 +192,7 @@ def validate_guf(
         GUF covariance U_y (a variance u² for one output).
     mcm : MCMResult
         Monte Carlo result of the same model, run with the same p.
-    tolerance : float, (m,) array or Tolerance
+    tolerance : float, (m,) array or NumericalTolerance
         δ per output (output units); a :class:`Tolerance` also gives ρ and κ_p, otherwise
         they follow from two significant digits of the MCM λ_max and k_p (JCGM 101, 7.9.2:
         λ_max = 1.313 → ρ = 0.05, k_p = 3.55 → κ_p = 0.05, as in Sepahi Boroujeni 2021, Ch. 7).
@@ -255,6 +259,8 @@ def validate_guf(
     >>> [round(row.difference, 2) for row in report.rows], report.passed
     ([0.04, 0.04], False)
     """
+    from scipy import stats  # here, not at the top: importing it takes 0.5 s
+
     m = mcm.m
     p = float(p)
     if not 0.0 < p < 1.0:
@@ -277,7 +283,7 @@ def validate_guf(
         raise ValueError("guf_covariance must be symmetric with a non-negative diagonal")
     tolerance = check_tolerance(tolerance)
     if tolerance is None:
-        raise ValueError("tolerance is required: δ, a per-output array, or a Tolerance")
+        raise ValueError("tolerance is required: δ, a per-output array, or a NumericalTolerance")
     delta = tolerance.for_outputs(m)
     if names is None:
         names = ["Y"] if m == 1 else [f"Y{j + 1}" for j in range(m)]
@@ -353,7 +359,7 @@ def validate_results(guf_result, mcm_result: MCMResult, *, tolerance=None, digit
     guf_result : GUFResult
     mcm_result : MCMResult
         Same model, same p, same output names.
-    tolerance : float, (m,) array or Tolerance, optional
+    tolerance : float, (m,) array or NumericalTolerance, optional
         δ (and ρ, κ_p); by default the tolerance of an adaptive run, else δ from
         ``digits`` significant digits of the Monte Carlo u(y) (JCGM 101:2008, 7.9.2).
     digits : int
@@ -402,7 +408,7 @@ def validate_results(guf_result, mcm_result: MCMResult, *, tolerance=None, digit
             f"or output names ({list(guf_result.names)}, {list(mcm_result.names)})"
         )
     if tolerance is None:
-        tolerance = mcm_result.tolerance or Tolerance(
+        tolerance = mcm_result.tolerance or NumericalTolerance(
             numerical_tolerance(mcm_result.standard_uncertainty, digits)
         )
     scalar = mcm_result.m == 1

@@ -1,4 +1,4 @@
-"""Tests for mtmetrology.budgets.conformity (ISO 14253-1:2017 decision rules).
+"""Tests for mtmetrology.uncertainty.conformity (ISO 14253-1:2017 decision rules).
 
 The boundary cases use binary-exact numbers (multiples of 1/8) so that "at the limit"
 is exact in floating point, and the next representable number on each side flips the
@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from mtmetrology.budgets import Decision, Tolerance, decide
 from mtmetrology.errors import InputError
+from mtmetrology.uncertainty.conformity import Decision, Tolerance, decide
 
 TWO_SIDED = Tolerance(10.0, -0.25, 0.5)  # LSL 9.75, USL 10.5
 U = 0.125
@@ -120,9 +120,14 @@ def test_bad_tolerance_text_raises_input_error_naming_the_option(text):
 
 
 @pytest.mark.parametrize(
-    ("value", "u", "h"),
-    [(math.nan, 0.1, 1.0), (1.0, -0.1, 1.0), (1.0, 0.1, -1.0), (1.0, math.inf, 1)],
+    ("value", "u", "h", "named"),
+    [
+        (math.nan, 0.1, 1.0, "value: expected a finite number"),
+        (1.0, -0.1, 1.0, "expanded_uncertainty: must be >= 0"),
+        (1.0, 0.1, -1.0, "guard_band_factor: must be >= 0"),
+        (1.0, math.inf, 1, "expanded_uncertainty: expected a finite number"),
+    ],
 )
-def test_bad_numbers_are_refused(value, u, h):
-    with pytest.raises(InputError):
+def test_bad_numbers_are_refused_naming_the_argument(value, u, h, named):
+    with pytest.raises(InputError, match=f"^{named}"):
         decide(value, u, TWO_SIDED, guard_band_factor=h)

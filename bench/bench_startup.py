@@ -1,0 +1,65 @@
+"""Benchmark: start-up of the command line, each command's ``--help`` and ``mtm machine
+list``, in fresh processes.
+
+Issue 20 target: every command's start-up within 3x of ``python -c "import numpy"`` (the
+floor: no command can start without numpy); a command imports only what it runs.
+
+Contenders, each a fresh interpreter timed over 5 repeats (min and median), with the peak
+resident set of the child (``VmHWM``):
+
+- ours: ``mtm --help``, ``mtm machine list`` and ``mtm <command> --help`` for every
+  command, as the console script runs them;
+- baseline: ``mtm --help`` with every command module imported (what the listing cost
+  before the summaries: the whole command line built);
+- floor: ``python -c "import numpy"``.
+
+Run: ``python bench/bench_startup.py`` (``make bench``).  On a shared host the wall
+times mostly measure the other processes: the notes give each command's CPU seconds (user
++ system, least of the repeats) over the floor's, the ratio that load does not inflate.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from bench_csv import MTM, OWN_PEAK, Child
+from harness import Benchmark
+from mtmetrology.cli import COMMANDS, SHARED_GROUPS
+
+FLOOR = [sys.executable, "-c", f"{OWN_PEAK}; import numpy"]
+#: The whole command line built, then its listing (the cost before the summaries).
+FULL_HELP = [
+    sys.executable,
+    "-c",
+    f"{OWN_PEAK}; from mtmetrology.cli import build_app; "
+    "build_app()(['--help'], standalone_mode=False)",
+]
+
+
+def main() -> None:
+    bench = Benchmark("startup", "fresh interpreter, command-line start-up to exit")
+    floor = Child(FLOOR)
+    bench.time('python -c "import numpy"', "floor", floor)
+    bench.timings[-1].note = floor.note()
+    children = {}
+    runs = [("mtm --help", ["--help"]), ("mtm machine list", ["machine", "list"])]
+    runs += [(f"mtm {c} --help", [c, "--help"]) for c in [*COMMANDS, *SHARED_GROUPS]]
+    for label, args in runs:
+        child = children[label] = Child([*MTM, *args])
+        bench.time(label, "ours", child)
+        bench.timings[-1].note = child.note()
+        bench.target(label, 3.0, relative_to='python -c "import numpy"')
+    full = Child(FULL_HELP)
+    bench.time("mtm --help, every command imported", "baseline", full)
+    bench.timings[-1].note = full.note()
+    children["mtm --help, every command imported"] = full
+    for label, child in children.items():
+        ratio = min(child.cpu) / min(floor.cpu)
+        bench.notes.append(
+            f"CPU {label}: {ratio:.1f}x the floor's ({'met' if ratio <= 3 else 'over'} 3x)"
+        )
+    bench.report()
+
+
+if __name__ == "__main__":
+    main()

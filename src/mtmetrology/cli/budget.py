@@ -1,0 +1,302 @@
+"""``mtm budget``: task-uncertainty budgets (ISO 15530-3, VDI/VDE 2617-11 with a map)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from mtmetrology.budgets.iso15530 import Policy, RepeatabilityMethod, iso15530_3_budget
+from mtmetrology.budgets.volumetric_map import (
+    FEATURE_KINDS,
+    map_for_points,
+    volumetric_map_budget,
+)
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    print_json,
+    user_errors,
+    write_report,
+)
+from mtmetrology.errors import InputError
+from mtmetrology.io import check_output, read_csv_table
+from mtmetrology.io.documents import load_document
+from mtmetrology.io.files import write_json
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.kinematics.volumetric_map import MAP_KIND, VolumetricMap
+from mtmetrology.report.format import format_uncertainty
+from mtmetrology.uncertainty.conformity import Tolerance
+from mtmetrology.units import to_internal
+
+app = typer.Typer(help="Task-uncertainty budgets of on-machine measurements.", no_args_is_help=True)
+
+ISO_HELP = """ISO 15530-3 budget of one characteristic from repeated cycles.
+
+RUNS.csv: value[,series], one row per measurement cycle (mm); series labels the series
+for --u-p max-over-series (each ≥ 10 cycles, ≥ 20 repeats in all).  b = mean − VALUE.
+Uncertainties in µm.  --policy 2004: U = k·√(u_cal²+u_p²+u_w²) + |b|; 2011: b corrected,
+U = k·√(u_cal²+u_p²+u_b²+u_w²); paper003 (default): u_b = |b| inside the root.  The
+probe error enters in quadrature above 1 µm (small machine) or 3 µm (large).
+"""
+
+
+def _report(ctx: typer.Context, title: str, inputs: list, header: list, rows: list, notes: str):
+    from mtmetrology.report import Report
+
+    report = Report(title, command=command_line(ctx), provenance={"inputs": inputs})
+    report.section("Budget", notes)
+    report.table(header, rows, caption="Standard uncertainties and U in µm.")
+    return report
+
+
+def _um(value: float, option: str) -> float:
+    if not value >= 0:
+        raise InputError(f"{option}: must be >= 0 µm, got {value}")
+    return float(to_internal(value, "µm"))
+
+
+@app.command("iso15530-3", help=ISO_HELP)
+@user_errors
+def iso15530_3(
+    ctx: typer.Context,
+    runs: Annotated[Path, typer.Argument(help="RUNS.csv: value[,series] (mm).")],
+    calibrated: Annotated[float, typer.Option("--calibrated", help="Calibrated value x_cal (mm).")],
+    u_cal: Annotated[float, typer.Option("--u-cal", help="u_cal of x_cal (µm).")],
+    u_w: Annotated[float, typer.Option("--u-w", help="Workpiece variation u_w (µm).")] = 0.0,
+    u_b: Annotated[
+        float, typer.Option("--u-b", help="Uncertainty of b, policy 2011 only (µm).")
+    ] = 0.0,
+    policy: Annotated[Policy, typer.Option("--policy", help="Combination rule.")] = (
+        Policy.PAPER_003
+    ),
+    u_p_method: Annotated[
+        RepeatabilityMethod, typer.Option("--u-p", help="u_p: sample s or max over series.")
+    ] = RepeatabilityMethod.SAMPLE,
+    probe_u: Annotated[float, typer.Option("--probe-u", help="Probe systematic error (µm).")] = 0.0,
+    machine_class: Annotated[
+        str, typer.Option("--machine-class", help="small (1 µm) or large (3 µm) probe threshold.")
+    ] = "small",
+    k: Annotated[float, typer.Option("--k", help="Coverage factor.")] = 2.0,
+    tolerance: Annotated[
+        str | None,
+        typer.Option("--tolerance", help="NOMINAL,LOWER,UPPER (mm): ISO 14253-1 decision."),
+    ] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print the JSON document.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
+    report_path: ReportOption = None,
+) -> None:
+    if output is not None:
+        check_output(output, [runs])
+    if report_path is not None:
+        check_output(report_path, [runs])
+    tol = None if tolerance is None else Tolerance.parse(tolerance)
+    table = read_csv_table(runs, required=["value"])
+    series = table.strings("series") if table.has("series") else None
+    budget = iso15530_3_budget(
+        table.floats("value"),
+        calibrated=calibrated,
+        u_cal=_um(u_cal, "--u-cal"),
+        u_w=_um(u_w, "--u-w"),
+        u_b=_um(u_b, "--u-b"),
+        series=None if series is None else np.asarray(series),
+        policy=policy,
+        repeatability_method=u_p_method,
+        probe_error=_um(probe_u, "--probe-u"),
+        machine_class=machine_class,
+        k=k,
+        tolerance=tol,
+        name=runs.stem,
+        provenance={"runs": str(runs)},
+    )
+    doc = budget.to_dict()
+    report = None
+    if report_path is not None:
+        um = doc["um"]
+        names = ("b", "u_b", "u_p", "u_cal", "u_w", "u_probe", "u", "U")
+        report = _report(
+            ctx,
+            f"ISO 15530-3 budget: {runs.name}",
+            [runs],
+            ["quantity", "µm"],
+            [[n, um[n]] for n in names],
+            f"Policy {budget.policy.value}, n = {budget.n}, k = {budget.k:g}; mean "
+            f"{budget.mean:.6f} mm, calibrated {budget.calibrated:.6f} mm, result "
+            f"{budget.result:.6f} mm"
+            + ("" if budget.decision is None else f"; decision {budget.decision.decision.value}"),
+        )
+    if output is not None:
+        write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
+    if json:
+        print_json(doc)
+        return
+    um = doc["um"]
+    typer.echo(
+        f"ISO 15530-3 budget of {runs.name}, policy {budget.policy.value}, "
+        f"n = {budget.n}, k = {budget.k:g} (µm)"
+    )
+    typer.echo(
+        f"  mean {budget.mean:.6f} mm  calibrated {budget.calibrated:.6f} mm  b {um['b']:.2f}"
+    )
+    for name in ("u_b", "u_p", "u_cal", "u_w", "u_probe", "u", "U"):
+        typer.echo(f"  {name:<8} {format_uncertainty(um[name])}")
+    typer.echo(f"  result {budget.result:.6f} mm ± {format_uncertainty(um['U'])} µm")
+    if budget.decision is not None:
+        typer.echo(f"  decision (ISO 14253-1): {budget.decision.decision.value}")
+
+
+MAP_HELP = f"""VDI/VDE 2617-11 budget of a feature with a volumetric error map.
+
+POINTS.csv: x,y,z[,cycle[,series]] (mm): the indicated contact (stylus-centre) points
+of the feature, every cycle the same points.  --params: the machine's map, a parameter
+set with covariance (MAP.json of 'mtm calibrate multilateration') or a volumetric-map
+document.  Each point is corrected P_true = P - e(P); the feature ({", ".join(FEATURE_KINDS)})
+is fitted to the original and corrected points; b = F(corrected) - F(original), u_b = |b|
+(--mode uncorrected, the default) or the corrected value with u_b from the map covariance
+(--mode corrected); u_p: the spread over the cycles, or of --repeats RUNS.csv
+(characteristic,value[,series]: e.g. the on-machine software's results), or --u-p-um; u_cal: the map
+covariance propagated to F (--u-cal guf, or mc with --trials); u_MS and U_MS = k u_MS.
+Prints the budget in the layout of Mutilba et al., Table 1 (µm).
+"""
+
+
+def _load_map(machine: Machine, params: Path, points) -> VolumetricMap:
+    doc = load_document(params, "map or parameter set")
+    if isinstance(doc, dict) and doc.get("kind") == MAP_KIND:
+        return VolumetricMap.from_dict(doc, str(params))
+    pset = ParameterSet.from_document(doc, machine, str(params))
+    return map_for_points(machine, pset, points)
+
+
+@app.command("volumetric-map", help=MAP_HELP)
+@user_errors
+def volumetric_map(
+    ctx: typer.Context,
+    points: Annotated[Path, typer.Argument(help="POINTS.csv: x,y,z[,cycle[,series]] (mm).")],
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    params: Annotated[Path, typer.Option("--params", help="MAP.json or a map document.")],
+    feature: Annotated[str, typer.Option("--feature", help=" | ".join(FEATURE_KINDS))],
+    mode: Annotated[str, typer.Option("--mode", help="uncorrected or corrected.")] = (
+        "uncorrected"
+    ),
+    u_p_um: Annotated[
+        float | None, typer.Option("--u-p-um", help="u_p (µm) instead of the cycles'.")
+    ] = None,
+    repeats: Annotated[
+        Path | None,
+        typer.Option("--repeats", help="RUNS.csv: characteristic,value[,series] (mm)."),
+    ] = None,
+    u_p_method: Annotated[
+        RepeatabilityMethod, typer.Option("--u-p", help="u_p: sample s or max over series.")
+    ] = RepeatabilityMethod.SAMPLE,
+    u_cal: Annotated[str, typer.Option("--u-cal", help="guf or mc.")] = "guf",
+    trials: Annotated[int, typer.Option("--trials", help="Map draws of --u-cal mc.")] = 2000,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of --u-cal mc.")] = None,
+    probe_u: Annotated[float, typer.Option("--probe-u", help="Probe systematic error (µm).")] = 0.0,
+    machine_class: Annotated[
+        str, typer.Option("--machine-class", help="small (1 µm) or large (3 µm) probe threshold.")
+    ] = "small",
+    k: Annotated[float, typer.Option("--k", help="Coverage factor.")] = 2.0,
+    outer: Annotated[
+        bool, typer.Option("--outer", help="A shaft or ball (sizes probed from outside).")
+    ] = False,
+    tip_diameter: Annotated[
+        float, typer.Option("--tip-diameter", help="Effective tip diameter (mm).")
+    ] = 0.0,
+    tolerance: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--tolerance",
+            help="NAME=NOMINAL,LOWER,UPPER (mm), e.g. diameter=108,0,0.02; repeat.",
+        ),
+    ] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print the JSON document.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
+    report_path: ReportOption = None,
+) -> None:
+    for target in (output, report_path):
+        if target is not None:
+            check_output(target, [points, params])
+    tolerances = {}
+    for text in tolerance or []:
+        name, sep, spec = text.partition("=")
+        if not sep:
+            raise InputError(f"--tolerance: expected NAME=NOMINAL,LOWER,UPPER, got {text!r}")
+        tolerances[name.strip()] = Tolerance.parse(spec, parameter=f"--tolerance {name.strip()}")
+    if trials < 2:
+        raise InputError(f"--trials must be at least 2, got {trials}")
+    m = Machine.load(machine)
+    table = read_csv_table(points, required=["x", "y", "z"])
+    xyz = np.column_stack([table.floats(c) for c in "xyz"])
+    vmap = _load_map(m, params, xyz)
+    runs = None
+    if repeats is not None:
+        r = read_csv_table(repeats, required=["characteristic", "value"], min_rows=2)
+        runs = (
+            r.strings("characteristic"),
+            r.floats("value"),
+            r.strings("series") if r.has("series") else None,
+        )
+    budget = volumetric_map_budget(
+        xyz,
+        vmap,
+        feature,
+        cycles=np.asarray(table.strings("cycle")) if table.has("cycle") else None,
+        series=np.asarray(table.strings("series")) if table.has("series") else None,
+        machine=m.name,
+        mode=mode,
+        repeatability_method=u_p_method,
+        u_p=None if u_p_um is None else _um(u_p_um, "--u-p-um"),
+        repeats=runs,
+        u_cal_method=u_cal,
+        trials=trials,
+        seed=seed,
+        probe_error=_um(probe_u, "--probe-u"),
+        machine_class=machine_class,
+        k=k,
+        inner=not outer,
+        tip_diameter=tip_diameter,
+        tolerances=tolerances,
+        provenance={"points": str(points), "params": str(params)},
+    )
+    doc = budget.to_dict()
+    report = None
+    if report_path is not None:
+        decisions = budget.decisions()
+        report = _report(
+            ctx,
+            f"VDI/VDE 2617-11 budget with a volumetric map: {points.name}",
+            [points, params],
+            ["characteristic", "u_b", "u_p", "u_cal", "u_MS", "U_MS", "decision"],
+            [
+                [*row, decisions[row[0]].decision.value if row[0] in decisions else None]
+                for row in budget.table()
+            ],
+            f"{feature}, {budget.cycles} cycle(s) of {budget.n_points} points, mode {mode} "
+            f"(P_true = P - e(P)), u_cal by {u_cal}, k = {k:g}; largest map correction "
+            f"{doc['largest_correction_um']:.2f} µm.",
+        )
+    if output is not None:
+        write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
+    if json:
+        print_json(doc)
+        return
+    typer.echo(
+        f"VDI/VDE 2617-11 budget of {points.name}: {feature}, {budget.cycles} cycle(s) of "
+        f"{budget.n_points} points, mode {mode}, u_cal by {u_cal}, k = {k:g} (µm); largest "
+        f"map correction {doc['largest_correction_um']:.2f} µm"
+    )
+    typer.echo(
+        f"  {'characteristic':<14} {'u_b':>6} {'u_p':>6} {'u_cal':>6} {'u_MS':>6} {'U_MS':>6}"
+    )
+    for row in budget.table():
+        typer.echo(f"  {row[0]:<14} " + " ".join(f"{v:>6}" for v in row[1:]))
+    for name, decision in budget.decisions().items():
+        typer.echo(f"  decision (ISO 14253-1) on {name}: {decision.decision.value}")

@@ -1,0 +1,313 @@
+"""``mtm simulate tracker``, ``mtm calibrate tracker``, ``mtm verify tracker``, ``mtm design
+tracker-placement``: laser-tracker volumetric verification (Aguado et al. (2019)).
+
+Each command parses its options, calls one library function of :mod:`mtmetrology.tracker`,
+prints a summary (or the JSON with ``--json``) and writes its outputs; the library is
+imported inside the commands so that other commands start without it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    print_json,
+    user_errors,
+    write_report,
+)
+from mtmetrology.errors import InputError
+from mtmetrology.io.files import write_json
+
+simulate_app = typer.Typer()
+calibrate_app = typer.Typer()
+verify_app = typer.Typer()
+design_app = typer.Typer()
+
+MESH_HELP = "Mesh start:stop:step for X, Y, Z in mm, e.g. 800:1200:100,100:500:100,200:400:100."
+POSE_HELP = (
+    "POSE.yaml: kind tracker-pose, version 1, D_mm, L_mm, H_mm (along machine x, y, z), "
+    "alpha_deg, beta_deg, delta_deg (R = Rx Ry Rz, eq. 22). The paper's Study 2 pose if omitted."
+)
+TOOLS_HELP = (
+    "TOOLS.yaml: kind tracker-tools, version 1, tools_mm: [[x, y, z], ...]; one tool "
+    "(0, 0, -100) if omitted."
+)
+NoiseOption = Annotated[
+    float, typer.Option("--angle-urad", help="Angular noise level of the tracker, µrad.")
+]
+
+
+def _pose(path: Path | None):
+    from mtmetrology.io.documents import load_document
+    from mtmetrology.kinematics.tracker import TrackerPose
+    from mtmetrology.tracker import PAPER_POSE
+
+    if path is None:
+        return PAPER_POSE
+    doc = load_document(path, "tracker pose")
+    if not isinstance(doc, dict) or doc.get("kind") != "tracker-pose":
+        raise InputError(f"{path}: kind: expected 'tracker-pose'")
+    return TrackerPose.from_dict({k: v for k, v in doc.items() if k not in ("kind", "version")},
+                                 str(path))  # fmt: skip
+
+
+def _tools(path: Path | None) -> np.ndarray:
+    from mtmetrology.io.documents import load_document
+
+    if path is None:
+        return np.array([[0.0, 0.0, -100.0]])
+    doc = load_document(path, "tracker tools")
+    if not isinstance(doc, dict) or doc.get("kind") != "tracker-tools":
+        raise InputError(f"{path}: kind: expected 'tracker-tools'")
+    try:
+        tools = np.array(doc["tools_mm"], dtype=float)
+    except (KeyError, TypeError, ValueError):
+        raise InputError(f"{path}: tools_mm: a list of [x, y, z] in mm is required") from None
+    if tools.ndim != 2 or tools.shape[1] != 3 or not np.all(np.isfinite(tools)):
+        raise InputError(f"{path}: tools_mm: each tool must be three finite numbers (mm)")
+    return tools
+
+
+def _noise(angle_urad: float):
+    from mtmetrology.kinematics.tracker import TrackerNoise
+    from mtmetrology.units import to_internal
+
+    if not np.isfinite(angle_urad) or angle_urad <= 0:
+        raise InputError(f"--angle-urad must be a positive number, got {angle_urad}")
+    return TrackerNoise(u_angle=float(to_internal(angle_urad, "µrad")))
+
+
+CONDITIONS_HELP = (
+    "CONDITIONS.yaml: kind tracker-conditions, version 1, any of sensor_temperatures_C "
+    "(3 x 2, per axis X, Y, Z at the lower and upper travel end), u_sensor_K, cte_per_K, "
+    "u_cte_per_K, reversal_mm, repeatability_mm, geometric_random, geometric_distribution "
+    "(normal or beta); 20 °C, steel, none otherwise."
+)
+
+
+def _conditions(path: Path | None):
+    from mtmetrology.io.documents import load_document
+    from mtmetrology.tracker import MachineConditions
+
+    if path is None:
+        return MachineConditions()
+    doc = load_document(path, "tracker conditions")
+    if not isinstance(doc, dict) or doc.get("kind") != "tracker-conditions":
+        raise InputError(f"{path}: kind: expected 'tracker-conditions'")
+    return MachineConditions.from_dict(doc, str(path))
+
+
+@simulate_app.command("tracker")
+@user_errors
+def simulate_tracker(
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    mesh: Annotated[str, typer.Option("--mesh", help=MESH_HELP)],
+    output: Annotated[Path, typer.Option("-o", "--output", help="MEASUREMENTS.csv to write.")],
+    truth: Annotated[
+        Path | None, typer.Option("--truth", help="TRUTH.json parameter set (zero if omitted).")
+    ] = None,
+    pose: Annotated[Path | None, typer.Option("--pose", help=POSE_HELP)] = None,
+    tools: Annotated[Path | None, typer.Option("--tools", help=TOOLS_HELP)] = None,
+    angle_urad: NoiseOption = 20.0,
+    conditions: Annotated[Path | None, typer.Option("--conditions", help=CONDITIONS_HELP)] = None,
+    seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
+) -> None:
+    """Tracker readings (range, azimuth, elevation) and axis temperatures of a virtual
+    verification of a machine with known errors."""
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.tracker import parse_mesh, simulate
+
+    m = Machine.load(machine)
+    theta = _truth(m, truth)
+    meas = simulate(
+        m,
+        theta,
+        _pose(pose),
+        parse_mesh(mesh, m),
+        _tools(tools),
+        noise=_noise(angle_urad),
+        conditions=_conditions(conditions),
+        seed=seed,
+    )
+    meas.write(output)
+    typer.echo(f"wrote {len(meas)} tracker readings to {output}", err=True)
+
+
+@calibrate_app.command("tracker")
+@user_errors
+def calibrate_tracker(
+    ctx: typer.Context,
+    measurements: Annotated[Path, typer.Argument(help="MEASUREMENTS.csv.")],
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    model: Annotated[str | None, typer.Option("--model", help="Error model name.")] = None,
+    angle_urad: NoiseOption = 20.0,
+    conditions: Annotated[Path | None, typer.Option("--conditions", help=CONDITIONS_HELP)] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
+    report_path: ReportOption = None,
+) -> None:
+    """Identify the error functions (with covariance) and the tracker pose; name what the
+    set-up cannot see and what to add."""
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.tracker import calibrate, read_measurements
+
+    m = Machine.load(machine, model)
+    meas = read_measurements(measurements)
+    cal = calibrate(m, meas, noise=_noise(angle_urad), conditions=_conditions(conditions))
+    doc = cal.to_dict()
+    report = None
+    if report_path is not None:
+        from mtmetrology.tracker.report import calibration_report
+
+        report = calibration_report(cal, command_line(ctx), [measurements])
+    if output is not None:
+        write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
+    if json:
+        print_json(doc)
+    else:
+        typer.echo(cal.summary())
+
+
+def _truth(m, truth: Path | None) -> np.ndarray:
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+
+    if truth is None:
+        return np.zeros(m.n_params)
+    pset = ParameterSet.load(truth, m)
+    values = dict(zip(pset.names, pset.values, strict=True))
+    unknown = [n for n in values if n not in m.parameter_names]
+    if unknown:
+        raise InputError(f"{truth}: {unknown[0]} is not a parameter of the model {m.model_name}")
+    return np.array([values.get(n, 0.0) for n in m.parameter_names])
+
+
+@verify_app.command("tracker")
+@user_errors
+def verify_tracker(
+    ctx: typer.Context,
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    mesh: Annotated[str, typer.Option("--mesh", help=MESH_HELP)] = (
+        "800:1200:100,100:500:100,200:400:100"
+    ),
+    truth: Annotated[
+        Path | None, typer.Option("--truth", help="TRUTH.json parameter set (zero if omitted).")
+    ] = None,
+    pose: Annotated[Path | None, typer.Option("--pose", help=POSE_HELP)] = None,
+    tools: Annotated[Path | None, typer.Option("--tools", help=TOOLS_HELP)] = None,
+    trials: Annotated[int, typer.Option("--trials", help="Simulated verifications.")] = 1000,
+    angle_urad: NoiseOption = 20.0,
+    conditions: Annotated[Path | None, typer.Option("--conditions", help=CONDITIONS_HELP)] = None,
+    seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
+    report_path: ReportOption = None,
+) -> None:
+    """Monte Carlo of the whole verification: per-point initial and final errors, statistics
+    of the mean final volumetric error (mean, σ, mean + 2σ, maximum), distribution fits,
+    held-out coverage of the predicted uncertainty."""
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.tracker import parse_mesh
+    from mtmetrology.tracker.verify import verify
+
+    m = Machine.load(machine)
+    result = verify(
+        m,
+        _truth(m, truth),
+        _pose(pose),
+        parse_mesh(mesh, m),
+        _tools(tools),
+        trials=trials,
+        noise=_noise(angle_urad),
+        conditions=_conditions(conditions),
+        seed=seed,
+    )
+    doc = result.to_dict()
+    report = None
+    if report_path is not None:
+        from mtmetrology.tracker.report import verification_report
+
+        report = verification_report(result, command_line(ctx))
+    if output is not None:
+        write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
+    if json:
+        print_json(doc)
+    else:
+        typer.echo(result.summary())
+
+
+def _region(text: str):
+    parts = [p.split(":") for p in text.split(",")]
+    try:
+        region = [(float(a), float(b)) for a, b in parts]
+    except ValueError:
+        region = []
+    if len(region) != 3:
+        raise InputError(f"--region needs D0:D1,L0:L1,H0:H1 in mm, got {text!r}")
+    return tuple(region)
+
+
+@design_app.command("tracker-placement")
+@user_errors
+def tracker_placement(
+    ctx: typer.Context,
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    mesh: Annotated[str, typer.Option("--mesh", help=MESH_HELP)] = (
+        "800:1200:100,100:500:100,200:400:100"
+    ),
+    tools: Annotated[Path | None, typer.Option("--tools", help=TOOLS_HELP)] = None,
+    region: Annotated[
+        str, typer.Option("--region", help="Allowed tracker region D0:D1,L0:L1,H0:H1, mm.")
+    ] = "-2000:-500,-2000:2000,350:2000",
+    direction: Annotated[
+        str, typer.Option("--direction", help="x: tracker on the -X side; y: on the -Y side.")
+    ] = "x",
+    criterion: Annotated[
+        str, typer.Option("--criterion", help="max or mean of u_p over the mesh.")
+    ] = "max",
+    trials: Annotated[int, typer.Option("--trials", help="Candidate poses drawn.")] = 10_000,
+    seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
+    report_path: ReportOption = None,
+) -> None:
+    """Placement study of the tracker over the allowed region: criterion per candidate pose,
+    colour map, best pose (refusing poses inside the workspace or beyond the limits)."""
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.tracker import parse_mesh
+    from mtmetrology.tracker.placement import plan_placement
+
+    m = Machine.load(machine)
+    study = plan_placement(
+        m,
+        parse_mesh(mesh, m),
+        _tools(tools),
+        region=_region(region),
+        direction=direction,
+        criterion=criterion,
+        trials=trials,
+        seed=seed,
+    )
+    doc = study.to_dict()
+    report = None
+    if report_path is not None:
+        from mtmetrology.tracker.report import placement_report
+
+        report = placement_report(study, command_line(ctx))
+    if output is not None:
+        write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
+    if json:
+        print_json(doc)
+    else:
+        typer.echo(study.summary())

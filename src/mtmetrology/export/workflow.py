@@ -1,0 +1,411 @@
+"""``export_compensation``: control tables from a parameter set, and the closed-loop check.
+
+One call builds the neutral :class:`~mtmetrology.export.model.CompensationModel`, the
+tables of one control format (with that control's limits: a table the control would
+refuse is refused here, naming the limit), their files, and the residual tool-point error
+after the control applies them (its own interpolation) on a grid over the travel, with the
+identification's uncertainty (:mod:`mtmetrology.export.control`).  Nothing is written: the
+result holds the file texts, the command line writes them.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mtmetrology.display import NotebookRepr
+from mtmetrology.errors import InputError
+from mtmetrology.export import fanuc, grid, isg, linuxcnc, siemens
+from mtmetrology.export.control import ControlTable, residual
+from mtmetrology.export.model import CompensationModel, compensation_model
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.kinematics.topology import LINEAR_AXES
+from mtmetrology.units import from_internal
+
+__all__ = ["FORMATS", "KIND", "ExportResult", "export_compensation", "residual_check"]
+
+KIND = "compensation-export"
+VERSION = 1
+FORMATS = {"linuxcnc": linuxcnc, "fanuc": fanuc, "siemens": siemens, "isg": isg}
+#: Pitches the advisor tries, largest first (mm for linear axes, degrees for rotary).
+ADVISOR_PITCHES = (100.0, 50.0, 40.0, 25.0, 20.0, 10.0, 5.0, 4.0, 2.5, 2.0, 1.0, 0.5)
+
+
+@dataclass(frozen=True)
+class ExportResult(NotebookRepr):
+    """Control tables, their files and the residual error after the control applies them.
+
+    Attributes
+    ----------
+    format : str
+    machine, model : str
+    files : dict of str to str
+        File name -> text, as the control reads it.
+    tables : list of dict
+        Per table: function, points, pitch, unit (µm or µrad), largest |correction| and
+        largest standard uncertainty of a tabulated value; the positions (mm or degrees),
+        the corrections the control applies and their u.
+    not_carried : list of str
+        Error functions (and location errors) of the model the format cannot carry.
+    residual : dict
+        Over the check grid: points, largest and rms length of the residual vector r̂,
+        largest expanded uncertainty U (k = 2) of a component, all in µm; the largest
+        uncompensated error for scale; the check readings (mm, degrees) and r̂ (µm) at each.
+    advisor : dict or None
+        The pitch advisor's answer: bound (µm), pitch, whether met, and why.
+    provenance : dict
+    notes : list of str
+        What the user must know to load the tables (e.g. a Fanuc reference offset).
+    at_points : dict or None
+        At the user's readings: ``r`` and ``U`` (k = 2), arrays (n, 3) in µm (in the
+        document: ``r_um``, ``U_um`` and their largest values).
+    """
+
+    _renderer_module = "mtmetrology.export.report"
+
+    format: str
+    machine: str
+    model: str | None
+    files: dict
+    tables: list
+    not_carried: list
+    residual: dict
+    advisor: dict | None = None
+    provenance: dict = field(default_factory=dict)
+    at_points: dict | None = None
+    notes: list = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        """The JSON document (``kind``, ``version``); file texts are not repeated."""
+        return {
+            "kind": KIND,
+            "version": VERSION,
+            "format": self.format,
+            "machine": self.machine,
+            "model": self.model,
+            "files": sorted(self.files),
+            "tables": self.tables,
+            "not_carried": self.not_carried,
+            "residual": self.residual,
+            "advisor": self.advisor,
+            "provenance": self.provenance,
+            "at_points": None if self.at_points is None else _at_document(self.at_points),
+            "notes": self.notes,
+        }
+
+    @classmethod
+    def from_dict(cls, doc: dict, files: dict | None = None) -> ExportResult:
+        """Rebuild from :meth:`to_dict` (file texts from ``files`` when given)."""
+        if doc.get("kind") != KIND or doc.get("version") != VERSION:
+            raise InputError(f"kind/version: not a {KIND} document of version {VERSION}")
+        names = doc["files"]
+        return cls(
+            doc["format"],
+            doc["machine"],
+            doc["model"],
+            {n: (files or {}).get(n, "") for n in names},
+            doc["tables"],
+            doc["not_carried"],
+            doc["residual"],
+            doc.get("advisor"),
+            doc.get("provenance", {}),
+            _at_arrays_from(doc.get("at_points")),
+            doc.get("notes", []),
+        )
+
+
+#: Offset of the check grid in its cells (the golden section): the check points fall between
+#: the table points of any usual pitch, where the interpolation error lives.
+_CHECK_OFFSET = (3 - 5**0.5) / 2
+
+
+def _at_document(at: dict) -> dict:
+    length = np.linalg.norm(at["r"], axis=1)
+    return {
+        "points": int(length.size),
+        "max_um": float(length.max()),
+        "max_U_um": None if at["U"] is None else float(np.max(at["U"])),
+        "r_um": at["r"].tolist(),
+        "U_um": None if at["U"] is None else at["U"].tolist(),
+    }
+
+
+def check_readings(machine: Machine, per_axis: int = 5) -> np.ndarray:
+    """Readings of a full-factorial grid over the travel of every axis (spindle at 0); the
+    residual is checked for travel in the positive direction (forward tables).
+
+    On each axis ``lo + (k + 0.382) (hi − lo) / per_axis``, k = 0 … per_axis − 1.
+    """
+    columns = []
+    for a in machine.axis_names:
+        travel = machine.axes[a].travel
+        if a == "S" or travel is None:
+            columns.append(np.zeros(1))
+        else:
+            k = np.arange(per_axis) + _CHECK_OFFSET
+            columns.append(travel[0] + (travel[1] - travel[0]) * k / per_axis)
+    return np.array(list(itertools.product(*columns)))
+
+
+def _build(fmt: str, model: CompensationModel, functions):
+    module = FORMATS[fmt]
+    tables = module.build(model, functions)
+    constants = isg.constants(model) if fmt == "isg" else ()
+    return module, tables, constants
+
+
+def residual_check(
+    model: CompensationModel, tables, constants, readings: np.ndarray
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Residual r̂ and u (mm) at ``readings`` after the control applies ``tables``."""
+    cov = None
+    if model.parameters.covariance is not None:
+        p = model.parameters
+        order = [p.names.index(n) for n in model.machine.parameter_names]
+        cov = p.covariance[np.ix_(order, order)]
+    return residual(model.machine, model.theta, cov, tables, readings, constants=constants)
+
+
+def _interpolation_error(fmt, machine, parameters, functions, pitch, readings) -> float:
+    """Largest tool-point effect of the control's interpolation at ``pitch`` (mm).
+
+    The format's tables at ``pitch`` against linear tables 16 times finer (the error
+    function itself to 1/256 of the linear interpolation error), aligned at each table's
+    reference point (a Fanuc table is zero there).
+    """
+    model = compensation_model(machine, parameters, pitch=pitch, covariance=False)
+    _, tables, constants = _build(fmt, model, functions)
+    fine = compensation_model(machine, parameters, pitch=pitch / 16, covariance=False)
+    exact = []
+    for t in tables:
+        f = fine.table(t.function)
+        ref = t.positions[t.reference_index]
+        shift = np.interp(ref, f.positions, f.forward) - t.forward[t.reference_index]
+        c = f.forward - shift
+        exact.append(ControlTable(t.function, f.positions, c, c, "linear", t.period))
+    got = residual_check(model, tables, constants, readings)[0]
+    want = residual_check(model, exact, constants, readings)[0]
+    return float(np.abs(got - want).max())
+
+
+def advise_pitch(fmt, machine, parameters, functions, bound_um: float, readings) -> dict:
+    """The largest pitch of :data:`ADVISOR_PITCHES` whose interpolation error ≤ bound."""
+    tried = None
+    for pitch in ADVISOR_PITCHES:
+        try:
+            err = from_internal(
+                _interpolation_error(fmt, machine, parameters, functions, pitch, readings), "µm"
+            )
+        except InputError as exc:  # beyond the travel (try smaller) or the control's limits
+            if tried is None:
+                continue
+            reason = f"{tried}; a smaller pitch is refused: {exc}"
+            return {"bound_um": bound_um, "pitch": None, "met": False, "reason": reason}
+        if err <= bound_um:
+            return {
+                "bound_um": bound_um,
+                "pitch": pitch,
+                "met": True,
+                "interpolation_error_um": err,
+                "reason": f"pitch {pitch:g}: interpolation error {err:.2g} µm <= {bound_um:g} µm",
+            }
+        tried = f"pitch {pitch:g}: interpolation error {err:.2g} µm > {bound_um:g} µm"
+    reason = tried or "no pitch of the list fits the travel"
+    return {"bound_um": bound_um, "pitch": None, "met": False, "reason": reason}
+
+
+def _at_arrays_from(doc: dict | None) -> dict | None:
+    if doc is None:
+        return None
+    u = doc["U_um"]
+    return {"r": np.array(doc["r_um"]), "U": None if u is None else np.array(u)}
+
+
+def _at_arrays(r: np.ndarray, u: np.ndarray | None) -> dict:
+    return {
+        "r": from_internal(r, "µm"),
+        "U": None if u is None else from_internal(2 * u, "µm"),
+    }
+
+
+def _reversal_notes(model: CompensationModel, tables, fmt: str) -> list[str]:
+    """Reversal terms a format drops (it writes the forward table only)."""
+    out = []
+    for t in tables:
+        src = model.table(t.function)
+        if src.bidirectional and np.array_equal(t.forward, t.reverse):
+            gap = float(from_internal(np.abs(src.forward - src.reverse).max(), src.unit))
+            out.append(
+                f"{t.function}: {fmt} carries the forward table only; travel in the negative "
+                f"direction keeps the reversal of up to {gap:.3g} {src.unit}"
+            )
+    return out
+
+
+def _summary(model, readings, r, u, per_axis) -> dict:
+    e0, _ = residual(model.machine, model.theta, None, [], readings)
+    return {
+        "points": int(readings.shape[0]),
+        "per_axis": per_axis,
+        "max_um": float(from_internal(np.linalg.norm(r, axis=1).max(), "µm")),
+        "rms_um": float(from_internal(np.sqrt(np.mean(np.sum(r**2, axis=1))), "µm")),
+        "max_U_um": None if u is None else float(from_internal(2 * u.max(), "µm")),
+        "k": 2,
+        "uncompensated_max_um": float(from_internal(np.linalg.norm(e0, axis=1).max(), "µm")),
+        "axes": list(model.machine.axis_names),
+        "readings": model.machine.readings_to_customary(readings).tolist(),
+        "r_um": from_internal(r, "µm").tolist(),
+    }
+
+
+def _export_grid(machine, parameters, pitch, points, region, per_axis, at) -> ExportResult:
+    """The volumetric grid: nodes over the region, trilinear check at the check grid."""
+    model = compensation_model(machine, parameters, points=2, covariance=False)
+    field = grid.grid_from_model(model, grid.grid_lines(model, pitch, points, region))
+    readings = check_readings(model.machine, per_axis)
+    for k, a in enumerate(("X", "Y", "Z")):  # the check stays inside the grid's box
+        col = model.machine.axis_names.index(a)
+        lo, hi = field.lines[k][0], field.lines[k][-1]
+        travel = model.machine.axes[a].travel
+        readings[:, col] = lo + (readings[:, col] - travel[0]) * (hi - lo) / (travel[1] - travel[0])
+    r, u = grid.residual_grid(model, field, readings)
+    rotary = sorted({t.function for t in model.tables if t.axis not in LINEAR_AXES})
+    nodes = int(np.prod([x.size for x in field.lines]))
+    row = {
+        "function": "volumetric",
+        "points": nodes,
+        "unit": "µm",
+        "max_correction": float(from_internal(np.abs(field.vectors).max(), "µm")),
+        "max_u": None if field.u is None else float(from_internal(field.u.max(), "µm")),
+    }
+    return ExportResult(
+        "grid",
+        model.machine.name,
+        model.machine.model_name,
+        grid.render(field, model.machine.name),
+        [row],
+        rotary,
+        _summary(model, readings, r, u, per_axis),
+        None,
+        {"parameters": dict(parameters.provenance)},
+        None
+        if at is None
+        else _at_arrays(*grid.residual_grid(model, field, np.asarray(at, float))),
+    )
+
+
+def export_compensation(
+    machine: Machine,
+    parameters: ParameterSet,
+    fmt: str,
+    *,
+    pitch: float | None = None,
+    points: int | None = None,
+    axes: Sequence[str] | None = None,
+    functions: Sequence[str] | None = None,
+    check_per_axis: int = 5,
+    bound_um: float | None = None,
+    region: dict | None = None,
+    at: np.ndarray | None = None,
+    reference: dict | None = None,
+) -> ExportResult:
+    """Control tables of one format and the residual error after the control applies them.
+
+    Parameters
+    ----------
+    machine : Machine
+    parameters : ParameterSet
+        Identified parameters with covariance, made for ``machine``.
+    fmt : {"linuxcnc", "fanuc", "siemens", "isg", "grid"}
+    pitch, points : float or int
+        Table spacing (mm, or degrees on a rotary axis) or number of points (one of them).
+    axes : sequence of str, optional
+        Axes to tabulate.
+    functions : sequence of str, optional
+        Error functions to export (``E_XX`` …); every function the format can carry when
+        omitted.  One the format cannot carry is refused.
+    check_per_axis : int
+        Grid points per axis of the residual check.
+    bound_um : float, optional
+        Interpolation-error bound of the pitch advisor, µm (axis-table formats).
+    region : dict of axis to (low, high), optional
+        Volumetric grid only: the box of X, Y, Z readings (mm) it covers; the travel
+        otherwise.  A box outside the travel is refused.
+    at : ndarray, shape (n, n_axes), optional
+        The user's readings (internal units): the residual and its U there as well.
+    reference : dict of axis to float, optional
+        Reference position per axis (mm or degrees), a point of the table: a Fanuc table
+        is zero there (the control's reference return absorbs the error at that point).
+
+    Returns
+    -------
+    ExportResult
+
+    Raises
+    ------
+    InputError
+        Unknown format, a parameter set of another machine, a grid the control refuses.
+    """
+    if fmt not in (*FORMATS, "grid"):
+        raise InputError(f"format: {fmt!r} is not one of {', '.join(FORMATS)}, grid")
+    if pitch is None and points is None:
+        raise InputError("give --pitch or --points")
+    if fmt == "grid":
+        return _export_grid(machine, parameters, pitch, points, region, check_per_axis, at)
+    model = compensation_model(
+        machine, parameters, pitch=pitch, points=points, axes=axes, reference=reference
+    )
+    module, tables, constants = _build(fmt, model, functions)
+    files = module.render(tables, model)
+    carried = {t.function for t in tables} | {n for n, _ in constants}
+    not_carried = [t.function for t in model.tables if t.function not in carried]
+    not_carried += [n for n, _ in model.constants if n not in carried]
+    readings = check_readings(model.machine, check_per_axis)
+    r, u = residual_check(model, tables, constants, readings)
+    summary = _summary(model, readings, r, u, check_per_axis)
+    at_points = None
+    if at is not None:
+        at_points = _at_arrays(*residual_check(model, tables, constants, np.asarray(at, float)))
+    rows = []
+    for t in tables:
+        lin = t.axis in LINEAR_AXES
+        src = model.table(t.function)
+        u_t = src.u_forward
+        scale = 1.0 if lin else np.pi / 180
+        if u_t is not None:
+            u_t = from_internal(np.interp(t.positions, src.positions, u_t), src.unit)
+        rows.append(
+            {
+                "function": t.function,
+                "points": int(t.positions.size),
+                "pitch": round(float((t.positions[1] - t.positions[0]) / scale), 9),
+                "pitch_unit": "mm" if lin else "deg",
+                "unit": src.unit,
+                "max_correction": float(from_internal(np.abs(t.forward).max(), src.unit)),
+                "max_u": None if u_t is None else float(u_t.max()),
+                "positions": (t.positions / scale).tolist(),
+                "correction": from_internal(t.forward, src.unit).tolist(),
+                "u": None if u_t is None else u_t.tolist(),
+            }
+        )
+    advisor = None
+    if bound_um is not None:
+        advisor = advise_pitch(fmt, model.machine, parameters, functions, bound_um, readings)
+    return ExportResult(
+        fmt,
+        model.machine.name,
+        model.machine.model_name,
+        files,
+        rows,
+        not_carried,
+        summary,
+        advisor,
+        {"parameters": dict(parameters.provenance)},
+        at_points,
+        (fanuc.reference_notes(model, tables) if fmt == "fanuc" else [])
+        + _reversal_notes(model, tables, fmt),
+    )

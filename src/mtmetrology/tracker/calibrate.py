@@ -1,0 +1,264 @@
+"""Identification of a machine's error functions and the tracker pose from tracker readings.
+
+Measurement model (:mod:`mtmetrology.tracker.model`): tracker-frame points
+``p_LT,i = Rᵀ(f(q_i', t_i; θ) − T)`` with ``q_i' = q_i·(1 + α_q·(T_q,i − 20 °C))`` the
+commanded readings corrected for the thermal expansion of the axis scales with the nominal
+CTEs and the recorded temperatures (eqs 7–13).  Inputs and their uncertainties:
+
+- tracker readings: range, azimuth, elevation (:class:`TrackerNoise`, J Σ Jᵀ per point);
+- the SMR centring (isotropic);
+- the axis repeatability and control noise, the CTE uncertainty (eq. 10) and the sensor
+  uncertainty (eq. 3), propagated to each axis coordinate and through ∂f/∂q;
+- the pose: an unknown, identified with θ (its uncertainty enters through the joint
+  covariance).
+
+The covariance of θ and the pose is ``(JᵀJ)⁻¹`` of the whitened problem; only the
+parameters of the datum the set-up can see are identified, the others are named with
+what to add to see them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mtmetrology.identification.datum import Datum
+from mtmetrology.identification.solver import gauss_newton
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.kinematics.tracker import (
+    TrackerLimits,
+    TrackerNoise,
+    TrackerPose,
+    cartesian,
+    point_covariance,
+)
+from mtmetrology.tracker.model import (
+    TrackerProblem,
+    datum,
+    mean_distance,
+    register,
+    suggestions,
+    whitening,
+)
+from mtmetrology.tracker.setup import MachineConditions
+from mtmetrology.tracker.simulate import TrackerMeasurements
+from mtmetrology.units import from_internal, to_internal
+
+__all__ = ["TrackerCalibration", "calibrate", "corrected_readings", "point_covariances"]
+
+KIND = "tracker-calibration"
+
+
+def corrected_readings(readings, temperatures, conditions: MachineConditions) -> np.ndarray:
+    """Commanded readings corrected for the scale expansion, ``q·(1 + α·(T − 20))``, mm."""
+    return readings * (1.0 + conditions.cte * (np.asarray(temperatures) - 20.0))
+
+
+def point_covariances(
+    machine: Machine,
+    readings: np.ndarray,
+    tools: np.ndarray,
+    temperatures: np.ndarray,
+    measured_tracker: np.ndarray,
+    pose: TrackerPose,
+    noise: TrackerNoise,
+    conditions: MachineConditions,
+) -> np.ndarray:
+    """Per-point covariance (n, 3, 3) in the tracker frame, mm² (module notes)."""
+    cov = point_covariance(measured_tracker, noise)
+    axes = machine.evaluate(readings, tool=tools, d_axes=True).d_axes  # (n, 3, 3)
+    var = conditions.axis_variances(readings, temperatures)
+    cov_machine = np.einsum("nik,nk,njk->nij", axes, var, axes)
+    rot = pose.rotation
+    return cov + rot.T @ cov_machine @ rot
+
+
+@dataclass(frozen=True, eq=False)
+class TrackerCalibration:
+    """Result of :func:`calibrate`.
+
+    Attributes
+    ----------
+    parameters : ParameterSet
+        The identified error parameters (the datum) with their covariance; ``mtm predict
+        --params`` reads the result file as it is.
+    pose : TrackerPose
+        Identified tracker pose.
+    pose_covariance : (6, 6) ndarray
+        Of (D, L, H, α, β, δ), mm and rad.
+    datum : Datum
+        What the set-up identifies and what it cannot see.
+    suggestions : list of dict
+        What to add to see the rest (a second tool offset, more Z levels).
+    residuals : (n, 3) ndarray
+        Measured − predicted points, tracker frame, mm.
+    mean_distance_initial, mean_distance_final : float
+        Eq. 27 between measured points (registered into the machine frame) and the nominal
+        points, and between measured points and the compensated model, mm.
+    variance_factor : float or None
+        ``‖r‖²/(m − n)`` of the whitened residuals (≈ 1 when the noise model is right).
+    status : int
+        Status of the solve (:mod:`mtmetrology.optimize`).
+    message : str
+    provenance : dict
+    """
+
+    parameters: ParameterSet
+    pose: TrackerPose
+    pose_covariance: np.ndarray
+    datum: Datum
+    suggestions: list
+    residuals: np.ndarray
+    mean_distance_initial: float
+    mean_distance_final: float
+    variance_factor: float | None
+    status: int
+    message: str
+    provenance: dict = field(default_factory=dict)
+
+    @property
+    def success(self) -> bool:
+        return self.status > 0
+
+    def summary(self) -> str:
+        um = from_internal(1.0, "µm")
+        res = np.linalg.norm(self.residuals, axis=1) * um
+        lines = [
+            f"tracker calibration of {self.parameters.machine}: {self.message}",
+            f"  identified {len(self.parameters.names)} parameters; {self.datum.message}",
+            f"  eq. 27 mean distance: {self.mean_distance_initial * um:.1f} µm before, "
+            f"{self.mean_distance_final * um:.1f} µm after compensation",
+            f"  residuals: mean {res.mean():.1f} µm, max {res.max():.1f} µm",
+        ]
+        for s in self.suggestions:
+            if s["identifiable_then"]:
+                lines.append(f"  add {s['add']}: also {', '.join(s['identifiable_then'])}")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        doc = self.parameters.to_document()
+        doc["kind"] = KIND
+        u = np.sqrt(np.diag(self.pose_covariance))
+        doc.update(
+            {
+                "pose": self.pose.to_dict(),
+                "pose_u": dict(
+                    zip(
+                        ("D_mm", "L_mm", "H_mm", "alpha_deg", "beta_deg", "delta_deg"),
+                        [*u[:3].tolist(), *from_internal(u[3:], "°").tolist()],
+                        strict=True,
+                    )
+                ),
+                "pose_covariance_mm_rad": self.pose_covariance.tolist(),
+                "datum": self.datum.to_dict(),
+                "suggestions": self.suggestions,
+                "residuals_um": from_internal(self.residuals, "µm").tolist(),
+                "mean_distance_initial_um": from_internal(self.mean_distance_initial, "µm"),
+                "mean_distance_final_um": from_internal(self.mean_distance_final, "µm"),
+                "variance_factor": self.variance_factor,
+                "status": self.status,
+                "message": self.message,
+                "calibration_provenance": self.provenance,
+            }
+        )
+        return doc
+
+    @classmethod
+    def from_dict(cls, doc: dict, machine: Machine) -> TrackerCalibration:
+        pset = ParameterSet.from_document(doc, machine, "tracker calibration")
+        pset = ParameterSet(
+            pset.names, pset.values, pset.units, pset.covariance, pset.provenance,
+            machine=doc["machine"], model=doc.get("model"),
+        )  # fmt: skip
+        return cls(
+            pset,
+            TrackerPose.from_dict(doc["pose"]),
+            np.asarray(doc["pose_covariance_mm_rad"], float),
+            Datum.from_dict(doc["datum"]),
+            list(doc["suggestions"]),
+            _to_mm(doc["residuals_um"]),
+            _to_mm(doc["mean_distance_initial_um"]),
+            _to_mm(doc["mean_distance_final_um"]),
+            doc["variance_factor"],
+            int(doc["status"]),
+            doc["message"],
+            dict(doc.get("calibration_provenance", {})),
+        )
+
+
+def _to_mm(value):
+    return to_internal(np.asarray(value, dtype=float), "µm")
+
+
+def calibrate(
+    machine: Machine,
+    measurements: TrackerMeasurements,
+    *,
+    noise: TrackerNoise | None = None,
+    conditions: MachineConditions | None = None,
+    limits: TrackerLimits | None = None,
+) -> TrackerCalibration:
+    """Identify the error functions and the tracker pose from tracker readings.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine with its candidate error model (all 21 functions of the preset).
+    measurements : TrackerMeasurements
+    noise : TrackerNoise, optional
+        The tracker's noise model (weights); the paper's values by default.
+    conditions : MachineConditions, optional
+        CTEs and their uncertainties, sensor uncertainty, repeatability (weights and the
+        thermal correction); 11.5 µm/(m·K) and eq. 10 by default.
+    limits : TrackerLimits, optional
+        Readings beyond them are refused.
+
+    Returns
+    -------
+    TrackerCalibration
+
+    Raises
+    ------
+    InputError
+        A reading beyond the tracker's limits.
+    RankDeficientError
+        Never for the datum chosen here (it is full rank by construction).
+    """
+    noise = noise or TrackerNoise()
+    conditions = conditions or MachineConditions()
+    (limits or TrackerLimits()).check(measurements.spherical, "measurement")
+    q = corrected_readings(measurements.readings, measurements.temperatures, conditions)
+    tools = measurements.tools
+    measured = cartesian(measurements.spherical)
+    nominal = machine.forward(q, tool=tools)
+    start = register(nominal, measured)
+    # the datum is a property of the set-up: the commanded mesh (the thermal correction
+    # would make three Z levels look like more, and a cubic look observable)
+    chosen = datum(machine, measurements.readings, tools, start)
+    identified = machine.with_parameters(chosen.kept)
+    cov = point_covariances(
+        machine, q, tools, measurements.temperatures, measured, start, noise, conditions
+    )
+    problem = TrackerProblem(identified, q, tools, measured, whitening(cov), start)
+    result = gauss_newton(problem, report_names=identified.parameter_names)
+    n = identified.n_params
+    pose = TrackerPose.from_vector(result.estimate[n:])
+    predicted, _ = problem.model(result.estimate, jacobian=False)
+    mesh_points = np.unique(measurements.readings, axis=0)
+    provenance = {"measurements": measurements.provenance, "noise": noise.to_dict()}
+    return TrackerCalibration(
+        parameters=result.parameter_set(identified, {"method": "tracker volumetric verification"}),
+        pose=pose,
+        pose_covariance=result.covariance[n:, n:],
+        datum=chosen,
+        suggestions=suggestions(machine, mesh_points, np.unique(tools, axis=0), start, chosen),
+        residuals=measured - predicted,
+        mean_distance_initial=mean_distance(start.to_machine(measured), nominal),
+        mean_distance_final=mean_distance(measured, predicted),
+        variance_factor=result.variance_factor,
+        status=result.status,
+        message=result.message,
+        provenance=provenance,
+    )

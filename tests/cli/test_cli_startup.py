@@ -1,0 +1,109 @@
+"""Start-up of the command line, in fresh interpreters: what each command line loads.
+
+``mtm --help`` lists the commands from their summaries and imports no command module
+and no engine; ``mtm machine list`` loads the kinematics and nothing of the
+identification, the applications, scipy or pyarrow; no command's ``--help`` loads the
+report layer (matplotlib, Jinja2) or scikit-learn.  Times are in bench/bench_startup.py
+(never asserted here).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+import typer
+
+from mtmetrology.cli import COMMANDS, SHARED_GROUPS, SUMMARIES, build_app
+
+#: Runs ``mtm`` as its console script does, then prints the loaded modules as JSON.
+PROBE = (
+    "import atexit, json, sys\n"
+    "atexit.register(lambda: sys.__stderr__.write('MODULES ' + json.dumps(sorted(sys.modules))))\n"
+    "from mtmetrology.__main__ import main\n"
+    "main()\n"
+)
+LINES = [["--help"], ["machine", "list"]] + [[c, "--help"] for c in [*COMMANDS, *SHARED_GROUPS]]
+
+
+@pytest.fixture(scope="module")
+def loaded() -> dict[str, set[str]]:
+    """The modules each command line loads, from fresh interpreters started together."""
+    runs = {
+        " ".join(args): subprocess.Popen(
+            [sys.executable, "-c", PROBE, *args],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for args in LINES
+    }
+    out = {}
+    for line, run in runs.items():
+        _, err = run.communicate(timeout=300)
+        assert run.returncode == 0, err
+        out[line] = set(json.loads(err.rpartition("MODULES ")[2]))
+    return out
+
+
+def _top(modules: set[str]) -> set[str]:
+    return {m.split(".")[0] for m in modules}
+
+
+def test_listing_loads_no_command_and_no_engine(loaded):
+    ours = {m for m in loaded["--help"] if m.startswith("mtmetrology")}
+    assert ours == {
+        "mtmetrology",
+        "mtmetrology.__main__",
+        "mtmetrology._lazy",
+        "mtmetrology._memory",
+        "mtmetrology.cli",
+        "mtmetrology.cli._common",
+        "mtmetrology.errors",
+        "mtmetrology.io",
+        "mtmetrology.io.files",
+        "mtmetrology.units",
+    }
+    assert not _top(loaded["--help"]) & {"scipy", "pyarrow", "pydantic", "yaml"}
+
+
+def test_machine_list_loads_the_kinematics_only(loaded):
+    modules = loaded["machine list"]
+    assert "mtmetrology.kinematics.machine" in modules
+    layers = {".".join(m.split(".")[:2]) for m in modules if m.startswith("mtmetrology.")}
+    assert not layers & {
+        "mtmetrology.identification",
+        "mtmetrology.uncertainty",
+        "mtmetrology.fitting",
+        "mtmetrology.samba",
+        "mtmetrology.report",
+    }
+    assert not _top(modules) & {"scipy", "pyarrow", "sklearn", "matplotlib"}
+
+
+@pytest.mark.parametrize("line", [" ".join(a) for a in LINES])
+def test_no_help_loads_the_report_layer_or_scikit_learn(loaded, line):
+    assert not _top(loaded[line]) & {"matplotlib", "jinja2", "sklearn"}
+    assert "mtmetrology.report" not in loaded[line]
+
+
+def test_predict_loads_neither_the_fitting_nor_the_uncertainty_engine(loaded):
+    layers = {".".join(m.split(".")[:2]) for m in loaded["predict --help"]}
+    assert not layers & {"mtmetrology.fitting", "mtmetrology.uncertainty"}
+
+
+def test_summaries_are_the_first_paragraph_of_each_command_help():
+    full = typer.main.get_command(build_app())
+    for name in [*COMMANDS, *SHARED_GROUPS]:
+        assert full.commands[name].help.split("\n\n")[0].strip() == SUMMARIES[name], name
+
+
+def test_the_listing_shows_what_the_full_command_line_shows():
+    def listing(application) -> str:
+        command = typer.main.get_command(application)
+        with command.make_context("mtm", ["--help"], resilient_parsing=True) as ctx:
+            return command.get_help(ctx)
+
+    assert listing(build_app(listing=True)) == listing(build_app())

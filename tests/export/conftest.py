@@ -1,0 +1,38 @@
+"""Parameter sets of the presets with chosen errors, for the export tests."""
+
+import numpy as np
+import pytest
+
+from mtmetrology.kinematics import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+
+
+def _parameter_set(machine: Machine, values: dict, u: dict | None = None) -> ParameterSet:
+    """A set of ``machine``'s active model with ``values`` (customary units), others zero.
+
+    ``u`` gives standard uncertainties (customary units); a diagonal covariance is formed.
+    """
+    theta = np.zeros(machine.n_params)
+    for name, value in values.items():
+        theta[machine.parameter_names.index(name)] = value
+    theta = theta * machine.parameter_scales
+    cov = None
+    if u is not None:
+        sd = np.zeros(machine.n_params)
+        for name, value in u.items():
+            sd[machine.parameter_names.index(name)] = value
+        cov = np.diag((sd * machine.parameter_scales) ** 2)
+    return ParameterSet(
+        machine.parameter_names,
+        theta,
+        machine.parameter_units,
+        cov,
+        machine=machine.name,
+        model=machine.model_name,
+    )
+
+
+@pytest.fixture
+def make_set():
+    """``make_set(machine, values, u=None)``: see :func:`_parameter_set`."""
+    return _parameter_set

@@ -1,0 +1,262 @@
+"""Closed loop: the controls' tables, applied by their own interpolation, cancel the error.
+
+The tables are written to text, read back as the control reads them, and applied to the
+commanded readings; the machine with the errors (the kinematic chain) then reaches the
+nominal point to within the interpolation bound of the format.
+"""
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from mtmetrology.errors import InputError
+from mtmetrology.export import fanuc, grid, isg, linuxcnc, siemens
+from mtmetrology.export.control import residual
+from mtmetrology.export.model import compensation_model
+from mtmetrology.export.workflow import export_compensation
+from mtmetrology.kinematics import Machine
+
+ROTARY_MACHINE = """kind: machine
+version: 1
+name: rotary-test
+topology: WCXFYZT
+axes:
+  X: {travel_mm: [0, 400]}
+  Y: {travel_mm: [0, 300]}
+  Z: {travel_mm: [0, 200]}
+  C: {travel_deg: [0, 360]}
+error_models:
+  m:
+    basis: monomial
+    motions:
+      E_CC: [1, 2]
+"""
+
+
+def _read_back(module, tables, model):
+    """The tables as the control holds them after reading the written files."""
+    files = module.render(tables, model)
+    back = module.parse(files)
+    return {t.function: t for t in (back[0] if module is isg else back)}
+
+
+def _readings(m, n, seed):
+    rng = np.random.default_rng(seed)
+    cols = {}
+    for a in m.axis_names:
+        travel = m.axes[a].travel
+        cols[a] = rng.uniform(*travel, n) if travel is not None and a != "S" else np.zeros(n)
+    return np.stack([cols[a] for a in m.axis_names], axis=-1)
+
+
+def _closed_loop(m, theta, tables, q):
+    """Tool point reached when the control shifts each table's output axis by its
+    correction, minus the nominal point: the error left (mm)."""
+    shifted = q.copy()
+    for t in tables.values():
+        k_in, k_out = m.axis_names.index(t.axis), m.axis_names.index(t.output)
+        shifted[:, k_out] += t.correction(q[:, k_in])
+    return m.forward(shifted, theta) - m.forward(q)
+
+
+@pytest.mark.parametrize("function", ["E_XX", "E_YY", "E_ZZ"])
+@pytest.mark.parametrize(
+    ("module", "bound_mm"),
+    # linear interpolation of a linear error is exact: 5e-7 mm of the 6-decimal files plus
+    # the second-order term slope × correction (1e-4 × 23 µm); the Fanuc staircase leaves
+    # one increment (slope × pitch = 1 µm) plus half a detection unit.
+    [(linuxcnc, 1e-5), (siemens, 1e-5), (fanuc, 1.5e-3 + 1e-5)],
+)
+def test_positioning_slope_100_um_per_m_cancels_on_table_and_tool_side(
+    make_set, module, bound_mm, function
+):
+    """Five-axis preset: X moves the table, Y and Z the spindle; E_XX1 = +100 µm/m (and
+    likewise E_YY1, E_ZZ1) exported as corrections is cancelled by the control."""
+    m = Machine.load("five-axis-wcbxfzyst")
+    ps = make_set(m, {f"{function}1": 100.0})
+    cm = compensation_model(m, ps, pitch=10, reference={"X": 0, "Y": 0, "Z": 0})
+    tables = _read_back(module, module.build(cm, [function]), cm)
+    q = _readings(m, 400, seed=1)
+    before = _closed_loop(m, cm.theta, {}, q)
+    after = _closed_loop(m, cm.theta, tables, q)
+    assert np.abs(before).max() > 0.015  # 100 µm/m over ±200 mm
+    assert np.abs(after).max() <= bound_mm
+
+
+@pytest.mark.parametrize(
+    ("function", "pitch_mm", "half_range"), [("E_YX", 10, 200), ("E_XZ", 10, 100)]
+)
+def test_straightness_exported_as_cross_table_cancels_to_linear_interpolation_bound(
+    make_set, function, pitch_mm, half_range
+):
+    """Three-axis preset (Legendre): E_YX2 = 10 µm (X moves the table) and E_XZ2 = 10 µm
+    (Z moves the spindle) through Sinumerik $AN_CEC tables; linear interpolation leaves at
+    most h²/8 · max|f''| with f'' = 10 µm · 3 / half_range²."""
+    m = Machine.load("three-axis-xfyz")
+    ps = make_set(m, {f"{function}2": 10.0})
+    cm = compensation_model(m, ps, pitch=pitch_mm)
+    tables = _read_back(siemens, siemens.build(cm, [function]), cm)
+    q = _readings(m, 400, seed=2)
+    after = _closed_loop(m, cm.theta, tables, q)
+    bound = pitch_mm**2 / 8 * 10e-3 * 3 / half_range**2 + 5e-7
+    assert np.abs(after).max() <= bound
+    # the residual of the library (sensitivities of the chain) is the same closed loop
+    r, _ = residual(m, cm.theta, None, list(tables.values()), q)
+    np.testing.assert_allclose(r, after, atol=1e-9)
+
+
+def _random_set(make_set, m, seed, scale=5.0, u=0.3):
+    rng = np.random.default_rng(seed)
+    values = dict(zip(m.parameter_names, rng.normal(0, scale, m.n_params), strict=True))
+    return make_set(m, values, u=dict.fromkeys(m.parameter_names, u))
+
+
+@pytest.mark.parametrize("module", [linuxcnc, fanuc, siemens, isg])
+def test_every_writer_has_a_reader_that_gives_the_same_table(make_set, module):
+    m = Machine.load("three-axis-xfyz")
+    cm = compensation_model(m, _random_set(make_set, m, 3), pitch=20)
+    built = module.build(cm)
+    back = _read_back(module, built, cm)
+    assert sorted(back) == sorted(t.function for t in built)
+    for t in built:
+        b = back[t.function]
+        np.testing.assert_allclose(b.positions, t.positions, atol=5e-7)
+        np.testing.assert_allclose(b.forward, t.forward, atol=5e-7)
+        np.testing.assert_allclose(b.reverse, t.reverse, atol=5e-7)
+        assert (b.rule, b.period) == (t.rule, t.period)
+    if module is isg:
+        consts = module.parse(module.render(built, cm))[1]
+        np.testing.assert_allclose([v for _, v in consts], [v for _, v in isg.constants(cm)])
+
+
+def test_fanuc_increments_sum_to_the_absolute_table(make_set):
+    m = Machine.load("three-axis-xfyz")
+    cm = compensation_model(m, _random_set(make_set, m, 4), pitch=20)
+    tables = fanuc.build(cm)
+    text = fanuc.render(tables, cm)["fanuc_pitch.txt"]
+    increments = [int(line.split()[1][1:]) for line in text.splitlines() if line.startswith("N")]
+    start = 0
+    for t in tables:
+        inc = np.array(increments[start : start + t.positions.size])
+        absolute = np.round(t.forward / 1e-3).astype(int)  # detection unit 1 µm
+        np.testing.assert_array_equal(np.cumsum(inc) - inc[0], absolute - absolute[0])
+        assert absolute[t.reference_index] == 0
+        start += t.positions.size
+
+
+def test_fanuc_rotary_increments_sum_to_zero_and_a_non_periodic_table_is_refused(
+    make_set, tmp_path
+):
+    """E_CC(c) = c1 c + c2 c² with c2 = −c1/(2π) is periodic over 360°: the increments of
+    one revolution sum to zero; with c2 = 0 they cannot and the control would refuse it."""
+    path = tmp_path / "rotary.yaml"
+    path.write_text(ROTARY_MACHINE)
+    m = Machine.load(path)
+    c1 = 1000.0
+    ps = make_set(m, {"E_CC1": c1, "E_CC2": -c1 / (2 * np.pi)})
+    cm = compensation_model(m, ps, pitch=45)
+    (table,) = fanuc.build(cm, ["E_CC"])
+    text = fanuc.render([table], cm)["fanuc_pitch.txt"]
+    inc = [int(line.split()[1][1:]) for line in text.splitlines() if line.startswith("N")]
+    assert len(inc) == 9 and sum(inc[1:]) == 0 and max(np.abs(inc)) > 30
+    assert inc[0] == inc[-1]  # the reference point takes the value of the last (p. 100)
+    assert "3625 C 360000" in text.splitlines()
+    bad = compensation_model(m, make_set(m, {"E_CC1": c1}), pitch=45)
+    with pytest.raises(InputError, match=r"sum to .* not zero"):
+        fanuc.build(bad, ["E_CC"])
+
+
+def test_samba_13_through_isg_leaves_only_second_order_error(make_set):
+    """The 13 SAMBA parameters (location errors and linear scales) are all carried by the
+    ISG volumetric compensation; linear interpolation of linear functions is exact."""
+    m = Machine.load("five-axis-wcbxfzyst")
+    ps = _random_set(make_set, m, 5, scale=20.0)
+    result = export_compensation(m, ps, "isg", pitch=10)
+    assert result.not_carried == []
+    assert result.residual["uncompensated_max_um"] > 20
+    assert result.residual["max_um"] < 0.02
+    lin = export_compensation(m, ps, "linuxcnc", pitch=10)
+    assert set(lin.not_carried) == {n for n in m.parameter_names if n[3] == "0"}
+
+
+@pytest.mark.parametrize(
+    ("preset", "model", "pitch", "seed"),
+    [("three-axis-xfyz", None, 20, 6), ("five-axis-wcbxfzyst", "13", 10, 9)],
+)
+def test_virtual_machine_residual_uncertainty_covers_95_percent(preset, model, pitch, seed):
+    """A virtual machine with known errors θ (the 21 functions of the three-axis preset;
+    the SAMBA 13 of the five-axis one), 200 identifications θ̂ ~ N(θ, U), ISG tables from
+    θ̂; at one held-out pose per trial the true residual lies within r̂ ± 1.96 u (one
+    component per trial).  Acceptance region of the count for p = 0.95, n = 200:
+    [181, 197] (0.5 % and 99.5 % binomial quantiles)."""
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+
+    m = Machine.load(preset, model=model)
+    rng = np.random.default_rng(seed)
+    theta = rng.normal(0, 5.0, m.n_params) * m.parameter_scales
+    sd = 0.3 * m.parameter_scales
+    cov = np.diag(sd**2)
+    covered, shrink = 0, []
+    for trial in range(200):
+        estimate = theta + sd * rng.standard_normal(m.n_params)
+        ps = ParameterSet(
+            m.parameter_names, estimate, m.parameter_units, cov, machine=m.name, model=m.model_name
+        )
+        cm = compensation_model(m, ps, pitch=pitch, covariance=False)
+        tables, consts = isg.build(cm), isg.constants(cm)
+        q = _readings(m, 1, seed=1000 + trial)
+        true, _ = residual(m, theta, None, tables, q, constants=consts)
+        stated, u = residual(m, estimate, cov, tables, q, constants=consts)
+        k = trial % 3
+        covered += abs(true[0, k] - stated[0, k]) <= 1.96 * u[0, k]
+        shrink.append(np.linalg.norm(true) / np.linalg.norm(residual(m, theta, None, [], q)[0]))
+    lo, hi = stats.binom.ppf([0.005, 0.995], 200, 0.95)
+    assert (lo, hi) == (181, 197)
+    assert lo <= covered <= hi
+    assert np.median(shrink) < 0.2  # the tables remove most of the error
+
+
+def test_volumetric_grid_round_trip_and_trilinear_closed_loop(make_set):
+    """Three-axis preset, E_YX2 = 10 µm: the grid's corrections, read back from the CSV and
+    interpolated trilinearly, shift the readings; the machine then lands on the nominal
+    point to h²/8 · max|f''| (f'' = 10 µm · 3 / 200² mm⁻¹, h = 25 mm)."""
+    m = Machine.load("three-axis-xfyz")
+    cm = compensation_model(m, make_set(m, {"E_YX2": 10.0}, u={"E_YX2": 0.5}), points=2)
+    field = grid.grid_from_model(cm, grid.grid_lines(cm, pitch=25.0))
+    back = grid.parse(grid.render(field))
+    for a, b in zip(field.lines, back.lines, strict=True):
+        np.testing.assert_allclose(b, a, atol=5e-5)
+    np.testing.assert_allclose(back.vectors, field.vectors, atol=5e-8)
+    np.testing.assert_allclose(back.u, field.u, atol=5e-8)
+    q = _readings(m, 400, seed=8)
+    shifted = q + grid.trilinear(back, q)  # readings X, Y, Z in axis order
+    after = m.forward(shifted, cm.theta) - m.forward(q)
+    assert np.abs(after).max() <= 25.0**2 / 8 * 10e-3 * 3 / 200**2 + 1e-7
+    r, u = grid.residual_grid(cm, back, q)
+    np.testing.assert_allclose(r, after, atol=1e-9)
+    assert u.max() > 0
+
+
+def test_fanuc_states_the_correction_left_to_the_reference_position(make_set):
+    """Five-axis preset, E_XX1 = +100 µm/m, reference X = −100 mm: the table is zero there
+    and the note gives the correction −E_XX(−100 mm) = +10 µm."""
+    m = Machine.load("five-axis-wcbxfzyst")
+    ps = make_set(m, {"E_XX1": 100.0})
+    result = export_compensation(
+        m, ps, "fanuc", pitch=10, functions=["E_XX"], reference={"X": -100.0}
+    )
+    (note,) = result.notes
+    assert note.startswith("E_XX: the correction at the reference position X = -100 mm (+10 µm)")
+
+
+def test_a_format_that_drops_the_reversal_says_so(make_set):
+    """Five-axis 84 model, E_BBb = 5 µrad: LinuxCNC carries both directions, ISG only the
+    forward table and states the 10 µrad it leaves in the negative direction."""
+    m = Machine.load("five-axis-wcbxfzyst", model="84")
+    ps = make_set(m, {"E_BBb": 5.0})
+    assert export_compensation(m, ps, "linuxcnc", pitch=10, functions=["E_BB"]).notes == []
+    (note,) = export_compensation(m, ps, "isg", pitch=10, functions=["E_BB"]).notes
+    assert note == (
+        "E_BB: isg carries the forward table only; travel in the negative direction keeps "
+        "the reversal of up to 10 µrad"
+    )

@@ -1,0 +1,186 @@
+"""Sequential multilateration: Jacobians, exact recovery, observability, coverage, MC."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from mtmetrology.errors import InputError, RankDeficientError
+from mtmetrology.kinematics import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.kinematics.volumetric_map import VolumetricMap
+from mtmetrology.multilateration.problem import LengthProblem, parse_spec
+from mtmetrology.multilateration.workflow import (
+    LengthRecord,
+    MultilaterationResult,
+    Station,
+    calibrate_multilateration,
+    map_monte_carlo,
+    simulate_lengths,
+)
+
+M = Machine.load("three-axis-xfyz")
+STATIONS = [
+    Station("S1", (750.0, 50.0, 30.0), 100.0),
+    Station("S2", (1250.0, 60.0, 40.0), 200.0),
+    Station("S3", (760.0, 560.0, 20.0), 300.0),
+    Station("S4", (1240.0, 540.0, 50.0), 400.0),
+]
+ONE_TOOL = np.array([[0.0, 0.0, -100.0]])
+THREE_TOOLS = np.array([[0.0, 0.0, -100.0], [80.0, 0.0, -150.0], [0.0, 80.0, -150.0]])
+LOW, HIGH = np.array([800.0, 100.0, 200.0]), np.array([1200.0, 500.0, 400.0])
+UM = np.array([u == "µm" for u in M.parameter_units])
+
+
+def _truth(rng):
+    """Errors of a medium machine: µm coefficients 3 µm, angular ones 5 µrad (1 sigma)."""
+    return rng.normal(size=M.n_params) * np.where(UM, 3e-3, 5e-6)
+
+
+def _poses(rng, n):
+    return rng.uniform(LOW, HIGH, (n, 3))
+
+
+def test_parse_spec_is_k2():
+    a, b = parse_spec("0.2um+0.3um/m")
+    assert a == pytest.approx(1e-4) and b == pytest.approx(1.5e-7)
+    with pytest.raises(InputError, match="--noise"):
+        parse_spec("0.2um")
+    with pytest.raises(InputError, match="must be a ratio"):
+        parse_spec("0.2um+0.3um")
+
+
+def test_jacobian_matches_finite_differences():
+    rng = np.random.default_rng(0)
+    rec = simulate_lengths(M, _truth(rng), STATIONS, _poses(rng, 12), THREE_TOOLS, seed=1)
+    pr = LengthProblem(M, rec.readings, rec.tools, rec.stations, rec.lengths)
+    x = pr.initial() + rng.normal(size=pr.n_unknowns) * 1e-4
+    _, jac = pr.evaluate(x)
+    num = np.empty_like(jac)
+    for k in range(x.size):
+        h = 1e-6 * max(1.0, abs(x[k]))
+        up, dn = x.copy(), x.copy()
+        up[k] += h
+        dn[k] -= h
+        num[:, k] = (pr.evaluate(up, False)[0] - pr.evaluate(dn, False)[0]) / (2 * h)
+    np.testing.assert_allclose(jac, num, rtol=1e-5, atol=1e-6 * np.abs(jac).max())
+
+
+def test_noise_free_lengths_give_the_exact_machine():
+    rng = np.random.default_rng(2)
+    theta = _truth(rng)
+    rec = simulate_lengths(M, theta, STATIONS, _poses(rng, 40), THREE_TOOLS, spec=(0.0, 0.0))
+    res = calibrate_multilateration(M, rec)
+    np.testing.assert_allclose(res.parameters.values, theta, atol=1e-10)
+    for got, true in zip(res.stations, STATIONS, strict=True):
+        np.testing.assert_allclose(got.position, true.position, atol=1e-7)
+        assert got.dead_path == pytest.approx(true.dead_path, abs=1e-7)
+
+
+def test_one_tool_cannot_see_the_yaw_of_z_three_tools_can():
+    """Reflector on the spindle axis only: the yaws of Y and Z, the axes that carry the
+    tool, have no lever arm (E_CY1..3, E_CZ1..3 not observable), Z's straightness is
+    confounded with its pitch and roll, and the Z squarenesses with the station positions:
+    12 null directions.  A second, laterally offset tool leaves one combination per degree
+    2-3 of Z (a rotation about the offset difference); three tools with non-parallel
+    offsets see all 51 coefficients."""
+    rng = np.random.default_rng(3)
+    theta, q = _truth(rng), _poses(rng, 60)
+    one = simulate_lengths(M, theta, STATIONS, q, ONE_TOOL, seed=4)
+    with pytest.raises(RankDeficientError) as err:
+        calibrate_multilateration(M, one)
+    groups = err.value.confounded
+    for name in ("E_CZ1", "E_CZ2", "E_CZ3"):
+        assert (name,) in groups
+    assert any({"E_XZ2", "E_BZ2"} <= set(g) for g in groups)
+    assert any({"E_B0Z", "station S1 x"} <= set(g) for g in groups)
+    assert len(groups) == 12
+    two = simulate_lengths(M, theta, STATIONS, q, THREE_TOOLS[:2], seed=4)
+    with pytest.raises(RankDeficientError) as err:
+        calibrate_multilateration(M, two)
+    assert len(err.value.confounded) == 2
+    assert all(
+        set(g) <= {f"E_{a}Z{d}" for a in "XYZABC" for d in (2, 3)} for g in err.value.confounded
+    )
+    full = calibrate_multilateration(
+        M, simulate_lengths(M, theta, STATIONS, q, THREE_TOOLS, seed=4)
+    )
+    assert full.diagnostics["rank"] == M.n_params + 16
+
+
+def test_map_coverage_over_simulated_setups():
+    """At one held-out point per set-up, d² = (ê − e)ᵀ Σ⁻¹ (ê − e) ≤ χ²₃(0.95): the count over
+    N independent set-ups is Binomial(N, 0.95) if the GUF covariance is right; accept the
+    central 99 % region of that binomial (34..40 for N = 40: it fails when u is half the
+    truth).  The sum of the N values of d² is χ²(3N): its central 99 % region fails when u
+    is twice the truth (overstated uncertainty)."""
+    n_setups = 40
+    limit = stats.chi2.ppf(0.95, 3)
+    inside, total = 0, 0.0
+    for k in range(n_setups):
+        rng = np.random.default_rng(100 + k)
+        theta = _truth(rng)
+        rec = simulate_lengths(M, theta, STATIONS, _poses(rng, 40), THREE_TOOLS, seed=rng)
+        res = calibrate_multilateration(M, rec)
+        point = rng.uniform([800, 100, 100], [1200, 500, 300], (1, 3))
+        # a grid through the held-out point: the map there is its node, no interpolation
+        grid = tuple(np.array(sorted({lo, point[0, c], hi})) for c, (lo, hi) in
+                     enumerate(((800, 1200), (100, 500), (100, 300))))  # fmt: skip
+        vmap = VolumetricMap.from_parameters(M, res.parameters, grid)
+        q = M.inverse(point, np.zeros((1, 3)))
+        true_e = M.forward(q) - M.forward(q, theta)  # e = P_indicated - P_true
+        d = (vmap.error(point) - true_e)[0]
+        d2 = float(d @ np.linalg.solve(vmap.covariance(point), d))
+        inside += d2 <= limit
+        total += d2
+    lo, hi = stats.binom.interval(0.99, n_setups, 0.95)
+    assert lo <= inside <= hi, (inside, lo, hi)
+    low, high = stats.chi2.interval(0.99, 3 * n_setups)
+    assert low <= total <= high, (total, low, high)
+
+
+def test_monte_carlo_agrees_with_the_guf():
+    rng = np.random.default_rng(5)
+    rec = simulate_lengths(M, _truth(rng), STATIONS, _poses(rng, 50), THREE_TOOLS, seed=6)
+    res = calibrate_multilateration(M, rec)
+    pts = rng.uniform([800, 100, 100], [1200, 500, 300], (4, 3))
+    mc = map_monte_carlo(M, rec, res, pts, trials=1000, seed=7)
+    assert mc.trials == 1000 and mc.failed == 0
+    # sd of a 1000-trial standard deviation is 2.2 %: 10 % is 4.5 of them
+    assert mc.largest_ratio_deviation < 0.10
+    # the map uncertainty of a medium machine from the LaserTRACER spec is within 1 µm
+    assert mc.u_guf.max() < 1e-3
+
+
+def test_result_round_trip_and_parameter_set_file(tmp_path):
+    rng = np.random.default_rng(8)
+    rec = simulate_lengths(M, _truth(rng), STATIONS, _poses(rng, 30), THREE_TOOLS, seed=9)
+    res = calibrate_multilateration(M, rec)
+    doc = json.loads(json.dumps(res.to_dict()))
+    back = MultilaterationResult.from_dict(doc, M)
+    np.testing.assert_allclose(back.parameters.values, res.parameters.values, rtol=1e-12)
+    np.testing.assert_allclose(back.parameters.covariance, res.parameters.covariance, rtol=1e-9)
+    assert [s.name for s in back.stations] == ["S1", "S2", "S3", "S4"]
+    path = tmp_path / "map.json"
+    path.write_text(json.dumps(doc))
+    assert ParameterSet.load(path, M).names == M.parameter_names
+
+
+def test_bad_inputs():
+    rng = np.random.default_rng(10)
+    rec = simulate_lengths(M, None, STATIONS, _poses(rng, 30), THREE_TOOLS, seed=11)
+    # 90 lengths per station, station by station: S1-S3 whole and 5 of S4.
+    keep = np.arange(275)
+    sparse = LengthRecord(
+        rec.readings[keep], rec.tools[keep], rec.stations[:275], rec.lengths[keep]
+    )
+    with pytest.raises(InputError, match="station S4 sees 5 points; at least 8"):
+        calibrate_multilateration(M, sparse)
+    few = LengthRecord(rec.readings[::8], rec.tools[::8], rec.stations[::8], rec.lengths[::8])
+    with pytest.raises(InputError, match="lengths for 67 unknowns"):
+        calibrate_multilateration(M, few)
+    with pytest.raises(InputError, match="must be >= 0"):
+        calibrate_multilateration(M, rec, spec=(-1e-4, 0.0))
