@@ -38,9 +38,9 @@ from mtmetrology.io.files import atomic_write, write_json
 from mtmetrology.kinematics.machine import Machine
 
 app = typer.Typer(
-    help="Calibration history: record results, list, trend with control limits, long-term "
-    "covariance, export. The database: --db FILE or URL, else $MTMETROLOGY_DB, else "
-    "history.sqlite in the user's data directory.",
+    help="Calibration history: record results, control charts, drift, long-term covariance."
+    "\n\nThe database: --db FILE or URL, else $MTMETROLOGY_DB, else history.sqlite in the "
+    "user's data directory.",
     no_args_is_help=True,
 )
 
