@@ -280,3 +280,26 @@ def test_predict_refuses_a_probe_column_without_probes(files):
     assert len(lines) == 1 and lines[0].startswith(f"error: {files['records']}: column 'probe'")
     assert "--probes" in lines[0].split("column 'probe'")[1]
     assert not out.exists()
+
+
+def test_calibrate_history_records_the_result_in_the_same_step(files, tmp_path, monkeypatch):
+    """--history: the run in the database is the written result; the same result a second
+    time is refused (exit 2) before its output is written."""
+    from mtmetrology.history import list_runs, open_history, show_run
+
+    monkeypatch.setenv("MTMETROLOGY_DB", str(tmp_path / "history.sqlite"))
+    out = tmp_path / "result.json"
+    res = _calibrate(files, files["records"], out, "--history")
+    assert res.exit_code == 0, res.output
+    engine = open_history()
+    (run,) = list_runs(engine)
+    record = show_run(engine, run.id)
+    doc = json.loads(out.read_text())
+    assert record.result == doc
+    assert [p["value"] for p in record.parameters] == [p["value"] for p in doc["parameters"]]
+    assert str(files["records"]) in record.input_hashes
+    again = tmp_path / "again.json"
+    res = _calibrate(files, files["records"], again, "--history")
+    assert res.exit_code == 2
+    assert "already recorded as calibration run 1" in res.stderr
+    assert not again.exists()

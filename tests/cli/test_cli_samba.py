@@ -444,3 +444,18 @@ def test_one_coverage_factor_in_console_json_and_report(records, tmp_path):
     html = page.read_text(encoding="utf-8")
     heads = re.findall(r"<th scope=\"col\">(.*?)</th>", html)
     assert "U (k = 1.96)" in heads and not any(h.startswith("U (k = 2") for h in heads)
+
+
+def test_calibrate_history_records_the_written_result(records, tmp_path, monkeypatch):
+    """--history: the database's run is the written result, with the inputs' hashes."""
+    from mtmetrology.history import list_runs, open_history, show_run
+
+    monkeypatch.setenv("MTMETROLOGY_DB", str(tmp_path / "history.sqlite"))
+    out = tmp_path / "result.json"
+    result = calibrate_samba(records, "--noise-um", "0.5", "--history", "-o", out)
+    assert result.exit_code == 0, result.output
+    engine = open_history()
+    (run,) = list_runs(engine)
+    record = show_run(engine, run.id)
+    assert record.result == json.loads(out.read_text())
+    assert set(record.input_hashes) == {str(records), str(EXAMPLES / "artefact.yaml")}

@@ -15,9 +15,9 @@ from scipy import stats
 from scipy.special import ndtr
 
 from mtmetrology.fitting.features import SphereDiameter
+from mtmetrology.identification.long_term import long_term_parameters
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
-from mtmetrology.omm.long_term import long_term_parameters
 from mtmetrology.omm.repeatability import sphere_normal
 from mtmetrology.omm.task import task_uncertainty
 from mtmetrology.units import to_internal

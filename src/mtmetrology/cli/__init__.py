@@ -44,6 +44,7 @@ COMMANDS = {
     "demo": ("mtmetrology.cli.demo", "demo", False),
     "budget": ("mtmetrology.cli.budget", "app", True),
     "export": ("mtmetrology.cli.export", "export", False),
+    "history": ("mtmetrology.cli.history", "app", True),
 }
 
 #: Groups whose subcommands come from several applications (``mtm calibrate samba``,
@@ -89,6 +90,7 @@ SUMMARIES = {
         "after the control's own interpolation, with its uncertainty (k = 2), on a grid over "
         "the travel."
     ),
+    "history": "Calibration history: record results, control charts, drift, long-term covariance.",
     "calibrate": SHARED_GROUPS["calibrate"][0],
     "simulate": SHARED_GROUPS["simulate"][0],
 }

@@ -16,6 +16,7 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
+from mtmetrology.cli._history import HistoryOption, record_in_history
 from mtmetrology.errors import ConvergenceError, InputError
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError, write_json
@@ -201,6 +202,7 @@ def samba(
     json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
     report_path: ReportOption = None,
+    history: HistoryOption = False,
 ) -> None:
     if uncertainty not in ("none", "guf", "mcm", "both"):
         raise InputError(f"--uncertainty must be none, guf, mcm or both, got {uncertainty!r}")
@@ -275,6 +277,8 @@ def samba(
         report = samba_report(
             ctx, f"SAMBA calibration: {records.name}", inputs, cal, uncertainty=unc
         )
+    if history:
+        record_in_history(doc, m, "mtm calibrate samba", [records, artefact])
     if output is not None:
         write_json(output, doc)
     if report is not None:

@@ -23,6 +23,7 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
+from mtmetrology.cli._history import HistoryOption, record_in_history
 from mtmetrology.cmm.budget import ballplate_budget, load_budget
 from mtmetrology.cmm.calibrate import calibrate_ballplate, cross_validate
 from mtmetrology.cmm.files import (
@@ -152,6 +153,7 @@ def calibrate_ballplate_cmd(
     seed: Annotated[int, typer.Option("--seed", help="Seed of the U2/U3 sample points.")] = 0,
     json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
     report_path: ReportOption = None,
+    history: HistoryOption = False,
 ) -> None:
     """Identify a CMM's error functions from ball-plate records (kinematic model).
 
@@ -183,6 +185,8 @@ def calibrate_ballplate_cmd(
             ctx, f"Ball-plate calibration: {records.name}", [records, plate, probes], machine
         )
         _add_result(report, cal, model_selection=selection)
+    if history:
+        record_in_history(doc, m, "mtm calibrate ballplate", [records, plate, probes])
     write_json(output, doc)
     if report is not None:
         write_report(report, report_path)

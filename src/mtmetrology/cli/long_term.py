@@ -12,10 +12,10 @@ import typer
 
 from mtmetrology.cli._common import print_json, user_errors
 from mtmetrology.errors import InputError
+from mtmetrology.identification.long_term import VALUE_CHOICES, long_term_parameters
 from mtmetrology.io.documents import load_document
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
-from mtmetrology.omm.long_term import VALUE_CHOICES, long_term_parameters
 
 app = typer.Typer()
 

@@ -28,6 +28,7 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
+from mtmetrology.cli._history import load_parameters
 from mtmetrology.errors import InputError
 from mtmetrology.fitting.composite import CombinedFeature, PointCoordinates
 from mtmetrology.fitting.features import (
@@ -180,7 +181,8 @@ def uncertainty(
         typer.Option(
             "--long-term",
             help="Parameter set whose covariance is the variation of the parameters between "
-            "calibrations (mtm long-term); only its covariance is used.",
+            "calibrations (mtm long-term), or history:MACHINE (from the calibration "
+            "history); only its covariance is used.",
         ),
     ] = None,
     recalibrated: Annotated[
@@ -282,7 +284,7 @@ def uncertainty(
         raise InputError(f"{params}: no covariance; the task uncertainty needs one")
     sigma_lt = None
     if long_term is not None:
-        lt = ParameterSet.load(long_term, base)
+        lt = load_parameters(long_term, base)
         if lt.covariance is None:
             raise InputError(f"{long_term}: no covariance; --long-term needs one")
         if set(lt.names) != set(pset.names):

@@ -8,7 +8,7 @@ _EXPORTS = {
     "HysteresisResult": "mtmetrology.omm.hysteresis",
     "hysteresis_errors": "mtmetrology.omm.hysteresis",
     "radial_projection": "mtmetrology.omm.hysteresis",
-    "long_term_parameters": "mtmetrology.omm.long_term",
+    "long_term_parameters": "mtmetrology.identification.long_term",
     "PoolingResult": "mtmetrology.omm.pooling",
     "pooling_experiment": "mtmetrology.omm.pooling",
     "ReferenceValue": "mtmetrology.omm.reference",

@@ -159,7 +159,7 @@ def pooling_experiment(
     parameter_covariance : (P, P) array
         Their covariance, propagated as the calibration's U_θ (the ``calibration`` group of
         :func:`~mtmetrology.omm.task.task_uncertainty`; a covariance from
-        :func:`mtmetrology.omm.long_term.long_term_parameters` stands in for both U_θ and
+        :func:`mtmetrology.identification.long_term.long_term_parameters` stands in for both U_θ and
         the long-term variation).
     features : sequence of Feature
         Features of each drawn point set, sharing one unit (e.g. ``SphereDiameter``,

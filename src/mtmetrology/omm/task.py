@@ -257,7 +257,7 @@ def task_uncertainty(
         ``jacobian(points) -> (m, 3n)``.
     long_term_covariance : (P, P) array, optional
         Σ_lt, the variation of the parameters between calibrations (e.g. the covariance
-        of :func:`~mtmetrology.omm.long_term.long_term_parameters`): the
+        of :func:`~mtmetrology.identification.long_term.long_term_parameters`): the
         ``long_term_variation`` group; none leaves it out (``long_term = "not given"``).
     recalibrated : bool
         The machine is recalibrated for the task: no long-term term (refused together

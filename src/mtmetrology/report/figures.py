@@ -19,6 +19,7 @@ specifications* (conformance and nonconformance zones).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from datetime import UTC
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -28,6 +29,7 @@ from mtmetrology.formatting import format_uncertainty, format_value
 __all__ = [
     "budget_bars",
     "conformity_zones",
+    "control_chart",
     "convergence",
     "correlation_heatmap",
     "coverage_ellipses",
@@ -805,4 +807,57 @@ def hysteresis_bars(
     ax.set_ylabel(_label("hysteresis error H", unit))
     ax.grid(True, axis="y", alpha=0.3)
     ax.set_title(title or "Hysteresis error per indexation, bars ±U")
+    return fig
+
+
+def _utc_datetime64(dates) -> np.ndarray:
+    """datetime64 (UTC, seconds) of datetimes, aware (converted) or naive (taken as UTC)."""
+    return np.array(
+        [
+            np.datetime64((d.astimezone(UTC) if d.tzinfo else d).replace(tzinfo=None), "s")
+            for d in dates
+        ]
+    )
+
+
+def control_chart(
+    dates,
+    values,
+    centre: float,
+    limits: tuple[float, float],
+    out_of_control,
+    *,
+    name: str,
+    unit: str,
+    prediction=None,
+    mpe: float | None = None,
+    due_date=None,
+) -> Figure:
+    """Individuals control chart of a parameter over time (ISO 7870-2): the values, the
+    centre line and the ±3σ control limits, out-of-control points in red; optionally a
+    prediction ``(dates, mean, half_width)`` band, the ±MPE lines and the due date."""
+    fig = _figure(7.2, 3.8)
+    ax = fig.add_subplot()
+    flags = np.asarray(out_of_control, dtype=bool)
+    values = np.asarray(values, dtype=float)
+    dates = _utc_datetime64(dates)
+    ax.plot(dates, values, "o-", color=_BLUE, ms=3, lw=0.8, label=name)
+    ax.plot(dates[flags], values[flags], "o", color=_RED, ms=6, label="out of control")
+    ax.axhline(centre, color=_GREY, lw=1, label="centre")
+    for limit in limits:
+        ax.axhline(limit, color=_ORANGE, lw=1, ls="--")
+    if prediction is not None:
+        when, mean, half = prediction
+        when = _utc_datetime64(when)
+        ax.plot(when, mean, color=_GREEN, lw=1, label="prediction")
+        ax.fill_between(when, mean - half, mean + half, color=_GREEN, alpha=0.2, lw=0)
+    if mpe is not None:
+        for bound in (-mpe, mpe):
+            ax.axhline(bound, color=_RED, lw=1)
+    if due_date is not None:
+        ax.axvline(
+            np.datetime64(due_date.replace(tzinfo=None), "s"), color=_RED, ls=":", label="due"
+        )
+    ax.set_ylabel(_label(name, unit))
+    ax.legend(fontsize="small", loc="best")
     return fig

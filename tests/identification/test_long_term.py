@@ -1,4 +1,4 @@
-"""Tests for mtmetrology.omm.long_term (Sepahi Boroujeni (2021), §5.3, Tables 5-2, 5-4)."""
+"""Tests for mtmetrology.identification.long_term (Sepahi Boroujeni (2021), §5.3)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import pytest
 from scipy import stats
 
 from mtmetrology.errors import InputError
+from mtmetrology.identification.long_term import long_term_parameters
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
-from mtmetrology.omm.long_term import long_term_parameters
 
 MACHINE = Machine.load("five-axis-wcbxfzyst")
 SCALES = MACHINE.parameter_scales  # 1 µm, 1 µrad, 1 µm/m in internal units

@@ -11,6 +11,8 @@ long-term variation Σ_lt of a task's budget (``mtm task uncertainty --long-term
 calibration that compensates brings its own U_θ (``--params``).  The scatter of the
 estimates holds their estimation noise too, so Σ_lt from it counts part of U_θ again
 (conservative).
+It lives in the identification engine so that ``mtm calibrate long-term`` (on files) and
+``mtm history covariance`` (on the calibration database) call the same statistic.
 
 References
 ----------
@@ -134,13 +136,19 @@ def long_term_parameters(
             raise InputError(
                 f"{name}: error model {s.model!r}, not {first.model!r} like {names_of[0]}"
             )
-        if sorted(s.names) != sorted(first.names):
+        if s.names != first.names and sorted(s.names) != sorted(first.names):
             extra = sorted(set(s.names) ^ set(first.names))
             raise InputError(
                 f"{name}: parameter names differ from {names_of[0]} (not in both: "
                 f"{', '.join(extra) or 'a parameter listed twice'})"
             )
-    order = [[s.names.index(n) for n in first.names] for s in sets]
+    # each set's positions of the first set's names (identity when they are in the same order)
+    order = [
+        np.arange(len(first.names))
+        if s.names == first.names
+        else np.array([s.names.index(n) for n in first.names])
+        for s in sets
+    ]
     estimates = np.stack([s.values[o] for s, o in zip(sets, order, strict=True)])  # (K, P)
     centred = estimates - estimates.mean(axis=0)
     sigma = centred.T @ centred / (len(sets) - 1)

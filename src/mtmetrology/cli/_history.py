@@ -1,0 +1,55 @@
+"""``--history`` of the calibrate commands: record the result in the calibration history in
+the same step (:func:`mtmetrology.history.add_result`, database ``$MTMETROLOGY_DB`` or the
+default file)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from mtmetrology.kinematics.machine import Machine
+
+__all__ = ["HISTORY_PARAMS", "HistoryOption", "load_parameters", "record_in_history"]
+
+HistoryOption = Annotated[
+    bool,
+    typer.Option(
+        "--history",
+        help="Also record the result in the calibration history ($MTMETROLOGY_DB, else the "
+        "default database; see mtm history).",
+    ),
+]
+
+
+def record_in_history(document: dict, machine: Machine, command: str, inputs: list[Path]) -> None:
+    """Record ``document`` (before any output is written: a refusal leaves nothing)."""
+    from mtmetrology.history import add_result, open_history
+
+    record = add_result(
+        open_history(),
+        document,
+        machine,
+        source=command,
+        input_files=tuple(p for p in inputs if Path(p).is_file()),
+    )
+    typer.echo(f"recorded calibration run {record.id} in the history", err=True)
+
+
+#: ``--long-term history:MACHINE``: the machine's long-term covariance from the history.
+HISTORY_PARAMS = "history:"
+
+
+def load_parameters(params: Path, machine: Machine):
+    """The parameter set of ``--long-term``: a file, or ``history:MACHINE`` (``history:``
+    alone: ``machine``'s name) for :func:`mtmetrology.history.long_term_covariance` on
+    the history database ($MTMETROLOGY_DB, else the default file)."""
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+
+    text = str(params)
+    if not text.startswith(HISTORY_PARAMS):
+        return ParameterSet.load(params, machine)
+    from mtmetrology.history import long_term_covariance, open_history
+
+    return long_term_covariance(open_history(), text[len(HISTORY_PARAMS) :] or machine.name)

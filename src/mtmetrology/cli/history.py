@@ -1,0 +1,425 @@
+"""``mtm history``: the calibration history database (issue 24).
+
+Each command parses, calls one function of :mod:`mtmetrology.history`, prints and writes.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from datetime import datetime, timedelta
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    print_json,
+    user_errors,
+    write_report,
+)
+from mtmetrology.errors import InputError
+from mtmetrology.history import (
+    add_result,
+    export_rows,
+    list_runs,
+    long_term_covariance,
+    open_history,
+    parameter_drift,
+    parameter_trend,
+    show_run,
+)
+from mtmetrology.history.records import machine_names
+from mtmetrology.io.documents import load_document
+from mtmetrology.io.files import atomic_write, write_json
+from mtmetrology.kinematics.machine import Machine
+
+app = typer.Typer(
+    help="Calibration history: record results, control charts, drift, long-term covariance."
+    "\n\nThe database: --db FILE or URL, else $MTMETROLOGY_DB, else history.sqlite in the "
+    "user's data directory.",
+    no_args_is_help=True,
+)
+
+Db = Annotated[
+    str | None,
+    typer.Option("--db", help="SQLite file or URL (postgresql://...) [$MTMETROLOGY_DB]."),
+]
+CATEGORIES = ("calibration", "task", "verification")
+
+
+def _date(text: str | None, option: str) -> datetime | None:
+    if text is None:
+        return None
+    try:
+        return datetime.fromisoformat(text)
+    except ValueError:
+        raise InputError(
+            f"{option} {text!r}: not an ISO 8601 date (2026-03-01 or 2026-03-01T08:30)"
+        ) from None
+
+
+def _category(category: str) -> str:
+    if category not in CATEGORIES:
+        raise InputError(f"--category {category!r}: one of {', '.join(CATEGORIES)}")
+    return category
+
+
+def _one_machine(engine, machine: str | None) -> str:
+    if machine is not None:
+        return machine
+    names = machine_names(engine)
+    if len(names) != 1:
+        raise InputError(
+            f"the history holds {len(names)} machines ({', '.join(names) or 'none'}); "
+            "give --machine"
+        )
+    return names[0]
+
+
+@app.command("add")
+@user_errors
+def add(
+    result: Annotated[
+        Path, typer.Argument(help="RESULT.json of a calibrate, task or verify command.")
+    ],
+    machine: Annotated[
+        str | None,
+        typer.Option("--machine", help="Preset name or machine YAML [the machine the file names]."),
+    ] = None,
+    note: Annotated[str | None, typer.Option("--note", help="Operator note.")] = None,
+    date: Annotated[
+        str | None, typer.Option("--date", help="When it was measured (ISO 8601) [now].")
+    ] = None,
+    artefact: Annotated[str | None, typer.Option("--artefact", help="Artefact used.")] = None,
+    temperature: Annotated[
+        float | None, typer.Option("--temperature", help="Workshop temperature, °C.")
+    ] = None,
+    serial: Annotated[str | None, typer.Option("--serial", help="Machine serial number.")] = None,
+    inputs: Annotated[
+        list[Path] | None, typer.Option("--input", help="Input file whose SHA-256 is kept.")
+    ] = None,
+    db: Db = None,
+    json: Annotated[bool, typer.Option("--json", help="Print the stored run.")] = False,
+) -> None:
+    """Record a result in the history (one transaction: fully there or absent)."""
+    document = load_document(result, "result")
+    name = machine
+    if name is None:
+        name = document.get("machine") if isinstance(document, dict) else None
+        if not isinstance(name, str):
+            raise InputError(f"{result}: machine: missing; give --machine")
+    base = Machine.load(name)
+    when = _date(date, "--date")
+    engine = open_history(db)
+    record = add_result(
+        engine,
+        document,
+        base,
+        source=str(result),
+        performed_at=when,
+        note=note,
+        artefact=artefact,
+        temperature_c=temperature,
+        serial=serial,
+        input_files=tuple(inputs or ()),
+    )
+    if json:
+        print_json(record.to_dict())
+    else:
+        typer.echo(
+            f"recorded {record.category} run {record.id} of {record.machine} "
+            f"({record.kind}, {record.performed_at:%Y-%m-%d %H:%M} UTC)"
+        )
+
+
+@app.command("list")
+@user_errors
+def list_(
+    machine: Annotated[str | None, typer.Option("--machine", help="Only this machine.")] = None,
+    category: Annotated[
+        str, typer.Option("--category", help="calibration, task or verification.")
+    ] = "calibration",
+    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    db: Db = None,
+    json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """List the recorded runs, oldest first."""
+    runs = list_runs(
+        open_history(db),
+        machine=machine,
+        category=_category(category),
+        since=_date(since, "--since"),
+    )
+    if json:
+        print_json({"kind": "history-list", "version": 1, "runs": [r.to_dict() for r in runs]})
+        return
+    for r in runs:
+        typer.echo(
+            f"{r.id:>6}  {r.performed_at:%Y-%m-%d %H:%M}  {r.machine:<24} {r.kind:<22} "
+            f"{r.operator_note or ''}"
+        )
+    typer.echo(f"{len(runs)} {category} run(s)", err=True)
+
+
+@app.command("show")
+@user_errors
+def show(
+    run: Annotated[int, typer.Argument(help="Run number (mtm history list).")],
+    category: Annotated[
+        str, typer.Option("--category", help="calibration, task or verification.")
+    ] = "calibration",
+    db: Db = None,
+    json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """Show one recorded run."""
+    record = show_run(open_history(db), run, _category(category))
+    if json:
+        print_json(record.to_dict())
+        return
+    typer.echo(
+        f"{record.category} run {record.id}: {record.machine}, {record.kind}, performed "
+        f"{record.performed_at.isoformat()}, recorded {record.recorded_at.isoformat()} "
+        f"(mtmetrology {record.software_version})"
+    )
+    for label, value in (
+        ("note", record.operator_note),
+        ("artefact", record.artefact),
+        ("temperature", None if record.temperature_c is None else f"{record.temperature_c} °C"),
+    ):
+        if value is not None:
+            typer.echo(f"  {label}: {value}")
+    for key, value in record.residual_statistics.items():
+        typer.echo(f"  {key}: {value}")
+    for path, sha in record.input_hashes.items():
+        typer.echo(f"  sha256 {sha}  {path}")
+    for p in record.parameters:
+        u = "" if p["u"] is None else f" ± {p['u']:.2g}"
+        typer.echo(f"  {p['name']:<8} {p['value']:>12.4f}{u} {p['unit']}")
+
+
+@app.command("trend")
+@user_errors
+def trend(
+    ctx: typer.Context,
+    parameter: Annotated[str, typer.Argument(help="Parameter name, e.g. E_X0C.")],
+    machine: Annotated[str | None, typer.Option("--machine", help="Machine name.")] = None,
+    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    baseline: Annotated[
+        int | None, typer.Option("--baseline", help="First runs that set the limits [all].")
+    ] = None,
+    mpe: Annotated[
+        float | None,
+        typer.Option("--mpe", help="Maximum permissible error: drift and due date on the plot."),
+    ] = None,
+    reliability: Annotated[
+        float, typer.Option("--reliability", help="In-tolerance probability at the due date.")
+    ] = 0.95,
+    db: Db = None,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="TREND.json.")] = None,
+    report_path: ReportOption = None,
+    json: Annotated[bool, typer.Option("--json", help="Print TREND.json.")] = False,
+) -> None:
+    """Individuals control chart of a parameter (Shewhart limits x̄ ± 3 MR̄/1.128)."""
+    engine = open_history(db)
+    name = _one_machine(engine, machine)
+    when = _date(since, "--since")
+    result = parameter_trend(engine, name, parameter, since=when, baseline=baseline)
+    drifted = None
+    if mpe is not None:
+        drifted = parameter_drift(
+            engine, name, parameter, mpe=mpe, reliability=reliability, since=when
+        )
+    document = result.to_dict()
+    if drifted is not None:
+        document["drift"] = drifted.to_dict()
+    report = None if report_path is None else _trend_report(ctx, result, drifted)
+    if output is not None:
+        write_json(output, document)
+    if report is not None:
+        write_report(report, report_path)
+    if json:
+        print_json(document)
+        return
+    typer.echo(
+        f"{result.parameter} of {result.machine}: {len(result.values)} runs, centre "
+        f"{result.centre:.4f} {result.unit}, limits [{result.lower_limit:.4f}, "
+        f"{result.upper_limit:.4f}] {result.unit} (sigma {result.sigma:.2g} from "
+        f"{result.baseline} runs)"
+    )
+    for i, d, v, flag in zip(
+        result.run_ids, result.dates, result.values, result.out_of_control, strict=True
+    ):
+        if flag:
+            typer.echo(f"  out of control: run {i} ({d:%Y-%m-%d}) {v:.4f} {result.unit}")
+    typer.echo(f"{int(result.out_of_control.sum())} point(s) out of control")
+
+
+def _trend_report(ctx: typer.Context, result, drifted):
+    from mtmetrology.report import Report, figures
+
+    report = Report(
+        f"Control chart of {result.parameter}, {result.machine}", command=command_line(ctx)
+    )
+    report.section(
+        "Control chart",
+        f"Individuals chart (ISO 7870-2): centre {result.centre:.4f} {result.unit}, control "
+        f"limits x̄ ± 3 MR̄/1.128 = [{result.lower_limit:.4f}, {result.upper_limit:.4f}] "
+        f"{result.unit} from the first {result.baseline} runs; "
+        f"{int(result.out_of_control.sum())} point(s) out of control.",
+    )
+    prediction = due = mpe = None
+    if drifted is not None:
+        span = (result.dates[-1] - result.dates[0]) / 2
+        end = drifted.due_date if drifted.due_date is not None else drifted.last_date + span
+        step = max((end - drifted.last_date) / 60, timedelta(days=1))
+        ahead = [drifted.last_date + k * step for k in range(61)]
+        mean, std = drifted.predict(ahead)
+        prediction = (ahead, mean, 2 * std)
+        due, mpe = drifted.due_date, drifted.mpe
+        report.text(
+            f"Drift: slope {drifted.slope * 365.25:.3g} ± {drifted.u_slope * 365.25:.2g} "
+            f"{result.unit}/year; the band is the prediction ± 2 standard deviations; due "
+            f"{'beyond the horizon' if due is None else f'{due:%Y-%m-%d}'} (P(|x| > "
+            f"{mpe:g} {result.unit}) passes {1 - drifted.reliability:.3g})."
+        )
+    report.figure(
+        figures.control_chart(
+            result.dates,
+            result.values,
+            result.centre,
+            (result.lower_limit, result.upper_limit),
+            result.out_of_control,
+            name=result.parameter,
+            unit=result.unit,
+            prediction=prediction,
+            mpe=mpe,
+            due_date=due,
+        )
+    )
+    report.table(
+        ["run", "date", f"{result.parameter} ({result.unit})", "out of control"],
+        [
+            [str(i), f"{d:%Y-%m-%d %H:%M}", float(v), "yes" if flag else ""]
+            for i, d, v, flag in zip(
+                result.run_ids, result.dates, result.values, result.out_of_control, strict=True
+            )
+        ],
+    )
+    return report
+
+
+@app.command("covariance")
+@user_errors
+def covariance(
+    machine: Annotated[str, typer.Argument(help="Machine name.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="COV.json (parameter set).")],
+    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    values: Annotated[str, typer.Option("--values", help="latest or mean.")] = "latest",
+    add_within: Annotated[
+        bool,
+        typer.Option("--add-within", help="Add the mean within-calibration covariance."),
+    ] = False,
+    db: Db = None,
+) -> None:
+    """Long-term covariance of the machine's calibrations, for mtm task uncertainty --long-term."""
+    result = long_term_covariance(
+        open_history(db),
+        machine,
+        since=_date(since, "--since"),
+        values=values,
+        add_within=add_within,
+    )
+    result.save(output)
+    typer.echo(
+        f"long-term covariance of {result.provenance['calibrations']} calibrations "
+        f"(rank {result.provenance['rank']}); wrote {output}"
+    )
+
+
+@app.command("export")
+@user_errors
+def export(
+    machine: Annotated[str, typer.Argument(help="Machine name.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="FILE.csv or FILE.json.")],
+    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    db: Db = None,
+) -> None:
+    """Export a machine's calibrations: CSV (one row per run) or JSON (the full runs)."""
+    engine = open_history(db)
+    when = _date(since, "--since")
+    if output.suffix.lower() == ".json":
+        runs = list_runs(engine, machine=machine, since=when)
+        write_json(
+            output,
+            {
+                "kind": "history-export",
+                "version": 1,
+                "machine": machine,
+                "runs": [show_run(engine, r.id).to_dict() for r in runs],
+            },
+        )
+    elif output.suffix.lower() == ".csv":
+        rows = export_rows(engine, machine, since=when)
+        buffer = io.StringIO()
+        if rows:
+            writer = csv.DictWriter(buffer, fieldnames=list(rows[0]), lineterminator="\n")
+            writer.writeheader()
+            writer.writerows(rows)
+        with atomic_write(output) as fh:
+            fh.write(buffer.getvalue())
+    else:
+        raise InputError(f"{output}: give a .csv or .json file")
+    typer.echo(f"wrote {output}", err=True)
+
+
+@app.command("drift")
+@user_errors
+def drift(
+    parameter: Annotated[str, typer.Argument(help="Parameter name, e.g. E_X0C.")],
+    machine: Annotated[str | None, typer.Option("--machine", help="Machine name.")] = None,
+    mpe: Annotated[
+        float | None,
+        typer.Option("--mpe", help="Maximum permissible error of |value|, parameter's unit."),
+    ] = None,
+    reliability: Annotated[
+        float, typer.Option("--reliability", help="In-tolerance probability at the due date.")
+    ] = 0.95,
+    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    db: Db = None,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="DRIFT.json.")] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print DRIFT.json.")] = False,
+) -> None:
+    """Drift (constant slope + random walk, Kalman filter) and the date the next calibration
+    is due: P(|value| > MPE) passes 1 - reliability (ILAC-G24 / OIML D 10, NCSLI RP-1)."""
+    engine = open_history(db)
+    result = parameter_drift(
+        engine,
+        _one_machine(engine, machine),
+        parameter,
+        mpe=mpe,
+        reliability=reliability,
+        since=_date(since, "--since"),
+    )
+    document = result.to_dict()
+    if output is not None:
+        write_json(output, document)
+    if json:
+        print_json(document)
+        return
+    per_year = 365.25
+    typer.echo(
+        f"{result.parameter}: {result.level:.4f} {result.unit} on "
+        f"{result.last_date:%Y-%m-%d}; slope {result.slope * per_year:.3g} ± "
+        f"{result.u_slope * per_year:.2g} {result.unit}/year; random walk "
+        f"{math.sqrt(result.random_walk_variance * per_year):.2g} {result.unit}/√year"
+    )
+    if result.mpe is not None:
+        due = "beyond the horizon" if result.due_date is None else f"{result.due_date:%Y-%m-%d}"
+        typer.echo(
+            f"due: {due} (P(|{result.parameter}| > {result.mpe:g} {result.unit}) passes "
+            f"{1 - result.reliability:.3g})"
+        )

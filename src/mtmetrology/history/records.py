@@ -1,0 +1,564 @@
+"""Recording results in the calibration history and reading them back.
+
+:func:`add_result` takes a result document of any application through its documented JSON
+form (``kind`` and ``version``): a calibration (``parameter-set``, ``samba-calibration``,
+``ballplate-calibration``), a task uncertainty (``uncertainty-result``) or a verification
+(``length-check``, ``conformity-decision``). A calibration is checked against the machine's
+definition (:meth:`ParameterSet.from_document`) and against the machine's earlier runs (the
+same error model and parameter names), then stored with its parameters in one transaction.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+from sqlalchemy import Engine, select, text
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
+
+import mtmetrology
+from mtmetrology.errors import InputError
+from mtmetrology.history import schema
+from mtmetrology.history.database import canonical_sha256, writer
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import KIND as PARAMETER_SET
+from mtmetrology.kinematics.parameter_set import RESULT_KINDS, ParameterSet
+from mtmetrology.units import parse_unit
+
+__all__ = [
+    "CALIBRATION_KINDS",
+    "TASK_KINDS",
+    "VERIFICATION_KINDS",
+    "RunRecord",
+    "add_result",
+    "list_runs",
+    "show_run",
+]
+
+CALIBRATION_KINDS = (PARAMETER_SET, *RESULT_KINDS)
+TASK_KINDS = ("uncertainty-result",)
+VERIFICATION_KINDS = ("length-check", "conformity-decision")
+_TABLES = {
+    "calibration": schema.CalibrationRun,
+    "task": schema.TaskResult,
+    "verification": schema.VerificationResult,
+}
+
+
+@dataclass(frozen=True)
+class RunRecord:
+    """One stored result: where it sits in the history and what it said.
+
+    Attributes
+    ----------
+    id : int
+        The run's number in its table (``category``).
+    category : {"calibration", "task", "verification"}
+    machine, kind : str
+    performed_at, recorded_at : datetime (UTC)
+    software_version : str
+    operator_note : str or None
+    artefact : str or None
+    temperature_c : float or None
+    residual_statistics, input_hashes : dict
+    content_sha256 : str
+        SHA-256 of the stored document (canonical JSON).
+    parameters : tuple of dict
+        ``{name, unit, value, u}`` in customary units (calibrations; empty otherwise).
+    result : dict
+        The result document as recorded.
+    """
+
+    id: int
+    category: str
+    machine: str
+    kind: str
+    performed_at: datetime
+    recorded_at: datetime
+    software_version: str
+    operator_note: str | None
+    artefact: str | None
+    temperature_c: float | None
+    residual_statistics: dict
+    input_hashes: dict
+    content_sha256: str
+    parameters: tuple[dict, ...] = ()
+    result: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """The JSON form (``kind: history-run``, version 1)."""
+        return {
+            "kind": "history-run",
+            "version": 1,
+            "id": self.id,
+            "category": self.category,
+            "machine": self.machine,
+            "result_kind": self.kind,
+            "performed_at": self.performed_at.isoformat(),
+            "recorded_at": self.recorded_at.isoformat(),
+            "software_version": self.software_version,
+            "operator_note": self.operator_note,
+            "artefact": self.artefact,
+            "temperature_c": self.temperature_c,
+            "residual_statistics": self.residual_statistics,
+            "input_hashes": self.input_hashes,
+            "content_sha256": self.content_sha256,
+            "parameters": list(self.parameters),
+            "result": self.result,
+        }
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> RunRecord:
+        """Inverse of :meth:`to_dict`."""
+        return cls(
+            id=doc["id"],
+            category=doc["category"],
+            machine=doc["machine"],
+            kind=doc["result_kind"],
+            performed_at=datetime.fromisoformat(doc["performed_at"]),
+            recorded_at=datetime.fromisoformat(doc["recorded_at"]),
+            software_version=doc["software_version"],
+            operator_note=doc["operator_note"],
+            artefact=doc["artefact"],
+            temperature_c=doc["temperature_c"],
+            residual_statistics=doc["residual_statistics"],
+            input_hashes=doc["input_hashes"],
+            content_sha256=doc["content_sha256"],
+            parameters=tuple(doc["parameters"]),
+            result=doc["result"],
+        )
+
+
+def category_of(kind: object, source: str) -> str:
+    """``calibration``, ``task`` or ``verification`` for a result kind; else InputError."""
+    for category, kinds in (
+        ("calibration", CALIBRATION_KINDS),
+        ("task", TASK_KINDS),
+        ("verification", VERIFICATION_KINDS),
+    ):
+        if kind in kinds:
+            return category
+    known = ", ".join((*CALIBRATION_KINDS, *TASK_KINDS, *VERIFICATION_KINDS))
+    raise InputError(f"{source}: kind: {kind!r} is not a result the history records ({known})")
+
+
+def file_sha256(path: str | Path) -> str:
+    """SHA-256 of a file's bytes."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _utc(moment: datetime | None) -> datetime:
+    if moment is None:
+        return datetime.now(UTC)
+    return moment if moment.tzinfo is not None else moment.replace(tzinfo=UTC)
+
+
+def _residual_statistics(doc: dict) -> dict:
+    stats: dict = {}
+    unexplained = (doc.get("volumetric_error") or {}).get("unexplained")
+    if isinstance(unexplained, dict):
+        stats.update({f"unexplained_{k}": v for k, v in unexplained.items()})
+    ident = doc.get("identification")
+    if isinstance(ident, dict):
+        for key in ("variance_factor", "dof", "rank", "status"):
+            if key in ident:
+                stats[key] = ident[key]
+    records = doc.get("records")
+    if isinstance(records, dict) and "indications" in records:
+        stats["indications"] = records["indications"]
+    return stats
+
+
+def _machine_row(session: Session, machine: Machine, serial: str | None) -> schema.Machine:
+    row = session.scalar(select(schema.Machine).where(schema.Machine.name == machine.name))
+    if row is None:
+        row = schema.Machine(
+            name=machine.name,
+            topology=machine.topology.string,
+            model=None,
+            serial=serial,
+        )
+        session.add(row)
+        session.flush()
+    elif serial is not None and row.serial not in (None, serial):
+        raise InputError(
+            f"--serial {serial!r}: machine {machine.name!r} is recorded with serial {row.serial!r}"
+        )
+    return row
+
+
+def _check_against_history(session: Session, row: schema.Machine, pset, source: str):
+    """The machine's first run's parameter order; refuse another model or other names."""
+    first = session.scalar(
+        select(schema.CalibrationRun.id)
+        .where(schema.CalibrationRun.machine_id == row.id)
+        .order_by(schema.CalibrationRun.id)
+        .limit(1)
+    )
+    if row.model is not None and pset.model != row.model:
+        raise InputError(
+            f"{source}: error model {pset.model!r}; the history of {row.name!r} holds "
+            f"calibrations of model {row.model!r}"
+        )
+    row.model = pset.model
+    if first is None:
+        return list(pset.names)
+    names = list(
+        session.scalars(
+            select(schema.RunParameter.name)
+            .where(schema.RunParameter.run_id == first)
+            .order_by(schema.RunParameter.position)
+        )
+    )
+    if sorted(names) != sorted(pset.names):
+        extra = sorted(set(names) ^ set(pset.names))
+        raise InputError(
+            f"{source}: parameters differ from the runs of machine {row.name!r} in the history "
+            f"(not in both: {', '.join(extra[:5])}{' ...' if len(extra) > 5 else ''})"
+        )
+    return names
+
+
+def add_result(
+    engine: Engine,
+    document: dict,
+    machine: Machine,
+    *,
+    source: str = "<result>",
+    performed_at: datetime | None = None,
+    note: str | None = None,
+    artefact: str | None = None,
+    temperature_c: float | None = None,
+    serial: str | None = None,
+    input_files: tuple[str | Path, ...] = (),
+) -> RunRecord:
+    """Record one result document in the history (one transaction).
+
+    Parameters
+    ----------
+    engine : Engine
+        From :func:`mtmetrology.history.database.open_history`.
+    document : dict
+        The result as its application wrote it (a JSON mapping with ``kind``).
+    machine : Machine
+        The machine it belongs to; a calibration made for another machine is refused.
+    source : str
+        The file it came from (messages, and its SHA-256 when it exists).
+    performed_at : datetime, optional
+        When the measurement was made (default: now), UTC when naive.
+    note, artefact, temperature_c, serial
+        Operator note, artefact identification, workshop temperature (°C), the machine's
+        serial number (recorded with the machine on its first run).
+    input_files : tuple of path
+        Input files whose SHA-256 is recorded with the run (records, artefact file).
+
+    Returns
+    -------
+    RunRecord
+
+    Raises
+    ------
+    InputError
+        Unknown kind, a calibration of another machine or error model, parameters that
+        differ from the machine's earlier runs, or a result already recorded.
+    """
+    if not isinstance(document, dict):
+        raise InputError(f"{source}: a result must be a JSON mapping")
+    category = category_of(document.get("kind"), source)
+    pset = None
+    if category == "calibration":
+        pset = ParameterSet.from_document(document, machine, source)
+    elif document.get("machine") not in (None, machine.name):
+        raise InputError(f"{source}: machine: {document['machine']!r} is not {machine.name!r}")
+    hashes = {str(p): file_sha256(p) for p in input_files}
+    if Path(source).is_file():
+        hashes[str(source)] = file_sha256(source)
+    sha = canonical_sha256(document)
+    table = _TABLES[category]
+    common = {
+        "kind": document["kind"],
+        "performed_at": _utc(performed_at),
+        "recorded_at": datetime.now(UTC),
+        "software_version": mtmetrology.__version__,
+        "operator_note": note,
+        "input_hashes": hashes,
+        "result": document,
+        "content_sha256": sha,
+    }
+    try:
+        with Session(writer(engine)) as session, session.begin():
+            if engine.dialect.name == "postgresql":
+                # writers queue (SQLite's BEGIN IMMEDIATE does the same): two first runs of
+                # a new machine would otherwise both insert it
+                session.execute(text("SELECT pg_advisory_xact_lock(24025)"))
+            row = _machine_row(session, machine, serial)
+            if category == "calibration":
+                order = _check_against_history(session, row, pset, source)
+                index = [pset.names.index(name) for name in order]
+                f = pset.scales()[index]
+                values = pset.values[index] / f
+                u = pset.standard_uncertainty
+                u = [None] * len(order) if u is None else (u[index] / f).tolist()
+                run = table(
+                    machine_id=row.id,
+                    artefact=artefact,
+                    temperature_c=temperature_c,
+                    residual_statistics=_residual_statistics(document),
+                    parameter_vector=values.astype("<f8").tobytes(),
+                    **common,
+                )
+                session.add(run)
+                session.flush()
+                session.add_all(
+                    schema.RunParameter(
+                        run_id=run.id,
+                        position=k,
+                        name=name,
+                        unit=pset.units[i],
+                        value=float(values[k]),
+                        u=u[k],
+                    )
+                    for k, (name, i) in enumerate(zip(order, index, strict=True))
+                )
+            else:
+                run = table(machine_id=row.id, **common)
+                session.add(run)
+            session.flush()
+            run_id = run.id
+    except IntegrityError:
+        with Session(engine) as session:
+            earlier = session.scalar(select(table.id).where(table.content_sha256 == sha))
+        if earlier is None:
+            raise
+        raise InputError(f"{source}: already recorded as {category} run {earlier}") from None
+    return show_run(engine, run_id, category)
+
+
+def _record(session: Session, run, category: str) -> RunRecord:
+    machine = session.get(schema.Machine, run.machine_id)
+    parameters: tuple[dict, ...] = ()
+    if category == "calibration":
+        parameters = tuple(
+            {"name": p.name, "unit": p.unit, "value": p.value, "u": p.u}
+            for p in session.scalars(
+                select(schema.RunParameter)
+                .where(schema.RunParameter.run_id == run.id)
+                .order_by(schema.RunParameter.position)
+            )
+        )
+    return RunRecord(
+        id=run.id,
+        category=category,
+        machine=machine.name,
+        kind=run.kind,
+        performed_at=_utc(run.performed_at),
+        recorded_at=_utc(run.recorded_at),
+        software_version=run.software_version,
+        operator_note=run.operator_note,
+        artefact=getattr(run, "artefact", None),
+        temperature_c=getattr(run, "temperature_c", None),
+        residual_statistics=getattr(run, "residual_statistics", {}) or {},
+        input_hashes=run.input_hashes,
+        content_sha256=run.content_sha256,
+        parameters=parameters,
+        result=run.result,
+    )
+
+
+def show_run(engine: Engine, run_id: int, category: str = "calibration") -> RunRecord:
+    """One stored run. Raises InputError when there is no such run."""
+    if category not in _TABLES:
+        raise InputError(f"category {category!r}: not one of {', '.join(_TABLES)}")
+    with Session(engine) as session:
+        run = session.get(_TABLES[category], run_id)
+        if run is None:
+            raise InputError(f"run {run_id}: no {category} run of that number in the history")
+        return _record(session, run, category)
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """One line of :func:`list_runs`."""
+
+    id: int
+    category: str
+    machine: str
+    kind: str
+    performed_at: datetime
+    operator_note: str | None
+
+    def to_dict(self) -> dict:
+        """JSON form."""
+        return {
+            "id": self.id,
+            "category": self.category,
+            "machine": self.machine,
+            "result_kind": self.kind,
+            "performed_at": self.performed_at.isoformat(),
+            "operator_note": self.operator_note,
+        }
+
+
+def list_runs(
+    engine: Engine,
+    *,
+    machine: str | None = None,
+    category: str = "calibration",
+    since: datetime | None = None,
+) -> tuple[RunSummary, ...]:
+    """The stored runs of a category, oldest first (optionally of one machine, since a date)."""
+    if category not in _TABLES:
+        raise InputError(f"category {category!r}: not one of {', '.join(_TABLES)}")
+    table = _TABLES[category]
+    query = (
+        select(table.id, schema.Machine.name, table.kind, table.performed_at, table.operator_note)
+        .join(schema.Machine, schema.Machine.id == table.machine_id)
+        .order_by(table.performed_at, table.id)
+    )
+    if machine is not None:
+        query = query.where(schema.Machine.name == machine)
+    if since is not None:
+        query = query.where(table.performed_at >= _utc(since))
+    with Session(engine) as session:
+        rows = session.execute(query).all()
+    return tuple(RunSummary(r[0], category, r[1], r[2], _utc(r[3]), r[4]) for r in rows)
+
+
+def machine_names(engine: Engine) -> list[str]:
+    """Names of the machines in the history."""
+    with Session(engine) as session:
+        return list(session.scalars(select(schema.Machine.name).order_by(schema.Machine.name)))
+
+
+def machine_model(engine: Engine, machine: str) -> str | None:
+    """The error model of a machine's recorded calibrations."""
+    with Session(engine) as session:
+        return session.scalar(select(schema.Machine.model).where(schema.Machine.name == machine))
+
+
+def _machine_id(session: Session, machine: str) -> int:
+    row = session.scalar(select(schema.Machine.id).where(schema.Machine.name == machine))
+    if row is None:
+        known = ", ".join(session.scalars(select(schema.Machine.name))) or "none"
+        raise InputError(f"machine {machine!r}: not in the history (machines: {known})")
+    return row
+
+
+def parameter_matrix(
+    engine: Engine, machine: str, *, since: datetime | None = None
+) -> tuple[list[int], list[datetime], list[str], list[str], np.ndarray]:
+    """A machine's calibrations, oldest first, as arrays (one row read per run).
+
+    Returns
+    -------
+    ids, dates, names, units, values
+        Run ids, dates (UTC), parameter names and units (the machine's first run's order)
+        and the (K, P) values in those units.
+    """
+    cal, par = schema.CalibrationRun, schema.RunParameter
+    with Session(engine) as session:
+        machine_id = _machine_id(session, machine)
+        runs = select(cal.id, cal.performed_at, cal.parameter_vector).where(
+            cal.machine_id == machine_id
+        )
+        if since is not None:
+            runs = runs.where(cal.performed_at >= _utc(since))
+        runs = session.execute(runs.order_by(cal.performed_at, cal.id)).all()
+        if not runs:
+            return [], [], [], [], np.empty((0, 0))
+        first = session.execute(
+            select(par.name, par.unit).where(par.run_id == runs[0][0]).order_by(par.position)
+        ).all()
+    matrix = np.frombuffer(b"".join(r[2] for r in runs), dtype="<f8").reshape(len(runs), -1)
+    ids = [r[0] for r in runs]
+    return ids, [_utc(r[1]) for r in runs], [f[0] for f in first], [f[1] for f in first], matrix
+
+
+def parameter_series(
+    engine: Engine, machine: str, parameter: str, *, since: datetime | None = None
+) -> tuple[list[int], list[datetime], str, np.ndarray, np.ndarray]:
+    """One parameter of a machine's calibrations, oldest first (one indexed query).
+
+    Returns
+    -------
+    ids, dates, unit, values, u
+        Run ids, dates (UTC), the unit, the (K,) values and standard uncertainties in it
+        (NaN where a run has none).
+    """
+    cal, par = schema.CalibrationRun, schema.RunParameter
+    with Session(engine) as session:
+        machine_id = _machine_id(session, machine)
+        query = (
+            select(cal.id, cal.performed_at, par.unit, par.value, par.u)
+            .join(cal, cal.id == par.run_id)
+            .where(par.name == parameter, cal.machine_id == machine_id)
+        )
+        if since is not None:
+            query = query.where(cal.performed_at >= _utc(since))
+        rows = session.execute(query.order_by(cal.performed_at, cal.id)).all()
+        if not rows:
+            first = session.scalar(select(cal.id).where(cal.machine_id == machine_id).limit(1))
+            names = (
+                []
+                if first is None
+                else list(
+                    session.scalars(
+                        select(par.name).where(par.run_id == first).order_by(par.position)
+                    )
+                )
+            )
+            shown = f" ({', '.join(names[:6])}{' ...' if len(names) > 6 else ''})" if names else ""
+            raise InputError(
+                f"parameter {parameter!r}: not a parameter of the runs of {machine!r}{shown}"
+            )
+    values = np.array([r[3] for r in rows], dtype=float)
+    u = np.array([np.nan if r[4] is None else r[4] for r in rows], dtype=float)
+    return [r[0] for r in rows], [_utc(r[1]) for r in rows], rows[0][2], values, u
+
+
+def _document_covariance(doc: dict, names: list[str]) -> np.ndarray | None:
+    """A recorded document's parameter covariance (internal units) in ``names``' order: its
+    ``covariance`` block (in the units listed with the parameters), else diag(u²), else
+    None."""
+    declared = {e["name"]: parse_unit(e["unit"]).factor for e in doc["parameters"]}
+    block = doc.get("covariance")
+    if block is not None:
+        position = [block["names"].index(n) for n in names]
+        f = np.array([declared[n] for n in names])
+        return np.asarray(block["matrix"], dtype=float)[np.ix_(position, position)] * np.outer(f, f)
+    entries = {e["name"]: e for e in doc["parameters"]}
+    if all("u" in entries[n] for n in names):
+        return np.diag([(entries[n]["u"] * declared[n]) ** 2 for n in names])
+    return None
+
+
+def run_covariances(engine: Engine, ids: list[int], names: list[str]) -> list[np.ndarray | None]:
+    """Each calibration run's own parameter covariance (internal units, ``names``' order),
+    None where its document has none."""
+    cal = schema.CalibrationRun
+    with Session(engine) as session:
+        documents = dict(session.execute(select(cal.id, cal.result).where(cal.id.in_(ids))).all())
+    return [_document_covariance(documents[i], names) for i in ids]
+
+
+def export_rows(engine: Engine, machine: str, *, since: datetime | None = None) -> list[dict]:
+    """One row per calibration of ``machine``: id, date, then each parameter's value
+    (column ``NAME [unit]``), oldest first — the CSV of ``mtm history export``."""
+    ids, dates, names, units, matrix = parameter_matrix(engine, machine, since=since)
+    columns = [f"{n} [{u}]" for n, u in zip(names, units, strict=True)]
+    return [
+        {
+            "run": i,
+            "performed_at": d.isoformat(),
+            **dict(zip(columns, map(float, row), strict=True)),
+        }
+        for i, d, row in zip(ids, dates, matrix, strict=True)
+    ]

@@ -1,0 +1,182 @@
+"""Tests for mtmetrology.history.database: migrations, atomic adds, concurrent writers.
+
+Each test runs on SQLite and on PostgreSQL (``history_url``, tests/history/conftest.py).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sqlalchemy import text
+
+from mtmetrology.errors import InputError
+from mtmetrology.history import add_result, list_runs, open_history, show_run
+from mtmetrology.history.database import HEAD, canonical_sha256, database_url, schema_revision
+from mtmetrology.kinematics.machine import Machine
+
+MACHINE = Machine.load("five-axis-wcbxfzyst")
+SRC = str(Path(__file__).resolve().parents[2] / "src")
+
+
+def test_first_schema_version_upgrades_with_its_data_intact(history_url, make_calibration):
+    """A database made at revision 0001, holding a run, is upgraded to the head: the run,
+    its parameters and its document are unchanged, the hash (0002) and the parameter vector
+    (0003) are filled from them."""
+    engine = open_history(history_url, revision="0001")
+    assert schema_revision(engine) == "0001"
+    document = make_calibration(range(13))
+    with engine.begin() as c:
+        c.execute(
+            text("INSERT INTO machines (id, name, model) VALUES (1, 'five-axis-wcbxfzyst', '13')")
+        )
+        c.execute(
+            text(
+                "INSERT INTO calibration_runs (id, machine_id, kind, performed_at, recorded_at, "
+                "software_version, operator_note, residual_statistics, input_hashes, result) "
+                "VALUES (1, 1, 'parameter-set', :t, :t, '0.0.9', 'before the upgrade', '{}', "
+                "'{}', :doc)"
+            ),
+            {"t": datetime(2025, 5, 1, tzinfo=UTC), "doc": json.dumps(document)},
+        )
+        for k, entry in enumerate(document["parameters"]):
+            c.execute(
+                text(
+                    "INSERT INTO run_parameters (run_id, position, name, unit, value, u) "
+                    "VALUES (1, :k, :n, :unit, :v, :u)"
+                ),
+                {
+                    "k": k,
+                    "n": entry["name"],
+                    "unit": entry["unit"],
+                    "v": entry["value"],
+                    "u": entry["u"],
+                },
+            )
+    engine.dispose()
+    engine = open_history(history_url)
+    assert schema_revision(engine) == HEAD != "0001"
+    record = show_run(engine, 1)
+    assert record.operator_note == "before the upgrade"
+    assert record.software_version == "0.0.9"
+    assert record.result == document
+    assert [p["value"] for p in record.parameters] == list(range(13))
+    assert record.content_sha256 == canonical_sha256(document)
+    with engine.connect() as c:  # 0003 filled the run's parameter vector from its rows
+        vector = c.execute(text("SELECT parameter_vector FROM calibration_runs")).scalar()
+    assert np.frombuffer(vector, dtype="<f8").tolist() == list(range(13))
+    # the 0002 change holds: the same document cannot be recorded a second time
+    with pytest.raises(InputError, match="already recorded as calibration run 1"):
+        add_result(engine, document, MACHINE)
+
+
+def test_a_database_that_does_not_answer_is_one_input_error():
+    with pytest.raises(
+        InputError, match=r"^database postgresql://u@127\.0\.0\.1:1/x: does not answer"
+    ):
+        open_history("postgresql://u@127.0.0.1:1/x")
+
+
+def test_url_resolution_default_env_and_plain_path(tmp_path, monkeypatch):
+    monkeypatch.delenv("MTMETROLOGY_DB", raising=False)
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "data"))
+    assert database_url() == f"sqlite:///{tmp_path / 'data' / 'mtmetrology' / 'history.sqlite'}"
+    monkeypatch.setenv("MTMETROLOGY_DB", str(tmp_path / "lab.sqlite"))
+    assert database_url() == f"sqlite:///{tmp_path / 'lab.sqlite'}"
+    assert database_url("postgresql://lab/h") == "postgresql://lab/h"
+    with pytest.raises(InputError, match="not supported"):
+        open_history("mysql://lab/h")
+
+
+_CHILD = textwrap.dedent(
+    """
+    import sys, time
+    from sqlalchemy import event
+    from sqlalchemy.orm import Session
+    from mtmetrology.history import add_result, open_history
+    from mtmetrology.kinematics.machine import Machine
+    import json
+
+    url, document, pause = sys.argv[1], json.loads(sys.argv[2]), sys.argv[3] == "pause"
+    engine = open_history(url)
+    if pause:
+        @event.listens_for(Session, "after_flush")
+        def _stop(session, context):
+            from mtmetrology.history.schema import RunParameter
+            if any(isinstance(o, RunParameter) for o in session.new):
+                print("in the transaction", flush=True)
+                time.sleep(120)
+    add_result(engine, document, Machine.load("five-axis-wcbxfzyst"))
+    """
+)
+
+
+def _child(url: str, document: dict, mode: str) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": SRC, "OMP_NUM_THREADS": "1"}
+    return subprocess.Popen(
+        [sys.executable, "-c", _CHILD, url, json.dumps(document), mode],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+
+
+def test_add_killed_inside_its_transaction_leaves_the_run_absent(history_url, make_calibration):
+    """SIGKILL after the run and its parameters were flushed, before COMMIT: nothing of the
+    run is left, and the next writer is not blocked."""
+    engine = open_history(history_url)
+    add_result(engine, make_calibration([1.0] * 13), MACHINE)
+    child = _child(history_url, make_calibration([2.0] * 13), "pause")
+    line = child.stdout.readline()
+    assert line.strip() == "in the transaction", child.stderr.read()
+    os.kill(child.pid, signal.SIGKILL)
+    child.wait(timeout=30)
+    assert child.returncode == -signal.SIGKILL
+    assert [r.id for r in list_runs(engine)] == [1]
+    with engine.connect() as c:
+        assert c.execute(text("SELECT COUNT(*) FROM run_parameters")).scalar() == 13
+    record = add_result(engine, make_calibration([3.0] * 13), MACHINE)
+    assert [p["value"] for p in record.parameters] == [3.0] * 13
+
+
+def test_two_concurrent_writers_lose_nothing(history_url, make_calibration):
+    """Two processes adding 6 results each at the same time: all 12 are there, complete."""
+    open_history(history_url).dispose()
+    script = textwrap.dedent(
+        """
+        import sys, json
+        from mtmetrology.history import add_result, open_history
+        from mtmetrology.kinematics.machine import Machine
+        engine, machine = open_history(sys.argv[1]), Machine.load("five-axis-wcbxfzyst")
+        for document in json.loads(sys.argv[2]):
+            add_result(engine, document, machine)
+        """
+    )
+    env = {**os.environ, "PYTHONPATH": SRC, "OMP_NUM_THREADS": "1"}
+    batches = [[make_calibration([10.0 * w + k] * 13) for k in range(6)] for w in range(2)]
+    writers = [
+        subprocess.Popen(
+            [sys.executable, "-c", script, history_url, json.dumps(b)],
+            stderr=subprocess.PIPE,
+            text=True,
+            env=env,
+        )
+        for b in batches
+    ]
+    for w in writers:
+        assert w.wait(timeout=120) == 0, w.stderr.read()
+    engine = open_history(history_url)
+    runs = list_runs(engine)
+    stored = sorted(show_run(engine, r.id).parameters[0]["value"] for r in runs)
+    assert stored == sorted(10.0 * w + k for w in range(2) for k in range(6))
+    with engine.connect() as c:
+        assert c.execute(text("SELECT COUNT(*) FROM run_parameters")).scalar() == 12 * 13
