@@ -8,6 +8,8 @@
   training residuals;
 - :class:`~mtmetrology.cmm.compare.ModelComparison`: the held-out table and the length
   errors of each model with their ±2u bars.
+- :class:`~mtmetrology.cmm.heldout.HeldOutComparison`: the same against the plate
+  certificate (``mtm cmm compare``).
 
 The ball-plate budget is a :class:`~mtmetrology.uncertainty.GUFResult`, shown by the
 report layer's own renderer (budget bars).
@@ -302,6 +304,29 @@ def _comparison(rep: Report, comp, **_) -> None:
             for r in comp.table
         ],
     )
+    rep.figure(
+        figures.length_errors(comp.plot, coverage_factor=k),
+        caption=f"Length error of each model with its ±{k:g}u bar; red points are not covered.",
+    )
+
+
+@renders("mtmetrology.cmm.heldout.HeldOutComparison", "Kinematic versus GP error model")
+def _held_out(rep: Report, comp, **_) -> None:
+    k = comp.table[0]["coverage_factor"] if comp.table else COVERAGE_FACTOR
+    rep.section(
+        f"Kinematic and GP models on held-out positions {', '.join(comp.held_out)}",
+        "Lengths between the balls of a position neither model saw (same stylus), against "
+        "the plate certificate's lengths; u includes the certificate's; coverage is the "
+        f"fraction of lengths with |error| ≤ {k:g} u.",
+    )
+    rep.table(
+        ["model", "lengths", "rms error (µm)", "max |error| (µm)", "mean u (µm)", "coverage"],
+        [
+            [r["model"], r["n_lengths"], f"{r['rms_error_um']:.2g}", f"{r['max_error_um']:.2g}",
+             f"{r['mean_u_um']:.2g}", f"{100 * r['coverage']:.0f} %"]
+            for r in comp.table
+        ],
+    )  # fmt: skip
     rep.figure(
         figures.length_errors(comp.plot, coverage_factor=k),
         caption=f"Length error of each model with its ±{k:g}u bar; red points are not covered.",

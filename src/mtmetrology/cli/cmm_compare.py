@@ -1,0 +1,100 @@
+"""``mtm cmm compare``: kinematic against GP error model on held-out plate positions."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from mtmetrology.cli._common import ReportOption, print_json, user_errors, write_report
+from mtmetrology.cli.cmm import (
+    MachineOpt,
+    PlateOpt,
+    ProbesOpt,
+    SigmaOpt,
+    _add_result,
+    _inputs,
+    _positive,
+    _report,
+)
+from mtmetrology.cmm.heldout import compare_held_out
+from mtmetrology.cmm.models import parse_model
+from mtmetrology.io.files import InputFileError, check_output, write_json
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.units import to_internal
+
+__all__ = ["app"]
+
+app = typer.Typer(help="Bridge-CMM studies on ball-plate records.", no_args_is_help=True)
+
+
+@app.command("compare")
+@user_errors
+def compare(
+    ctx: typer.Context,
+    records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
+    machine: MachineOpt,
+    plate: PlateOpt,
+    probes: ProbesOpt,
+    held_out: Annotated[
+        list[str], typer.Option("--held-out", help="Position left out of both fits (repeatable).")
+    ],
+    model: Annotated[str, typer.Option("--model", help="Kinematic model: seed, full-<d>.")] = (
+        "full-3"
+    ),
+    gp_mean: Annotated[
+        str, typer.Option("--gp-mean", help="GP mean: seed, full-<d>, or none (zero mean).")
+    ] = "seed",
+    kernel: Annotated[str, typer.Option("--kernel", help="rbf (squared exp.) or matern.")] = "rbf",
+    sigma_um: SigmaOpt = 0.5,
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Write the result (JSON).")
+    ] = None,
+    json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+    report_path: ReportOption = None,
+) -> None:
+    """Fit the kinematic model and the GP without the held-out positions; compare both on
+    every length between two balls of a held-out position (same stylus) against the plate
+    certificate: RMS and max length error, mean u, coverage of ±2u."""
+    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    if output is not None:
+        check_output(output, [records, plate, probes])
+    m = Machine.load(machine)
+    rec, pl, pr = _inputs(records, plate, probes)
+    choice = parse_model(model)
+    if gp_mean != "none":
+        parse_model(gp_mean)
+    if kernel not in ("rbf", "matern"):
+        raise InputFileError(f"--kernel {kernel!r}: use rbf or matern")
+    res = compare_held_out(
+        m,
+        rec,
+        pl,
+        pr,
+        held_out,
+        sigma=sigma,
+        kinematic_model=choice,
+        gp_mean=None if gp_mean == "none" else gp_mean,
+        kernel=kernel,
+    )
+    doc = res.to_dict()
+    report = None
+    if report_path is not None:
+        report = _report(
+            ctx, f"Kinematic versus GP: {records.name}", [records, plate, probes], machine
+        )
+        _add_result(report, res)
+    if output is not None:
+        write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
+    if json_out:
+        print_json(doc)
+    for r in res.table:
+        typer.echo(
+            f"{r['model']}: {r['n_lengths']} lengths, rms {r['rms_error_um']:.2g} µm, "
+            f"max {r['max_error_um']:.2g} µm, mean u {r['mean_u_um']:.2g} µm, "
+            f"{100 * r['coverage']:.0f} % within ±{r['coverage_factor']:g}u",
+            err=True,
+        )

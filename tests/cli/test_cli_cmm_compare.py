@@ -1,0 +1,120 @@
+"""``mtm cmm compare``: the thin command over :func:`mtmetrology.cmm.heldout.compare_held_out`."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from mtmetrology.cli import app
+from mtmetrology.cmm.files import load_plate, load_probes, read_records
+from mtmetrology.cmm.heldout import compare_held_out
+from mtmetrology.kinematics import Machine
+
+runner = CliRunner()
+M = ["--machine", "cmm-moving-bridge"]
+PROBES = {"P0": [0, 0, -150], "PX1": [50, 0, -150], "PY1": [0, 50, -150]}
+TRUTH = {"E_XX1": ("µm", 6.0), "E_YY1": ("µm", -4.0), "E_CX1": ("µrad", 8.0)}
+POSITIONS = [
+    ("H", [330, 230, 150], [0, 0, 0]),
+    ("VX", [330, 500, 10], [90, 0, 0]),
+    ("VY", [600, 230, 10], [90, 0, 90]),
+    ("T", [330, 230, 120], [30, 0, 0]),
+]
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cmmcmp")
+    balls = [
+        {"id": f"{3 * j + i:02d}", "x_mm": 266.0 * i, "y_mm": 266.0 * j, "z_mm": 0.0}
+        for j in range(3)
+        for i in range(3)
+    ]
+    docs = {
+        "plate.yaml": {"kind": "ball-plate", "balls": balls, "u_mm": 0.0005},
+        "probes.yaml": {
+            "kind": "probe-set",
+            "probes": [{"id": k, "offset_mm": v} for k, v in PROBES.items()],
+        },
+        "positions.yaml": {
+            "kind": "ballplate-positions",
+            "positions": [
+                {"id": i, "origin_mm": o, "rotation_deg": r, "probes": list(PROBES)}
+                for i, o, r in POSITIONS
+            ],
+        },
+        "truth.yaml": {
+            "kind": "parameter-set",
+            "version": 1,
+            "machine": "cmm-moving-bridge",
+            "parameters": [{"name": n, "value": v, "unit": u} for n, (u, v) in TRUTH.items()],
+        },
+    }
+    out = {}
+    for name, doc in docs.items():
+        (d / name).write_text(yaml.safe_dump(doc, allow_unicode=True), encoding="utf-8")
+        out[name.split(".")[0]] = str(d / name)
+    out["records"] = str(d / "records.csv")
+    res = runner.invoke(
+        app,
+        [
+            "simulate", "ballplate", *M, "--params", out["truth"], "--plate", out["plate"],
+            "--probes", out["probes"], "--positions", out["positions"], "--seed", "4",
+            "-o", out["records"],
+        ],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    out["dir"] = d
+    return out
+
+
+def _args(files, *extra):
+    return [
+        "cmm", "compare", files["records"], *M, "--plate", files["plate"], "--probes",
+        files["probes"], "--model", "seed", *extra,
+    ]  # fmt: skip
+
+
+def test_compare_writes_json_and_report_equal_to_the_library(files):
+    out, rep = files["dir"] / "cmp.json", files["dir"] / "cmp.html"
+    res = runner.invoke(
+        app, _args(files, "--held-out", "T", "-o", str(out), "--json", "--report", str(rep))
+    )
+    assert res.exit_code == 0, res.output
+    doc = json.loads(out.read_text())
+    assert doc["kind"] == "cmm-held-out-comparison" and doc["held_out"] == ["T"]
+    lib = compare_held_out(
+        Machine.load("cmm-moving-bridge"),
+        read_records(files["records"]),
+        load_plate(files["plate"]),
+        load_probes(files["probes"]),
+        ["T"],
+        sigma=0.0005,
+        kinematic_model="seed",
+    )
+    assert doc["table"] == lib.to_dict()["table"]
+    rows = {r["model"].split(" ")[0]: r for r in doc["table"]}
+    assert rows["kinematic"]["rms_error_um"] < rows["uncompensated"]["rms_error_um"]
+    assert rep.stat().st_size > 0
+
+
+@pytest.mark.parametrize(
+    ("extra", "named"),
+    [
+        (["--held-out", "Q"], "--held-out 'Q'"),
+        (["--held-out", "H", "--held-out", "VX", "--held-out", "VY", "--held-out", "T"],
+         "--held-out"),
+        (["--held-out", "T", "--kernel", "cubic"], "--kernel 'cubic'"),
+        (["--held-out", "T", "--sigma-um", "-1"], "--sigma-um"),
+    ],
+)  # fmt: skip
+def test_bad_input_exits_2_with_one_line_and_writes_nothing(files, extra, named):
+    out = files["dir"] / "never.json"
+    res = runner.invoke(app, _args(files, *extra, "-o", str(out)))
+    assert res.exit_code == 2, res.output
+    lines = [ln for ln in res.output.splitlines() if ln.startswith("error:")]
+    assert len(lines) == 1 and named in lines[0]
+    assert not out.exists()
