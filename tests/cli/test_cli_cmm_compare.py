@@ -118,3 +118,14 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(files, extra, named)
     lines = [ln for ln in res.output.splitlines() if ln.startswith("error:")]
     assert len(lines) == 1 and named in lines[0]
     assert not out.exists()
+
+
+def test_source_gp_command_prints_the_reproduced_hyperparameters(tmp_path):
+    out = tmp_path / "gp.json"
+    res = runner.invoke(app, ["cmm", "source-gp", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(out.read_text())
+    assert doc["zero_mean"]["hyperparameters"] == pytest.approx(
+        [-2.013713, -4.082864, -4.485944], abs=5e-7
+    )
+    assert 0.010 < doc["max_difference"] < 0.011

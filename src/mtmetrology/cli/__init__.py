@@ -41,7 +41,7 @@ COMMANDS = {
     "task": ("mtmetrology.cli.task", "app", True),
     "demo": ("mtmetrology.cli.demo", "demo", False),
     "budget": ("mtmetrology.cli.budget", "app", True),
-    "cmm": ("mtmetrology.cli.cmm_compare", "app", True),
+    "cmm": ("mtmetrology.cli.cmm_studies", "app", True),
 }
 
 #: Groups whose subcommands come from several applications (``mtm calibrate samba``,

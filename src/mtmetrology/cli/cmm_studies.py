@@ -1,4 +1,8 @@
-"""``mtm cmm compare``: kinematic against GP error model on held-out plate positions."""
+"""``mtm cmm``: bridge-CMM studies of the source (Salacheep 2016).
+
+``compare``: kinematic against GP error model on held-out plate positions;
+``source-gp``: the source's GP demonstration re-run (GPML port, :mod:`mtmetrology.cmm.gpml`).
+"""
 
 from __future__ import annotations
 
@@ -18,6 +22,7 @@ from mtmetrology.cli.cmm import (
     _positive,
     _report,
 )
+from mtmetrology.cmm.gpml import source_gp_demo
 from mtmetrology.cmm.heldout import compare_held_out
 from mtmetrology.cmm.models import parse_model
 from mtmetrology.io.files import InputFileError, check_output, write_json
@@ -98,3 +103,32 @@ def compare(
             f"{100 * r['coverage']:.0f} % within ±{r['coverage_factor']:g}u",
             err=True,
         )
+
+
+@app.command("source-gp")
+@user_errors
+def source_gp(
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Write the result (JSON).")
+    ] = None,
+    json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+) -> None:
+    """Re-run the source's GP (Ch. 5, Appendix 3): GPML's gpml_randn(0.01, 9) data, the
+    zero-mean SE GP from [0, 0, log 0.1] and the quadratic-mean GP (eq. 5.11) from the
+    source's start; the largest difference of their means on the 21 x 21 grid."""
+    if output is not None:
+        check_output(output)
+    res = source_gp_demo()
+    doc = res.to_dict()
+    if output is not None:
+        write_json(output, doc)
+    if json_out:
+        print_json(doc)
+    for name, gp in (("zero mean", res.zero_mean), ("quadratic mean", res.quadratic_mean)):
+        hyp = ", ".join(f"{v:.6f}" for v in gp.hyperparameters)
+        typer.echo(f"{name}: hyp [{hyp}], NLML {gp.nlml:.5f}", err=True)
+    at = doc["max_difference_at"]
+    typer.echo(
+        f"max |m_zero - m_quad| = {res.max_difference:.5f} at ({at[0]:.2f}, {at[1]:.2f})",
+        err=True,
+    )
