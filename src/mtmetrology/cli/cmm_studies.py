@@ -1,7 +1,8 @@
 """``mtm cmm``: bridge-CMM studies of the source (Salacheep 2016).
 
 ``compare``: kinematic against GP error model on held-out plate positions;
-``source-gp``: the source's GP demonstration re-run (GPML port, :mod:`mtmetrology.cmm.gpml`).
+``source-gp``: the source's GP demonstration re-run (GPML port, :mod:`mtmetrology.cmm.gpml`);
+``selfcal-design``: U1, U2, U3 of the source's self-calibration (:mod:`mtmetrology.cmm.selfcal`).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from mtmetrology.cli.cmm import (
 from mtmetrology.cmm.gpml import source_gp_demo
 from mtmetrology.cmm.heldout import compare_held_out
 from mtmetrology.cmm.models import parse_model
+from mtmetrology.cmm.selfcal import THESIS_TABLES, selfcal_design
 from mtmetrology.io.files import InputFileError, check_output, write_json
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.units import to_internal
@@ -132,3 +134,54 @@ def source_gp(
         f"max |m_zero - m_quad| = {res.max_difference:.5f} at ({at[0]:.2f}, {at[1]:.2f})",
         err=True,
     )
+
+
+@app.command("selfcal-design")
+@user_errors
+def selfcal_design_cmd(
+    machine: MachineOpt,
+    locations: Annotated[
+        str, typer.Option("--locations", help="Plate locations, comma-separated: L0, L1, L2.")
+    ] = "L0,L1,L2",
+    truncation: Annotated[
+        int, typer.Option("--truncation", help="K of the truncated SVD (the source: 36).")
+    ] = 36,
+    sigma_um: SigmaOpt = 0.5,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the U2/U3 points.")] = 0,
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Write the result (JSON).")
+    ] = None,
+    json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+) -> None:
+    """U1, U2, U3 of the source's self-calibration design (3 x 3 plate at 100 mm pitch, six
+    styli at +-50 mm, reference sphere; ball centres, stylus offsets and poses unknown; the
+    plate frame, one length and the stylus centroid fixed): full covariance and truncated
+    SVD, and what each constraint leaves free."""
+    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    if output is not None:
+        check_output(output)
+    m = Machine.load(machine)
+    locs = [s.strip() for s in locations.split(",") if s.strip()]
+    res = selfcal_design(m, locs, sigma=sigma, truncation=truncation, seed=seed)
+    doc = res.to_dict()
+    if output is not None:
+        write_json(output, doc)
+    if json_out:
+        print_json(doc)
+    key = "+".join(locs)
+    typer.echo(
+        f"{key}: {res.n_unknowns} unknowns, {res.n_constraints} constraints, rank {res.rank}"
+        f" ({'full' if res.full_rank else 'deficient'})",
+        err=True,
+    )
+    for label, table in (("full", res.U_full), (f"K = {truncation}", res.U_truncated)):
+        if table is None:
+            typer.echo(f"{label}: no full covariance: {res.freedoms['all constraints']['message']}",
+                       err=True)  # fmt: skip
+            continue
+        parts = "; ".join(f"{u} {'/'.join(f'{v:.2g}' for v in table[u])}" for u in table)
+        typer.echo(f"{label}: {parts} µm (x/y/z)", err=True)
+    if key in THESIS_TABLES:
+        pub = THESIS_TABLES[key]
+        parts = "; ".join(f"{u} {'/'.join(f'{v:.2g}' for v in pub[u])}" for u in pub)
+        typer.echo(f"source (Tables 4.1-4.2): {parts} µm", err=True)

@@ -1,8 +1,9 @@
-"""``mtm cmm compare``: the thin command over :func:`mtmetrology.cmm.heldout.compare_held_out`."""
+"""``mtm cmm``: compare, source-gp, selfcal-design (thin commands over the cmm library)."""
 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 import yaml
@@ -11,6 +12,7 @@ from typer.testing import CliRunner
 from mtmetrology.cli import app
 from mtmetrology.cmm.files import load_plate, load_probes, read_records
 from mtmetrology.cmm.heldout import compare_held_out
+from mtmetrology.cmm.selfcal import selfcal_design
 from mtmetrology.kinematics import Machine
 
 runner = CliRunner()
@@ -129,3 +131,31 @@ def test_source_gp_command_prints_the_reproduced_hyperparameters(tmp_path):
         [-2.013713, -4.082864, -4.485944], abs=5e-7
     )
     assert 0.010 < doc["max_difference"] < 0.011
+
+
+def test_selfcal_design_command_equals_the_library(tmp_path):
+    machine = Path(__file__).resolve().parents[2] / "examples/cmm/cmm-salacheep-xyz.yaml"
+    out = tmp_path / "design.json"
+    res = runner.invoke(
+        app,
+        ["cmm", "selfcal-design", "--machine", str(machine), "--locations", "L0,L1", "-o",
+         str(out)],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    doc = json.loads(out.read_text())
+    lib = selfcal_design(Machine.load(machine), ["L0", "L1"], sigma=0.0005, seed=0)
+    assert doc == json.loads(json.dumps(lib.to_dict()))
+    assert doc["full_rank"] is False and doc["U_full_um"] is None
+
+
+def test_selfcal_design_refuses_an_unknown_location(tmp_path):
+    out = tmp_path / "never.json"
+    res = runner.invoke(
+        app,
+        ["cmm", "selfcal-design", *M, "--locations", "L0,L7", "-o", str(out)],
+    )
+    assert res.exit_code == 2
+    assert [ln for ln in res.output.splitlines() if ln.startswith("error:")] == [
+        "error: location 'L7': use L0, L1, L2"
+    ]
+    assert not out.exists()
