@@ -5,15 +5,23 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from typer.testing import CliRunner
 
 from mtmetrology.cli import app
-from mtmetrology.cmm.files import load_plate, load_probes, read_records
+from mtmetrology.cmm.files import (
+    BallPlateRecords,
+    load_plate,
+    load_probes,
+    read_records,
+    write_records,
+)
 from mtmetrology.cmm.heldout import compare_held_out
 from mtmetrology.cmm.selfcal import selfcal_design
 from mtmetrology.kinematics import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
 
 runner = CliRunner()
 M = ["--machine", "cmm-moving-bridge"]
@@ -159,3 +167,41 @@ def test_selfcal_design_refuses_an_unknown_location(tmp_path):
         "error: location 'L7': use L0, L1, L2"
     ]
     assert not out.exists()
+
+
+@pytest.fixture(scope="module")
+def qualification(files):
+    """Readings of a sphere at (600, 500, 300) mm with each stylus, on the true machine."""
+    base = Machine.load("cmm-moving-bridge")
+    truth = ParameterSet.load(files["truth"], base)
+    machine = truth.machine_for(base)
+    ids = list(PROBES) * 2
+    tools = np.array([PROBES[k] for k in ids], dtype=float)
+    sphere = np.array([600.0, 500.0, 300.0])
+    q = machine.inverse(np.tile(sphere, (len(ids), 1)), sphere - tools,
+                        truth.vector_for(machine), tool=tools)  # fmt: skip
+    q = q + 0.0005 * np.random.default_rng(8).standard_normal(q.shape)
+    path = files["dir"] / "qualification.csv"
+    rec = BallPlateRecords(("Q",) * len(ids), ("S",) * len(ids), tuple(ids), q,
+                           np.arange(len(ids)) + 2)  # fmt: skip
+    write_records(path, rec)
+    return str(path)
+
+
+def test_calibrate_estimates_probes_and_refuses_a_bad_length(files, qualification):
+    out = files["dir"] / "probecal.json"
+    args = [
+        "cmm", "calibrate", files["records"], *M, "--plate", files["plate"], "--probes",
+        files["probes"], "--qualification", qualification,
+    ]  # fmt: skip
+    res = runner.invoke(app, [*args, "--length", "00,08,752.362,0.2", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(out.read_text())
+    assert doc["kind"] == "cmm-probe-plate-calibration" and doc["plate"] == "one length 00-08"
+    corr = np.array([p["correction_um"] for p in doc["probes"].values()])
+    np.testing.assert_allclose(corr.sum(axis=0), 0.0, atol=1e-6)  # the centroid constraint
+    bad = files["dir"] / "never.json"
+    res = runner.invoke(app, [*args, "--length", "00,08,abc", "-o", str(bad)])
+    assert res.exit_code == 2 and not bad.exists()
+    errors = [ln for ln in res.output.splitlines() if ln.startswith("error:")]
+    assert len(errors) == 1 and "--length '00,08,abc'" in errors[0]

@@ -2,7 +2,9 @@
 
 ``compare``: kinematic against GP error model on held-out plate positions;
 ``source-gp``: the source's GP demonstration re-run (GPML port, :mod:`mtmetrology.cmm.gpml`);
-``selfcal-design``: U1, U2, U3 of the source's self-calibration (:mod:`mtmetrology.cmm.selfcal`).
+``selfcal-design``: U1, U2, U3 of the source's self-calibration (:mod:`mtmetrology.cmm.selfcal`);
+``calibrate``: ball-plate calibration with the stylus offsets (and optionally the plate) as
+unknowns (:mod:`mtmetrology.cmm.probecal`).
 """
 
 from __future__ import annotations
@@ -23,9 +25,11 @@ from mtmetrology.cli.cmm import (
     _positive,
     _report,
 )
+from mtmetrology.cmm.files import read_records
 from mtmetrology.cmm.gpml import source_gp_demo
 from mtmetrology.cmm.heldout import compare_held_out
 from mtmetrology.cmm.models import parse_model
+from mtmetrology.cmm.probecal import CalibratedLength, calibrate_with_probes
 from mtmetrology.cmm.selfcal import THESIS_TABLES, selfcal_design
 from mtmetrology.io.files import InputFileError, check_output, write_json
 from mtmetrology.kinematics.machine import Machine
@@ -185,3 +189,85 @@ def selfcal_design_cmd(
         pub = THESIS_TABLES[key]
         parts = "; ".join(f"{u} {'/'.join(f'{v:.2g}' for v in pub[u])}" for u in pub)
         typer.echo(f"source (Tables 4.1-4.2): {parts} µm", err=True)
+
+
+def _length(text: str) -> CalibratedLength:
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        a, b, length, u_um = parts[0], parts[1], float(parts[2]), float(parts[3])
+    except (IndexError, ValueError):
+        raise InputFileError(
+            f"--length {text!r}: give BALL_A,BALL_B,LENGTH_MM,U_UM (e.g. 00,08,752.3,0.2)"
+        ) from None
+    if len(parts) != 4 or not (length > 0 and u_um > 0):
+        raise InputFileError(f"--length {text!r}: LENGTH_MM and U_UM must be positive")
+    return CalibratedLength(a, b, length, to_internal(u_um, "µm"))
+
+
+@app.command("calibrate")
+@user_errors
+def calibrate_cmd(
+    records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
+    machine: MachineOpt,
+    plate: PlateOpt,
+    probes: ProbesOpt,
+    qualification: Annotated[
+        Path,
+        typer.Option(
+            "--qualification",
+            help="Reference-sphere records, CSV position,ball,probe,X,Y,Z (mm): every stylus.",
+        ),
+    ],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Write the result (JSON).")],
+    model: Annotated[str, typer.Option("--model", help="Kinematic model: seed, full-<d>.")] = (
+        "seed"
+    ),
+    length: Annotated[
+        str | None,
+        typer.Option(
+            "--length",
+            help="Self-calibrate the plate with one calibrated length: BALL_A,BALL_B,LENGTH_MM,"
+            "U_UM (the certificate's centres are then only the start).",
+        ),
+    ] = None,
+    sigma_um: SigmaOpt = 0.5,
+    json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+) -> None:
+    """Identify the error parameters with the stylus offsets as unknowns (--estimate-probes):
+    the qualification records on a reference sphere are observations of their own, the
+    stylus centroid is fixed; the plate by its certificate or, with --length, self-calibrated
+    with one length as its only scale. A set-up that leaves directions free is refused with
+    them named."""
+    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    check_output(output, [records, plate, probes, qualification])
+    m = Machine.load(machine)
+    rec, pl, pr = _inputs(records, plate, probes)
+    qual = read_records(qualification)
+    for i, pid in enumerate(qual.probes):
+        if pid not in pr.ids:
+            raise InputFileError(
+                f"{qualification}, line {qual.lines[i]}: probe {pid!r} is not in the probe set"
+            )
+    res = calibrate_with_probes(
+        m,
+        rec,
+        pl,
+        pr,
+        qual,
+        sigma=sigma,
+        model=parse_model(model),
+        length=None if length is None else _length(length),
+    )
+    doc = res.to_dict()
+    write_json(output, doc)
+    if json_out:
+        print_json(doc)
+    for pid, p in res.probes.items():
+        corr = "/".join(f"{v:+.2g}" for v in p["correction_um"])
+        u = "/".join(f"{v:.2g}" for v in p["u_um"])
+        typer.echo(f"stylus {pid}: correction {corr} µm (u {u} µm)", err=True)
+    typer.echo(
+        f"{res.model}, plate by {res.plate}: rms residual {res.fit['rms_residual_um']:.2g} µm; "
+        f"wrote {output}",
+        err=True,
+    )
