@@ -132,8 +132,10 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(files, extra, named)
 
 def test_source_gp_command_prints_the_reproduced_hyperparameters(tmp_path):
     out = tmp_path / "gp.json"
-    res = runner.invoke(app, ["cmm", "source-gp", "-o", str(out)])
+    rep = tmp_path / "gp.html"
+    res = runner.invoke(app, ["cmm", "source-gp", "-o", str(out), "--report", str(rep)])
     assert res.exit_code == 0, res.output
+    assert "0.01065" in rep.read_text(encoding="utf-8")
     doc = json.loads(out.read_text())
     assert doc["zero_mean"]["hyperparameters"] == pytest.approx(
         [-2.013713, -4.082864, -4.485944], abs=5e-7
@@ -147,13 +149,14 @@ def test_selfcal_design_command_equals_the_library(tmp_path):
     res = runner.invoke(
         app,
         ["cmm", "selfcal-design", "--machine", str(machine), "--locations", "L0,L1", "-o",
-         str(out)],
+         str(out), "--report", str(tmp_path / "design.html")],
     )  # fmt: skip
     assert res.exit_code == 0, res.output
     doc = json.loads(out.read_text())
     lib = selfcal_design(Machine.load(machine), ["L0", "L1"], sigma=0.0005, seed=0)
     assert doc == json.loads(json.dumps(lib.to_dict()))
     assert doc["full_rank"] is False and doc["U_full_um"] is None
+    assert "stylus centroid" in (tmp_path / "design.html").read_text(encoding="utf-8")
 
 
 def test_selfcal_design_refuses_an_unknown_location(tmp_path):
@@ -194,8 +197,12 @@ def test_calibrate_estimates_probes_and_refuses_a_bad_length(files, qualificatio
         "cmm", "calibrate", files["records"], *M, "--plate", files["plate"], "--probes",
         files["probes"], "--qualification", qualification,
     ]  # fmt: skip
-    res = runner.invoke(app, [*args, "--length", "00,08,752.362,0.2", "-o", str(out)])
+    rep = files["dir"] / "probecal.html"
+    res = runner.invoke(
+        app, [*args, "--length", "00,08,752.362,0.2", "-o", str(out), "--report", str(rep)]
+    )
     assert res.exit_code == 0, res.output
+    assert "PX1" in rep.read_text(encoding="utf-8")
     doc = json.loads(out.read_text())
     assert doc["kind"] == "cmm-probe-plate-calibration" and doc["plate"] == "one length 00-08"
     corr = np.array([p["correction_um"] for p in doc["probes"].values()])

@@ -40,6 +40,18 @@ __all__ = ["app"]
 app = typer.Typer(help="Bridge-CMM studies on ball-plate records.", no_args_is_help=True)
 
 
+def _write(ctx, result, doc, output, report_path, title, inputs, machine=None) -> None:
+    """Write the JSON result and, if asked, the report (command line and inputs as provenance)."""
+    report = None
+    if report_path is not None:
+        report = _report(ctx, title, inputs, machine)
+        _add_result(report, result)
+    if output is not None:
+        write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
+
+
 @app.command("compare")
 @user_errors
 def compare(
@@ -114,10 +126,12 @@ def compare(
 @app.command("source-gp")
 @user_errors
 def source_gp(
+    ctx: typer.Context,
     output: Annotated[
         Path | None, typer.Option("-o", "--output", help="Write the result (JSON).")
     ] = None,
     json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+    report_path: ReportOption = None,
 ) -> None:
     """Re-run the source's GP (Ch. 5, Appendix 3): GPML's gpml_randn(0.01, 9) data, the
     zero-mean SE GP from [0, 0, log 0.1] and the quadratic-mean GP (eq. 5.11) from the
@@ -126,8 +140,7 @@ def source_gp(
         check_output(output)
     res = source_gp_demo()
     doc = res.to_dict()
-    if output is not None:
-        write_json(output, doc)
+    _write(ctx, res, doc, output, report_path, "The source's GP re-run", [])
     if json_out:
         print_json(doc)
     for name, gp in (("zero mean", res.zero_mean), ("quadratic mean", res.quadratic_mean)):
@@ -143,6 +156,7 @@ def source_gp(
 @app.command("selfcal-design")
 @user_errors
 def selfcal_design_cmd(
+    ctx: typer.Context,
     machine: MachineOpt,
     locations: Annotated[
         str, typer.Option("--locations", help="Plate locations, comma-separated: L0, L1, L2.")
@@ -156,6 +170,7 @@ def selfcal_design_cmd(
         Path | None, typer.Option("-o", "--output", help="Write the result (JSON).")
     ] = None,
     json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+    report_path: ReportOption = None,
 ) -> None:
     """U1, U2, U3 of the source's self-calibration design (3 x 3 plate at 100 mm pitch, six
     styli at +-50 mm, reference sphere; ball centres, stylus offsets and poses unknown; the
@@ -168,8 +183,7 @@ def selfcal_design_cmd(
     locs = [s.strip() for s in locations.split(",") if s.strip()]
     res = selfcal_design(m, locs, sigma=sigma, truncation=truncation, seed=seed)
     doc = res.to_dict()
-    if output is not None:
-        write_json(output, doc)
+    _write(ctx, res, doc, output, report_path, "Self-calibration design", [], machine)
     if json_out:
         print_json(doc)
     key = "+".join(locs)
@@ -207,6 +221,7 @@ def _length(text: str) -> CalibratedLength:
 @app.command("calibrate")
 @user_errors
 def calibrate_cmd(
+    ctx: typer.Context,
     records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
     machine: MachineOpt,
     plate: PlateOpt,
@@ -232,6 +247,7 @@ def calibrate_cmd(
     ] = None,
     sigma_um: SigmaOpt = 0.5,
     json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+    report_path: ReportOption = None,
 ) -> None:
     """Identify the error parameters with the stylus offsets as unknowns (--estimate-probes):
     the qualification records on a reference sphere are observations of their own, the
@@ -259,7 +275,9 @@ def calibrate_cmd(
         length=None if length is None else _length(length),
     )
     doc = res.to_dict()
-    write_json(output, doc)
+    inputs = [records, plate, probes, qualification]
+    title = f"Styli and plate as unknowns: {records.name}"
+    _write(ctx, res, doc, output, report_path, title, inputs, machine)
     if json_out:
         print_json(doc)
     for pid, p in res.probes.items():

@@ -331,3 +331,63 @@ def _held_out(rep: Report, comp, **_) -> None:
         figures.length_errors(comp.plot, coverage_factor=k),
         caption=f"Length error of each model with its ±{k:g}u bar; red points are not covered.",
     )
+
+
+@renders("mtmetrology.cmm.gpml.SourceGPDemo", "The source's GP re-run")
+def _source_gp(rep: Report, demo, **_) -> None:
+    rep.section(
+        "The source's GP (GPML port)",
+        "Training data from gpml_randn(0.01, 9); SE-iso covariance, Gaussian noise, "
+        "hyper-parameters [β, log ℓ, log σ_f, log σ_n] by maximum marginal likelihood.",
+    )
+    rep.table(
+        ["mean", "hyper-parameters", "NLML"],
+        [
+            [gp.mean, ", ".join(f"{v:.6f}" for v in gp.hyperparameters), f"{gp.nlml:.5f}"]
+            for gp in (demo.zero_mean, demo.quadratic_mean)
+        ],
+    )
+    rep.text(
+        f"Largest |m_zero − m_quad| on the 21 × 21 grid: {demo.max_difference:.5f} "
+        "(the source: “less than 0.011”)."
+    )
+
+
+@renders("mtmetrology.cmm.selfcal.SelfCalibrationDesign", "Self-calibration design")
+def _selfcal(rep: Report, d, **_) -> None:
+    rep.section(
+        f"Self-calibration design: {' + '.join(d.locations)}",
+        f"{d.n_unknowns} unknowns, {d.n_constraints} constraints, rank {d.rank}; average "
+        "standard uncertainties (µm) from the full covariance and the truncated SVD "
+        f"(K = {d.truncation}).",
+    )
+    rows = []
+    for label, table in (("full", d.U_full), (f"K = {d.truncation}", d.U_truncated)):
+        for key in ("U1", "U2", "U3"):
+            vals = ["—"] * 3 if table is None else [f"{v:.2g}" for v in table[key]]
+            rows.append([label, key, *vals])
+    rep.table(["covariance", "", "x", "y", "z"], rows)
+    rep.table(
+        ["constraints", "free directions", "what is free"],
+        [[k, v["free"], v["message"]] for k, v in d.freedoms.items()],
+    )
+
+
+@renders("mtmetrology.cmm.probecal.ProbeCalibration", "Ball-plate calibration with styli")
+def _probecal(rep: Report, res, **_) -> None:
+    rep.section(
+        f"Stylus offsets estimated ({res.model}, plate by {res.plate})",
+        f"RMS residual {res.fit['rms_residual_um']:.2g} µm; {res.fit['message']}",
+    )
+    rep.table(
+        ["stylus", "offset (mm)", "correction (µm)", "u (µm)"],
+        [
+            [
+                pid,
+                ", ".join(f"{v:.4f}" for v in p["offset_mm"]),
+                ", ".join(f"{v:+.2g}" for v in p["correction_um"]),
+                ", ".join(f"{v:.2g}" for v in p["u_um"]),
+            ]
+            for pid, p in res.probes.items()
+        ],
+    )
