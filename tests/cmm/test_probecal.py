@@ -10,7 +10,7 @@ from mtmetrology.cmm.calibrate import model_machine
 from mtmetrology.cmm.files import BallPlateRecords, ProbeSet
 from mtmetrology.cmm.probecal import CalibratedLength, ProbeCalibration, calibrate_with_probes
 from mtmetrology.cmm.simulate import simulate_ballplate
-from mtmetrology.errors import InputError
+from mtmetrology.errors import InputError, RankDeficientError
 
 NOMINAL = {"P0": [0, 0, -150], "PX1": [50, 0, -150], "PX2": [-50, 0, -150],
            "PY1": [0, 50, -150], "PY2": [0, -50, -150]}  # fmt: skip
@@ -104,3 +104,17 @@ def test_round_trip_and_missing_qualification(base, case):
     with pytest.raises(InputError, match="no record of stylus PY2"):
         calibrate_with_probes(base, records, plate, _probes(NOMINAL), qual.subset(keep),
                               sigma=SIGMA)  # fmt: skip
+
+
+def test_a_plate_seen_in_one_plane_is_refused_with_the_free_combination_named(base, case):
+    """Self-calibrated plate, horizontal position only: the z scale (and more) is free; the
+    refusal names the error parameters involved."""
+    records, plate, qual, _, _ = case
+    horizontal = records.subset(np.array([p == "H" for p in records.positions]))
+    with pytest.raises(RankDeficientError) as err:
+        calibrate_with_probes(
+            base, horizontal, plate, _probes(NOMINAL), qual, sigma=SIGMA,
+            length=CalibratedLength("00", "08", float(np.hypot(532.0, 532.0)), 0.0002),
+        )  # fmt: skip
+    names = {n for group in err.value.confounded for n in group}
+    assert "E_ZZ1" in names

@@ -34,12 +34,13 @@ from mtmetrology.cmm.calibrate import model_machine
 from mtmetrology.cmm.files import BallPlate, BallPlateRecords, ProbeSet
 from mtmetrology.cmm.models import parse_model
 from mtmetrology.cmm.problem import BallPlateProblem
-from mtmetrology.errors import InputError
+from mtmetrology.errors import InputError, RankDeficientError
+from mtmetrology.identification.diagnostics import analyse_identifiability
 from mtmetrology.identification.solver import gauss_newton
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.units import from_internal
 
-__all__ = ["CalibratedLength", "ProbeCalibration", "calibrate_with_probes"]
+__all__ = ["CalibratedLength", "ProbeCalibration", "calibrate_with_probes", "check_design"]
 
 KIND = "cmm-probe-plate-calibration"
 VERSION = 1
@@ -90,6 +91,7 @@ class ProbePlateProblem(BallPlateProblem):
         self._qk = np.array([self.probe_ids.index(p) for p in qualification.probes])
         self._q_tools = probes.offsets(qualification.probes)
         self._q_readings = np.asarray(qualification.readings, dtype=float)
+        self.qualification = qualification
         self.length = length
         if length is not None:
             for b in (length.ball_a, length.ball_b):
@@ -181,6 +183,43 @@ class ProbePlateProblem(BallPlateProblem):
         j[6, s + 3 * a : s + 3 * a + 3] = g
         j[6, s + 3 * b : s + 3 * b + 3] = -g
         return r, j
+
+
+def check_design(prob: ProbePlateProblem, plate, probes) -> None:
+    """Refuse a set-up whose *design* leaves directions free (see
+    :func:`mtmetrology.cmm.calibrate.check_design`: rank on noise-free readings, where an
+    exact confounding is not hidden by the noise).
+
+    Raises
+    ------
+    RankDeficientError
+        Naming the free combinations of error parameters, offsets and plate unknowns.
+    """
+    m = prob.machine
+    x0 = prob.initial()
+    _, poses, balls = prob.split(x0[: prob._inner])
+    target = prob.plate_points(poses, balls)
+    sphere = np.broadcast_to(x0[-3:], prob._q_tools.shape)
+    rec, qual = prob.records, prob.qualification
+    ideal = BallPlateRecords(
+        rec.positions, rec.balls, rec.probes,
+        m.inverse(target, target - prob._tools0, None, tool=prob._tools0), rec.lines,
+    )  # fmt: skip
+    ideal_q = BallPlateRecords(
+        qual.positions, qual.balls, qual.probes,
+        m.inverse(sphere, sphere - prob._q_tools, None, tool=prob._q_tools), qual.lines,
+    )  # fmt: skip
+    dp = ProbePlateProblem(
+        m, ideal, plate, probes, sigma=prob.sigma, qualification=ideal_q, length=prob.length
+    )
+    _, jac = dp.evaluate(dp.initial())
+    report = analyse_identifiability(jac, dp.names, report_names=m.parameter_names)
+    if not report.full_rank:
+        raise RankDeficientError(
+            f"this set-up leaves directions free ({report.message}); add plate positions in "
+            "other planes or heights, qualify every stylus, or give the plate's certificate",
+            confounded=report.confounded(),
+        )
 
 
 @dataclass(frozen=True)
@@ -282,6 +321,7 @@ def calibrate_with_probes(
         machine, records, plate, probes, sigma=sigma, qualification=qualification, length=length
     )
     with threadpool_limits(1):
+        check_design(prob, plate, probes)
         res = gauss_newton(prob, report_names=prob.names[: machine.n_params])
     x, u = res.estimate, np.sqrt(np.clip(np.diag(res.covariance), 0.0, None))
     p = machine.n_params
