@@ -54,6 +54,7 @@ __all__ = [
     "SourceGPDemo",
     "fit_parametric_gp",
     "gpml_randn",
+    "negative_log_marginal_likelihood",
     "source_gp_data",
     "source_gp_demo",
 ]

@@ -174,7 +174,7 @@ def compare_held_out(
         np.flatnonzero([(p, q) == key for p, q in zip(held.positions, held.probes, strict=True)])
         for key in dict.fromkeys(zip(held.positions, held.probes, strict=True))
     ]
-    kin_name = f"kinematic {getattr(kin, 'model', kinematic_model)}"
+    kin_name = f"kinematic {kin.model}"
     names = ("uncompensated", kin_name, f"GP ({gp_mean or 'zero'} mean, {kernel})")
     nominal = base.with_parameters([])
     rows, plot = [], {}
@@ -217,7 +217,7 @@ def compare_held_out(
             "u_um": u_um.tolist(),
         }
     settings = {
-        "kinematic_model": str(getattr(kin, "model", kinematic_model)),
+        "kinematic_model": kin.model,
         "gp_mean": gp_mean or "zero",
         "kernel": kernel,
         "sigma_um": float(from_internal(sigma, "µm")),

@@ -30,9 +30,7 @@ References
 ----------
 Salacheep, P. (2016). *Error Compensation and Uncertainty Evaluation of CMMs Based on
 Kinematic Error Models and Gaussian Processes*. MPhil thesis, Brunel University London,
-§4.4–4.5, Tables 4.1–4.3, Appendix 2.
-Forbes, A. B. (1991). *Least-squares best-fit geometric elements*. NPL report DITC 140/89
-(the null-space treatment of constraints).
+§4.4–4.5, Tables 4.1–4.3, Appendix 2 (constraints, null space, truncated SVD K = 36).
 """
 
 from __future__ import annotations
