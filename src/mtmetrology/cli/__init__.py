@@ -45,6 +45,7 @@ COMMANDS = {
     "budget": ("mtmetrology.cli.budget", "app", True),
     "export": ("mtmetrology.cli.export", "export", False),
     "history": ("mtmetrology.cli.history", "app", True),
+    "cmm": ("mtmetrology.cli.cmm_studies", "app", True),
 }
 
 #: Groups whose subcommands come from several applications (``mtm calibrate samba``,
@@ -91,6 +92,7 @@ SUMMARIES = {
         "the travel."
     ),
     "history": "Calibration history: record results, control charts, drift, long-term covariance.",
+    "cmm": "Bridge-CMM studies on ball-plate records.",
     "calibrate": SHARED_GROUPS["calibrate"][0],
     "simulate": SHARED_GROUPS["simulate"][0],
 }

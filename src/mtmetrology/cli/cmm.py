@@ -24,7 +24,7 @@ from mtmetrology.cli._common import (
     write_report,
 )
 from mtmetrology.cli._history import HistoryOption, record_in_history
-from mtmetrology.cmm.budget import ballplate_budget, load_budget
+from mtmetrology.cmm.budget import ballplate_budget, cmm_statement, load_budget
 from mtmetrology.cmm.calibrate import calibrate_ballplate, cross_validate
 from mtmetrology.cmm.files import (
     load_plate,
@@ -251,8 +251,11 @@ def budget_cmd(
     report_path: ReportOption = None,
 ) -> None:
     """Uncertainty budget of a ball-plate length (15 items, Edlén refractive index, GUF)."""
-    res = ballplate_budget(load_budget(budget))
+    spec = load_budget(budget)
+    res = ballplate_budget(spec)
     doc = {"kind": "ballplate-budget-result", "version": 1, **res.to_dict()}
+    if spec.specification is not None:
+        doc["statement"] = cmm_statement(spec).to_dict()
     report = None
     if report_path is not None:
         report = _report(ctx, f"Ball-plate length budget: {budget.name}", [budget])
@@ -268,6 +271,14 @@ def budget_cmd(
         f"U = {from_internal(o['U'], 'µm'):.3g} µm (k = {o['k']:.2f}); wrote {output}",
         err=True,
     )
+    if "statement" in doc:
+        st = doc["statement"]
+        typer.echo(
+            f"at {st['length_mm']:g} mm: CMM U {st['U_cmm_um']:.3f} µm, plate U "
+            f"{st['U_plate_um']:.3f} µm, MPE {st['mpe_um']:.3f} µm; U(P) {st['U_P_um']:.2g} µm, "
+            f"U(E) {st['U_E_um']:.2g} µm (k = {st['k']:g})",
+            err=True,
+        )
 
 
 @user_errors

@@ -41,13 +41,22 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from mtmetrology.cmm.statement import CMMStatement, SpecificationSpec
+from mtmetrology.errors import InputError
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError
 from mtmetrology.io.schema import describe_validation_error
 from mtmetrology.uncertainty import InputQuantity, InputSet, Normal, Rectangular, guf
-from mtmetrology.units import to_internal
+from mtmetrology.units import from_internal, to_internal
 
-__all__ = ["BudgetSpec", "ballplate_budget", "cosine_error", "edlen_refractivity", "load_budget"]
+__all__ = [
+    "BudgetSpec",
+    "ballplate_budget",
+    "cmm_statement",
+    "cosine_error",
+    "edlen_refractivity",
+    "load_budget",
+]
 
 REFERENCE_TEMPERATURE_C = 20.0
 
@@ -136,6 +145,7 @@ class BudgetSpec(_Strict):
     temperature_spread_K: float = Field(ge=0)
     cte_per_K: float = Field(ge=0)
     cte_halfwidth_per_K: float = Field(ge=0)
+    specification: SpecificationSpec | None = None
 
 
 def load_budget(path: str | Path) -> BudgetSpec:
@@ -199,3 +209,49 @@ def ballplate_budget(spec: BudgetSpec):
         return x[..., 0] + x[..., 1] + x[..., 2] + x[..., 3] + dl_n - x[..., 10] - thermal
 
     return guf(model, InputSet(q), output_names=["l_x"], output_units=["mm"])
+
+
+def cmm_statement(spec) -> CMMStatement:
+    """The statement of :mod:`~mtmetrology.cmm.statement` for a budget.
+
+    Parameters
+    ----------
+    spec : BudgetSpec
+        With its ``specification`` section; the length, part temperature, CTE and its
+        half-width, thermometer U, temperature spread and misalignment are the budget's.
+
+    Returns
+    -------
+    CMMStatement
+
+    Raises
+    ------
+    InputError
+        The budget has no ``specification`` section.
+
+    """
+    s = spec.specification
+    if s is None:
+        raise InputError("specification: the budget has no specification section")
+    length = spec.length_mm
+    u_plate = s.plate_U.expanded(length)
+    u_alpha = spec.cte_halfwidth_per_K / np.sqrt(3.0)
+    u_t = np.hypot(spec.part_thermometer_U_K / 2.0, spec.temperature_spread_K / np.sqrt(3.0))
+    dt = abs(spec.part_temperature_C - REFERENCE_TEMPERATURE_C)
+    align = cosine_error(length, to_internal(spec.misalignment_um, "µm")) / np.sqrt(3.0)
+    items = {
+        "cal": u_plate / 2.0,
+        "alpha": float(from_internal(length * dt * u_alpha, "µm")),
+        "t": float(from_internal(length * spec.cte_per_K * u_t, "µm")),
+        "align": float(from_internal(align, "µm")),
+        "fixt": s.fixturing_u_um,
+    }
+    return CMMStatement(
+        length_mm=length,
+        U_cmm_um=s.cmm_U.expanded(length),
+        U_plate_um=u_plate,
+        mpe_um=s.mpe_a_um + length / s.mpe_length_divisor,
+        u_P_um=float(np.hypot(s.sphere_form_um / 2.0, s.sphere_form_u_um)),
+        u_E_um=float(np.sqrt(sum(v**2 for v in items.values()))),
+        E_items_um=items,
+    )

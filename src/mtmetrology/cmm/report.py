@@ -8,6 +8,8 @@
   training residuals;
 - :class:`~mtmetrology.cmm.compare.ModelComparison`: the held-out table and the length
   errors of each model with their ±2u bars.
+- :class:`~mtmetrology.cmm.heldout.HeldOutComparison`: the same against the plate
+  certificate (``mtm cmm compare``).
 
 The ball-plate budget is a :class:`~mtmetrology.uncertainty.GUFResult`, shown by the
 report layer's own renderer (budget bars).
@@ -28,6 +30,10 @@ import numpy as np
 from mtmetrology.cmm.calibrate import BallPlateCalibration
 from mtmetrology.cmm.compare import ModelComparison
 from mtmetrology.cmm.gp import GPErrorModel
+from mtmetrology.cmm.gpml import SourceGPDemo
+from mtmetrology.cmm.heldout import HeldOutComparison
+from mtmetrology.cmm.probecal import ProbeCalibration
+from mtmetrology.cmm.selfcal import SelfCalibrationDesign
 from mtmetrology.formatting import format_uncertainty
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
@@ -346,3 +352,86 @@ def _comparison(rep: Report, comp, **_) -> None:
             + "): where the amplitude is at its lower bound the GP predicts its kinematic "
             "mean, and the two rows of the table agree by construction."
         )
+
+
+@renders(HeldOutComparison, "Kinematic versus GP error model")
+def _held_out(rep: Report, comp, **_) -> None:
+    k = comp.table[0]["coverage_factor"] if comp.table else COVERAGE_FACTOR
+    rep.section(
+        f"Kinematic and GP models on held-out positions {', '.join(comp.held_out)}",
+        "Lengths between the balls of a position neither model saw (same stylus), against "
+        "the plate certificate's lengths; u includes the certificate's; coverage is the "
+        f"fraction of lengths with |error| ≤ {k:g} u.",
+    )
+    rep.table(
+        ["model", "lengths", "rms error (µm)", "max |error| (µm)", "mean u (µm)", "coverage"],
+        [
+            [r["model"], r["n_lengths"], f"{r['rms_error_um']:.2g}", f"{r['max_error_um']:.2g}",
+             f"{r['mean_u_um']:.2g}", f"{100 * r['coverage']:.0f} %"]
+            for r in comp.table
+        ],
+    )  # fmt: skip
+    rep.figure(
+        figures.length_errors(comp.plot, coverage_factor=k),
+        caption=f"Length error of each model with its ±{k:g}u bar; red points are not covered.",
+    )
+
+
+@renders(SourceGPDemo, "The source's GP re-run")
+def _source_gp(rep: Report, demo, **_) -> None:
+    rep.section(
+        "The source's GP (GPML port)",
+        "Training data from gpml_randn(0.01, 9); SE-iso covariance, Gaussian noise, "
+        "hyper-parameters [β, log ℓ, log σ_f, log σ_n] by maximum marginal likelihood.",
+    )
+    rep.table(
+        ["mean", "hyper-parameters", "NLML"],
+        [
+            [gp.mean, ", ".join(f"{v:.6f}" for v in gp.hyperparameters), f"{gp.nlml:.5f}"]
+            for gp in (demo.zero_mean, demo.quadratic_mean)
+        ],
+    )
+    rep.text(
+        f"Largest |m_zero − m_quad| on the 21 × 21 grid: {demo.max_difference:.5f} "
+        "(the source: “less than 0.011”)."
+    )
+
+
+@renders(SelfCalibrationDesign, "Self-calibration design")
+def _selfcal(rep: Report, d, **_) -> None:
+    rep.section(
+        f"Self-calibration design: {' + '.join(d.locations)}",
+        f"{d.n_unknowns} unknowns, {d.n_constraints} constraints, rank {d.rank}; average "
+        "standard uncertainties (µm) from the full covariance and the truncated SVD "
+        f"(K = {d.truncation}).",
+    )
+    rows = []
+    for label, table in (("full", d.U_full), (f"K = {d.truncation}", d.U_truncated)):
+        for key in ("U1", "U2", "U3"):
+            vals = ["—"] * 3 if table is None else [f"{v:.2g}" for v in table[key]]
+            rows.append([label, key, *vals])
+    rep.table(["covariance", "", "x", "y", "z"], rows)
+    rep.table(
+        ["constraints", "free directions", "what is free"],
+        [[k, v["free"], v["message"]] for k, v in d.freedoms.items()],
+    )
+
+
+@renders(ProbeCalibration, "Ball-plate calibration with styli")
+def _probecal(rep: Report, res, **_) -> None:
+    rep.section(
+        f"Stylus offsets estimated ({res.model}, plate by {res.plate})",
+        f"RMS residual {res.fit['rms_residual_um']:.2g} µm; {res.fit['message']}",
+    )
+    rep.table(
+        ["stylus", "offset (mm)", "correction (µm)", "u (µm)"],
+        [
+            [
+                pid,
+                ", ".join(f"{v:.4f}" for v in p["offset_mm"]),
+                ", ".join(f"{v:+.2g}" for v in p["correction_um"]),
+                ", ".join(f"{v:.2g}" for v in p["u_um"]),
+            ]
+            for pid, p in res.probes.items()
+        ],
+    )

@@ -1,0 +1,291 @@
+"""``mtm cmm``: bridge-CMM studies of the source (Salacheep 2016).
+
+``compare``: kinematic against GP error model on held-out plate positions;
+``source-gp``: the source's GP demonstration re-run (GPML port, :mod:`mtmetrology.cmm.gpml`);
+``selfcal-design``: U1, U2, U3 of the source's self-calibration (:mod:`mtmetrology.cmm.selfcal`);
+``calibrate``: ball-plate calibration with the stylus offsets (and optionally the plate) as
+unknowns (:mod:`mtmetrology.cmm.probecal`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from mtmetrology.cli._common import ReportOption, print_json, user_errors, write_report
+from mtmetrology.cli.cmm import (
+    MachineOpt,
+    PlateOpt,
+    ProbesOpt,
+    SigmaOpt,
+    _add_result,
+    _inputs,
+    _positive,
+    _report,
+)
+from mtmetrology.cmm.files import read_records
+from mtmetrology.cmm.gpml import source_gp_demo
+from mtmetrology.cmm.heldout import compare_held_out
+from mtmetrology.cmm.models import parse_model
+from mtmetrology.cmm.probecal import CalibratedLength, calibrate_with_probes
+from mtmetrology.cmm.selfcal import THESIS_TABLES, selfcal_design
+from mtmetrology.io.files import InputFileError, check_output, write_json
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.units import to_internal
+
+__all__ = ["app"]
+
+app = typer.Typer(help="Bridge-CMM studies on ball-plate records.", no_args_is_help=True)
+
+
+def _write(ctx, result, doc, output, report_path, title, inputs, machine=None) -> None:
+    """Write the JSON result and, if asked, the report (command line and inputs as provenance)."""
+    report = None
+    if report_path is not None:
+        report = _report(ctx, title, inputs, machine)
+        _add_result(report, result)
+    if output is not None:
+        write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
+
+
+@app.command("compare")
+@user_errors
+def compare(
+    ctx: typer.Context,
+    records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
+    machine: MachineOpt,
+    plate: PlateOpt,
+    probes: ProbesOpt,
+    held_out: Annotated[
+        list[str], typer.Option("--held-out", help="Position left out of both fits (repeatable).")
+    ],
+    model: Annotated[str, typer.Option("--model", help="Kinematic model: seed, full-<d>.")] = (
+        "full-3"
+    ),
+    gp_mean: Annotated[
+        str, typer.Option("--gp-mean", help="GP mean: seed, full-<d>, or none (zero mean).")
+    ] = "seed",
+    kernel: Annotated[str, typer.Option("--kernel", help="rbf (squared exp.) or matern.")] = "rbf",
+    sigma_um: SigmaOpt = 0.5,
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Write the result (JSON).")
+    ] = None,
+    json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+    report_path: ReportOption = None,
+) -> None:
+    """Fit the kinematic model and the GP without the held-out positions; compare both on
+    every length between two balls of a held-out position (same stylus) against the plate
+    certificate: RMS and max length error, mean u, coverage of ±2u."""
+    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    if output is not None:
+        check_output(output, [records, plate, probes])
+    m = Machine.load(machine)
+    rec, pl, pr = _inputs(records, plate, probes)
+    choice = parse_model(model)
+    if gp_mean != "none":
+        parse_model(gp_mean)
+    if kernel not in ("rbf", "matern"):
+        raise InputFileError(f"--kernel {kernel!r}: use rbf or matern")
+    res = compare_held_out(
+        m,
+        rec,
+        pl,
+        pr,
+        held_out,
+        sigma=sigma,
+        kinematic_model=choice,
+        gp_mean=None if gp_mean == "none" else gp_mean,
+        kernel=kernel,
+    )
+    doc = res.to_dict()
+    report = None
+    if report_path is not None:
+        report = _report(
+            ctx, f"Kinematic versus GP: {records.name}", [records, plate, probes], machine
+        )
+        _add_result(report, res)
+    if output is not None:
+        write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
+    if json_out:
+        print_json(doc)
+    for r in res.table:
+        typer.echo(
+            f"{r['model']}: {r['n_lengths']} lengths, rms {r['rms_error_um']:.2g} µm, "
+            f"max {r['max_error_um']:.2g} µm, mean u {r['mean_u_um']:.2g} µm, "
+            f"{100 * r['coverage']:.0f} % within ±{r['coverage_factor']:g}u",
+            err=True,
+        )
+
+
+@app.command("source-gp")
+@user_errors
+def source_gp(
+    ctx: typer.Context,
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Write the result (JSON).")
+    ] = None,
+    json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+    report_path: ReportOption = None,
+) -> None:
+    """Re-run the source's GP (Ch. 5, Appendix 3): GPML's gpml_randn(0.01, 9) data, the
+    zero-mean SE GP from [0, 0, log 0.1] and the quadratic-mean GP (eq. 5.11) from the
+    source's start; the largest difference of their means on the 21 x 21 grid."""
+    if output is not None:
+        check_output(output)
+    res = source_gp_demo()
+    doc = res.to_dict()
+    _write(ctx, res, doc, output, report_path, "The source's GP re-run", [])
+    if json_out:
+        print_json(doc)
+    for name, gp in (("zero mean", res.zero_mean), ("quadratic mean", res.quadratic_mean)):
+        hyp = ", ".join(f"{v:.6f}" for v in gp.hyperparameters)
+        typer.echo(f"{name}: hyp [{hyp}], NLML {gp.nlml:.5f}", err=True)
+    at = doc["max_difference_at"]
+    typer.echo(
+        f"max |m_zero - m_quad| = {res.max_difference:.5f} at ({at[0]:.2f}, {at[1]:.2f})",
+        err=True,
+    )
+
+
+@app.command("selfcal-design")
+@user_errors
+def selfcal_design_cmd(
+    ctx: typer.Context,
+    machine: MachineOpt,
+    locations: Annotated[
+        str, typer.Option("--locations", help="Plate locations, comma-separated: L0, L1, L2.")
+    ] = "L0,L1,L2",
+    truncation: Annotated[
+        int, typer.Option("--truncation", help="K of the truncated SVD (the source: 36).")
+    ] = 36,
+    sigma_um: SigmaOpt = 0.5,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the U2/U3 points.")] = 0,
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Write the result (JSON).")
+    ] = None,
+    json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+    report_path: ReportOption = None,
+) -> None:
+    """U1, U2, U3 of the source's self-calibration design (3 x 3 plate at 100 mm pitch, six
+    styli at +-50 mm, reference sphere; ball centres, stylus offsets and poses unknown; the
+    plate frame, one length and the stylus centroid fixed): full covariance and truncated
+    SVD, and what each constraint leaves free."""
+    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    if output is not None:
+        check_output(output)
+    m = Machine.load(machine)
+    locs = [s.strip() for s in locations.split(",") if s.strip()]
+    res = selfcal_design(m, locs, sigma=sigma, truncation=truncation, seed=seed)
+    doc = res.to_dict()
+    _write(ctx, res, doc, output, report_path, "Self-calibration design", [], machine)
+    if json_out:
+        print_json(doc)
+    key = "+".join(locs)
+    typer.echo(
+        f"{key}: {res.n_unknowns} unknowns, {res.n_constraints} constraints, rank {res.rank}"
+        f" ({'full' if res.full_rank else 'deficient'})",
+        err=True,
+    )
+    for label, table in (("full", res.U_full), (f"K = {truncation}", res.U_truncated)):
+        if table is None:
+            typer.echo(f"{label}: no full covariance: {res.freedoms['all constraints']['message']}",
+                       err=True)  # fmt: skip
+            continue
+        parts = "; ".join(f"{u} {'/'.join(f'{v:.2g}' for v in table[u])}" for u in table)
+        typer.echo(f"{label}: {parts} µm (x/y/z)", err=True)
+    if key in THESIS_TABLES:
+        pub = THESIS_TABLES[key]
+        parts = "; ".join(f"{u} {'/'.join(f'{v:.2g}' for v in pub[u])}" for u in pub)
+        typer.echo(f"source (Tables 4.1-4.2): {parts} µm", err=True)
+
+
+def _length(text: str) -> CalibratedLength:
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        a, b, length, u_um = parts[0], parts[1], float(parts[2]), float(parts[3])
+    except (IndexError, ValueError):
+        raise InputFileError(
+            f"--length {text!r}: give BALL_A,BALL_B,LENGTH_MM,U_UM (e.g. 00,08,752.3,0.2)"
+        ) from None
+    if len(parts) != 4 or not (length > 0 and u_um > 0):
+        raise InputFileError(f"--length {text!r}: LENGTH_MM and U_UM must be positive")
+    return CalibratedLength(a, b, length, to_internal(u_um, "µm"))
+
+
+@app.command("calibrate")
+@user_errors
+def calibrate_cmd(
+    ctx: typer.Context,
+    records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
+    machine: MachineOpt,
+    plate: PlateOpt,
+    probes: ProbesOpt,
+    qualification: Annotated[
+        Path,
+        typer.Option(
+            "--qualification",
+            help="Reference-sphere records, CSV position,ball,probe,X,Y,Z (mm): every stylus.",
+        ),
+    ],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Write the result (JSON).")],
+    model: Annotated[str, typer.Option("--model", help="Kinematic model: seed, full-<d>.")] = (
+        "seed"
+    ),
+    length: Annotated[
+        str | None,
+        typer.Option(
+            "--length",
+            help="Self-calibrate the plate with one calibrated length: BALL_A,BALL_B,LENGTH_MM,"
+            "U_UM (the certificate's centres are then only the start).",
+        ),
+    ] = None,
+    sigma_um: SigmaOpt = 0.5,
+    json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
+    report_path: ReportOption = None,
+) -> None:
+    """Identify the error parameters with the stylus offsets as unknowns (--estimate-probes):
+    the qualification records on a reference sphere are observations of their own, the
+    stylus centroid is fixed; the plate by its certificate or, with --length, self-calibrated
+    with one length as its only scale. A set-up that leaves directions free is refused with
+    them named."""
+    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    check_output(output, [records, plate, probes, qualification])
+    m = Machine.load(machine)
+    rec, pl, pr = _inputs(records, plate, probes)
+    qual = read_records(qualification)
+    for i, pid in enumerate(qual.probes):
+        if pid not in pr.ids:
+            raise InputFileError(
+                f"{qualification}, line {qual.lines[i]}: probe {pid!r} is not in the probe set"
+            )
+    res = calibrate_with_probes(
+        m,
+        rec,
+        pl,
+        pr,
+        qual,
+        sigma=sigma,
+        model=parse_model(model),
+        length=None if length is None else _length(length),
+    )
+    doc = res.to_dict()
+    inputs = [records, plate, probes, qualification]
+    title = f"Styli and plate as unknowns: {records.name}"
+    _write(ctx, res, doc, output, report_path, title, inputs, machine)
+    if json_out:
+        print_json(doc)
+    for pid, p in res.probes.items():
+        corr = "/".join(f"{v:+.2g}" for v in p["correction_um"])
+        u = "/".join(f"{v:.2g}" for v in p["u_um"])
+        typer.echo(f"stylus {pid}: correction {corr} µm (u {u} µm)", err=True)
+    typer.echo(
+        f"{res.model}, plate by {res.plate}: rms residual {res.fit['rms_residual_um']:.2g} µm; "
+        f"wrote {output}",
+        err=True,
+    )
