@@ -10,7 +10,7 @@ import pytest
 from scipy import stats
 
 from mtmetrology.errors import InputError
-from mtmetrology.export import fanuc, grid, isg, linuxcnc, siemens
+from mtmetrology.export import fanuc, isg, linuxcnc, siemens
 from mtmetrology.export.control import residual
 from mtmetrology.export.model import compensation_model
 from mtmetrology.export.workflow import export_compensation
@@ -214,27 +214,6 @@ def test_virtual_machine_residual_uncertainty_covers_95_percent(preset, model, p
     assert (lo, hi) == (181, 197)
     assert lo <= covered <= hi
     assert np.median(shrink) < 0.2  # the tables remove most of the error
-
-
-def test_volumetric_grid_round_trip_and_trilinear_closed_loop(make_set):
-    """Three-axis preset, E_YX2 = 10 µm: the grid's corrections, read back from the CSV and
-    interpolated trilinearly, shift the readings; the machine then lands on the nominal
-    point to h²/8 · max|f''| (f'' = 10 µm · 3 / 200² mm⁻¹, h = 25 mm)."""
-    m = Machine.load("three-axis-xfyz")
-    cm = compensation_model(m, make_set(m, {"E_YX2": 10.0}, u={"E_YX2": 0.5}), points=2)
-    field = grid.grid_from_model(cm, grid.grid_lines(cm, pitch=25.0))
-    back = grid.parse(grid.render(field))
-    for a, b in zip(field.lines, back.lines, strict=True):
-        np.testing.assert_allclose(b, a, atol=5e-5)
-    np.testing.assert_allclose(back.vectors, field.vectors, atol=5e-8)
-    np.testing.assert_allclose(back.u, field.u, atol=5e-8)
-    q = _readings(m, 400, seed=8)
-    shifted = q + grid.trilinear(back, q)  # readings X, Y, Z in axis order
-    after = m.forward(shifted, cm.theta) - m.forward(q)
-    assert np.abs(after).max() <= 25.0**2 / 8 * 10e-3 * 3 / 200**2 + 1e-7
-    r, u = grid.residual_grid(cm, back, q)
-    np.testing.assert_allclose(r, after, atol=1e-9)
-    assert u.max() > 0
 
 
 def test_fanuc_states_the_correction_left_to_the_reference_position(make_set):

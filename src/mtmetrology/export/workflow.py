@@ -23,6 +23,7 @@ from mtmetrology.export.model import CompensationModel, compensation_model
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.topology import LINEAR_AXES
+from mtmetrology.kinematics.volumetric_map import VolumetricMap
 from mtmetrology.report.notebook import NotebookRepr
 from mtmetrology.units import from_internal
 
@@ -262,45 +263,76 @@ def _summary(model, readings, r, u, per_axis) -> dict:
     }
 
 
-def _export_grid(machine, parameters, pitch, points, region, per_axis, at) -> ExportResult:
-    """The volumetric grid: nodes over the region, trilinear check at the check grid."""
-    model = compensation_model(machine, parameters, points=2, covariance=False)
-    field = grid.grid_from_model(model, grid.grid_lines(model, pitch, points, region))
-    readings = check_readings(model.machine, per_axis)
-    for k, a in enumerate(("X", "Y", "Z")):  # the check stays inside the grid's box
-        col = model.machine.axis_names.index(a)
-        lo, hi = field.lines[k][0], field.lines[k][-1]
-        travel = model.machine.axes[a].travel
-        readings[:, col] = lo + (readings[:, col] - travel[0]) * (hi - lo) / (travel[1] - travel[0])
-    r, u = grid.residual_grid(model, field, readings)
-    rotary = sorted({t.function for t in model.tables if t.axis not in LINEAR_AXES})
-    nodes = int(np.prod([x.size for x in field.lines]))
+def _export_grid(machine, source, pitch, points, region, per_axis, at) -> ExportResult:
+    """The volumetric grid from a parameter set or a measured map, and the residual left by
+    the control's trilinear interpolation at check points off the nodes
+    (:mod:`mtmetrology.export.grid`)."""
+    if isinstance(source, VolumetricMap):
+        if source.machine and source.machine != machine.name:
+            raise InputError(f"map: made for machine {source.machine!r}, not {machine.name!r}")
+        limits = tuple((float(a[0]), float(a[-1])) for a in source.axes)
+        field = grid.resample(source, grid.grid_lines(limits, pitch, points, region))
+        provenance = {"map": dict(source.provenance)}
+        name, model = machine.name, source.model
+    else:
+        source.check_machine(machine, "parameters")
+        limits = grid.box(machine)
+        lines = grid.grid_lines(limits, pitch, points, region)
+        field = grid.from_parameters(machine, source, lines)
+        provenance = {"parameters": dict(source.provenance)}
+        name, model = machine.name, machine.model_name
+    box = tuple((float(a[0]), float(a[-1])) for a in field.axes)
+    positions = grid.check_positions(box, per_axis)
+    r, u, before = grid.residual_grid(source, machine, field, positions)
+    summary = {
+        "points": int(positions.shape[0]),
+        "per_axis": per_axis,
+        "max_um": float(from_internal(np.linalg.norm(r, axis=1).max(), "µm")),
+        "rms_um": float(from_internal(np.sqrt(np.mean(np.sum(r**2, axis=1))), "µm")),
+        "max_U_um": None if u is None else float(from_internal(2 * u.max(), "µm")),
+        "k": 2,
+        "uncompensated_max_um": float(from_internal(np.linalg.norm(before, axis=1).max(), "µm")),
+        "axes": ["X", "Y", "Z"],
+        "readings": positions.tolist(),
+        "r_um": from_internal(r, "µm").tolist(),
+    }
+    u_nodes = grid.node_uncertainty(field, positions[:1]) is not None
     row = {
         "function": "volumetric",
-        "points": nodes,
+        "points": int(np.prod(field.shape)),
         "unit": "µm",
-        "max_correction": float(from_internal(np.abs(field.vectors).max(), "µm")),
-        "max_u": None if field.u is None else float(from_internal(field.u.max(), "µm")),
+        "max_correction": float(from_internal(np.abs(field.values).max(), "µm")),
+        "max_u": None,
     }
+    if u_nodes:
+        nodes = np.stack(np.meshgrid(*field.axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        row["max_u"] = float(from_internal(grid.node_uncertainty(field, nodes).max(), "µm"))
+    at_points = None
+    if at is not None:
+        at = np.asarray(at, float)
+        tool_points = machine.forward(at) if at.shape[1] == machine.n_axes else at
+        at_points = _at_arrays(*grid.residual_grid(source, machine, field, tool_points)[:2])
     return ExportResult(
         "grid",
-        model.machine.name,
-        model.machine.model_name,
-        grid.render(field, model.machine.name),
+        name,
+        model,
+        grid.render(field, name),
         [row],
-        rotary,
-        _summary(model, readings, r, u, per_axis),
+        [],
+        summary,
         None,
-        {"parameters": dict(parameters.provenance)},
-        None
-        if at is None
-        else _at_arrays(*grid.residual_grid(model, field, np.asarray(at, float))),
+        provenance,
+        at_points,
+        [
+            "volumetric_grid.csv holds e = P_indicated - P_true at nominal tool-point "
+            "positions (workpiece frame): the control commands P + e(P)"
+        ],
     )
 
 
 def export_compensation(
     machine: Machine,
-    parameters: ParameterSet,
+    parameters: ParameterSet | VolumetricMap,
     fmt: str,
     *,
     pitch: float | None = None,
@@ -318,8 +350,10 @@ def export_compensation(
     Parameters
     ----------
     machine : Machine
-    parameters : ParameterSet
-        Identified parameters with covariance, made for ``machine``.
+    parameters : ParameterSet or VolumetricMap
+        Identified parameters with covariance, made for ``machine``; for the ``grid``
+        format also a measured volumetric map (a map document or a vendor grid), which is
+        resampled on the control's grid.
     fmt : {"linuxcnc", "fanuc", "siemens", "isg", "grid"}
     pitch, points : float or int
         Table spacing (mm, or degrees on a rotary axis) or number of points (one of them).
@@ -333,8 +367,9 @@ def export_compensation(
     bound_um : float, optional
         Interpolation-error bound of the pitch advisor, µm (axis-table formats).
     region : dict of axis to (low, high), optional
-        Volumetric grid only: the box of X, Y, Z readings (mm) it covers; the travel
-        otherwise.  A box outside the travel is refused.
+        Volumetric grid only: the box of nominal tool-point positions x, y, z (mm) it
+        covers; the box the travel reaches (or the source map's grid) otherwise.  A box
+        outside it is refused.
     at : ndarray, shape (n, n_axes), optional
         The user's readings (internal units): the residual and its U there as well.
     reference : dict of axis to float, optional
@@ -356,6 +391,11 @@ def export_compensation(
         raise InputError("give --pitch or --points")
     if fmt == "grid":
         return _export_grid(machine, parameters, pitch, points, region, check_per_axis, at)
+    if isinstance(parameters, VolumetricMap):
+        raise InputError(
+            f"format: {fmt} tabulates error functions of a parameter set; a volumetric map is "
+            "exported by the grid format only"
+        )
     model = compensation_model(
         machine, parameters, pitch=pitch, points=points, axes=axes, reference=reference
     )
