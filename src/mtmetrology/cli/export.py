@@ -184,6 +184,13 @@ def export(
         f"residual over {r['points']} check points: largest {r['max_um']:.3g} µm, "
         f"rms {r['rms_um']:.3g} µm{u} (uncompensated largest {r['uncompensated_max_um']:.3g} µm)"
     )
+    neg = r.get("negative")
+    if neg is not None:
+        u = "" if neg["max_U_um"] is None else f", U (k = 2) up to {neg['max_U_um']:.2g} µm"
+        typer.echo(
+            f"  travel in the negative direction: largest {neg['max_um']:.3g} µm, "
+            f"rms {neg['rms_um']:.3g} µm{u} (uncompensated {neg['uncompensated_max_um']:.3g} µm)"
+        )
     if result.advisor is not None:
         typer.echo(f"pitch advisor: {result.advisor['reason']}")
     for note in result.notes:

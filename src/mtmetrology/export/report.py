@@ -62,6 +62,23 @@ def _residual_map(res: dict) -> Figure | None:
     )
 
 
+def _negative_rows(neg: dict | None) -> list:
+    """Rows of the check for travel in the negative direction (reversal terms), if any."""
+    if neg is None:
+        return []
+    big_u = "" if neg["max_U_um"] is None else f"{neg['max_U_um']:.2g}"
+    return [
+        ["largest |r̂|, negative direction", f"{neg['max_um']:.3g}", "µm"],
+        ["rms |r̂|, negative direction", f"{neg['rms_um']:.3g}", "µm"],
+        ["largest U (k = 2), negative direction", big_u, "µm"],
+        [
+            "largest error without compensation, negative",
+            f"{neg['uncompensated_max_um']:.3g}",
+            "µm",
+        ],
+    ]
+
+
 @renders("mtmetrology.export.workflow.ExportResult", "Compensation export")
 def _render(rep, result, **_context) -> None:
     res = result.residual
@@ -112,6 +129,7 @@ def _render(rep, result, **_context) -> None:
                 "µm",
             ],
             ["largest error without compensation", f"{res['uncompensated_max_um']:.3g}", "µm"],
+            *_negative_rows(res.get("negative")),
         ],
     )
     fig = _residual_map(res)

@@ -137,7 +137,8 @@ def _at_document(at: dict) -> dict:
 
 def check_readings(machine: Machine, per_axis: int = 5) -> np.ndarray:
     """Readings of a full-factorial grid over the travel of every axis (spindle at 0); the
-    residual is checked for travel in the positive direction (forward tables).
+    residual is checked for travel in the positive direction of every axis, and when the
+    model has reversal terms also in the negative direction (``residual["negative"]``).
 
     On each axis ``lo + (k + 0.382) (hi − lo) / per_axis``, k = 0 … per_axis − 1.
     """
@@ -160,15 +161,16 @@ def _build(fmt: str, model: CompensationModel, functions):
 
 
 def residual_check(
-    model: CompensationModel, tables, constants, readings: np.ndarray
+    model: CompensationModel, tables, constants, readings: np.ndarray, senses=None
 ) -> tuple[np.ndarray, np.ndarray | None]:
-    """Residual r̂ and u (mm) at ``readings`` after the control applies ``tables``."""
+    """Residual r̂ and u (mm) at ``readings`` after the control applies ``tables``; travel
+    in the positive direction of every axis unless ``senses`` (±1 per reading and axis)."""
     cov = None
     if model.parameters.covariance is not None:
         p = model.parameters
         order = [p.names.index(n) for n in model.machine.parameter_names]
         cov = p.covariance[np.ix_(order, order)]
-    return residual(model.machine, model.theta, cov, tables, readings, constants=constants)
+    return residual(model.machine, model.theta, cov, tables, readings, senses, constants=constants)
 
 
 def _interpolation_error(fmt, machine, parameters, functions, pitch, readings) -> float:
@@ -259,6 +261,20 @@ def _summary(model, readings, r, u, per_axis) -> dict:
         "uncompensated_max_um": float(from_internal(np.linalg.norm(e0, axis=1).max(), "µm")),
         "axes": list(model.machine.axis_names),
         "readings": model.machine.readings_to_customary(readings).tolist(),
+        "r_um": from_internal(r, "µm").tolist(),
+    }
+
+
+def _negative(model, tables, constants, readings) -> dict:
+    """The check for travel in the negative direction of every axis (reversal terms)."""
+    senses = -np.ones_like(readings)
+    r, u = residual_check(model, tables, constants, readings, senses)
+    e0, _ = residual(model.machine, model.theta, None, [], readings, senses)
+    return {
+        "max_um": float(from_internal(np.linalg.norm(r, axis=1).max(), "µm")),
+        "rms_um": float(from_internal(np.sqrt(np.mean(np.sum(r**2, axis=1))), "µm")),
+        "max_U_um": None if u is None else float(from_internal(2 * u.max(), "µm")),
+        "uncompensated_max_um": float(from_internal(np.linalg.norm(e0, axis=1).max(), "µm")),
         "r_um": from_internal(r, "µm").tolist(),
     }
 
@@ -407,6 +423,8 @@ def export_compensation(
     readings = check_readings(model.machine, check_per_axis)
     r, u = residual_check(model, tables, constants, readings)
     summary = _summary(model, readings, r, u, check_per_axis)
+    if any(p.kind == "reversal" for p in model.machine.parameters):
+        summary["negative"] = _negative(model, tables, constants, readings)
     at_points = None
     if at is not None:
         at_points = _at_arrays(*residual_check(model, tables, constants, np.asarray(at, float)))
