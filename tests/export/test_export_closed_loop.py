@@ -228,14 +228,21 @@ def test_fanuc_states_the_correction_left_to_the_reference_position(make_set):
     assert note.startswith("E_XX: the correction at the reference position X = -100 mm (+10 µm)")
 
 
-def test_a_format_that_drops_the_reversal_says_so(make_set):
-    """Five-axis 84 model, E_BBb = 5 µrad: LinuxCNC carries both directions, ISG only the
-    forward table and states the 10 µrad it leaves in the negative direction."""
+def test_isg_carries_a_reversal_as_a_bilateral_ssfk_table(make_set):
+    """Five-axis 84 model, E_BBb = 5 µrad: LinuxCNC and ISG carry both directions (ISG as a
+    bilateral leadscrew table ssfk_b.lis, left out of volcomp.csv); read back, the negative
+    direction's correction exceeds the positive one by 2 · 5 µrad to the list's resolution
+    (0.0001° = 1.7 µrad, each value rounded to half of it), and nothing is noted."""
     m = Machine.load("five-axis-wcbxfzyst", model="84")
     ps = make_set(m, {"E_BBb": 5.0})
     assert export_compensation(m, ps, "linuxcnc", pitch=10, functions=["E_BB"]).notes == []
-    (note,) = export_compensation(m, ps, "isg", pitch=10, functions=["E_BB"]).notes
-    assert note == (
-        "E_BB: isg carries the forward table only; travel in the negative direction keeps "
-        "the reversal of up to 10 µrad"
-    )
+    result = export_compensation(m, ps, "isg", pitch=10, functions=["E_BB"])
+    assert result.notes == []
+    assert "ssfk_b.lis" in result.files
+    assert "EBB" not in result.files["volcomp.csv"]
+    tables, _ = isg.parse(result.files)
+    (table,) = tables
+    assert table.function == "E_BB"
+    np.testing.assert_allclose(table.reverse - table.forward, 10e-6, atol=np.radians(1e-4))
+    negative = result.residual["negative"]
+    assert negative["max_um"] < 0.5 * negative["uncompensated_max_um"]
