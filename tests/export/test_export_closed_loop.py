@@ -10,7 +10,7 @@ import pytest
 from scipy import stats
 
 from mtmetrology.errors import InputError
-from mtmetrology.export import fanuc, isg, linuxcnc, siemens
+from mtmetrology.export import etalon, fanuc, isg, linuxcnc, siemens
 from mtmetrology.export.control import residual
 from mtmetrology.export.model import compensation_model
 from mtmetrology.export.workflow import export_compensation
@@ -37,7 +37,7 @@ def _read_back(module, tables, model):
     """The tables as the control holds them after reading the written files."""
     files = module.render(tables, model)
     back = module.parse(files)
-    return {t.function: t for t in (back[0] if module is isg else back)}
+    return {t.function: t for t in (back[0] if module in (isg, etalon) else back)}
 
 
 def _readings(m, n, seed):
@@ -111,7 +111,7 @@ def _random_set(make_set, m, seed, scale=5.0, u=0.3):
     return make_set(m, values, u=dict.fromkeys(m.parameter_names, u))
 
 
-@pytest.mark.parametrize("module", [linuxcnc, fanuc, siemens, isg])
+@pytest.mark.parametrize("module", [linuxcnc, fanuc, siemens, isg, etalon])
 def test_every_writer_has_a_reader_that_gives_the_same_table(make_set, module):
     m = Machine.load("three-axis-xfyz")
     cm = compensation_model(m, _random_set(make_set, m, 3), pitch=20)
@@ -124,7 +124,7 @@ def test_every_writer_has_a_reader_that_gives_the_same_table(make_set, module):
         np.testing.assert_allclose(b.forward, t.forward, atol=5e-7)
         np.testing.assert_allclose(b.reverse, t.reverse, atol=5e-7)
         assert (b.rule, b.period) == (t.rule, t.period)
-    if module is isg:
+    if module in (isg, etalon):
         consts = module.parse(module.render(built, cm))[1]
         np.testing.assert_allclose([v for _, v in consts], [v for _, v in isg.constants(cm)])
 

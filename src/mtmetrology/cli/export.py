@@ -59,7 +59,7 @@ def _source(path: Path, machine: Machine, fmt: str) -> ParameterSet | Volumetric
 def export(
     ctx: typer.Context,
     fmt: Annotated[
-        str, typer.Argument(metavar="FORMAT", help="linuxcnc, fanuc, siemens, isg or grid.")
+        str, typer.Argument(metavar="FORMAT", help="linuxcnc, fanuc, siemens, isg, etalon or grid.")
     ],
     params: Annotated[
         Path,

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mtmetrology.errors import InputError
-from mtmetrology.export import fanuc, grid, isg, linuxcnc, siemens
+from mtmetrology.export import etalon, fanuc, grid, isg, linuxcnc, siemens
 from mtmetrology.export.control import ControlTable, residual
 from mtmetrology.export.model import CompensationModel, compensation_model
 from mtmetrology.kinematics.machine import Machine
@@ -31,7 +31,13 @@ __all__ = ["FORMATS", "KIND", "ExportResult", "export_compensation", "residual_c
 
 KIND = "compensation-export"
 VERSION = 1
-FORMATS = {"linuxcnc": linuxcnc, "fanuc": fanuc, "siemens": siemens, "isg": isg}
+FORMATS = {
+    "linuxcnc": linuxcnc,
+    "fanuc": fanuc,
+    "siemens": siemens,
+    "isg": isg,
+    "etalon": etalon,
+}
 #: Pitches the advisor tries, largest first (mm for linear axes, degrees for rotary).
 ADVISOR_PITCHES = (100.0, 50.0, 40.0, 25.0, 20.0, 10.0, 5.0, 4.0, 2.5, 2.0, 1.0, 0.5)
 
@@ -156,7 +162,7 @@ def check_readings(machine: Machine, per_axis: int = 5) -> np.ndarray:
 def _build(fmt: str, model: CompensationModel, functions):
     module = FORMATS[fmt]
     tables = module.build(model, functions)
-    constants = isg.constants(model) if fmt == "isg" else ()
+    constants = isg.constants(model) if fmt in ("isg", "etalon") else ()
     return module, tables, constants
 
 
@@ -370,7 +376,7 @@ def export_compensation(
         Identified parameters with covariance, made for ``machine``; for the ``grid``
         format also a measured volumetric map (a map document or a vendor grid), which is
         resampled on the control's grid.
-    fmt : {"linuxcnc", "fanuc", "siemens", "isg", "grid"}
+    fmt : {"linuxcnc", "fanuc", "siemens", "isg", "etalon", "grid"}
     pitch, points : float or int
         Table spacing (mm, or degrees on a rotary axis) or number of points (one of them).
     axes : sequence of str, optional
