@@ -8,33 +8,10 @@ import pytest
 from mtmetrology.export import fanuc, linuxcnc
 from mtmetrology.export.model import compensation_model
 from mtmetrology.export.workflow import export_compensation
-from mtmetrology.kinematics import Machine
-
-REVERSAL_MACHINE = """kind: machine
-version: 1
-name: reversal-test
-topology: WXFYZT
-axes:
-  X: {travel_mm: [0, 400]}
-  Y: {travel_mm: [0, 300]}
-  Z: {travel_mm: [0, 200]}
-error_models:
-  m:
-    basis: monomial
-    motions:
-      E_XX: [1]
-    parameters: [E_XXb]
-"""
 
 
-@pytest.fixture
-def machine(tmp_path):
-    path = tmp_path / "reversal.yaml"
-    path.write_text(REVERSAL_MACHINE)
-    return Machine.load(path)
-
-
-def test_fanuc_bidirectional_parameters_closed_form(machine, make_set):
+def test_fanuc_bidirectional_parameters_closed_form(reversal_machine, make_set):
+    machine = reversal_machine
     """E_XX = 100 µm/m · x + 3 µm · sense: corrections −E differ by 2 · 3 µm between the
     directions, so 3627 (negative-direction value at the reference) is +6 units (1 µm),
     the negative table follows the positive one from 3626, and the file read back gives
@@ -71,7 +48,8 @@ def test_fanuc_bidirectional_parameters_closed_form(machine, make_set):
     # ISG bilateral SSFK: values in 0.1 µm, each rounded to 0.05 µm.
     [("linuxcnc", 1e-3), ("fanuc", 3.0 + 2.5 + 1e-3), ("isg", 0.05 + 1e-3)],
 )
-def test_both_directions_of_approach_are_compensated(machine, make_set, fmt, bound_um):
+def test_both_directions_of_approach_are_compensated(reversal_machine, make_set, fmt, bound_um):
+    machine = reversal_machine
     """The check for travel in the negative direction uses the reverse table: the residual
     is the same in both directions at every check point (a forward table alone would leave
     the 2 · 3 µm reversal between them) and within the format's bound."""
@@ -85,7 +63,8 @@ def test_both_directions_of_approach_are_compensated(machine, make_set, fmt, bou
     assert neg["max_um"] <= bound_um
 
 
-def test_linuxcnc_reverse_column_carries_the_reversal(machine, make_set):
+def test_linuxcnc_reverse_column_carries_the_reversal(reversal_machine, make_set):
+    machine = reversal_machine
     """The reverse column read back is the forward one plus 2 · E_XXb (corrections)."""
     ps = make_set(machine, {"E_XX1": 100.0, "E_XXb": 3.0})
     cm = compensation_model(machine, ps, pitch=20)

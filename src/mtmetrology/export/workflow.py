@@ -285,6 +285,24 @@ def _negative(model, tables, constants, readings) -> dict:
     }
 
 
+def _grid_slice(field: VolumetricMap) -> dict:
+    """The grid's middle z-plane for the report: |e| and the largest u per node (µm)."""
+    k = field.shape[2] // 2
+    x, y, z = field.axes
+    nodes = np.stack(np.meshgrid(x, y, [z[k]], indexing="ij"), axis=-1).reshape(-1, 3)
+    length = np.linalg.norm(field.error(nodes), axis=1).reshape(x.size, y.size)
+    u = grid.node_uncertainty(field, nodes)
+    return {
+        "z_mm": float(z[k]),
+        "x_mm": x.tolist(),
+        "y_mm": y.tolist(),
+        "length_um": from_internal(length, "µm").tolist(),
+        "max_u_um": None
+        if u is None
+        else from_internal(u.max(axis=1).reshape(x.size, y.size), "µm").tolist(),
+    }
+
+
 def _export_grid(machine, source, pitch, points, region, per_axis, at) -> ExportResult:
     """The volumetric grid from a parameter set or a measured map, and the residual left by
     the control's trilinear interpolation at check points off the nodes
@@ -329,6 +347,7 @@ def _export_grid(machine, source, pitch, points, region, per_axis, at) -> Export
     if u_nodes:
         nodes = np.stack(np.meshgrid(*field.axes, indexing="ij"), axis=-1).reshape(-1, 3)
         row["max_u"] = float(from_internal(grid.node_uncertainty(field, nodes).max(), "µm"))
+    row["slice"] = _grid_slice(field)
     at_points = None
     if at is not None:
         at = np.asarray(at, float)
@@ -456,6 +475,14 @@ def export_compensation(
                 "u": None if u_t is None else u_t.tolist(),
             }
         )
+        if not np.array_equal(t.forward, t.reverse):  # per-direction tables
+            rows[-1]["correction_reverse"] = from_internal(t.reverse, src.unit).tolist()
+            u_r = src.u_reverse
+            rows[-1]["u_reverse"] = (
+                None
+                if u_r is None
+                else from_internal(np.interp(t.positions, src.positions, u_r), src.unit).tolist()
+            )
     advisor = None
     if bound_um is not None:
         advisor = advise_pitch(fmt, model.machine, parameters, functions, bound_um, readings)
