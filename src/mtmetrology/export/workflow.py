@@ -336,7 +336,6 @@ def _export_grid(machine, source, pitch, points, region, per_axis, at) -> Export
         "readings": positions.tolist(),
         "r_um": from_internal(r, "µm").tolist(),
     }
-    u_nodes = grid.node_uncertainty(field, positions[:1]) is not None
     row = {
         "function": "volumetric",
         "points": int(np.prod(field.shape)),
@@ -344,14 +343,13 @@ def _export_grid(machine, source, pitch, points, region, per_axis, at) -> Export
         "max_correction": float(from_internal(np.abs(field.values).max(), "µm")),
         "max_u": None,
     }
-    if u_nodes:
+    if field.factor is not None or field.node_u is not None:
         nodes = np.stack(np.meshgrid(*field.axes, indexing="ij"), axis=-1).reshape(-1, 3)
         row["max_u"] = float(from_internal(grid.node_uncertainty(field, nodes).max(), "µm"))
     row["slice"] = _grid_slice(field)
     at_points = None
     if at is not None:
-        at = np.asarray(at, float)
-        tool_points = machine.forward(at) if at.shape[1] == machine.n_axes else at
+        tool_points = machine.forward(np.asarray(at, float))  # nominal tool points
         at_points = _at_arrays(*grid.residual_grid(source, machine, field, tool_points)[:2])
     return ExportResult(
         "grid",
