@@ -70,7 +70,7 @@ def test_export_writes_the_files_and_a_check_that_equals_the_library_result(para
         (["siemens", "--pitch", 10, "--functions", "E_CZ"], "E_CZ: format siemens cannot"),
         (["heidenhain", "--pitch", 10], "format: 'heidenhain' is not one of"),
         (["linuxcnc", "--pitch", 10, "--axes", "Q"], "axes: Q is not an axis"),
-        (["grid", "--pitch", 50, "--region", "X=700:1000"], "grid: X from 700 to 1000 mm is"),
+        (["grid", "--pitch", 50, "--region", "X=700:1000"], "grid: x from 700 to 1000 mm is"),
     ],
 )
 def test_bad_input_is_one_line_exit_2_and_nothing_written(params, tmp_path, args, field):
@@ -142,3 +142,31 @@ def test_report_shows_the_tables_with_bands_and_the_residual_map(params, tmp_pat
     assert (
         "Residual after the control applies the tables" in ExportResult.from_dict(doc)._repr_html_()
     )
+
+
+def test_grid_from_a_map_document_and_from_the_written_grid_csv(params, tmp_path):
+    """A volumetric-map document is a source of `mtm export grid`; the written grid CSV is
+    itself a source (the vendor grid form): exported again on the same nodes it gives the
+    same file and no residual."""
+    from mtmetrology.export import grid
+    from mtmetrology.kinematics.volumetric_map import VolumetricMap
+
+    m = Machine.load("three-axis-xfyz")
+    source = VolumetricMap.from_parameters(
+        m, ParameterSet.load(params, m), grid.grid_lines(grid.box(m), 20.0)
+    )
+    doc_path = tmp_path / "map.json"
+    doc_path.write_text(json.dumps(source.to_dict()))
+    first, second = tmp_path / "a", tmp_path / "b"
+    first.mkdir()
+    second.mkdir()
+    res = _run("grid", doc_path, "--machine", m.name, "--pitch", 40, "-o", first, "--json")
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert 0 < doc["residual"]["max_um"] < doc["residual"]["uncompensated_max_um"]
+    csv = first / "volumetric_grid.csv"
+    res = _run("grid", csv, "--machine", m.name, "--pitch", 40, "-o", second, "--json")
+    assert res.exit_code == 0, res.output
+    again = json.loads(res.stdout)
+    assert again["residual"]["max_um"] == pytest.approx(0.0, abs=1e-9)
+    assert (second / "volumetric_grid.csv").read_text() == csv.read_text()

@@ -36,3 +36,29 @@ def _parameter_set(machine: Machine, values: dict, u: dict | None = None) -> Par
 def make_set():
     """``make_set(machine, values, u=None)``: see :func:`_parameter_set`."""
     return _parameter_set
+
+
+REVERSAL_MACHINE = """kind: machine
+version: 1
+name: reversal-test
+topology: WXFYZT
+axes:
+  X: {travel_mm: [0, 400]}
+  Y: {travel_mm: [0, 300]}
+  Z: {travel_mm: [0, 200]}
+error_models:
+  m:
+    basis: monomial
+    motions:
+      E_XX: [1]
+    parameters: [E_XXb]
+"""
+
+
+@pytest.fixture
+def reversal_machine(tmp_path):
+    """A three-axis machine whose X has a positioning slope E_XX1 (µm/m) and a reversal
+    term E_XXb (µm): the error is E_XX1 · x + E_XXb · sense."""
+    path = tmp_path / "reversal.yaml"
+    path.write_text(REVERSAL_MACHINE)
+    return Machine.load(path)

@@ -16,10 +16,11 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
-from mtmetrology.io import read_csv_table, write_columns
+from mtmetrology.io import load_document, read_csv_table, write_columns
 from mtmetrology.io.files import atomic_write, check_output, write_json
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.kinematics.volumetric_map import MAP_KIND, VolumetricMap
 
 
 def _split(text: str | None) -> list[str] | None:
@@ -43,14 +44,30 @@ def _per_axis(text: str | None, option: str, pair: bool) -> dict | None:
     return out
 
 
+def _source(path: Path, machine: Machine, fmt: str) -> ParameterSet | VolumetricMap:
+    """The parameter set, or for the grid format also a volumetric map: a map document
+    (kind volumetric-map) or a vendor grid CSV (x,y,z,ex,ey,ez[,ux,uy,uz]; errors)."""
+    if fmt == "grid" and path.suffix.lower() == ".csv":
+        return VolumetricMap.from_table(path, machine=machine.name)
+    doc = load_document(path, "parameter set or map")
+    if isinstance(doc, dict) and doc.get("kind") == MAP_KIND:
+        return VolumetricMap.from_dict(doc, str(path))
+    return ParameterSet.from_document(doc, machine, str(path))
+
+
 @user_errors
 def export(
     ctx: typer.Context,
     fmt: Annotated[
-        str, typer.Argument(metavar="FORMAT", help="linuxcnc, fanuc, siemens, isg or grid.")
+        str, typer.Argument(metavar="FORMAT", help="linuxcnc, fanuc, siemens, isg, etalon or grid.")
     ],
     params: Annotated[
-        Path, typer.Argument(metavar="RESULT", help="Parameter set or calibration result JSON.")
+        Path,
+        typer.Argument(
+            metavar="RESULT",
+            help="Parameter set or calibration result JSON; grid: also a volumetric-map "
+            "document or a vendor grid CSV x,y,z,ex,ey,ez[,ux,uy,uz] (mm, µm; errors).",
+        ),
     ],
     machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Existing output directory.")],
@@ -73,7 +90,9 @@ def export(
     ] = 5,
     region: Annotated[
         str | None,
-        typer.Option("--region", help="grid: box of readings, e.g. X=800:1000,Z=200:300 (mm)."),
+        typer.Option(
+            "--region", help="grid: box of tool-point positions, e.g. x=800:1000,z=100:300 (mm)."
+        ),
     ] = None,
     reference: Annotated[
         str | None,
@@ -100,7 +119,7 @@ def export(
     if check_per_axis < 2:
         fail(f"--check-per-axis: {check_per_axis} < 2")
     m = Machine.load(machine)
-    pset = ParameterSet.load(params, m)
+    pset = _source(params, m, fmt.lower())
     readings = None
     if at is not None:
         readings = readings_from_table(m, read_csv_table(at))
@@ -165,6 +184,13 @@ def export(
         f"residual over {r['points']} check points: largest {r['max_um']:.3g} µm, "
         f"rms {r['rms_um']:.3g} µm{u} (uncompensated largest {r['uncompensated_max_um']:.3g} µm)"
     )
+    neg = r.get("negative")
+    if neg is not None:
+        u = "" if neg["max_U_um"] is None else f", U (k = 2) up to {neg['max_U_um']:.2g} µm"
+        typer.echo(
+            f"  travel in the negative direction: largest {neg['max_um']:.3g} µm, "
+            f"rms {neg['rms_um']:.3g} µm{u} (uncompensated {neg['uncompensated_max_um']:.3g} µm)"
+        )
     if result.advisor is not None:
         typer.echo(f"pitch advisor: {result.advisor['reason']}")
     for note in result.notes:

@@ -6,6 +6,7 @@ error that remains after the control interpolates them.
 - :mod:`~mtmetrology.export.control` — the controls' interpolation and the residual check;
 - writers and readers: :mod:`~mtmetrology.export.linuxcnc`, :mod:`~mtmetrology.export.fanuc`,
   :mod:`~mtmetrology.export.siemens`, :mod:`~mtmetrology.export.isg`,
+  :mod:`~mtmetrology.export.etalon` (Etalon exchange format for ISG),
   :mod:`~mtmetrology.export.grid` (volumetric grid CSV);
 - :mod:`~mtmetrology.export.workflow` — :func:`export_compensation`, the ``mtm export``
   workflow, and the pitch advisor.

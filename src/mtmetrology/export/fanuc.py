@@ -21,8 +21,17 @@ Data are written as ``N(10000 + number) P(value)`` lines, the form of the pitch-
 data in the control's punch/read files (cnc.wiki, *Setup Guide for Fanuc Pitch Error
 Compensation Parameters*, "N_ P_ ; data tape upload"), after the parameters.  Detection
 unit: 1 µm (linear) and 0.001° (rotary) (IS-B).  Only positioning errors of an axis's own
-direction are carried (``E_XX`` … ``E_CC``); the forward table is written (the reverse
-direction needs 3605#0 with 3626/3627, not written here).
+direction are carried (``E_XX`` … ``E_CC``).
+
+Bidirectional pitch-error compensation (A-77810E, §2 table (a)), written when the parameter
+set has a reversal term (``E_XXb``): 3605#0 = 1 enables it; the points of the positive
+direction keep 3621/3622, those of the negative direction follow from 3626 (same interval
+and count, here numbered right after the positive table); 3627 is the compensation
+(absolute value) at the reference position for the negative direction.  Both tables share
+one zero, the positive-direction value at the reference position, so 3627 carries the
+reversal there; the increments of the negative table accumulate from it.  We write 3627 in
+the units of the data (detection unit × 3623) and, as for the positive direction, model the
+increment as output when the axis passes its point.
 """
 
 from __future__ import annotations
@@ -92,7 +101,8 @@ def build(
         ref = int(np.argmin(np.abs(q - model.reference[t.axis])))
         if abs(q[ref] - model.reference[t.axis]) > 1e-9 * max(1.0, abs(q[ref])):
             raise InputError(f"{t.function}: the reference position is not a point of the table")
-        fwd, _ = corrections(model, t)
+        fwd, rev = corrections(model, t)
+        both = t.bidirectional
         period = None
         if rotary:
             per_rev = 2 * np.pi / t.pitch
@@ -104,22 +114,28 @@ def build(
             stop = ref + round(per_rev) + 1
             if stop > q.size:
                 raise InputError(f"{t.function}: the table does not cover one revolution")
-            q, fwd, period = q[ref:stop], fwd[ref:stop], 2 * np.pi
+            q, fwd, rev, period = q[ref:stop], fwd[ref:stop], rev[ref:stop], 2 * np.pi
             ref = 0
+        # one zero for both directions: the forward value at the reference position; the
+        # reverse table's value there is 3627
         absolute = np.round((fwd - fwd[ref]) / unit)
-        if rotary and absolute[-1] != absolute[0]:
-            raise InputError(
-                f"{t.function}: Fanuc rotary axis: the increments over one revolution sum to "
-                f"{absolute[-1]:+.0f} units, not zero (the error function is not periodic)"
-            )
-        total += q.size
+        reverse = np.round((rev - fwd[ref]) / unit) if both else absolute
+        for values, d in ((absolute, "positive"), (reverse, "negative")):
+            if rotary and values[-1] != values[0]:
+                raise InputError(
+                    f"{t.function}: Fanuc rotary axis: the increments over one revolution "
+                    f"({d} direction) sum to {values[-1] - values[0]:+.0f} units, not zero "
+                    "(the error function is not periodic)"
+                )
+        total += q.size * (2 if both else 1)
         if total > MAX_POINTS:
             raise InputError(
                 f"{t.function}: {total} compensation points over all axes; format {NAME} "
                 f"accepts at most {MAX_POINTS} (numbers 0–{MAX_POINTS - 1}); choose a larger pitch"
             )
-        values = absolute * unit
-        out.append(ControlTable(t.function, q, values, values, "staircase", period, ref))
+        out.append(
+            ControlTable(t.function, q, absolute * unit, reverse * unit, "staircase", period, ref)
+        )
     return out
 
 
@@ -154,9 +170,11 @@ def render(tables: list[ControlTable], model: CompensationModel, *, magnificatio
         unit = _UNIT["linear" if linear else "rotary"] * magnification
         scale = 1.0 if linear else _DEG
         absolute = np.round(t.forward / unit).astype(int)
-        inc = increments(absolute)
+        reverse = np.round(t.reverse / unit).astype(int)
+        both = not np.array_equal(absolute, reverse)
+        inc, inc_rev = increments(absolute), increments(reverse)
         if t.period is not None:  # the reference point repeats the last point's value
-            inc[0] = inc[-1]
+            inc[0], inc_rev[0] = inc[-1], inc_rev[-1]
         interval = round(
             (t.positions[1] - t.positions[0]) / _UNIT["linear" if linear else "rotary"]
         )
@@ -173,6 +191,14 @@ def render(tables: list[ControlTable], model: CompensationModel, *, magnificatio
             lines.append(f"3625 {t.axis} {round(t.period / _UNIT['rotary'])}")
         data += [f"N{10000 + number + k} P{v:d}" for k, v in enumerate(inc)]
         number += t.positions.size
+        if both:  # bidirectional (A-77810E table (a)): the negative-direction table follows
+            lines += [
+                f"3605#0 {t.axis} 1",
+                f"3626 {t.axis} {number}",
+                f"3627 {t.axis} {reverse[t.reference_index]:d}",
+            ]
+            data += [f"N{10000 + number + k} P{v:d}" for k, v in enumerate(inc_rev)]
+            number += t.positions.size
     return {"fanuc_pitch.txt": "\n".join(lines + data) + "\n"}
 
 
@@ -185,7 +211,7 @@ def parse(files: dict) -> list[ControlTable]:
         A malformed line or a point number outside 3621–3622.
     """
     text = files["fanuc_pitch.txt"]
-    params: dict[str, dict[int, int]] = {}
+    params: dict[str, dict[str, int]] = {}
     refpos: dict[str, float] = {}
     values: dict[int, int] = {}
     order: list[str] = []
@@ -201,24 +227,42 @@ def parse(files: dict) -> list[ControlTable]:
             elif line.startswith("N"):
                 values[int(f[0][1:]) - 10000] = int(f[1][1:])
             else:
-                params.setdefault(f[1], {})[int(f[0])] = int(f[2])
+                params.setdefault(f[1], {})[f[0]] = int(f[2])
         except (ValueError, IndexError):
             raise InputError(f"fanuc_pitch.txt, line {k}: cannot read {line!r}") from None
     out = []
     for axis in order:
         p = params[axis]
         linear = axis in LINEAR_AXES
-        unit = _UNIT["linear" if linear else "rotary"] * p[3623]
-        lo, hi, ref = p[3621], p[3622], p[3620]
-        missing = [n for n in range(lo, hi + 1) if n not in values]
-        if missing:
-            raise InputError(f"fanuc_pitch.txt: axis {axis}: no value for point {missing[0]}")
-        inc = np.array([values[n] for n in range(lo, hi + 1)])
-        absolute = np.cumsum(inc) - np.cumsum(inc)[ref - lo]
-        step = p[3624] * _UNIT["linear" if linear else "rotary"]
+        unit = _UNIT["linear" if linear else "rotary"] * p["3623"]
+        lo, hi, ref = p["3621"], p["3622"], p["3620"]
+        absolute = _absolute(axis, values, lo, hi - lo + 1, ref - lo, 0)
+        reverse = absolute
+        if p.get("3605#0") == 1:  # negative direction: from 3626, zero-offset 3627
+            reverse = _absolute(axis, values, p["3626"], hi - lo + 1, ref - lo, p["3627"])
+        step = p["3624"] * _UNIT["linear" if linear else "rotary"]
         start = refpos[axis] * (1.0 if linear else _DEG) - (ref - lo) * step
         q = start + step * np.arange(hi - lo + 1)
-        period = p[3625] * _UNIT["rotary"] if 3625 in p else None
-        v = absolute * unit
-        out.append(ControlTable(f"E_{axis}{axis}", q, v, v, "staircase", period, ref - lo))
+        period = p["3625"] * _UNIT["rotary"] if "3625" in p else None
+        out.append(
+            ControlTable(
+                f"E_{axis}{axis}",
+                q,
+                absolute * unit,
+                reverse * unit,
+                "staircase",
+                period,
+                ref - lo,
+            )
+        )
     return out
+
+
+def _absolute(axis: str, values: dict, first: int, n: int, ref: int, at_ref: int) -> np.ndarray:
+    """Absolute values (units) of ``n`` points numbered from ``first``: the running sum of
+    the increments, ``at_ref`` at the reference point."""
+    missing = [k for k in range(first, first + n) if k not in values]
+    if missing:
+        raise InputError(f"fanuc_pitch.txt: axis {axis}: no value for point {missing[0]}")
+    run = np.cumsum([values[k] for k in range(first, first + n)])
+    return run - run[ref] + at_ref

@@ -1,123 +1,138 @@
-"""Volumetric grid: tool-point corrections on a grid over the linear axes, with u.
+"""Volumetric grid: the control's 3-D table of tool-point corrections, with u.
 
-For controls that take a 3-D table: at each node ``(X_i, Y_j, Z_k)`` of a rectilinear grid
-of linear-axis readings (rotary axes at zero) the correction vector ``c = −e(q)`` (the
-kinematic chain's tool-point error, mm) and its standard uncertainty per component
-``sqrt(diag(J U Jᵀ))``; between nodes the control interpolates trilinearly per cell.
+For controls that take a 3-D table.  The table is a
+:class:`~mtmetrology.kinematics.volumetric_map.VolumetricMap` on a rectilinear grid of
+nominal tool-point positions P (workpiece frame, mm) — the one map implementation of the
+project, made from a parameter set by :meth:`VolumetricMap.from_parameters` or resampled
+from a measured map (a map document or a vendor grid CSV).  Between nodes the control
+interpolates trilinearly per cell (:meth:`VolumetricMap.weights`).
 
-The writer takes anything with the small :class:`VectorField` interface (grid lines,
-vectors, u), so a measured volumetric map plugs in as well as a parameter set.
+Sign
+----
+The file holds the map's **error of indication** (JCGM 200:2012, 2.16)
+``e(P) = P_indicated − P_true = −δ(q)``, δ the ISO 230-1 deviation of the tool point.  This
+is what the control adds to its commanded position: commanding ``P + e(P)`` puts the tool at
+``P + e(P) + δ ≈ P``.  A single positioning error ``E_XX(x) = a·x`` therefore gives
+``e_x = −a·x`` in the file (a tool point that lags is commanded further).
 
-File (``volumetric_grid.csv``, :doc:`file-formats`): ``//`` comment lines, then a header
-``X,Y,Z,cx,cy,cz,ux,uy,uz`` and one row per node, X varying slowest; positions in mm,
-corrections and uncertainties in µm.
+Residual
+--------
+At a check point P (readings q = nominal inverse of P) the control leaves
+
+    r(P) = δ(q; θ) + e_ctrl(P),
+
+``e_ctrl`` the trilinear interpolation of the written grid.  From a parameter set, δ comes
+from the kinematic chain and ``u(r)² = diag(J U Jᵀ)`` (J = ∂p/∂θ at q: the written numbers
+are fixed, the machine's θ is uncertain).  From a measured map, the map is the best
+knowledge of the machine, ``δ = −e_src(P)``, and ``u(r)`` is the map's own standard
+uncertainty at P (:meth:`VolumetricMap.standard_uncertainty`).
+
+File (``volumetric_grid.csv``, :doc:`file-formats`): ``#`` comment lines, then the header
+``x,y,z,ex,ey,ez[,ux,uy,uz]`` and one row per node, x varying slowest; positions in mm,
+errors and uncertainties in µm — the vendor grid form :meth:`VolumetricMap.from_table`
+reads (``sign = "error"``), so a written grid is itself a map source.
+
+References
+----------
+ISO/TR 16907:2015, *Machine tools — Numerical compensation of geometric errors*.
+JCGM 200:2012 (VIM), 2.16 (measurement error).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Protocol
+import tempfile
+from pathlib import Path
 
 import numpy as np
 
 from mtmetrology.errors import InputError
 from mtmetrology.export.control import residual
-from mtmetrology.export.model import CompensationModel
-from mtmetrology.units import from_internal, to_internal
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.kinematics.volumetric_map import VolumetricMap
+from mtmetrology.units import from_internal
 
 __all__ = [
-    "VectorField",
-    "VolumetricGrid",
-    "grid_from_model",
+    "FILE",
+    "box",
+    "check_positions",
+    "from_parameters",
     "grid_lines",
+    "node_uncertainty",
     "parse",
     "render",
+    "resample",
     "residual_grid",
-    "trilinear",
 ]
 
 NAME = "grid"
-_AXES = ("X", "Y", "Z")
-_HEADER = "X,Y,Z,cx,cy,cz,ux,uy,uz"
+FILE = "volumetric_grid.csv"
+_AXES = "xyz"
 
 
-class VectorField(Protocol):
-    """What the grid writer needs: grid lines (mm), vectors and u (mm), (nx, ny, nz, 3)."""
-
-    lines: tuple[np.ndarray, np.ndarray, np.ndarray]
-    vectors: np.ndarray
-    u: np.ndarray | None
+def _linear_readings(machine: Machine, points: np.ndarray) -> np.ndarray:
+    """Nominal readings of tool-point positions (rotary axes at zero)."""
+    zeros = np.zeros((len(points), machine.n_axes))
+    return machine.inverse(points, zeros, tool=machine.tool)
 
 
-@dataclass(frozen=True)
-class VolumetricGrid:
-    """Correction vectors on a rectilinear grid (implements :class:`VectorField`)."""
+def box(machine: Machine) -> tuple[tuple[float, float], ...]:
+    """The box of nominal tool-point positions the travel of X, Y, Z reaches (mm)."""
+    missing = [a for a in "XYZ" if a not in machine.axis_names]
+    if missing:
+        raise InputError(f"grid: {machine.name} has no {missing[0]} axis; a grid needs X, Y, Z")
+    corners = np.array(
+        np.meshgrid(*(machine.axes[a].travel for a in "XYZ"), indexing="ij")
+    ).reshape(3, -1)
+    q = np.zeros((corners.shape[1], machine.n_axes))
+    for k, a in enumerate("XYZ"):
+        q[:, machine.axis_names.index(a)] = corners[k]
+    p = machine.forward(q)
+    return tuple((float(p[:, k].min()), float(p[:, k].max())) for k in range(3))
 
-    lines: tuple[np.ndarray, np.ndarray, np.ndarray]
-    vectors: np.ndarray
-    u: np.ndarray | None = None
+
+def _check_in_travel(machine: Machine, region: tuple) -> None:
+    """Refuse a box whose corners need readings outside the travel."""
+    corners = np.array(np.meshgrid(*region, indexing="ij")).reshape(3, -1).T
+    q = _linear_readings(machine, corners)
+    for a in "XYZ":
+        lo, hi = machine.axes[a].travel
+        col = q[:, machine.axis_names.index(a)]
+        if col.min() < lo - 1e-6 or col.max() > hi + 1e-6:
+            k = "XYZ".index(a)
+            raise InputError(
+                f"grid: {_AXES[k]} from {region[k][0]:g} to {region[k][1]:g} mm is outside the "
+                f"travel of {a} [{lo:g}, {hi:g}] mm"
+            )
 
 
-def grid_from_model(
-    model: CompensationModel, lines: tuple[np.ndarray, np.ndarray, np.ndarray]
-) -> VolumetricGrid:
-    """Corrections of the model's machine at the grid nodes (rotary axes at zero).
+def grid_lines(
+    limits: tuple, pitch: float | None = None, points: int | None = None, region=None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Grid lines of x, y, z: equally spaced from the region's start (``limits`` by default)
+    at ``pitch`` mm, the region's end added; or ``points`` per axis.
 
     Parameters
     ----------
-    model : CompensationModel
-    lines : three ndarrays
-        Grid lines of X, Y, Z readings, mm, ascending, within the travel.
-
-    Raises
-    ------
-    InputError
-        The machine lacks a linear axis, or a grid line leaves the travel.
+    limits : three (low, high)
+        The box the grid must stay in (mm): the travel's box or a source map's grid.
+    region : dict of "X"/"Y"/"Z" (or lower case) to (low, high), optional
+        A sub-box (mm); refused when it leaves ``limits``.
     """
-    m = model.machine
-    missing = [a for a in _AXES if a not in m.axis_names]
-    if missing:
-        raise InputError(
-            f"grid: {m.name} has no {missing[0]} axis; a volumetric grid needs X, Y, Z"
-        )
-    for a, line in zip(_AXES, lines, strict=True):
-        lo, hi = m.axes[a].travel
-        line = np.asarray(line, dtype=float)
-        if line.size < 2 or np.any(np.diff(line) <= 0):
-            raise InputError(f"grid: {a} lines must be ascending, two at least")
-        if line[0] < lo - 1e-9 or line[-1] > hi + 1e-9:
-            raise InputError(
-                f"grid: {a} from {line[0]:g} to {line[-1]:g} mm is outside the travel of {a} "
-                f"[{lo:g}, {hi:g}] mm"
-            )
-    mesh = np.meshgrid(*lines, indexing="ij")
-    q = np.zeros((mesh[0].size, m.n_axes))
-    for a, g in zip(_AXES, mesh, strict=True):
-        q[:, m.axis_names.index(a)] = g.ravel()
-    p = model.parameters
-    cov = None
-    if p.covariance is not None:
-        order = [p.names.index(n) for n in m.parameter_names]
-        cov = p.covariance[np.ix_(order, order)]
-    e, u = residual(m, model.theta, cov, [], q)
-    shape = (*mesh[0].shape, 3)
-    return VolumetricGrid(
-        tuple(np.asarray(x, dtype=float) for x in lines),
-        -e.reshape(shape),
-        None if u is None else u.reshape(shape),
-    )
-
-
-def grid_lines(model: CompensationModel, pitch=None, points=None, region=None) -> tuple:
-    """Grid lines of X, Y, Z: equally spaced from the region's start (travel by default) at
-    ``pitch`` mm, the region's end added; or ``points`` per axis."""
+    region = {k.lower(): v for k, v in (region or {}).items()}
+    bad = [k for k in region if k not in _AXES]
+    if bad:
+        raise InputError(f"region: {bad[0]} is not x, y or z")
     out = []
-    for a in _AXES:
-        if a not in model.machine.axis_names:
-            raise InputError(f"grid: {model.machine.name} has no {a} axis; a grid needs X, Y, Z")
-        lo, hi = (region or {}).get(a, model.machine.axes[a].travel)
+    for k, a in enumerate(_AXES):
+        lo, hi = region.get(a, limits[k])
         if not hi > lo:
             raise InputError(f"region: {a} from {lo:g} to {hi:g} mm is empty")
+        if lo < limits[k][0] - 1e-9 or hi > limits[k][1] + 1e-9:
+            raise InputError(
+                f"grid: {a} from {lo:g} to {hi:g} mm is outside "
+                f"[{limits[k][0]:g}, {limits[k][1]:g}] mm"
+            )
         if points is not None:
             if points < 2:
                 raise InputError(f"points: {points} < 2")
@@ -130,75 +145,118 @@ def grid_lines(model: CompensationModel, pitch=None, points=None, region=None) -
     return tuple(out)
 
 
-def residual_grid(model: CompensationModel, field: VectorField, readings: np.ndarray):
-    """Tool-point error left after the control shifts X, Y, Z by the trilinear correction:
-    ``r = e(q) + ∂p/∂(x, y, z) · c(q)``, and its u (identification), mm."""
-    m = model.machine
-    p = model.parameters
-    cov = None
-    if p.covariance is not None:
-        order = [p.names.index(n) for n in m.parameter_names]
-        cov = p.covariance[np.ix_(order, order)]
-    e, u = residual(m, model.theta, cov, [], readings)
-    cols = [m.axis_names.index(a) for a in _AXES]
-    shift = m.axis_jacobian(readings)[:, :, cols]
-    c = trilinear(field, readings[:, cols])
-    return e + np.einsum("nij,nj->ni", shift, c), u
+def from_parameters(machine: Machine, parameters: ParameterSet, lines: tuple) -> VolumetricMap:
+    """The control's grid from a parameter set: :meth:`VolumetricMap.from_parameters` at the
+    nodes (sign ``error``), after refusing nodes outside the travel."""
+    _check_in_travel(machine, tuple((float(x[0]), float(x[-1])) for x in lines))
+    return VolumetricMap.from_parameters(machine, parameters, lines, sign="error")
 
 
-def trilinear(field: VectorField, points: np.ndarray) -> np.ndarray:
-    """Trilinear interpolation of the field's vectors at ``points`` (N, 3) mm; the end
-    cells are extended (values held) beyond the grid."""
+def resample(source: VolumetricMap, lines: tuple) -> VolumetricMap:
+    """A measured map on the control's grid: e and its covariance at the new nodes.
+
+    The values are the source's trilinear interpolation; a covariance factor is carried
+    exactly (``F_new = W F``); independent node uncertainties give each new node its
+    standard uncertainty (the correlation the interpolation introduces between new nodes
+    is not kept; the residual check uses the source itself).
+    """
+    nodes = np.stack(np.meshgrid(*lines, indexing="ij"), axis=-1).reshape(-1, 3)
+    shape = (*tuple(x.size for x in lines), 3)
+    factor = node_u = None
+    if source.factor is not None:
+        idx, w = source.weights(nodes)
+        factor = np.einsum("mk,mkcr->mcr", w, source.factor[idx])
+    elif source.node_u is not None:
+        node_u = node_uncertainty(source, nodes).reshape(shape)
+    return VolumetricMap(
+        lines,
+        source.error(nodes).reshape(shape),
+        sign="error",
+        machine=source.machine,
+        model=source.model,
+        tool=source.tool,
+        reference=source.reference,
+        factor=factor,
+        node_u=node_u,
+        provenance={"resampled from": dict(source.provenance)},
+    )
+
+
+def node_uncertainty(field: VolumetricMap, points: np.ndarray) -> np.ndarray | None:
+    """Standard uncertainty of e per component at ``points`` (m, 3), mm — the diagonal of
+    :meth:`VolumetricMap.covariance` without forming the (3m, 3m) matrix; None without a
+    covariance."""
+    if field.factor is None and field.node_u is None:
+        return None
+    idx, w = field.weights(points)
+    if field.factor is not None:
+        f = np.einsum("mk,mkcr->mcr", w, field.factor[idx])
+        return np.sqrt(np.einsum("mcr,mcr->mc", f, f))
+    var = field.node_u.reshape(-1, 3)[idx] ** 2  # (m, 8, 3)
+    return np.sqrt(np.einsum("mk,mkc->mc", w**2, var))
+
+
+def check_positions(limits: tuple, per_axis: int) -> np.ndarray:
+    """Full-factorial check points in the box, off the nodes: ``lo + (k + 0.382)(hi − lo)/n``
+    on each axis (the golden-section offset of the axis-table check)."""
+    k = (np.arange(per_axis) + (3 - 5**0.5) / 2) / per_axis
+    cols = [lo + (hi - lo) * k for lo, hi in limits]
+    return np.stack(np.meshgrid(*cols, indexing="ij"), axis=-1).reshape(-1, 3)
+
+
+def residual_grid(
+    source: ParameterSet | VolumetricMap,
+    machine: Machine,
+    field: VolumetricMap,
+    points: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    """Tool-point error left after the control applies ``field`` at tool-point positions
+    ``points`` (m, 3) mm (module notes).
+
+    Returns
+    -------
+    r : ndarray, shape (m, 3)
+        Estimated residual, mm.
+    u : ndarray, shape (m, 3) or None
+        Its standard uncertainty, mm.
+    before : ndarray, shape (m, 3)
+        The deviation δ without compensation, mm.
+    """
     points = np.asarray(points, dtype=float)
-    idx, w = [], []
-    for k, line in enumerate(field.lines):
-        i = np.clip(np.searchsorted(line, points[:, k], side="right") - 1, 0, line.size - 2)
-        t = np.clip((points[:, k] - line[i]) / (line[i + 1] - line[i]), 0.0, 1.0)
-        idx.append(i)
-        w.append(t)
-    out = np.zeros((points.shape[0], 3))
-    for dx in (0, 1):
-        for dy in (0, 1):
-            for dz in (0, 1):
-                weight = (
-                    (w[0] if dx else 1 - w[0])
-                    * (w[1] if dy else 1 - w[1])
-                    * (w[2] if dz else 1 - w[2])
-                )
-                out += weight[:, None] * field.vectors[idx[0] + dx, idx[1] + dy, idx[2] + dz]
-    return out
+    if isinstance(source, VolumetricMap):
+        before = -source.error(points)
+        u = node_uncertainty(source, points)
+    else:
+        m = source.machine_for(machine)
+        cov = source.covariance
+        if cov is not None:
+            order = [source.names.index(n) for n in m.parameter_names]
+            cov = cov[np.ix_(order, order)]
+        q = _linear_readings(m, points)
+        before, u = residual(m, source.vector_for(m), cov, [], q)
+    return before + field.error(points), u, before
 
 
-def render(field: VectorField, title: str = "") -> dict:
-    """File name -> text of ``volumetric_grid.csv``."""
-    mesh = np.meshgrid(*field.lines, indexing="ij")
-    xyz = np.stack([g.ravel() for g in mesh], axis=-1)
-    c = from_internal(field.vectors.reshape(-1, 3), "µm")
-    u = np.full_like(c, np.nan) if field.u is None else from_internal(field.u.reshape(-1, 3), "µm")
+def render(field: VolumetricMap, title: str = "") -> dict:
+    """File name -> text of ``volumetric_grid.csv`` (the form of
+    :meth:`VolumetricMap.from_table`, sign ``error``)."""
+    nodes = np.stack(np.meshgrid(*field.axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    e = from_internal(field.error(nodes), "µm")
+    u = node_uncertainty(field, nodes)
     rows = [
-        f"// mtmetrology volumetric grid {title}: X, Y, Z mm; corrections c and u in µm",
-        _HEADER,
+        f"# mtmetrology volumetric grid {title}: x, y, z mm (nominal tool point, workpiece "
+        "frame); e = P_indicated - P_true in µm: the control commands P + e(P); u in µm",
+        "x,y,z,ex,ey,ez" + ("" if u is None else ",ux,uy,uz"),
     ]
-    rows += [
-        ",".join([*(f"{v:.4f}" for v in p), *(f"{v:.4f}" for v in cc), *(f"{v:.4f}" for v in uu)])
-        for p, cc, uu in zip(xyz, c, u, strict=True)
-    ]
-    return {"volumetric_grid.csv": "\n".join(rows) + "\n"}
+    cols = [nodes, e] if u is None else [nodes, e, from_internal(u, "µm")]
+    rows += [",".join(f"{v:.4f}" for v in row) for row in np.hstack(cols)]
+    return {FILE: "\n".join(rows) + "\n"}
 
 
-def parse(files: dict) -> VolumetricGrid:
-    """Read ``volumetric_grid.csv`` back (inverse of :func:`render`)."""
-    lines = [s for s in files["volumetric_grid.csv"].splitlines() if not s.startswith("//")]
-    if not lines or lines[0].strip() != _HEADER:
-        raise InputError(f"volumetric_grid.csv: header must be {_HEADER}")
-    try:
-        a = np.array([[float(v) for v in s.split(",")] for s in lines[1:]])
-    except ValueError:
-        raise InputError("volumetric_grid.csv: a value is not a number") from None
-    grid_lines = tuple(np.unique(a[:, k]) for k in range(3))
-    shape = tuple(g.size for g in grid_lines)
-    if int(np.prod(shape)) != a.shape[0]:
-        raise InputError("volumetric_grid.csv: the nodes do not form a full rectilinear grid")
-    vectors = to_internal(a[:, 3:6], "µm").reshape(*shape, 3)
-    u = to_internal(a[:, 6:9], "µm").reshape(*shape, 3)
-    return VolumetricGrid(grid_lines, vectors, None if np.isnan(u).all() else u)
+def parse(files: dict, machine: str = "") -> VolumetricMap:
+    """Read ``volumetric_grid.csv`` back through :meth:`VolumetricMap.from_table` (the one
+    reader of vendor grids)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / FILE
+        path.write_text(files[FILE], encoding="utf-8")
+        return VolumetricMap.from_table(path, machine=machine, sign="error")

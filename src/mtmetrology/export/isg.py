@@ -17,7 +17,18 @@ TF5200 *Volumetric compensation parameters*, P-VOLC-00012 ``file[j]`` and P-VOLC
 The values written are the *errors* (ISO 230-1 names without ``E_``/underscores, lengths in
 mm, angles in rad, rotary arguments in degrees) and ``negate 0``: the control computes the
 tool-point error from them and corrects it.  This carries every error function and the
-location errors; the reverse direction is not carried (the forward values are written).
+location errors for one direction (the forward values).
+
+Per-direction tables: an axis's own positioning error with a reversal term (``E_XXb``) is
+written instead as a bilateral leadscrew error compensation list (SSFK, ``ssfk_x.lis``;
+Beckhoff Information System TF5200 *Axis compensation*, "Leadscrew error compensation
+(kw.ssfk.*)", P-COMP-00018 ``interval``, ``kw_startpos``, ``kw_nr_max``, ``unit``,
+``bilateral``, P-COMP-00023/00024 ``table[i].pos`` / ``table[i].neg``, and the example
+"Non-equidistant bilateral SSFK", infosys.beckhoff.com/content/1033/tf5200_axis_compensation/
+308695435.html; activated per axis by P-AXIS-00175 ``lr_param.ssfk``): equidistant points,
+values ``Δs = s_actual − s_set`` (the error) in 0.1 µm (0.0001° on a rotary axis) for the
+positive and the negative direction, interpolated linearly.  That function is then left out
+of ``volcomp.csv`` so it is not compensated twice.
 """
 
 from __future__ import annotations
@@ -43,12 +54,61 @@ def _carries(table: ErrorTable) -> str | None:
 
 
 def build(model: CompensationModel, functions: Sequence[str] | None = None) -> list[ControlTable]:
-    """Tables of corrections the volumetric compensation applies (linear interpolation)."""
+    """Tables of corrections the control applies (linear interpolation): the volumetric
+    compensation's (forward), and bilateral SSFK tables for own-axis positioning errors with
+    a reversal term."""
     out = []
     for t in select(model, _carries, functions, NAME):
-        fwd, _ = corrections(model, t)
-        out.append(ControlTable(t.function, t.positions, fwd, fwd, "linear"))
+        fwd, rev = corrections(model, t)
+        if not (t.component == t.axis and t.bidirectional):
+            rev = fwd
+        out.append(ControlTable(t.function, t.positions, fwd, rev, "linear"))
     return out
+
+
+def _ssfk_unit(axis: str) -> float:
+    """0.1 µm in mm, or 0.0001° in rad."""
+    return 1e-4 if axis in LINEAR_AXES else 1e-4 * _DEG
+
+
+def _render_ssfk(t: ControlTable) -> str:
+    unit = _ssfk_unit(t.axis)
+    n = t.positions.size
+    lines = [
+        f"# mtmetrology export: bilateral leadscrew error compensation of {t.axis} "
+        "(activate with lr_param.ssfk 1); errors s_actual - s_set in 0.1 um / 0.0001 deg",
+        f"kopf.log_achs_name {t.axis}",
+        f"kw.ssfk.interval {round((t.positions[1] - t.positions[0]) / unit)}",
+        f"kw.ssfk.kw_startpos {round(t.positions[0] / unit)}",
+        f"kw.ssfk.kw_nr_max {n}",
+        "kw.ssfk.unit 1",
+        "kw.ssfk.bilateral 1",
+    ]
+    lines += [f"kw.ssfk.table[{k}].pos {round(-t.forward[k] / unit)}" for k in range(n)]
+    lines += [f"kw.ssfk.table[{k}].neg {round(-t.reverse[k] / unit)}" for k in range(n)]
+    return "\n".join(lines) + "\n"
+
+
+def _parse_ssfk(name: str, text: str) -> ControlTable:
+    entries = {}
+    for k, line in enumerate(text.splitlines(), start=1):
+        if not line.strip() or line.startswith("#"):
+            continue
+        try:
+            key, value = line.split()
+            entries[key] = value if key == "kopf.log_achs_name" else int(value)
+        except ValueError:
+            raise InputError(f"{name}, line {k}: cannot read {line!r}") from None
+    axis = entries["kopf.log_achs_name"]
+    unit = _ssfk_unit(axis)
+    n = entries["kw.ssfk.kw_nr_max"]
+    try:
+        pos = np.array([entries[f"kw.ssfk.table[{k}].pos"] for k in range(n)]) * unit
+        neg = np.array([entries[f"kw.ssfk.table[{k}].neg"] for k in range(n)]) * unit
+    except KeyError as exc:
+        raise InputError(f"{name}: no entry {exc.args[0]}") from None
+    q = (entries["kw.ssfk.kw_startpos"] + entries["kw.ssfk.interval"] * np.arange(n)) * unit
+    return ControlTable(f"E_{axis}{axis}", q, -pos, -neg, "linear")
 
 
 def constants(model: CompensationModel) -> tuple[tuple[str, float], ...]:
@@ -62,8 +122,13 @@ def render(tables: list[ControlTable], model: CompensationModel) -> dict:
     if model.constants:
         lines.append(" ".join(n[2:] for n, _ in model.constants))
         lines.append(" ".join(f"{-v:.9g}" for _, v in constants(model)))
-    for axis in dict.fromkeys(t.axis for t in tables):
-        group = [t for t in tables if t.axis == axis]
+    files = {}
+    for t in tables:
+        if not np.array_equal(t.forward, t.reverse):
+            files[f"ssfk_{t.axis.lower()}.lis"] = _render_ssfk(t)
+    volcomp = [t for t in tables if np.array_equal(t.forward, t.reverse)]
+    for axis in dict.fromkeys(t.axis for t in volcomp):
+        group = [t for t in volcomp if t.axis == axis]
         s = 1.0 if axis in LINEAR_AXES else _DEG
         q = group[0].positions
         if any(not np.array_equal(t.positions, q) for t in group):
@@ -82,11 +147,14 @@ def render(tables: list[ControlTable], model: CompensationModel) -> dict:
         "file[0] volcomp.csv",
         "file_format[0] ISG_CSV",
     ]
-    return {"volcomp.csv": "\n".join(lines) + "\n", "volcomp.lis": "\n".join(lis) + "\n"}
+    files["volcomp.csv"] = "\n".join(lines) + "\n"
+    files["volcomp.lis"] = "\n".join(lis) + "\n"
+    return files
 
 
 def parse(files: dict) -> tuple[list[ControlTable], tuple[tuple[str, float], ...]]:
-    """Read ``volcomp.csv`` back: the tables and the location-error corrections."""
+    """Read ``volcomp.csv`` (and any ``ssfk_*.lis``) back: the tables and the
+    location-error corrections."""
     blocks: list[list[list[str]]] = [[]]
     for line in files["volcomp.csv"].splitlines():
         if line.startswith("//") or not line.strip():
@@ -114,4 +182,7 @@ def parse(files: dict) -> tuple[list[ControlTable], tuple[tuple[str, float], ...
                 tables.append(ControlTable(f"E_{name[1:]}", q, c, c, "linear"))
         else:
             consts = tuple((f"E_{n}", -float(v)) for n, v in zip(header, data[0], strict=True))
+    for name, text in sorted(files.items()):
+        if name.startswith("ssfk_"):
+            tables.append(_parse_ssfk(name, text))
     return tables, consts

@@ -119,6 +119,15 @@ class ErrorTable:
         n = self.positions.size
         return np.sqrt(np.clip(np.diag(self.covariance)[:n], 0.0, None))
 
+    @property
+    def u_reverse(self) -> np.ndarray | None:
+        """Standard uncertainties of the reverse values (internal units)."""
+        if self.covariance is None:
+            return None
+        n = self.positions.size
+        d = np.diag(self.covariance)
+        return np.sqrt(np.clip(d[n:] if d.size == 2 * n else d, 0.0, None))
+
 
 @dataclass(frozen=True)
 class CompensationModel:

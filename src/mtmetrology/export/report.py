@@ -1,9 +1,11 @@
 """What a report shows for an :class:`~mtmetrology.export.workflow.ExportResult`.
 
 The tables as the control applies them (corrections against axis position, with the band
-± U, U = 2 u of the tabulated values from the parameter covariance), the functions the
-format does not carry, the pitch advisor's answer, and the residual map: the largest
-length of the residual vector r̂ over the other axes at each (X, Y) of the check grid.
+± U, U = 2 u of the tabulated values from the parameter covariance; the negative-direction
+table dashed where the format carries one), for a volumetric grid its middle z-plane (|e|
+and the largest u at the nodes), the functions the format does not carry, the pitch
+advisor's answer, and the residual map: the largest length of the residual vector r̂ over
+the other axes at each (X, Y) of the check grid, for each direction of approach checked.
 Values in µm or µrad, positions in mm or degrees.
 """
 
@@ -16,7 +18,7 @@ from mtmetrology.export.workflow import ExportResult
 from mtmetrology.report import figures
 from mtmetrology.report.results import renders
 
-__all__ = ["correction_profiles"]
+__all__ = ["correction_profiles", "grid_slice"]
 
 #: Tables drawn per figure (one panel each).
 PANELS = 6
@@ -32,6 +34,12 @@ def correction_profiles(rows: list) -> Figure:
         if row.get("u") is not None:
             band = 2 * np.asarray(row["u"])
             ax.fill_between(x, y - band, y + band, color="C0", alpha=0.25, label="± U (k = 2)")
+        if row.get("correction_reverse") is not None:
+            yr = np.asarray(row["correction_reverse"])
+            ax.plot(x, yr, "--", color="C1", lw=1.2, label="negative direction")
+            if row.get("u_reverse") is not None:
+                band = 2 * np.asarray(row["u_reverse"])
+                ax.fill_between(x, yr - band, yr + band, color="C1", alpha=0.2)
         ax.set_ylabel(f"{row['function']} ({row['unit']})")
         ax.grid(alpha=0.3)
         if k == len(rows) - 1:
@@ -42,12 +50,27 @@ def correction_profiles(rows: list) -> Figure:
     return fig
 
 
-def _residual_map(res: dict) -> Figure | None:
+def grid_slice(piece: dict, key: str = "length_um") -> Figure:
+    """A volumetric grid on its middle z-plane: ``length_um`` |e|, or ``max_u_um`` the
+    largest standard uncertainty of a component, at the nodes."""
+    x, y = np.asarray(piece["x_mm"]), np.asarray(piece["y_mm"])
+    return figures.error_map(
+        x,
+        y,
+        np.asarray(piece[key]).T,
+        name="|e|" if key == "length_um" else "largest u",
+        xlabel="x (mm)",
+        ylabel="y (mm)",
+        title=f"Volumetric grid at z = {piece['z_mm']:g} mm",
+    )
+
+
+def _residual_map(res: dict, r_um=None, title="Residual error after compensation"):
     axes = res.get("axes", [])
     if not {"X", "Y"} <= set(axes):
         return None
     q = np.asarray(res["readings"])
-    length = np.linalg.norm(np.asarray(res["r_um"]), axis=1)
+    length = np.linalg.norm(np.asarray(res["r_um"] if r_um is None else r_um), axis=1)
     x, y = q[:, axes.index("X")], q[:, axes.index("Y")]
     gx, gy = np.unique(x), np.unique(y)
     grid = np.zeros((gy.size, gx.size))
@@ -59,8 +82,25 @@ def _residual_map(res: dict) -> Figure | None:
         name="largest |r̂| over the other axes",
         xlabel="X (mm)",
         ylabel="Y (mm)",
-        title="Residual error after compensation",
+        title=title,
     )
+
+
+def _negative_rows(neg: dict | None) -> list:
+    """Rows of the check for travel in the negative direction (reversal terms), if any."""
+    if neg is None:
+        return []
+    big_u = "" if neg["max_U_um"] is None else f"{neg['max_U_um']:.2g}"
+    return [
+        ["largest |r̂|, negative direction", f"{neg['max_um']:.3g}", "µm"],
+        ["rms |r̂|, negative direction", f"{neg['rms_um']:.3g}", "µm"],
+        ["largest U (k = 2), negative direction", big_u, "µm"],
+        [
+            "largest error without compensation, negative",
+            f"{neg['uncompensated_max_um']:.3g}",
+            "µm",
+        ],
+    ]
 
 
 @renders(ExportResult, "Compensation export")
@@ -90,6 +130,17 @@ def _render(rep, result, **_context) -> None:
         rep.text(f"Not carried by {result.format}: {', '.join(result.not_carried)}.")
     for note in result.notes:
         rep.text(f"Note: {note}.")
+    for t in result.tables:
+        if "slice" in t:
+            rep.figure(
+                grid_slice(t["slice"]),
+                caption="Length of the grid's error vectors e (the control commands P + e).",
+            )
+            if t["slice"]["max_u_um"] is not None:
+                rep.figure(
+                    grid_slice(t["slice"], "max_u_um"),
+                    caption="Largest standard uncertainty of a component of e at the nodes.",
+                )
     drawn = [t for t in result.tables if "positions" in t]
     for start in range(0, len(drawn), PANELS):
         rep.figure(
@@ -113,11 +164,18 @@ def _render(rep, result, **_context) -> None:
                 "µm",
             ],
             ["largest error without compensation", f"{res['uncompensated_max_um']:.3g}", "µm"],
+            *_negative_rows(res.get("negative")),
         ],
     )
     fig = _residual_map(res)
     if fig is not None:
         rep.figure(fig, caption="Largest residual length at each (X, Y) of the check grid.")
+    if res.get("negative") is not None:
+        fig = _residual_map(
+            res, res["negative"]["r_um"], "Residual, travel in the negative direction"
+        )
+        if fig is not None:
+            rep.figure(fig, caption="As above, every axis approached in the negative direction.")
     if result.advisor is not None:
         rep.text(
             f"Pitch advisor (bound {result.advisor['bound_um']:g} µm): {result.advisor['reason']}."

@@ -18,19 +18,26 @@ import numpy as np
 
 from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
-from mtmetrology.export import fanuc, grid, isg, linuxcnc, siemens
+from mtmetrology.export import etalon, fanuc, grid, isg, linuxcnc, siemens
 from mtmetrology.export.control import ControlTable, residual
 from mtmetrology.export.model import CompensationModel, compensation_model
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.topology import LINEAR_AXES
+from mtmetrology.kinematics.volumetric_map import VolumetricMap
 from mtmetrology.units import from_internal
 
 __all__ = ["FORMATS", "KIND", "ExportResult", "export_compensation", "residual_check"]
 
 KIND = "compensation-export"
 VERSION = 1
-FORMATS = {"linuxcnc": linuxcnc, "fanuc": fanuc, "siemens": siemens, "isg": isg}
+FORMATS = {
+    "linuxcnc": linuxcnc,
+    "fanuc": fanuc,
+    "siemens": siemens,
+    "isg": isg,
+    "etalon": etalon,
+}
 #: Pitches the advisor tries, largest first (mm for linear axes, degrees for rotary).
 ADVISOR_PITCHES = (100.0, 50.0, 40.0, 25.0, 20.0, 10.0, 5.0, 4.0, 2.5, 2.0, 1.0, 0.5)
 
@@ -136,7 +143,8 @@ def _at_document(at: dict) -> dict:
 
 def check_readings(machine: Machine, per_axis: int = 5) -> np.ndarray:
     """Readings of a full-factorial grid over the travel of every axis (spindle at 0); the
-    residual is checked for travel in the positive direction (forward tables).
+    residual is checked for travel in the positive direction of every axis, and when the
+    model has reversal terms also in the negative direction (``residual["negative"]``).
 
     On each axis ``lo + (k + 0.382) (hi − lo) / per_axis``, k = 0 … per_axis − 1.
     """
@@ -154,20 +162,21 @@ def check_readings(machine: Machine, per_axis: int = 5) -> np.ndarray:
 def _build(fmt: str, model: CompensationModel, functions):
     module = FORMATS[fmt]
     tables = module.build(model, functions)
-    constants = isg.constants(model) if fmt == "isg" else ()
+    constants = isg.constants(model) if fmt in ("isg", "etalon") else ()
     return module, tables, constants
 
 
 def residual_check(
-    model: CompensationModel, tables, constants, readings: np.ndarray
+    model: CompensationModel, tables, constants, readings: np.ndarray, senses=None
 ) -> tuple[np.ndarray, np.ndarray | None]:
-    """Residual r̂ and u (mm) at ``readings`` after the control applies ``tables``."""
+    """Residual r̂ and u (mm) at ``readings`` after the control applies ``tables``; travel
+    in the positive direction of every axis unless ``senses`` (±1 per reading and axis)."""
     cov = None
     if model.parameters.covariance is not None:
         p = model.parameters
         order = [p.names.index(n) for n in model.machine.parameter_names]
         cov = p.covariance[np.ix_(order, order)]
-    return residual(model.machine, model.theta, cov, tables, readings, constants=constants)
+    return residual(model.machine, model.theta, cov, tables, readings, senses, constants=constants)
 
 
 def _interpolation_error(fmt, machine, parameters, functions, pitch, readings) -> float:
@@ -262,45 +271,107 @@ def _summary(model, readings, r, u, per_axis) -> dict:
     }
 
 
-def _export_grid(machine, parameters, pitch, points, region, per_axis, at) -> ExportResult:
-    """The volumetric grid: nodes over the region, trilinear check at the check grid."""
-    model = compensation_model(machine, parameters, points=2, covariance=False)
-    field = grid.grid_from_model(model, grid.grid_lines(model, pitch, points, region))
-    readings = check_readings(model.machine, per_axis)
-    for k, a in enumerate(("X", "Y", "Z")):  # the check stays inside the grid's box
-        col = model.machine.axis_names.index(a)
-        lo, hi = field.lines[k][0], field.lines[k][-1]
-        travel = model.machine.axes[a].travel
-        readings[:, col] = lo + (readings[:, col] - travel[0]) * (hi - lo) / (travel[1] - travel[0])
-    r, u = grid.residual_grid(model, field, readings)
-    rotary = sorted({t.function for t in model.tables if t.axis not in LINEAR_AXES})
-    nodes = int(np.prod([x.size for x in field.lines]))
+def _negative(model, tables, constants, readings) -> dict:
+    """The check for travel in the negative direction of every axis (reversal terms)."""
+    senses = -np.ones_like(readings)
+    r, u = residual_check(model, tables, constants, readings, senses)
+    e0, _ = residual(model.machine, model.theta, None, [], readings, senses)
+    return {
+        "max_um": float(from_internal(np.linalg.norm(r, axis=1).max(), "µm")),
+        "rms_um": float(from_internal(np.sqrt(np.mean(np.sum(r**2, axis=1))), "µm")),
+        "max_U_um": None if u is None else float(from_internal(2 * u.max(), "µm")),
+        "uncompensated_max_um": float(from_internal(np.linalg.norm(e0, axis=1).max(), "µm")),
+        "r_um": from_internal(r, "µm").tolist(),
+    }
+
+
+def _grid_slice(field: VolumetricMap) -> dict:
+    """The grid's middle z-plane for the report: |e| and the largest u per node (µm)."""
+    k = field.shape[2] // 2
+    x, y, z = field.axes
+    nodes = np.stack(np.meshgrid(x, y, [z[k]], indexing="ij"), axis=-1).reshape(-1, 3)
+    length = np.linalg.norm(field.error(nodes), axis=1).reshape(x.size, y.size)
+    u = grid.node_uncertainty(field, nodes)
+    return {
+        "z_mm": float(z[k]),
+        "x_mm": x.tolist(),
+        "y_mm": y.tolist(),
+        "length_um": from_internal(length, "µm").tolist(),
+        "max_u_um": None
+        if u is None
+        else from_internal(u.max(axis=1).reshape(x.size, y.size), "µm").tolist(),
+    }
+
+
+def _export_grid(machine, source, pitch, points, region, per_axis, at) -> ExportResult:
+    """The volumetric grid from a parameter set or a measured map, and the residual left by
+    the control's trilinear interpolation at check points off the nodes
+    (:mod:`mtmetrology.export.grid`)."""
+    if isinstance(source, VolumetricMap):
+        if source.machine and source.machine != machine.name:
+            raise InputError(f"map: made for machine {source.machine!r}, not {machine.name!r}")
+        limits = tuple((float(a[0]), float(a[-1])) for a in source.axes)
+        field = grid.resample(source, grid.grid_lines(limits, pitch, points, region))
+        provenance = {"map": dict(source.provenance)}
+        name, model = machine.name, source.model
+    else:
+        source.check_machine(machine, "parameters")
+        limits = grid.box(machine)
+        lines = grid.grid_lines(limits, pitch, points, region)
+        field = grid.from_parameters(machine, source, lines)
+        provenance = {"parameters": dict(source.provenance)}
+        name, model = machine.name, machine.model_name
+    box = tuple((float(a[0]), float(a[-1])) for a in field.axes)
+    positions = grid.check_positions(box, per_axis)
+    r, u, before = grid.residual_grid(source, machine, field, positions)
+    summary = {
+        "points": int(positions.shape[0]),
+        "per_axis": per_axis,
+        "max_um": float(from_internal(np.linalg.norm(r, axis=1).max(), "µm")),
+        "rms_um": float(from_internal(np.sqrt(np.mean(np.sum(r**2, axis=1))), "µm")),
+        "max_U_um": None if u is None else float(from_internal(2 * u.max(), "µm")),
+        "k": 2,
+        "uncompensated_max_um": float(from_internal(np.linalg.norm(before, axis=1).max(), "µm")),
+        "axes": ["X", "Y", "Z"],
+        "readings": positions.tolist(),
+        "r_um": from_internal(r, "µm").tolist(),
+    }
     row = {
         "function": "volumetric",
-        "points": nodes,
+        "points": int(np.prod(field.shape)),
         "unit": "µm",
-        "max_correction": float(from_internal(np.abs(field.vectors).max(), "µm")),
-        "max_u": None if field.u is None else float(from_internal(field.u.max(), "µm")),
+        "max_correction": float(from_internal(np.abs(field.values).max(), "µm")),
+        "max_u": None,
     }
+    if field.factor is not None or field.node_u is not None:
+        nodes = np.stack(np.meshgrid(*field.axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        row["max_u"] = float(from_internal(grid.node_uncertainty(field, nodes).max(), "µm"))
+    row["slice"] = _grid_slice(field)
+    at_points = None
+    if at is not None:
+        tool_points = machine.forward(np.asarray(at, float))  # nominal tool points
+        at_points = _at_arrays(*grid.residual_grid(source, machine, field, tool_points)[:2])
     return ExportResult(
         "grid",
-        model.machine.name,
-        model.machine.model_name,
-        grid.render(field, model.machine.name),
+        name,
+        model,
+        grid.render(field, name),
         [row],
-        rotary,
-        _summary(model, readings, r, u, per_axis),
+        [],
+        summary,
         None,
-        {"parameters": dict(parameters.provenance)},
-        None
-        if at is None
-        else _at_arrays(*grid.residual_grid(model, field, np.asarray(at, float))),
+        provenance,
+        at_points,
+        [
+            "volumetric_grid.csv holds e = P_indicated - P_true at nominal tool-point "
+            "positions (workpiece frame): the control commands P + e(P)"
+        ],
     )
 
 
 def export_compensation(
     machine: Machine,
-    parameters: ParameterSet,
+    parameters: ParameterSet | VolumetricMap,
     fmt: str,
     *,
     pitch: float | None = None,
@@ -318,9 +389,11 @@ def export_compensation(
     Parameters
     ----------
     machine : Machine
-    parameters : ParameterSet
-        Identified parameters with covariance, made for ``machine``.
-    fmt : {"linuxcnc", "fanuc", "siemens", "isg", "grid"}
+    parameters : ParameterSet or VolumetricMap
+        Identified parameters with covariance, made for ``machine``; for the ``grid``
+        format also a measured volumetric map (a map document or a vendor grid), which is
+        resampled on the control's grid.
+    fmt : {"linuxcnc", "fanuc", "siemens", "isg", "etalon", "grid"}
     pitch, points : float or int
         Table spacing (mm, or degrees on a rotary axis) or number of points (one of them).
     axes : sequence of str, optional
@@ -333,8 +406,9 @@ def export_compensation(
     bound_um : float, optional
         Interpolation-error bound of the pitch advisor, µm (axis-table formats).
     region : dict of axis to (low, high), optional
-        Volumetric grid only: the box of X, Y, Z readings (mm) it covers; the travel
-        otherwise.  A box outside the travel is refused.
+        Volumetric grid only: the box of nominal tool-point positions x, y, z (mm) it
+        covers; the box the travel reaches (or the source map's grid) otherwise.  A box
+        outside it is refused.
     at : ndarray, shape (n, n_axes), optional
         The user's readings (internal units): the residual and its U there as well.
     reference : dict of axis to float, optional
@@ -356,6 +430,11 @@ def export_compensation(
         raise InputError("give --pitch or --points")
     if fmt == "grid":
         return _export_grid(machine, parameters, pitch, points, region, check_per_axis, at)
+    if isinstance(parameters, VolumetricMap):
+        raise InputError(
+            f"format: {fmt} tabulates error functions of a parameter set; a volumetric map is "
+            "exported by the grid format only"
+        )
     model = compensation_model(
         machine, parameters, pitch=pitch, points=points, axes=axes, reference=reference
     )
@@ -367,6 +446,8 @@ def export_compensation(
     readings = check_readings(model.machine, check_per_axis)
     r, u = residual_check(model, tables, constants, readings)
     summary = _summary(model, readings, r, u, check_per_axis)
+    if any(p.kind == "reversal" for p in model.machine.parameters):
+        summary["negative"] = _negative(model, tables, constants, readings)
     at_points = None
     if at is not None:
         at_points = _at_arrays(*residual_check(model, tables, constants, np.asarray(at, float)))
@@ -392,6 +473,14 @@ def export_compensation(
                 "u": None if u_t is None else u_t.tolist(),
             }
         )
+        if not np.array_equal(t.forward, t.reverse):  # per-direction tables
+            rows[-1]["correction_reverse"] = from_internal(t.reverse, src.unit).tolist()
+            u_r = src.u_reverse
+            rows[-1]["u_reverse"] = (
+                None
+                if u_r is None
+                else from_internal(np.interp(t.positions, src.positions, u_r), src.unit).tolist()
+            )
     advisor = None
     if bound_um is not None:
         advisor = advise_pitch(fmt, model.machine, parameters, functions, bound_um, readings)
