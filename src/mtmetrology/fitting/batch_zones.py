@@ -3,7 +3,8 @@
 The per-set solvers of :mod:`mtmetrology.fitting.minimum_zone` solve one set at a time
 (sequential LP with HiGHS; the convex hull for flatness). A Monte Carlo evaluation of a
 minimum-zone form error needs the same answer for 10⁵ sets, so this module solves all of
-them together with a batched *exchange algorithm* started from the least-squares element.
+them together with a batched *exchange algorithm* started from the least-squares element
+(the algebraic circle of Kåsa for roundness, as close for the small form errors measured).
 
 Algorithm
 ---------
@@ -54,8 +55,8 @@ from mtmetrology.errors import ConvergenceError
 from mtmetrology.fitting.batch import (
     _centred,
     _check_sets,
+    _kasa,
     _require_spread,
-    fit_circles,
     fit_spheres,
 )
 
@@ -388,15 +389,13 @@ def minimum_zone_roundness(points: object, *, max_iterations: int = MAX_ITERATIO
     from mtmetrology.fitting.minimax import roundness
 
     p = _check_sets(points, "roundness", (2, 3), 4)
-    x, centroid, _ = _centred(p)
-    circles = fit_circles(p)  # refuses collinear sets
-    start = circles.centres - centroid
-    if p.shape[2] == 3:
-        basis = np.stack(_Normal._frame(circles.normals), axis=1)  # (K, 2, 3) in-plane axes
-        uv = np.einsum("knd,kjd->knj", x, basis)
-        start = np.einsum("kd,kjd->kj", start, basis)
-    else:
-        uv = x
+    x, _, _ = _centred(p)
+    vt = _require_spread("roundness", x, 2, "collinear")
+    # In-plane coordinates: the least-squares plane's principal axes for 3-D profiles.
+    uv = np.einsum("knd,kjd->knj", x, vt[:, :2]) if p.shape[2] == 3 else x
+    # Start: the algebraic (Kåsa) circle, within O(form²/radius) of the least-squares one.
+    uvt = np.ascontiguousarray(uv.transpose(0, 2, 1))
+    start, _ = _kasa(uvt, np.sqrt(np.einsum("kdn,kdn->k", uvt, uvt) / uv.shape[1]))
     d, nit, failed = _run(_Centre, uv, start, _size(x), max_iterations)
     low, high = d.min(axis=1), d.max(axis=1)
     return _result(low, high, nit, failed, roundness, p, False, "roundness")
