@@ -26,9 +26,9 @@ AGREE = 1e-9  # mm: the issue's tolerance against the per-set solver
 
 
 def shells(kind: str, n_sets: int = SETS, seed: int = 5) -> np.ndarray:
-    """Generic sets: form deviations from 0.1 µm to 0.3 mm (a 1.2 % of the radius)."""
+    """Generic sets: form deviations (σ) from 0.1 µm to 40 µm, zones up to 1.5 % of the size."""
     rng = np.random.default_rng(seed)
-    form = np.geomspace(1e-4, 0.3, n_sets)[:, None, None]
+    form = np.geomspace(1e-4, 0.04, n_sets)[:, None, None]
     if kind == "sphere":
         u = rng.standard_normal((n_sets, POINTS, 3))
         pts = 12.4875 * u / np.linalg.norm(u, axis=2, keepdims=True)
@@ -86,6 +86,19 @@ def test_the_fallback_path_gives_the_same_zones(kind, batched, solve):
     np.testing.assert_array_equal(mixed.fallback, steps == steps.max())
     np.testing.assert_allclose(mixed.form_error, width, rtol=0, atol=AGREE)
     np.testing.assert_allclose(mixed.bounds, bounds, rtol=0, atol=AGREE)
+
+
+@pytest.mark.parametrize(("kind", "batched", "solve"), CASES, ids=[c[0] for c in CASES])
+def test_zones_far_from_flat_or_round_go_to_the_per_set_solver(kind, batched, solve):
+    """Form deviations of 5 % of the size: every set is wider than MAX_RELATIVE_WIDTH of
+    its size, is handed on, and gets the per-set solver's zone (the hull's global one
+    for flatness, which a local iteration can miss at such widths)."""
+    rng = np.random.default_rng(4)
+    sets = shells(kind, 4, seed=12)
+    sets += 0.05 * 20.0 * rng.standard_normal(sets.shape)
+    fit = batched(sets)
+    assert fit.fallback.all()
+    np.testing.assert_array_equal(fit.form_error, per_set(solve, sets)[0])
 
 
 def test_exact_zones_of_constructed_sets():
