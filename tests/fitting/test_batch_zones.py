@@ -11,6 +11,7 @@ from scipy.spatial.transform import Rotation
 from mtmetrology.errors import ConvergenceError
 from mtmetrology.fitting import (
     FitError,
+    MinimumZoneCylindricity,
     MinimumZoneFlatness,
     MinimumZoneRoundness,
     MinimumZoneSphereDiameter,
@@ -35,6 +36,12 @@ def shells(kind: str, n_sets: int = SETS, seed: int = 5) -> np.ndarray:
     elif kind == "ring":
         t = rng.uniform(0.0, 2.0 * np.pi, (n_sets, POINTS))
         pts = np.stack([20.0 * np.cos(t), 20.0 * np.sin(t), np.zeros_like(t)], axis=2)
+    elif kind == "cylinder":
+        t, z = (
+            rng.uniform(0.0, 2.0 * np.pi, (n_sets, POINTS)),
+            rng.uniform(-10, 10, (n_sets, POINTS)),
+        )
+        pts = np.stack([28.8 * np.cos(t), 28.8 * np.sin(t), z], axis=2)
     else:
         pts = np.concatenate(
             [rng.uniform(-50.0, 50.0, (n_sets, POINTS, 2)), np.zeros((n_sets, POINTS, 1))], 2
@@ -48,6 +55,7 @@ CASES = [
     ("sphere", bz.minimum_zone_sphericity, minimum_zone.sphericity),
     ("ring", bz.minimum_zone_roundness, minimum_zone.roundness),
     ("plane", bz.minimum_zone_flatness, minimum_zone.flatness),
+    ("cylinder", bz.minimum_zone_cylindricity, minimum_zone.cylindricity),
 ]
 
 
@@ -154,7 +162,7 @@ def test_bad_sets_are_refused_by_index():
 
 
 def test_the_features_evaluate_all_sets_through_the_batched_solver(monkeypatch):
-    """value() of the sphere, ring and plane features is the batched solution (the loop
+    """value() of the zone features is the batched solution (the loop
     is not called), shaped as the leading axes, and the minimax diameter is
     r_in + r_out - d_tip of each set."""
 
@@ -168,6 +176,7 @@ def test_the_features_evaluate_all_sets_through_the_batched_solver(monkeypatch):
     assert got.shape == (2, 3)
     np.testing.assert_allclose(got.ravel(), bounds.sum(axis=1) - 5.925, rtol=0, atol=AGREE)
     for feature, kind, solve in [
+        (MinimumZoneCylindricity(), "cylinder", minimum_zone.cylindricity),
         (MinimumZoneSphericity(), "sphere", minimum_zone.sphericity),
         (MinimumZoneRoundness(), "ring", minimum_zone.roundness),
         (MinimumZoneFlatness(), "plane", minimum_zone.flatness),

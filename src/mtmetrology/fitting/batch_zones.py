@@ -59,11 +59,13 @@ from mtmetrology.fitting.batch import (
     _check_sets,
     _kasa,
     _require_spread,
+    fit_cylinders,
     fit_spheres,
 )
 
 __all__ = [
     "BatchZoneFit",
+    "minimum_zone_cylindricity",
     "minimum_zone_flatness",
     "minimum_zone_roundness",
     "minimum_zone_sphericity",
@@ -122,6 +124,11 @@ class _Centre:
     def move(q, c, delta):
         return c + delta
 
+    @staticmethod
+    def reach(delta, size):
+        """Largest displacement of the step, mm."""
+        return np.max(np.abs(delta), axis=1)
+
 
 class _Normal:
     """Plane zones: θ = unit normal n, ``d_i = nᵀ q_i``; the normal is tilted by δ in the
@@ -147,6 +154,48 @@ class _Normal:
         e1, e2 = cls._frame(n)
         m = n + delta[:, :1] * e1 + delta[:, 1:] * e2
         return m / np.linalg.norm(m, axis=1, keepdims=True)
+
+    @staticmethod
+    def reach(delta, size):
+        """Largest displacement of a point by the tilt, mm."""
+        return np.max(np.abs(delta), axis=1) * size
+
+
+class _Axis:
+    """Cylinder zones: θ = (point, unit direction a) of the axis, (k, 6). In the frame
+    (e1, e2, a) through the axial mean of the points, the axis shifted by (u, v) and
+    tilted by (α, β) gives ``ρ_i ≈ ρ_i − (x_i u + y_i v + z_i (x_i α + y_i β))/ρ_i``
+    (Forbes, NPL DITC 140/89, §5), as the per-set solver's model."""
+
+    @staticmethod
+    def _local(q, theta):
+        point, a = theta[:, :3], theta[:, 3:]
+        e1, e2 = _Normal._frame(a)
+        w = q - point[:, None, :]
+        z = np.einsum("knd,kd->kn", w, a)
+        z_mean = z.mean(axis=1)
+        x, y = np.einsum("knd,kd->kn", w, e1), np.einsum("knd,kd->kn", w, e2)
+        return x, y, z - z_mean[:, None], z_mean, e1, e2
+
+    @classmethod
+    def evaluate(cls, q, theta):
+        x, y, z, _, _, _ = cls._local(q, theta)
+        rho = np.hypot(x, y)
+        jac = -np.stack([x, y, x * z, y * z], axis=2) / rho[..., None]
+        return rho, jac
+
+    @classmethod
+    def move(cls, q, theta, delta):
+        _, _, _, z_mean, e1, e2 = cls._local(q, theta)
+        a = theta[:, 3:]
+        point = theta[:, :3] + z_mean[:, None] * a + delta[:, :1] * e1 + delta[:, 1:2] * e2
+        a = a + delta[:, 2:3] * e1 + delta[:, 3:] * e2
+        return np.concatenate([point, a / np.linalg.norm(a, axis=1, keepdims=True)], axis=1)
+
+    @staticmethod
+    def reach(delta, size):
+        """Largest displacement of the axis over the points, mm."""
+        return np.maximum(np.abs(delta[:, :2]).max(axis=1), np.abs(delta[:, 2:]).max(axis=1) * size)
 
 
 # --------------------------------------------------------------------------------------
@@ -259,7 +308,7 @@ def _exchange(model, q: np.ndarray, theta: np.ndarray, size: np.ndarray, max_ite
                 jac_new[keep],
                 w_new[keep],
             )
-            step = np.max(np.abs(delta), axis=1) * (1.0 if model is _Centre else size[sets])
+            step = model.reach(delta, size[sets])
             done = np.zeros(k, dtype=bool)
             done[good[step[keep] <= tol[good]]] = True
             failed[sets[worse]] = True
@@ -452,3 +501,54 @@ def minimum_zone_flatness(points: object, *, max_iterations: int = MAX_ITERATION
     d, nit, failed = _run(_Normal, x, vt[:, 2].copy(), _size(x), max_iterations)
     low, high = d.min(axis=1), d.max(axis=1)
     return _result(low, high, nit, failed, flatness, p, True, "flatness")
+
+
+def minimum_zone_cylindricity(
+    points: object, *, max_iterations: int = MAX_ITERATIONS
+) -> BatchZoneFit:
+    """Minimum-zone cylindricity of K point sets (ISO 12180-1:2011, MZCY).
+
+    Parameters
+    ----------
+    points : (K, n, 3) array_like, mm
+        n ≥ 6 points per set, not coplanar.
+    max_iterations : int
+        Batched steps per set before it goes to
+        :func:`mtmetrology.fitting.minimum_zone.cylindricity` (0: every set does).
+
+    Returns
+    -------
+    BatchZoneFit
+        ``form_error`` the radial separation of the two closest coaxial cylinders
+        containing the points, ``bounds`` their (inner, outer) radii.
+
+    Raises
+    ------
+    ConvergenceError
+        A set that the per-set solver did not solve either.
+    FitError
+        Wrong shape, NaN/inf, too few points, a coplanar set (named by its index).
+
+    Notes
+    -----
+    The batched exchange of the module notes on the axis (p = 4: shift and tilt), from
+    the least-squares cylinders of :func:`mtmetrology.fitting.batch.fit_cylinders`.
+
+    Examples
+    --------
+    >>> t = np.linspace(0, 2 * np.pi, 8, endpoint=False)
+    >>> r = 12 + 0.001 * np.cos(4 * t)
+    >>> ring = np.c_[r * np.cos(t), r * np.sin(t), np.zeros(8)]
+    >>> fit = minimum_zone_cylindricity([np.r_[ring, ring + [0, 0, 15]]])
+    >>> round(float(fit.form_error[0]), 9)
+    0.002
+    """
+    from mtmetrology.fitting.minimax import cylindricity
+
+    p = _check_sets(points, "cylindricity", (3,), 6)
+    x, centroid, _ = _centred(p)
+    start = fit_cylinders(p)
+    theta = np.concatenate([start.points - centroid, start.directions], axis=1)
+    d, nit, failed = _run(_Axis, x, theta, _size(x), max_iterations)
+    low, high = d.min(axis=1), d.max(axis=1)
+    return _result(low, high, nit, failed, cylindricity, p, False, "cylindricity")

@@ -9,12 +9,11 @@ two concentric spheres.  The least-squares form errors of
 here follow the same protocol (Sepahi Boroujeni (2021), Ch. 6: a feature is a function
 of the 3n point coordinates; :class:`mtmetrology.fitting.features.Feature`):
 
-* ``value(points)``, points ``(..., n, 3)``: sphericity, roundness, flatness and the
-  minimax sphere diameter solve all sets together by the batched exchange algorithm of
-  :mod:`mtmetrology.fitting.batch_zones` (10⁵ sets of 25 points in seconds; the few sets
-  it cannot settle go to the per-set solver); the cylinder zones loop over sets with
-  :mod:`mtmetrology.fitting.minimum_zone` (a few tens of milliseconds per set).  A set
-  that the per-set solver did not solve raises :class:`mtmetrology.errors.ConvergenceError`.
+* ``value(points)``, points ``(..., n, 3)``: every feature here solves all sets together
+  by the batched exchange algorithm of :mod:`mtmetrology.fitting.batch_zones` (10⁵ sets
+  of 25 points in seconds; the few sets it cannot settle go to the per-set solver of
+  :mod:`mtmetrology.fitting.minimum_zone`).  A set that the per-set solver did not solve
+  raises :class:`mtmetrology.errors.ConvergenceError`.
 * ``jacobian(points)``, one set ``(n, 3)``: the exact derivative of the zone at its
   solution, ``(1, 3n)``.
 
@@ -168,7 +167,7 @@ def _zone_jacobian(
 
 
 def _zones(stack: np.ndarray, solve: Callable, name: str) -> list[ZoneResult]:
-    """One minimax fit per set (a loop: cylinders have no batched minimax solver)."""
+    """One minimax fit per set (the loop for a shape without a batched solver)."""
     zones = []
     for k, points in enumerate(stack):
         zone = solve(points)
@@ -185,7 +184,7 @@ class _ZoneShape:
     solver: str  # the function of mtmetrology.fitting.minimum_zone
     gradients: Callable
     min_points: int
-    batched: str | None = None  # the function of mtmetrology.fitting.batch_zones
+    batched: str | None = None  # the function of mtmetrology.fitting.batch_zones, if any
 
     def solve(self, points: np.ndarray) -> ZoneResult:
         # Imported on first use: the linear programmes and hulls (scipy.optimize,
@@ -205,7 +204,7 @@ class _ZoneShape:
 
 _SPHERE = _ZoneShape("sphericity", _sphere_gradients, 5, "minimum_zone_sphericity")
 _CIRCLE = _ZoneShape("roundness", _circle_gradients, 4, "minimum_zone_roundness")
-_CYLINDER = _ZoneShape("cylindricity", _cylinder_gradients, 6)
+_CYLINDER = _ZoneShape("cylindricity", _cylinder_gradients, 6, "minimum_zone_cylindricity")
 _PLANE = _ZoneShape("flatness", _flatness_gradients, 4, "minimum_zone_flatness")
 
 
