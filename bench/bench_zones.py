@@ -1,9 +1,10 @@
-"""Benchmark: 10⁵ minimum-zone sphericity, roundness and flatness sets, batched.
+"""Benchmark: 10⁵ minimum-zone sphericity, roundness, flatness and cylindricity sets.
 
 The Monte Carlo load of a form task with ``--form minimum-zone`` (Sepahi Boroujeni (2021),
 Ch. 6: one feature evaluation per trial): 25 points per set on a Ø 24.975 mm stylus-centre
-sphere, a Ø 40 mm ring and a 100 mm square plate, 2 µm of form deviation, each set in its
-own random pose. Contenders, each checked against the per-set solver before it is timed:
+sphere, a Ø 40 mm ring, a 100 mm square plate and a 24 mm deep Ø 57.575 mm stylus-centre
+bore, 2 µm of form deviation, each set in its own random pose. Contenders, each checked
+against the per-set solver before it is timed:
 
 - ours: :mod:`mtmetrology.fitting.batch_zones` (batched exchange from the least-squares
   element, all sets at once);
@@ -34,7 +35,14 @@ from scipy.optimize import linprog
 from scipy.spatial.transform import Rotation
 
 from harness import Benchmark
-from mtmetrology.fitting import batch_zones, fit_circles, fit_planes, fit_spheres, minimum_zone
+from mtmetrology.fitting import (
+    batch_zones,
+    fit_circles,
+    fit_cylinders,
+    fit_planes,
+    fit_spheres,
+    minimum_zone,
+)
 
 SETS = 100_000
 LOOP_SETS = 40
@@ -51,6 +59,12 @@ def make_sets(kind: str, n_sets: int, seed: int = 2026) -> np.ndarray:
     elif kind == "ring":
         t = rng.uniform(0.0, 2.0 * np.pi, (n_sets, POINTS))
         pts = np.stack([20.0 * np.cos(t), 20.0 * np.sin(t), np.zeros_like(t)], axis=2)
+    elif kind == "cylinder":
+        t, z = (
+            rng.uniform(0.0, 2.0 * np.pi, (n_sets, POINTS)),
+            rng.uniform(-24, 0, (n_sets, POINTS)),
+        )
+        pts = np.stack([(63.5 - 5.925) / 2.0 * np.cos(t), (63.5 - 5.925) / 2.0 * np.sin(t), z], 2)
     else:
         pts = np.concatenate(
             [rng.uniform(-50.0, 50.0, (n_sets, POINTS, 2)), np.zeros((n_sets, POINTS, 1))], 2
@@ -72,6 +86,10 @@ def linprog_zone(points: np.ndarray, kind: str) -> float:
         x = x @ basis.T
         model, theta = batch_zones._Centre, (circle.centres[0] - points.mean(0)) @ basis.T
         theta = theta[None]
+    elif kind == "cylinder":
+        cyl = fit_cylinders(points[None])
+        theta = np.concatenate([cyl.points - points.mean(0), cyl.directions], axis=1)
+        model = batch_zones._Axis
     else:
         model, theta = batch_zones._Normal, fit_planes(points[None]).normals
     size = float(np.sqrt((x * x).sum(axis=1).max()))
@@ -90,7 +108,7 @@ def linprog_zone(points: np.ndarray, kind: str) -> float:
         )
         delta = res.x[None, :p]
         theta = model.move(q, theta, delta)
-        if np.abs(delta).max() * (1.0 if kind != "plane" else size) <= 1e-12 * size:
+        if model.reach(delta, size)[0] <= 1e-12 * size:
             break
     d, _ = model.evaluate(q, theta)
     return float(np.ptp(d))
@@ -152,6 +170,9 @@ def main() -> None:
     )
     zone_benchmark("ring", batch_zones.minimum_zone_roundness, minimum_zone.roundness, fit_circles)
     zone_benchmark("plane", batch_zones.minimum_zone_flatness, minimum_zone.flatness, fit_planes)
+    zone_benchmark(
+        "cylinder", batch_zones.minimum_zone_cylindricity, minimum_zone.cylindricity, fit_cylinders
+    )
 
 
 if __name__ == "__main__":
