@@ -28,6 +28,8 @@ Tool Metrology*. PhD thesis, Polytechnique Montréal.
 
 from __future__ import annotations
 
+import os
+import statistics
 import time
 
 import numpy as np
@@ -122,13 +124,16 @@ def zone_benchmark(kind: str, batched, per_set, least_squares) -> None:
     assert np.abs(fit.form_error[:LOOP_SETS] - loop).max() < 1e-9, "per-set solver disagrees"
     peer = np.array([linprog_zone(p, kind) for p in subset])
     assert np.abs(peer - loop).max() < 1e-9, "linprog peer disagrees"
-    cpu = time.process_time()
-    batched(sets)
-    cpu = time.process_time() - cpu
+    cpu = []  # CPU seconds of each call of ours: the machine is shared
+
+    def ours():
+        start = time.process_time()
+        batched(sets)
+        cpu.append(time.process_time() - start)
 
     name = batched.__name__
     b = Benchmark(f"zones_{kind}", f"{name}: {SETS:,} sets × {POINTS} points, {FORM * 1e3} µm form")
-    b.time(f"batch_zones.{name}", "ours", lambda: batched(sets))
+    b.time(f"batch_zones.{name}", "ours", ours)
     b.time(
         f"minimum_zone.{per_set.__name__} per set",
         "loop",
@@ -158,8 +163,9 @@ def zone_benchmark(kind: str, batched, per_set, least_squares) -> None:
     b.notes.append(
         f"{int(fit.fallback.sum())} of {SETS:,} sets went to the per-set solver; batched steps "
         f"per set: mean {fit.iterations.mean():.2f}, max {int(fit.iterations.max())}; "
-        f"CPU time of one run of ours {cpu:.2f} s. The machine is shared (2 cores, several "
-        "users, load average about 8 when measured): wall-clock min and median of 5 repeats"
+        f"CPU time of ours over the 5 repeats: min {min(cpu[1:]):.2f} s, median "
+        f"{statistics.median(cpu[1:]):.2f} s. The machine is shared (2 cores, several users, "
+        f"load average {os.getloadavg()[0]:.1f} at the end): wall-clock times include waiting"
     )
     b.report()
 
