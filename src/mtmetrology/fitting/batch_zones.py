@@ -1,4 +1,4 @@
-"""Minimum-zone sphericity, roundness and flatness of K point sets at once (Monte Carlo).
+"""Minimum-zone sphericity, roundness, flatness, cylindricity of K point sets at once.
 
 The per-set solvers of :mod:`mtmetrology.fitting.minimum_zone` solve one set at a time
 (sequential LP with HiGHS; the convex hull for flatness). A Monte Carlo evaluation of a
@@ -8,7 +8,8 @@ them together with a batched *exchange algorithm* started from the least-squares
 
 Algorithm
 ---------
-About the current element θ (centre of a sphere or circle, normal of a plane) the
+About the current element θ (centre of a sphere or circle, normal of a plane, axis of a
+cylinder) the
 distances are linearised, ``d_i(θ + δ) ≈ d_i + J_i δ``, and the zone ``l ≤ d_i ≤ h`` becomes
 the linear Chebyshev (minimax) approximation problem
 
@@ -38,8 +39,9 @@ per-set solver's to well below 1e-9 mm (tests/fitting/test_batch_zones.py).
 
 References
 ----------
-ISO 12181-1:2011 (roundness, MZCI), ISO 12781-1:2011 (flatness, MZPL), *Geometrical product
-specifications (GPS)*, Part 1: Vocabulary and parameters; ISO 1101:2017 (form zones).
+ISO 12180-1:2011 (cylindricity, MZCY), ISO 12181-1:2011 (roundness, MZCI), ISO 12781-1:2011
+(flatness, MZPL), *Geometrical product specifications (GPS)*, Part 1: Vocabulary and
+parameters; ISO 1101:2017 (form zones).
 Stiefel, E. (1959). Über diskrete und lineare Tschebyscheff-Approximationen.
 *Numerische Mathematik* 1, 1–28.
 Watson, G. A. (1980). *Approximation Theory and Numerical Methods*. Wiley, Ch. 2.
@@ -87,8 +89,8 @@ class BatchZoneFit:
     Attributes
     ----------
     form_error : (K,) array, mm
-        Zone width: radial separation of the two concentric spheres or circles, distance
-        between the two parallel planes.
+        Zone width: radial separation of the two concentric spheres or circles or of the
+        two coaxial cylinders, distance between the two parallel planes.
     bounds : (K, 2) array, mm
         The zone boundaries as :class:`mtmetrology.fitting.minimum_zone.ZoneResult`
         gives them: (inner, outer) radii, or (−t/2, t/2) for planes.
