@@ -18,9 +18,7 @@
      extrapolated (skipped with a note when not installed);
    - floor: drawing the random inputs.
 
-2. ``features_minimum_zone``: the per-set cost of the minimum-zone features, which loop
-   over sets (no batched minimax solver): ``value`` of 20 sets of 25 points, scaled to
-   10⁵ sets, against the batched least-squares feature of the same element.
+2. The minimum-zone features are batched: see ``bench_zones.py``.
 
 Run: ``python bench/bench_features.py``.
 
@@ -37,14 +35,6 @@ import numpy as np
 from harness import Benchmark
 from mtmetrology.fitting import (
     CylinderDiameter,
-    Cylindricity,
-    Flatness,
-    MinimumZoneCylindricity,
-    MinimumZoneFlatness,
-    MinimumZoneRoundness,
-    MinimumZoneSphericity,
-    Roundness,
-    Sphericity,
     fit_cylinder,
     fit_cylinders,
 )
@@ -52,7 +42,6 @@ from mtmetrology.fitting import (
 SETS = 100_000
 LOOP_SETS = 500
 PEER_SETS = 100
-ZONE_SETS = 20
 POINTS = 25
 RADIUS = (63.5 - 5.925) / 2.0  # mm, stylus-centre cylinder of the bore
 DEPTH = 24.0  # mm
@@ -177,67 +166,8 @@ def cylinder_benchmark() -> None:
     b.report()
 
 
-def _shell(rng, n_sets, kind):
-    """(n_sets, 25, 3) generic points of a sphere, ring, plate or cylinder, 2 µm form."""
-    u = rng.standard_normal((n_sets, POINTS, 3))
-    if kind == "sphere":
-        pts = 12.4875 * u / np.linalg.norm(u, axis=2, keepdims=True)
-    elif kind == "ring":
-        t = rng.uniform(0, 2 * np.pi, (n_sets, POINTS))
-        pts = np.stack([20 * np.cos(t), 20 * np.sin(t), np.zeros_like(t)], axis=2)
-    elif kind == "plane":
-        pts = np.concatenate([rng.uniform(-50, 50, (n_sets, POINTS, 2)), u[..., :1] * 0], 2)
-    else:
-        t, z = rng.uniform(0, 2 * np.pi, (n_sets, POINTS)), rng.uniform(-10, 10, (n_sets, POINTS))
-        pts = np.stack([RADIUS * np.cos(t), RADIUS * np.sin(t), z], axis=2)
-    return pts + 2e-3 * rng.standard_normal(pts.shape)
-
-
-def zone_benchmark() -> None:
-    rng = np.random.default_rng(11)
-    b = Benchmark(
-        "features_minimum_zone",
-        f"minimum-zone feature values, {ZONE_SETS} sets × {POINTS} points timed, "
-        f"extrapolated to {SETS:,} sets",
-    )
-    pairs = [
-        ("sphere", MinimumZoneSphericity(), Sphericity()),
-        ("ring", MinimumZoneRoundness(), Roundness()),
-        ("plane", MinimumZoneFlatness(), Flatness()),
-        ("cylinder", MinimumZoneCylindricity(), Cylindricity()),
-    ]
-    for kind, zone, least_squares in pairs:
-        few = _shell(rng, ZONE_SETS, kind)
-        assert np.all(zone.value(few) <= least_squares.value(few) + 1e-12)
-        b.time(
-            f"{type(zone).__name__}.value (loop)",
-            "ours",
-            lambda zone=zone, few=few: zone.value(few),
-            scale=SETS / ZONE_SETS,
-            note="extrapolated",
-        )
-        many = _shell(rng, SETS, kind)
-        b.time(
-            f"{type(least_squares).__name__}.value (batched LS)",
-            "baseline",
-            lambda least_squares=least_squares, many=many: least_squares.value(many),
-            note="the least-squares form error, an upper bound",
-        )
-    b.time(
-        "draw the random inputs",
-        "floor",
-        lambda: (rng.uniform(size=(SETS, POINTS, 2)), rng.standard_normal((SETS, POINTS, 3))),
-    )
-    b.notes.append(
-        "each minimum-zone row is its own feature; 'vs ours' compares with the first row "
-        "(sphericity); jacobian: one minimax solve and a (p+2)x(p+2) system per call"
-    )
-    b.report()
-
-
 def main() -> None:
     cylinder_benchmark()
-    zone_benchmark()
 
 
 if __name__ == "__main__":
