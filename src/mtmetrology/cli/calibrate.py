@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal
 
+import numpy as np
 import typer
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
@@ -22,6 +23,7 @@ from mtmetrology.io.files import InputFileError, write_json
 from mtmetrology.io.schema import describe_validation_error
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameters import parse_parameter
+from mtmetrology.omm.unexplained_estimate import estimate_unexplained_covariance
 from mtmetrology.samba import (
     calibrate,
     evaluate_uncertainty,
@@ -225,6 +227,13 @@ def samba(
     json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
     report_path: ReportOption = None,
+    unexplained_out: Annotated[
+        Path | None,
+        typer.Option(
+            "--unexplained-out",
+            help="Write cov(e) of the residuals (E.json, for mtm task uncertainty --unexplained).",
+        ),
+    ] = None,
 ) -> None:
     if uncertainty not in ("none", "guf", "mcm", "both"):
         raise InputError(f"--uncertainty must be none, guf, mcm or both, got {uncertainty!r}")
@@ -299,14 +308,38 @@ def samba(
         report = samba_report(
             ctx, f"SAMBA calibration: {records.name}", inputs, cal, uncertainty=unc
         )
+    cov_e = None if unexplained_out is None else unexplained_from_calibration(cal, sigma)
     if output is not None:
         write_json(output, doc)
+    if cov_e is not None:
+        write_json(unexplained_out, cov_e.to_dict())
     if report is not None:
         write_report(report, report_path)
     if json:
         print_json(doc)
     else:
         _summary(doc, output)
+        if cov_e is not None:
+            u = np.sqrt(np.diag(cov_e.covariance)) / UM
+            typer.echo(
+                f"unexplained volumetric error u(e) = {u[0]:.2g}, {u[1]:.2g}, {u[2]:.2g} µm "
+                f"(ν = {cov_e.degrees_of_freedom:.1f}) → {unexplained_out}"
+            )
+
+
+UM = float(to_internal(1.0, "µm"))
+
+
+def unexplained_from_calibration(cal, sigma: float):
+    """cov(e) of a SAMBA calibration's residual vectors: p = all unknowns fitted (machine
+    parameters, ball centres, tool), Σ_v = σ² I the indication noise it was weighted with
+    (:mod:`mtmetrology.omm.unexplained_estimate`)."""
+    return estimate_unexplained_covariance(
+        cal.residual_vectors,
+        fitted_parameters=len(cal.identification.estimate),
+        noise_covariance=sigma**2 * np.eye(3),
+        source=f"SAMBA residuals of {cal.records.source} ({len(cal.records)} indications)",
+    )
 
 
 def _summary(doc: dict, output: Path | None) -> None:
