@@ -42,6 +42,7 @@ COMMANDS = {
     "demo": ("mtmetrology.cli.demo", "demo", False),
     "budget": ("mtmetrology.cli.budget", "app", True),
     "export": ("mtmetrology.cli.export", "export", False),
+    "validate": ("mtmetrology.cli.validate", "app", True),
 }
 
 #: Groups whose subcommands come from several applications (``mtm calibrate samba``,
