@@ -227,6 +227,14 @@ def samba(
     json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
     report_path: ReportOption = None,
+    campaign_uncertainty: Annotated[
+        Literal["mean", "single"],
+        typer.Option(
+            "--campaign-uncertainty",
+            help="With K campaigns: u of their mean (S/K) or of one run (S, as Table 5-2 of "
+            "Sepahi Boroujeni (2021)); needs --uncertainty with single.",
+        ),
+    ] = "mean",
     unexplained_out: Annotated[
         Path | None,
         typer.Option(
@@ -243,6 +251,8 @@ def samba(
         raise InputError(f"--noise-um must be positive, got {noise_um}")
     if trials is not None and adaptive:
         raise InputError("give --trials or --adaptive, not both")
+    if campaign_uncertainty == "single" and uncertainty == "none":
+        raise InputError("--campaign-uncertainty single needs --uncertainty guf, mcm or both")
     tool_prior = parse_tool_prior(tool_prior_um, estimate_tool)
     m = _machine(machine, model, params_only)
     art = load_artefact(artefact)
@@ -258,8 +268,11 @@ def samba(
         sigma = float(sum(u * u for u in repeat) / 3) ** 0.5
     elif noise_um is None and rec.campaigns is not None:
         campaigns = rec.campaigns
-        sigma = pooled_sigma(campaigns)
-        described = f"sample covariance of {rec.n_campaigns} campaigns / {rec.n_campaigns}"
+        # the indications are means of K campaigns: weighted with σ̄/√K
+        sigma = pooled_sigma(campaigns) / rec.n_campaigns**0.5
+        described = f"sample covariance of {rec.n_campaigns} campaigns" + (
+            f" / {rec.n_campaigns} (their mean)" if campaign_uncertainty == "mean" else " (one run)"
+        )
     else:
         noise = float(to_internal(0.5 if noise_um is None else noise_um, "µm"))
         described = f"probing noise {from_internal(noise, 'µm'):g} µm per reading"
@@ -283,7 +296,11 @@ def samba(
     unc = None
     if uncertainty != "none":
         inputs = indication_inputs(
-            cal.problem, noise=noise, repeatability=repeat, campaigns=campaigns
+            cal.problem,
+            noise=noise,
+            repeatability=repeat,
+            campaigns=campaigns,
+            campaign_mean=campaign_uncertainty == "mean",
         )
         try:
             unc = evaluate_uncertainty(
@@ -300,6 +317,10 @@ def samba(
         except ConvergenceError as err:
             fail(str(err))
     doc = cal.to_dict(unc, described)
+    if campaigns is not None:
+        doc["records"]["uncertainty_of"] = (
+            f"mean of {rec.n_campaigns} campaigns" if campaign_uncertainty == "mean" else "one run"
+        )
     report = None
     if report_path is not None:
         inputs = [records, artefact, machine if not Path(machine).is_file() else Path(machine)]
