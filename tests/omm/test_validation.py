@@ -188,3 +188,48 @@ def test_command_matches_the_library_and_refuses_bad_input(tmp_path):
     assert doc["summary"]["bipoints"] == 9
     np.testing.assert_allclose(doc["bipoints"]["length_mm"], lib.length, atol=1e-8)
     np.testing.assert_allclose(doc["bipoints"]["U_um"], lib.expanded_uncertainty / UM, rtol=1e-6)
+
+
+def test_pooling_command_matches_the_library(tmp_path):
+    """``mtm validate pooling`` on three 8-point sets of a 20 mm sphere at three poses of
+    a calibrated machine (stylus-centre points, d_tip = 0, u_cal = 0): equal to
+    :func:`pooling_experiment`'s on the same readings and seed; a k outside 1 … 3 and a
+    malformed --k exit 2 with nothing written."""
+    from mtmetrology.fitting.features import SphereDiameter
+    from mtmetrology.omm.pooling import pooling_experiment
+    from mtmetrology.omm.repeatability import sphere_normal
+
+    rng = np.random.default_rng(0)
+    delta = rng.normal(size=13) * MACHINE.parameter_scales * 10
+    sets, paths = [], []
+    for i, (b, c) in enumerate([(0.3, 1.0), (-0.4, 2.0), (0.1, -1.0)]):
+        pts = [0, 0, 50.0] + 10.0 * sphere_normal(rng.uniform(0, 1.3, 8), rng.uniform(0, 6.3, 8))
+        r = MACHINE.inverse(pts, np.array([0, 0, 0, b, c, 0.0]), delta)
+        paths.append(tmp_path / f"set{i}.csv")
+        _write_side(paths[-1], r)
+        sets.append(MACHINE.readings_from_customary(MACHINE.readings_to_customary(r)))
+    pset = replace(ParameterSet.zeros(MACHINE), values=delta, covariance=U_THETA)
+    pset.save(tmp_path / "params.json")
+    args = [
+        "validate", "pooling", *map(str, paths), "--machine", "five-axis-wcbxfzyst",
+        "--params", str(tmp_path / "params.json"), "--diameter-mm", "20",
+        "--diameter-u-um", "0", "--tip-diameter", "0", "--draws", "5",
+        "--points-per-draw", "8", "--seed", "1",
+    ]  # fmt: skip
+    ok = CliRunner().invoke(app, [*args, "--json"])
+    assert ok.exit_code == 0, ok.output
+    doc = json.loads(ok.stdout)
+    lib = pooling_experiment(
+        MACHINE, sets, delta, U_THETA, [SphereDiameter(0.0)], [(20.0, 0.0)],
+        draws=5, points_per_draw=8, seed=1,
+    )  # fmt: skip
+    want_rows = lib.to_dict()["outputs"][0]["per_k"]
+    for got, want in zip(doc["outputs"][0]["per_k"], want_rows, strict=True):
+        assert got["k"] == want["k"] and got["coverage"] == want["coverage"]
+        assert got["mean_value"] == pytest.approx(want["mean_value"], abs=1e-8)  # CSV: 1e-9 mm
+        assert got["mean_U"] == pytest.approx(want["mean_U"], rel=1e-6)
+    assert [row["coverage"] for row in doc["outputs"][0]["per_k"]] == [1.0, 1.0, 1.0]
+    out = tmp_path / "P.json"
+    for bad in ("0,1", "a"):
+        r = CliRunner().invoke(app, [*args, "--k", bad, "-o", str(out)])
+        assert r.exit_code == 2 and not out.exists(), r.output

@@ -1,10 +1,12 @@
-"""``mtm validate task``: the validation campaign of a task uncertainty on a gauge block.
+"""``mtm validate task`` and ``mtm validate pooling``: validation campaigns of a task
+uncertainty on calibrated artefacts.
 
 Every side-A × side-B bipoint is compensated and given y ± U (full-covariance GUF); the
 calibrated length is carried to the measurement temperature (eqs. 6-17, 6-19) and the
 mean of eq. 6-16 is the delivered coverage, with the ablation without cov(e)
 (Sepahi Boroujeni (2021), §6.4–6.5; library: :func:`mtmetrology.omm.validation.
-validate_gauge`).
+validate_gauge`). The pooling test (§6.5) mixes k of several sphere point sets and
+draws 25 points (:func:`mtmetrology.omm.pooling.pooling_experiment`).
 """
 
 from __future__ import annotations
@@ -25,9 +27,11 @@ from mtmetrology.cli._common import (
 )
 from mtmetrology.cli.task import _ordered_covariance
 from mtmetrology.errors import InputError
+from mtmetrology.fitting.features import SphereDiameter, Sphericity
 from mtmetrology.io import read_csv_table, write_json
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.omm.pooling import pooling_experiment
 from mtmetrology.omm.reference import thermal_reference_value
 from mtmetrology.omm.repeatability_file import load_repeatability_model
 from mtmetrology.omm.task import reading_covariance
@@ -194,3 +198,108 @@ def _report(path: Path, result: GaugeValidation, command: str, inputs: list[Path
         rows.append(["mean coverage without cov(e)", f"{100 * s['mean_coverage_without_e']:.1f} %"])
     rep.table(["quantity", "value"], rows)
     write_report(rep, path)
+
+
+@app.command("pooling")
+@user_errors
+def pooling(
+    sets: Annotated[list[Path], typer.Argument(help="Point sets on the sphere, one CSV per pose.")],
+    machine_name: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    params: Annotated[
+        Path, typer.Option("--params", help="The calibration that compensates, with U_θ.")
+    ],
+    diameter_mm: Annotated[
+        float, typer.Option("--diameter-mm", help="Calibrated diameter at 20 °C, mm.")
+    ],
+    diameter_u_um: Annotated[
+        float, typer.Option("--diameter-u-um", help="Its standard uncertainty, µm (U/k).")
+    ],
+    sphericity_um: Annotated[
+        float | None, typer.Option("--sphericity-um", help="Calibrated sphericity, µm.")
+    ] = None,
+    sphericity_u_um: Annotated[
+        float, typer.Option("--sphericity-u-um", help="Its standard uncertainty, µm.")
+    ] = 0.0,
+    cte: Annotated[float, typer.Option("--cte", help="Expansion coefficient α, 1/°C.")] = 0.0,
+    cte_u: Annotated[float, typer.Option("--cte-u", help="u(α), 1/°C.")] = 0.0,
+    delta_t: Annotated[float, typer.Option("--delta-t", help="Sphere temperature − 20 °C.")] = 0.0,
+    delta_t_u: Annotated[float, typer.Option("--delta-t-u", help="u(ΔT), °C.")] = 0.0,
+    repeatability: Annotated[
+        Path | None, typer.Option(help="repeatability-model JSON (needs i,j,k columns).")
+    ] = None,
+    unexplained: Annotated[
+        Path | None, typer.Option(help="unexplained-volumetric-error document (µm²).")
+    ] = None,
+    tip_diameter: Annotated[
+        float | None, typer.Option(help="Effective tip diameter, mm (default: the machine's).")
+    ] = None,
+    k: Annotated[
+        str | None, typer.Option("--k", help="Numbers of pooled sets, e.g. 1,2,3 (default all).")
+    ] = None,
+    draws: Annotated[int, typer.Option(help="Draws per k (the thesis: 200).")] = 200,
+    points_per_draw: Annotated[int, typer.Option(help="Points per draw (the thesis: 25).")] = 25,
+    seed: Annotated[int | None, typer.Option(help="Seed of the draws.")] = None,
+    p: Annotated[float, typer.Option("--p", help="Coverage probability.")] = 0.95,
+    json_output: Annotated[bool, typer.Option("--json", help="Print the result document.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write it here.")] = None,
+) -> None:
+    """Coverage of sphere diameter (and sphericity) intervals on draws pooled from k sets."""
+    base = Machine.load(machine_name)
+    pset = ParameterSet.load(params, base)
+    machine = pset.machine_for(base)
+    if pset.covariance is None:
+        raise InputError(f"{params}: no covariance; the task uncertainty needs one")
+    try:
+        k_values = None if k is None else [int(v) for v in k.split(",")]
+    except ValueError:
+        raise InputError(f"--k: expected integers separated by commas, got {k!r}") from None
+    model = load_repeatability_model(repeatability) if repeatability is not None else None
+    read = [_side(path, machine, model) for path in sets]
+    v = None if model is None else [c for _, c in read]
+    diameter = thermal_reference_value(
+        diameter_mm,
+        float(to_internal(diameter_u_um, "µm")),
+        expansion_coefficient=cte,
+        expansion_coefficient_uncertainty=cte_u,
+        temperature_difference=delta_t,
+        temperature_difference_uncertainty=delta_t_u,
+        name="sphere_diameter",
+    )
+    d_tip = 2.0 * machine.tip_radius if tip_diameter is None else tip_diameter
+    features = [SphereDiameter(d_tip)]
+    references = [diameter]
+    if sphericity_um is not None:  # thermal effects on form neglected (§6.4)
+        features.append(Sphericity())
+        um = float(to_internal(1.0, "µm"))
+        references.append((sphericity_um * um, sphericity_u_um * um))
+    result = pooling_experiment(
+        machine,
+        [r for r, _ in read],
+        pset.vector_for(machine),
+        _ordered_covariance(pset, machine),
+        features,
+        references,
+        reading_covariance=v,
+        unexplained_covariance=(
+            load_unexplained_covariance(unexplained) if unexplained is not None else None
+        ),
+        k_values=k_values,
+        draws=draws,
+        points_per_draw=points_per_draw,
+        p=p,
+        seed=seed,
+    )
+    doc = result.to_dict()
+    doc["source"] = {"sets": [str(s) for s in sets], "params": str(params)}
+    if output is not None:
+        write_json(output, doc)
+    if json_output:
+        print_json(doc)
+        return
+    for out in doc["outputs"]:
+        typer.echo(f"{out['name']} (reference {out['reference']['value']:.5f} mm):")
+        for row in out["per_k"]:
+            typer.echo(
+                f"  k = {row['k']:>2}: coverage {100 * row['coverage']:5.1f} %, mean U "
+                f"{row['mean_U'] / float(to_internal(1.0, 'µm')):.3g} µm"
+            )
