@@ -35,11 +35,12 @@ def _side(rng, x, n, delta, cov_e=COV_E, noise=0.5 * UM):
     return readings
 
 
-def _campaign(seed, n=6):
-    """One campaign: a fresh calibration δ̂ ~ N(δ, U_θ) and n × n bipoints."""
+def _campaign(seed, n=6, true_e=COV_E, stated_e=COV_E):
+    """One campaign: a fresh calibration δ̂ ~ N(δ, U_θ) and n × n bipoints, E drawn from
+    ``true_e``, the budget's cov(e) ``stated_e``."""
     rng = np.random.default_rng(seed)
     delta = rng.normal(size=13) * MACHINE.parameter_scales * 10
-    a, b = _side(rng, ENDS[0], n, delta), _side(rng, ENDS[1], n, delta)
+    a, b = _side(rng, ENDS[0], n, delta, true_e), _side(rng, ENDS[1], n, delta, true_e)
     v = np.zeros((n, 6, 6))
     v[:, :3, :3] = np.eye(3) * (0.5 * UM) ** 2
     estimate = rng.multivariate_normal(delta, U_THETA)
@@ -55,7 +56,7 @@ def _campaign(seed, n=6):
         recalibrated=True,
         reading_covariance_a=v,
         reading_covariance_b=v,
-        unexplained_covariance=COV_E,
+        unexplained_covariance=stated_e,
     )
 
 
@@ -233,3 +234,25 @@ def test_pooling_command_matches_the_library(tmp_path):
     for bad in ("0,1", "a"):
         r = CliRunner().invoke(app, [*args, "--k", bad, "-o", str(out)])
         assert r.exit_code == 2 and not out.exists(), r.output
+
+
+def test_cov_e_estimated_from_samba_residuals_restores_the_coverage(tmp_path):
+    """cov(e) estimated from one virtual SAMBA test with a known unmodelled error
+    (:mod:`test_unexplained_estimate`, ν ≈ 101) in the budget of 12 campaigns of 6 × 6
+    bipoints on a machine with that E: mean coverage in the 99 % binomial region of 0.95
+    for N_eff = 12·36/11 ≈ 39 intervals; without it, below the region."""
+    from test_unexplained_estimate import TRUE_E, _perturbed_calibrations
+
+    from mtmetrology.omm.unexplained_estimate import estimate_unexplained_covariance
+
+    _, cal = next(_perturbed_calibrations(tmp_path, 1))
+    est = estimate_unexplained_covariance(
+        cal.residual_vectors,
+        fitted_parameters=len(cal.identification.estimate),
+        noise_covariance=(0.5 * UM) ** 2 * np.eye(3),
+    )
+    true_e = TRUE_E * UM**2
+    results = [_campaign(s, true_e=true_e, stated_e=est.covariance) for s in range(100, 112)]
+    low, high = binomial_region(12 * 36 // 11, 0.95)
+    assert low <= np.mean([r.mean_coverage for r in results]) <= high
+    assert np.mean([r.mean_coverage_without_e for r in results]) < low
