@@ -164,8 +164,12 @@ def test_command_matches_the_library_and_refuses_bad_input(tmp_path):
     bad = CliRunner().invoke(app, [*args, "-o", str(out)])
     assert bad.exit_code == 2 and not out.exists()
     assert "--recalibrated" in bad.output
-    ok = CliRunner().invoke(app, [*args, "--recalibrated", "-o", str(out), "--json"])
+    html = tmp_path / "validation.html"
+    ok = CliRunner().invoke(
+        app, [*args, "--recalibrated", "-o", str(out), "--json", "--report", str(html)]
+    )
     assert ok.exit_code == 0, ok.output
+    assert html.stat().st_size > 0
     doc = json.loads(out.read_text(encoding="utf-8"))
     assert doc["reference"]["value_mm"] == pytest.approx(150 * (1 + 10.8e-6 * 1.75), abs=1e-12)
     u_cal = np.sqrt(  # eq. 6-19, µm
@@ -217,8 +221,10 @@ def test_pooling_command_matches_the_library(tmp_path):
         "--diameter-u-um", "0", "--tip-diameter", "0", "--draws", "5",
         "--points-per-draw", "8", "--seed", "1",
     ]  # fmt: skip
-    ok = CliRunner().invoke(app, [*args, "--json"])
+    html = tmp_path / "pooling.html"
+    ok = CliRunner().invoke(app, [*args, "--json", "--report", str(html)])
     assert ok.exit_code == 0, ok.output
+    assert html.stat().st_size > 0
     doc = json.loads(ok.stdout)
     lib = pooling_experiment(
         MACHINE, sets, delta, U_THETA, [SphereDiameter(0.0)], [(20.0, 0.0)],

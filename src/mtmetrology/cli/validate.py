@@ -203,6 +203,7 @@ def _report(path: Path, result: GaugeValidation, command: str, inputs: list[Path
 @app.command("pooling")
 @user_errors
 def pooling(
+    ctx: typer.Context,
     sets: Annotated[list[Path], typer.Argument(help="Point sets on the sphere, one CSV per pose.")],
     machine_name: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
     params: Annotated[
@@ -242,6 +243,7 @@ def pooling(
     p: Annotated[float, typer.Option("--p", help="Coverage probability.")] = 0.95,
     json_output: Annotated[bool, typer.Option("--json", help="Print the result document.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="Write it here.")] = None,
+    report_path: ReportOption = None,
 ) -> None:
     """Coverage of sphere diameter (and sphericity) intervals on draws pooled from k sets."""
     base = Machine.load(machine_name)
@@ -291,6 +293,8 @@ def pooling(
     )
     doc = result.to_dict()
     doc["source"] = {"sets": [str(s) for s in sets], "params": str(params)}
+    if report_path is not None:
+        _pooling_report(report_path, doc, command_line(ctx), [*sets, params])
     if output is not None:
         write_json(output, doc)
     if json_output:
@@ -303,3 +307,31 @@ def pooling(
                 f"  k = {row['k']:>2}: coverage {100 * row['coverage']:5.1f} %, mean U "
                 f"{row['mean_U'] / float(to_internal(1.0, 'µm')):.3g} µm"
             )
+
+
+def _pooling_report(path: Path, doc: dict, command: str, inputs: list[Path]) -> None:
+    from mtmetrology.report import Report
+
+    um = float(to_internal(1.0, "µm"))
+    rep = Report("Task validation: pooling test", command=command, provenance={"inputs": inputs})
+    rep.section(
+        "Coverage per number of pooled sets",
+        f"{doc['draws']} draws of {doc['points_per_draw']} points from k pooled point sets, "
+        "each compensated with its full-covariance GUF interval; coverage = mean of eq. 6-16 "
+        "(Sepahi Boroujeni (2021), §6.5).",
+    )
+    for out in doc["outputs"]:
+        rep.table(
+            ["output", "k", "coverage", "mean value (mm)", "mean U (µm)"],
+            [
+                [
+                    out["name"],
+                    row["k"],
+                    f"{100 * row['coverage']:.1f} %",
+                    f"{row['mean_value']:.5f}",
+                    f"{row['mean_U'] / um:.3g}",
+                ]
+                for row in out["per_k"]
+            ],
+        )
+    write_report(rep, path)
