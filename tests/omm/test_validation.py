@@ -86,15 +86,15 @@ def test_exact_campaign_recovers_the_true_length_for_every_bipoint():
 
 
 def test_simulated_campaigns_cover_95_percent_with_e_and_collapse_without():
-    """16 campaigns of 6 × 6 bipoints on a virtual machine with E drawn from cov(e), each
+    """12 campaigns of 6 × 6 bipoints on a virtual machine with E drawn from cov(e), each
     compensated with its own calibration: the mean eq. 6-16 coverage lies in the two-sided
-    99 % binomial region of p = 0.95 for N_eff = 16·36/11 ≈ 52 independent intervals (the
+    99 % binomial region of p = 0.95 for N_eff = 12·36/11 ≈ 39 independent intervals (the
     36 bipoints of a campaign rest on 11 degrees of freedom of shared ends: conservative);
     without cov(e) it falls below that region (the thesis: 90 % against 39 %)."""
-    results = [_campaign(seed) for seed in range(16)]
+    results = [_campaign(seed) for seed in range(12)]
     with_e = np.mean([r.mean_coverage for r in results])
     without = np.mean([r.mean_coverage_without_e for r in results])
-    low, high = binomial_region(16 * 36 // 11, 0.95)
+    low, high = binomial_region(12 * 36 // 11, 0.95)
     assert low <= with_e <= high
     assert without < low
     assert without < 0.7
