@@ -46,6 +46,7 @@ COMMANDS = {
     "export": ("mtmetrology.cli.export", "export", False),
     "history": ("mtmetrology.cli.history", "app", True),
     "cmm": ("mtmetrology.cli.cmm_studies", "app", True),
+    "validate": ("mtmetrology.cli.validate", "app", True),
 }
 
 #: Groups whose subcommands come from several applications (``mtm calibrate samba``,
@@ -93,6 +94,7 @@ SUMMARIES = {
     ),
     "history": "Calibration history: record results, control charts, drift, long-term covariance.",
     "cmm": "Bridge-CMM studies on ball-plate records.",
+    "validate": "Validate uncertainty statements against calibrated artefacts.",
     "calibrate": SHARED_GROUPS["calibrate"][0],
     "simulate": SHARED_GROUPS["simulate"][0],
 }

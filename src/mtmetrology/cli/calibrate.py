@@ -23,6 +23,7 @@ from mtmetrology.io.files import InputFileError, write_json
 from mtmetrology.io.schema import describe_validation_error
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameters import parse_parameter
+from mtmetrology.omm.unexplained_estimate import estimate_unexplained_covariance
 from mtmetrology.samba import (
     calibrate,
     evaluate_uncertainty,
@@ -202,6 +203,21 @@ def samba(
     json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
     report_path: ReportOption = None,
+    campaign_uncertainty: Annotated[
+        Literal["mean", "single"],
+        typer.Option(
+            "--campaign-uncertainty",
+            help="With K campaigns: u of their mean (S/K) or of one run (S, as Table 5-2 of "
+            "Sepahi Boroujeni (2021)); needs --uncertainty with single.",
+        ),
+    ] = "mean",
+    unexplained_out: Annotated[
+        Path | None,
+        typer.Option(
+            "--unexplained-out",
+            help="Write cov(e) of the residuals (E.json, for mtm task uncertainty --unexplained).",
+        ),
+    ] = None,
     history: HistoryOption = False,
 ) -> None:
     if uncertainty not in ("none", "guf", "mcm", "both"):
@@ -212,6 +228,8 @@ def samba(
         raise InputError(f"--noise-um must be positive, got {noise_um}")
     if trials is not None and adaptive:
         raise InputError("give --trials or --adaptive, not both")
+    if campaign_uncertainty == "single" and uncertainty == "none":
+        raise InputError("--campaign-uncertainty single needs --uncertainty guf, mcm or both")
     tool_prior = parse_tool_prior(tool_prior_um, estimate_tool)
     m = _machine(machine, model, params_only)
     art = load_artefact(artefact)
@@ -227,8 +245,11 @@ def samba(
         sigma = float(sum(u * u for u in repeat) / 3) ** 0.5
     elif noise_um is None and rec.campaigns is not None:
         campaigns = rec.campaigns
-        sigma = pooled_sigma(campaigns)
-        described = f"sample covariance of {rec.n_campaigns} campaigns / {rec.n_campaigns}"
+        # the indications are means of K campaigns: weighted with σ̄/√K
+        sigma = pooled_sigma(campaigns) / rec.n_campaigns**0.5
+        described = f"sample covariance of {rec.n_campaigns} campaigns" + (
+            f" / {rec.n_campaigns} (their mean)" if campaign_uncertainty == "mean" else " (one run)"
+        )
     else:
         noise = float(to_internal(0.5 if noise_um is None else noise_um, "µm"))
         described = f"probing noise {from_internal(noise, 'µm'):g} µm per reading"
@@ -252,7 +273,11 @@ def samba(
     unc = None
     if uncertainty != "none":
         inputs = indication_inputs(
-            cal.problem, noise=noise, repeatability=repeat, campaigns=campaigns
+            cal.problem,
+            noise=noise,
+            repeatability=repeat,
+            campaigns=campaigns,
+            campaign_mean=campaign_uncertainty == "mean",
         )
         try:
             unc = evaluate_uncertainty(
@@ -269,6 +294,10 @@ def samba(
         except ConvergenceError as err:
             fail(str(err))
     doc = cal.to_dict(unc, described)
+    if campaigns is not None:
+        doc["records"]["uncertainty_of"] = (
+            f"mean of {rec.n_campaigns} campaigns" if campaign_uncertainty == "mean" else "one run"
+        )
     report = None
     if report_path is not None:
         inputs = [records, artefact, machine if not Path(machine).is_file() else Path(machine)]
@@ -277,16 +306,37 @@ def samba(
         report = samba_report(
             ctx, f"SAMBA calibration: {records.name}", inputs, cal, uncertainty=unc
         )
+    cov_e = None if unexplained_out is None else unexplained_from_calibration(cal, sigma)
     if history:
         record_in_history(doc, m, "mtm calibrate samba", [records, artefact])
     if output is not None:
         write_json(output, doc)
+    if cov_e is not None:
+        write_json(unexplained_out, cov_e.to_dict())
     if report is not None:
         write_report(report, report_path)
     if json:
         print_json(doc)
     else:
         _summary(doc, output)
+        if cov_e is not None:
+            u = from_internal(cov_e.u, "µm")
+            typer.echo(
+                f"unexplained volumetric error u(e) = {u[0]:.2g}, {u[1]:.2g}, {u[2]:.2g} µm "
+                f"(ν = {cov_e.degrees_of_freedom:.1f}) → {unexplained_out}"
+            )
+
+
+def unexplained_from_calibration(cal, sigma: float):
+    """cov(e) of a SAMBA calibration's residual vectors: p = all unknowns fitted (machine
+    parameters, ball centres, tool), Σ_v = σ² I the indication noise it was weighted with
+    (:mod:`mtmetrology.omm.unexplained_estimate`)."""
+    return estimate_unexplained_covariance(
+        cal.residual_vectors,
+        fitted_parameters=len(cal.identification.estimate),
+        noise_covariance=sigma**2,
+        source=f"SAMBA residuals of {cal.records.source} ({len(cal.records)} indications)",
+    )
 
 
 def _parameter_line(p: dict, k: float) -> str:

@@ -136,6 +136,11 @@ class Table:
         """A column as stripped strings (raises :class:`InputFileError` if missing)."""
         return _trim(self._column(name)).to_pylist()
 
+    def vectors(self, names: Sequence[str], **options) -> np.ndarray:
+        """Several float columns side by side, ``(n, len(names))`` (e.g. ``"ijk"``, an
+        approach direction); ``options`` as :meth:`floats`, which checks each column."""
+        return np.column_stack([self.floats(name, **options) for name in names])
+
     def floats(
         self,
         name: str,

@@ -86,6 +86,7 @@ def indication_inputs(
     noise: float | None = None,
     repeatability: tuple[float, float, float] | None = None,
     campaigns: np.ndarray | None = None,
+    campaign_mean: bool = True,
 ) -> InputSet:
     """The inputs z of the identification with their joint distribution.
 
@@ -98,6 +99,10 @@ def indication_inputs(
         Standard uncertainties of the X, Y, Z readings, mm.
     campaigns : (K, n, 3) ndarray, optional
         Readings of K campaigns (the problem's readings are their mean).
+    campaign_mean : bool
+        With campaigns: the covariance of their mean, S/K (the parameters' u is that of
+        the K-campaign mean), or False: S, the covariance of one run (Sepahi Boroujeni
+        (2021), Table 5-2 gives one run's u; that of the mean of k runs is u/√k).
 
     Returns
     -------
@@ -123,7 +128,8 @@ def indication_inputs(
         k = campaigns.shape[0]
         dev = (campaigns - campaigns.mean(axis=0)).reshape(k, -1)
         cov = np.zeros((z.size, z.size))
-        cov[: 3 * n, : 3 * n] = dev.T @ dev / ((k - 1) * k)  # covariance of the mean
+        # S/K, the covariance of the mean, or S, that of one run
+        cov[: 3 * n, : 3 * n] = dev.T @ dev / ((k - 1) * (k if campaign_mean else 1))
         cov[3 * n :, 3 * n :] = np.diag(np.square(others_u))
         return InputSet.from_covariance(names, z, cov, units=["mm"] * z.size)
     u = np.full(3 * n, noise) if noise is not None else np.tile(repeatability, n)

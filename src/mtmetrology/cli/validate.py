@@ -1,0 +1,336 @@
+"""``mtm validate task`` and ``mtm validate pooling``: validation campaigns of a task
+uncertainty on calibrated artefacts.
+
+Every side-A × side-B bipoint is compensated and given y ± U (full-covariance GUF); the
+calibrated length is carried to the measurement temperature (eqs. 6-17, 6-19) and the
+mean of eq. 6-16 is the delivered coverage, with the ablation without cov(e)
+(Sepahi Boroujeni (2021), §6.4–6.5; library: :func:`mtmetrology.omm.validation.
+validate_gauge`). The pooling test (§6.5) mixes k of several sphere point sets and
+draws 25 points (:func:`mtmetrology.omm.pooling.pooling_experiment`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from mtmetrology.cli._common import (
+    ReportOption,
+    command_line,
+    print_json,
+    readings_from_table,
+    user_errors,
+    write_report,
+)
+from mtmetrology.cli.task import _ordered_covariance
+from mtmetrology.errors import InputError
+from mtmetrology.fitting.features import SphereDiameter, Sphericity
+from mtmetrology.io import read_csv_table, write_json
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.omm.pooling import pooling_experiment
+from mtmetrology.omm.reference import thermal_reference_value
+from mtmetrology.omm.repeatability_file import load_repeatability_model
+from mtmetrology.omm.task import reading_covariance
+from mtmetrology.omm.unexplained import load_unexplained_covariance
+from mtmetrology.omm.validation import GaugeValidation, validate_gauge
+from mtmetrology.units import to_internal
+
+app = typer.Typer(help="Validate uncertainty statements against calibrated artefacts.")
+
+
+@app.callback()
+def _group() -> None:
+    """Validate uncertainty statements against calibrated artefacts."""
+
+
+def _side(path: Path, machine: Machine, repeatability):
+    table = read_csv_table(path, required=("point",))
+    readings = readings_from_table(machine, table)
+    if repeatability is None:
+        return readings, None
+    approach = table.vectors("ijk")
+    return readings, reading_covariance(machine, repeatability, readings, approach)
+
+
+@app.command("task")
+@user_errors
+def task(
+    ctx: typer.Context,
+    side_a: Annotated[Path, typer.Argument(help="Side-A readings: point,X,Y,Z,B,C[,i,j,k].")],
+    side_b: Annotated[Path, typer.Argument(help="Side-B readings, same columns.")],
+    machine_name: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    params: Annotated[
+        Path, typer.Option("--params", help="The calibration that compensates, with U_θ.")
+    ],
+    reference_mm: Annotated[
+        float, typer.Option("--reference-mm", help="Calibrated length at 20 °C, mm.")
+    ],
+    reference_u_um: Annotated[
+        float,
+        typer.Option("--reference-u-um", help="Its standard uncertainty at 20 °C, µm (U/k)."),
+    ],
+    cte: Annotated[float, typer.Option("--cte", help="Expansion coefficient α, 1/°C.")] = 0.0,
+    cte_u: Annotated[float, typer.Option("--cte-u", help="u(α), 1/°C.")] = 0.0,
+    delta_t: Annotated[
+        float, typer.Option("--delta-t", help="Gauge temperature − 20 °C during probing.")
+    ] = 0.0,
+    delta_t_u: Annotated[float, typer.Option("--delta-t-u", help="u(ΔT), °C.")] = 0.0,
+    long_term: Annotated[
+        Path | None,
+        typer.Option("--long-term", help="Parameter set whose covariance is Σ_lt."),
+    ] = None,
+    recalibrated: Annotated[
+        bool, typer.Option("--recalibrated", help="Recalibrated for the campaign: no Σ_lt.")
+    ] = False,
+    repeatability: Annotated[
+        Path | None, typer.Option(help="repeatability-model JSON (needs i,j,k columns).")
+    ] = None,
+    unexplained: Annotated[
+        Path | None, typer.Option(help="unexplained-volumetric-error document (µm²).")
+    ] = None,
+    tip_diameter: Annotated[
+        float | None, typer.Option(help="Effective tip diameter, mm (default: the machine's).")
+    ] = None,
+    p: Annotated[float, typer.Option("--p", help="Coverage probability.")] = 0.95,
+    json_output: Annotated[bool, typer.Option("--json", help="Print the result document.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write it here.")] = None,
+    report_path: ReportOption = None,
+) -> None:
+    """Coverage of gauge-length intervals over every side-A × side-B bipoint (eq. 6-16)."""
+    if recalibrated == (long_term is not None):
+        raise InputError("give one of --long-term FILE and --recalibrated")
+    base = Machine.load(machine_name)
+    pset = ParameterSet.load(params, base)
+    machine = pset.machine_for(base)
+    if pset.covariance is None:
+        raise InputError(f"{params}: no covariance; the task uncertainty needs one")
+    sigma_lt = None
+    if long_term is not None:
+        lt = ParameterSet.load(long_term, base)
+        if lt.covariance is None or set(lt.names) != set(pset.names):
+            raise InputError(f"{long_term}: needs a covariance over the parameters of {params}")
+        sigma_lt = _ordered_covariance(lt, machine)
+    model = load_repeatability_model(repeatability) if repeatability is not None else None
+    a, va = _side(side_a, machine, model)
+    b, vb = _side(side_b, machine, model)
+    cov_e = load_unexplained_covariance(unexplained) if unexplained is not None else None
+    ref = thermal_reference_value(
+        reference_mm,
+        float(to_internal(reference_u_um, "µm")),
+        expansion_coefficient=cte,
+        expansion_coefficient_uncertainty=cte_u,
+        temperature_difference=delta_t,
+        temperature_difference_uncertainty=delta_t_u,
+        name="gauge_length",
+    )
+    result = validate_gauge(
+        machine,
+        a,
+        b,
+        pset.vector_for(machine),
+        _ordered_covariance(pset, machine),
+        ref.value,
+        ref.standard_uncertainty,
+        tip_diameter=2.0 * machine.tip_radius if tip_diameter is None else tip_diameter,
+        long_term_covariance=sigma_lt,
+        recalibrated=recalibrated,
+        reading_covariance_a=va,
+        reading_covariance_b=vb,
+        unexplained_covariance=cov_e,
+        p=p,
+    )
+    doc = result.to_dict()
+    doc["reference"]["thermal"] = ref.to_dict()
+    doc["source"] = {"side_a": str(side_a), "side_b": str(side_b), "params": str(params)}
+    if report_path is not None:
+        inputs = [side_a, side_b, params, *(f for f in (long_term, unexplained) if f)]
+        _report(report_path, result, command_line(ctx), inputs)
+    if output is not None:
+        write_json(output, doc)
+    if json_output:
+        print_json(doc)
+    else:
+        _print(doc)
+
+
+def _print(doc: dict) -> None:
+    s, ref = doc["summary"], doc["reference"]
+    typer.echo(
+        f"reference length {ref['value_mm']:.5f} mm, u = {ref['u_um']:.2g} µm (eqs. 6-17, 6-19)"
+    )
+    typer.echo(
+        f"{s['bipoints']} bipoints: mean coverage (eq. 6-16) {100 * s['mean_coverage']:.1f} % "
+        f"for p = {s['p']}, {s['holding']} intervals hold the reference, mean U = "
+        f"{s['mean_U_um']:.3g} µm"
+    )
+    if s["mean_coverage_without_e"] is not None:
+        typer.echo(f"  without cov(e): {100 * s['mean_coverage_without_e']:.1f} %")
+    low, high = s["binomial_region_99"]
+    typer.echo(
+        f"  binomial 99 % region if independent: {100 * low:.1f} … {100 * high:.1f} % "
+        "(bipoints share their ends: wider in fact)"
+    )
+
+
+def _report(path: Path, result: GaugeValidation, command: str, inputs: list[Path]) -> None:
+    from mtmetrology.report import Report
+
+    s = result.to_dict()["summary"]
+    rep = Report("Task validation: gauge bipoints", command=command, provenance={"inputs": inputs})
+    rep.section(
+        "Coverage",
+        "Every side-A × side-B bipoint compensated with the calibration, its interval y ± U "
+        "from the full-covariance GUF, against the calibrated length at the measurement "
+        "temperature (Sepahi Boroujeni (2021), eqs. 6-16 to 6-19).",
+    )
+    rows = [
+        ["bipoints", s["bipoints"]],
+        ["mean coverage (eq. 6-16)", f"{100 * s['mean_coverage']:.1f} %"],
+        ["intervals holding y_cal", s["holding"]],
+        ["mean U", f"{s['mean_U_um']:.3g} µm"],
+        ["binomial 99 % region (independent)", "{:.3f} … {:.3f}".format(*s["binomial_region_99"])],
+    ]
+    if s["mean_coverage_without_e"] is not None:
+        rows.append(["mean coverage without cov(e)", f"{100 * s['mean_coverage_without_e']:.1f} %"])
+    rep.table(["quantity", "value"], rows)
+    write_report(rep, path)
+
+
+@app.command("pooling")
+@user_errors
+def pooling(
+    ctx: typer.Context,
+    sets: Annotated[list[Path], typer.Argument(help="Point sets on the sphere, one CSV per pose.")],
+    machine_name: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    params: Annotated[
+        Path, typer.Option("--params", help="The calibration that compensates, with U_θ.")
+    ],
+    diameter_mm: Annotated[
+        float, typer.Option("--diameter-mm", help="Calibrated diameter at 20 °C, mm.")
+    ],
+    diameter_u_um: Annotated[
+        float, typer.Option("--diameter-u-um", help="Its standard uncertainty, µm (U/k).")
+    ],
+    sphericity_um: Annotated[
+        float | None, typer.Option("--sphericity-um", help="Calibrated sphericity, µm.")
+    ] = None,
+    sphericity_u_um: Annotated[
+        float, typer.Option("--sphericity-u-um", help="Its standard uncertainty, µm.")
+    ] = 0.0,
+    cte: Annotated[float, typer.Option("--cte", help="Expansion coefficient α, 1/°C.")] = 0.0,
+    cte_u: Annotated[float, typer.Option("--cte-u", help="u(α), 1/°C.")] = 0.0,
+    delta_t: Annotated[float, typer.Option("--delta-t", help="Sphere temperature − 20 °C.")] = 0.0,
+    delta_t_u: Annotated[float, typer.Option("--delta-t-u", help="u(ΔT), °C.")] = 0.0,
+    repeatability: Annotated[
+        Path | None, typer.Option(help="repeatability-model JSON (needs i,j,k columns).")
+    ] = None,
+    unexplained: Annotated[
+        Path | None, typer.Option(help="unexplained-volumetric-error document (µm²).")
+    ] = None,
+    tip_diameter: Annotated[
+        float | None, typer.Option(help="Effective tip diameter, mm (default: the machine's).")
+    ] = None,
+    k: Annotated[
+        str | None, typer.Option("--k", help="Numbers of pooled sets, e.g. 1,2,3 (default all).")
+    ] = None,
+    draws: Annotated[int, typer.Option(help="Draws per k (the thesis: 200).")] = 200,
+    points_per_draw: Annotated[int, typer.Option(help="Points per draw (the thesis: 25).")] = 25,
+    seed: Annotated[int | None, typer.Option(help="Seed of the draws.")] = None,
+    p: Annotated[float, typer.Option("--p", help="Coverage probability.")] = 0.95,
+    json_output: Annotated[bool, typer.Option("--json", help="Print the result document.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write it here.")] = None,
+    report_path: ReportOption = None,
+) -> None:
+    """Coverage of sphere diameter (and sphericity) intervals on draws pooled from k sets."""
+    base = Machine.load(machine_name)
+    pset = ParameterSet.load(params, base)
+    machine = pset.machine_for(base)
+    if pset.covariance is None:
+        raise InputError(f"{params}: no covariance; the task uncertainty needs one")
+    try:
+        k_values = None if k is None else [int(v) for v in k.split(",")]
+    except ValueError:
+        raise InputError(f"--k: expected integers separated by commas, got {k!r}") from None
+    model = load_repeatability_model(repeatability) if repeatability is not None else None
+    read = [_side(path, machine, model) for path in sets]
+    v = None if model is None else [c for _, c in read]
+    diameter = thermal_reference_value(
+        diameter_mm,
+        float(to_internal(diameter_u_um, "µm")),
+        expansion_coefficient=cte,
+        expansion_coefficient_uncertainty=cte_u,
+        temperature_difference=delta_t,
+        temperature_difference_uncertainty=delta_t_u,
+        name="sphere_diameter",
+    )
+    d_tip = 2.0 * machine.tip_radius if tip_diameter is None else tip_diameter
+    features = [SphereDiameter(d_tip)]
+    references = [diameter]
+    if sphericity_um is not None:  # thermal effects on form neglected (§6.4)
+        features.append(Sphericity())
+        um = float(to_internal(1.0, "µm"))
+        references.append((sphericity_um * um, sphericity_u_um * um))
+    result = pooling_experiment(
+        machine,
+        [r for r, _ in read],
+        pset.vector_for(machine),
+        _ordered_covariance(pset, machine),
+        features,
+        references,
+        reading_covariance=v,
+        unexplained_covariance=(
+            load_unexplained_covariance(unexplained) if unexplained is not None else None
+        ),
+        k_values=k_values,
+        draws=draws,
+        points_per_draw=points_per_draw,
+        p=p,
+        seed=seed,
+    )
+    doc = result.to_dict()
+    doc["source"] = {"sets": [str(s) for s in sets], "params": str(params)}
+    if report_path is not None:
+        _pooling_report(report_path, doc, command_line(ctx), [*sets, params])
+    if output is not None:
+        write_json(output, doc)
+    if json_output:
+        print_json(doc)
+        return
+    for out in doc["outputs"]:
+        typer.echo(f"{out['name']} (reference {out['reference']['value']:.5f} mm):")
+        for row in out["per_k"]:
+            typer.echo(
+                f"  k = {row['k']:>2}: coverage {100 * row['coverage']:5.1f} %, mean U "
+                f"{row['mean_U'] / float(to_internal(1.0, 'µm')):.3g} µm"
+            )
+
+
+def _pooling_report(path: Path, doc: dict, command: str, inputs: list[Path]) -> None:
+    from mtmetrology.report import Report
+
+    um = float(to_internal(1.0, "µm"))
+    rep = Report("Task validation: pooling test", command=command, provenance={"inputs": inputs})
+    rep.section(
+        "Coverage per number of pooled sets",
+        f"{doc['draws']} draws of {doc['points_per_draw']} points from k pooled point sets, "
+        "each compensated with its full-covariance GUF interval; coverage = mean of eq. 6-16 "
+        "(Sepahi Boroujeni (2021), §6.5).",
+    )
+    for out in doc["outputs"]:
+        rep.table(
+            ["output", "k", "coverage", "mean value (mm)", "mean U (µm)"],
+            [
+                [
+                    out["name"],
+                    row["k"],
+                    f"{100 * row['coverage']:.1f} %",
+                    f"{row['mean_value']:.5f}",
+                    f"{row['mean_U'] / um:.3g}",
+                ]
+                for row in out["per_k"]
+            ],
+        )
+    write_report(rep, path)
