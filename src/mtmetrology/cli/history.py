@@ -32,10 +32,12 @@ from mtmetrology.history import (
     parameter_trend,
     show_run,
 )
+from mtmetrology.history.dcc import calibration_certificate, read_certificate
 from mtmetrology.history.records import machine_names
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import atomic_write, write_json
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.units import from_internal
 
 app = typer.Typer(
     help="Calibration history: record results, control charts, drift, long-term covariance."
@@ -423,3 +425,73 @@ def drift(
             f"due: {due} (P(|{result.parameter}| > {result.mpe:g} {result.unit}) passes "
             f"{1 - result.reliability:.3g})"
         )
+
+
+# Display unit of a certificate quantity by its SI unit (ISO 230-1 customary units).
+_DISPLAY = {"m": "µm", "rad": "µrad", "1": "µm/m"}
+
+
+def _print_certificate(cert) -> None:
+    typer.echo(
+        f"{cert.identifier}: {cert.item}, {cert.laboratory} ({cert.country}), "
+        f"{cert.begin.isoformat()} to {cert.end.isoformat()}; U = k u with "
+        f"k = {cert.coverage_factor:g}, p = {cert.coverage_probability:.4f}"
+    )
+    values, u, _ = cert.internal()
+    for name, si, value, s in zip(cert.names, cert.units, values, u, strict=True):
+        unit = _DISPLAY[si]
+        typer.echo(
+            f"  {name:<10} {from_internal(value, unit):>14.4f} "
+            f"U = {from_internal(cert.coverage_factor * s, unit):.2g} {unit}"
+        )
+
+
+@app.command("dcc")
+@user_errors
+def dcc(
+    run: Annotated[int, typer.Argument(help="Calibration run number (mtm history list).")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="CERT.xml to write.")],
+    laboratory: Annotated[str, typer.Option("--laboratory", help="Laboratory name.")],
+    email: Annotated[str, typer.Option("--email", help="Laboratory e-mail address.")],
+    country: Annotated[
+        str, typer.Option("--country", help="Laboratory country, ISO 3166-1 alpha-2 (DE).")
+    ],
+    coverage_factor: Annotated[
+        float, typer.Option("--coverage-factor", help="k of U = k u (>= 1).")
+    ] = 2.0,
+    db: Db = None,
+) -> None:
+    """Export a calibration run as a PTB Digital Calibration Certificate (DCC 3.1.2)."""
+    record = show_run(open_history(db), run)
+    cert = calibration_certificate(
+        record,
+        laboratory=laboratory,
+        email=email,
+        country=country,
+        coverage_factor=coverage_factor,
+    )
+    xml = cert.to_xml()
+    with atomic_write(output, "wb", encoding=None) as fh:
+        fh.write(xml)
+    _print_certificate(cert)
+    typer.echo(f"wrote {output}", err=True)
+
+
+@app.command("dcc-import")
+@user_errors
+def dcc_import(
+    certificate: Annotated[Path, typer.Argument(help="A DCC (XML), e.g. an artefact's.")],
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Write the values as JSON.")
+    ] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """Read a DCC (a scale bar's or ball plate's certificate): values, u and covariance."""
+    cert = read_certificate(certificate)
+    document = cert.to_dict()
+    if output is not None:
+        write_json(output, document)
+    if json:
+        print_json(document)
+        return
+    _print_certificate(cert)
