@@ -32,7 +32,7 @@ from mtmetrology.history import (
     parameter_trend,
     show_run,
 )
-from mtmetrology.history.dcc import calibration_certificate, read_certificate
+from mtmetrology.history.dcc import calibration_certificate, certified_length, read_certificate
 from mtmetrology.history.records import machine_names
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import atomic_write, write_json
@@ -484,11 +484,32 @@ def dcc_import(
     output: Annotated[
         Path | None, typer.Option("-o", "--output", help="Write the values as JSON.")
     ] = None,
+    scale_bar: Annotated[
+        Path | None,
+        typer.Option(
+            "--scale-bar",
+            help="SAMBA artefact (YAML) whose scale_bar length_mm and u_mm the certificate "
+            "sets; -o then writes the updated artefact.",
+        ),
+    ] = None,
+    quantity: Annotated[
+        str | None, typer.Option("--quantity", help="The certified length (default: the only).")
+    ] = None,
     json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Read a DCC (a scale bar's or ball plate's certificate): values, u and covariance."""
     cert = read_certificate(certificate)
     document = cert.to_dict()
+    if scale_bar is not None:
+        document = load_document(scale_bar, "SAMBA artefact")
+        if not isinstance(document.get("scale_bar"), dict):
+            raise InputError(f"{scale_bar}: scale_bar: missing (ends, length_mm, u_mm)")
+        length, u = certified_length(cert, quantity)
+        document["scale_bar"] = {**document["scale_bar"], "length_mm": length, "u_mm": u}
+        typer.echo(
+            f"scale bar {cert.identifier}: {length:.6f} mm, u = {from_internal(u, 'µm'):.2g} µm",
+            err=True,
+        )
     if output is not None:
         write_json(output, document)
     if json:

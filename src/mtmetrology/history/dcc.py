@@ -37,6 +37,7 @@ __all__ = [
     "SI_NS",
     "CalibrationCertificate",
     "calibration_certificate",
+    "certified_length",
     "read_certificate",
     "validate_certificate",
 ]
@@ -516,3 +517,41 @@ def read_certificate(path: str | Path) -> CalibrationCertificate:
         coverage_factor=float(k[0]),
         coverage_probability=float(p[0]),
     )
+
+
+def certified_length(
+    cert: CalibrationCertificate, quantity: str | None = None
+) -> tuple[float, float]:
+    """A certified length and its standard uncertainty, in mm (e.g. a scale bar's).
+
+    Parameters
+    ----------
+    cert : CalibrationCertificate
+    quantity : str, optional
+        Its name in the certificate; by default the certificate's only length.
+
+    Returns
+    -------
+    (length, u) : (float, float)
+        In mm, ``u = U / k`` of the certificate.
+
+    Raises
+    ------
+    InputError
+        No such quantity, not a length, or several lengths and no ``quantity``.
+    """
+    values, u, _ = cert.internal()
+    lengths = [i for i, unit in enumerate(cert.units) if parse_unit(unit).dimension == "length"]
+    if quantity is None:
+        if len(lengths) != 1:
+            raise InputError(
+                f"{cert.identifier}: {len(lengths)} lengths certified; name one with --quantity"
+            )
+        i = lengths[0]
+    else:
+        if quantity not in cert.names:
+            raise InputError(f"--quantity {quantity!r}: not a quantity of {cert.identifier}")
+        i = cert.names.index(quantity)
+        if i not in lengths:
+            raise InputError(f"--quantity {quantity!r}: not a length ({cert.units[i]})")
+    return float(values[i]), float(u[i])
