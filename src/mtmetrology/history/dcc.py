@@ -420,7 +420,8 @@ def read_certificate(path: str | Path) -> CalibrationCertificate:
     """Read a DCC: the first ``si:realListXMLList`` of its measurement results.
 
     The file is validated against the shipped XSDs. Standard uncertainties are
-    ``u_i = U_i / k_i`` (``expandedUncXMLList``); the covariance is the
+    ``u_i = U_i / k_i`` (``expandedUncXMLList``; ``coverage_factor`` and
+    ``coverage_probability`` of the result are the first quantity's); the covariance is the
     ``ellipsoidalRegionXMLList`` matrix when present, else ``diag(u²)``. Values are
     converted to coherent SI units (m, rad, 1) by :mod:`mtmetrology.units`.
 
@@ -448,7 +449,7 @@ def read_certificate(path: str | Path) -> CalibrationCertificate:
     elif len(d_units) != n:
         raise InputError(f"{source}: si:unitXMLList: {len(d_units)} entries for {n} values")
     labels = listed.find("si:labelXMLList", _NS)
-    names = labels.text.split() if labels is not None else [f"q{i + 1}" for i in range(n)]
+    names = (labels.text or "").split() if labels is not None else [f"q{i + 1}" for i in range(n)]
     if len(names) != n:
         raise InputError(f"{source}: si:labelXMLList: {len(names)} labels for {n} values")
     units = [_mtm_unit(unit, source) for unit in d_units]
