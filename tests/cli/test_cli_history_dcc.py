@@ -11,6 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from mtmetrology.cli import app
+from mtmetrology.cmm.files import load_plate
 from mtmetrology.history.dcc import CalibrationCertificate, coverage_probability
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -124,3 +125,50 @@ def test_a_scale_bar_certificate_sets_the_samba_artefact_length_and_u(tmp_path):
     assert updated.scale_bar.ends == ("SB1", "SB2")
     r = _mtm("history", "dcc-import", cert, "--scale-bar", artefact, "--quantity", "T")
     assert r.exit_code == 2 and "--quantity 'T': not a length" in r.stderr
+
+
+def test_a_ball_plate_certificate_sets_the_centres_and_their_covariance(tmp_path):
+    rng = np.random.default_rng(11)
+    ids = ["00", "01", "02"]
+    names = [f"{b}_{a}" for b in ids for a in "xyz"]
+    order = rng.permutation(9)  # the certificate lists the coordinates in another order
+    centres_mm = rng.uniform(0.0, 500.0, 9)
+    a = rng.normal(size=(9, 9))
+    cov_mm2 = (a @ a.T / 9 + np.eye(9)) * 1e-7
+    to_m = 1e-3
+    cert = CalibrationCertificate(
+        identifier="BP-7",
+        item="ball plate",
+        laboratory="Reference Lab",
+        email="ref@example.org",
+        country="FR",
+        begin=date(2026, 2, 1),
+        end=date(2026, 2, 1),
+        software_version="1",
+        result="centres",
+        names=tuple(names[i] for i in order),
+        units=("m",) * 9,
+        values=tuple(centres_mm[order] * to_m),
+        u=tuple(np.sqrt(np.diag(cov_mm2))[order] * to_m),
+        covariance=tuple(map(tuple, cov_mm2[np.ix_(order, order)] * to_m**2)),
+        coverage_factor=2.0,
+        coverage_probability=coverage_probability(2.0),
+    )
+    xml = tmp_path / "BP.xml"
+    xml.write_bytes(cert.to_xml())
+    plate = tmp_path / "plate.yaml"
+    plate.write_text(
+        "kind: ball-plate\nballs:\n"
+        + "".join(f"  - {{id: '{b}', x_mm: 0.0, y_mm: 0.0, z_mm: 0.0}}\n" for b in ids)
+        + "u_mm: 0.0005\n"
+    )
+    out = tmp_path / "plate_cal.json"
+    r = _mtm("history", "dcc-import", xml, "--ball-plate", plate, "-o", out)
+    assert r.exit_code == 0, r.output
+    loaded = load_plate(out)
+    got = [c for ball in loaded.balls for c in (ball.x_mm, ball.y_mm, ball.z_mm)]
+    np.testing.assert_allclose(got, centres_mm, rtol=1e-13)
+    np.testing.assert_allclose(loaded.covariance_mm2, cov_mm2, rtol=1e-12)
+    plate.write_text(plate.read_text().replace("'02'", "'09'"))
+    r = _mtm("history", "dcc-import", xml, "--ball-plate", plate, "-o", out)
+    assert r.exit_code == 2 and "ball '09': no quantity '09_x'" in r.stderr

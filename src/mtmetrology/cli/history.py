@@ -32,7 +32,12 @@ from mtmetrology.history import (
     parameter_trend,
     show_run,
 )
-from mtmetrology.history.dcc import calibration_certificate, certified_length, read_certificate
+from mtmetrology.history.dcc import (
+    calibration_certificate,
+    certified_ball_centres,
+    certified_length,
+    read_certificate,
+)
 from mtmetrology.history.records import machine_names
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import atomic_write, write_json
@@ -495,6 +500,14 @@ def dcc_import(
     quantity: Annotated[
         str | None, typer.Option("--quantity", help="The certified length (default: the only).")
     ] = None,
+    ball_plate: Annotated[
+        Path | None,
+        typer.Option(
+            "--ball-plate",
+            help="Ball-plate file (kind: ball-plate) whose centres and covariance_mm2 the "
+            "certificate sets (quantities ID_x, ID_y, ID_z); -o then writes the updated plate.",
+        ),
+    ] = None,
     json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Read a DCC (a scale bar's or ball plate's certificate): values, u and covariance."""
@@ -510,6 +523,19 @@ def dcc_import(
             f"scale bar {cert.identifier}: {length:.6f} mm, u = {from_internal(u, 'µm'):.2g} µm",
             err=True,
         )
+    if ball_plate is not None:
+        if scale_bar is not None:
+            raise InputError("--scale-bar and --ball-plate: give one artefact")
+        document = load_document(ball_plate, "ball plate")
+        balls = document.get("balls")
+        if not isinstance(balls, list) or not all(isinstance(b, dict) for b in balls):
+            raise InputError(f"{ball_plate}: balls: missing (a list of id, x_mm, y_mm, z_mm)")
+        centres, covariance = certified_ball_centres(cert, [str(b.get("id")) for b in balls])
+        for ball, centre in zip(balls, centres.tolist(), strict=True):
+            ball.update(x_mm=centre[0], y_mm=centre[1], z_mm=centre[2])
+        document.pop("u_mm", None)
+        document["covariance_mm2"] = covariance.tolist()
+        typer.echo(f"ball plate {cert.identifier}: {len(balls)} centres", err=True)
     if output is not None:
         write_json(output, document)
     if json:

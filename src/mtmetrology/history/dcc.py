@@ -37,6 +37,7 @@ __all__ = [
     "SI_NS",
     "CalibrationCertificate",
     "calibration_certificate",
+    "certified_ball_centres",
     "certified_length",
     "read_certificate",
     "validate_certificate",
@@ -556,3 +557,44 @@ def certified_length(
         if i not in lengths:
             raise InputError(f"--quantity {quantity!r}: not a length ({cert.units[i]})")
     return float(values[i]), float(u[i])
+
+
+def certified_ball_centres(
+    cert: CalibrationCertificate, ball_ids: list[str]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Ball centres of a ball plate's certificate and their covariance, in mm and mm².
+
+    The certificate names each coordinate ``ID_x``, ``ID_y``, ``ID_z`` (its labels); the
+    result is ordered as ``ball_ids``, coordinates ``x0 y0 z0 x1 ...`` (the order of the
+    ``covariance_mm2`` of a ``ball-plate`` file).
+
+    Parameters
+    ----------
+    cert : CalibrationCertificate
+    ball_ids : list of str
+        The balls wanted, in order.
+
+    Returns
+    -------
+    centres : ndarray, shape (n, 3)
+        mm.
+    covariance : ndarray, shape (3n, 3n)
+        mm², the certificate's covariance (or diag(u²)) of these coordinates.
+
+    Raises
+    ------
+    InputError
+        A coordinate of a ball missing from the certificate, or not a length.
+    """
+    values, _, covariance = cert.internal()
+    index = []
+    for ball in ball_ids:
+        for axis in "xyz":
+            name = f"{ball}_{axis}"
+            if name not in cert.names:
+                raise InputError(f"{cert.identifier}: ball {ball!r}: no quantity {name!r}")
+            i = cert.names.index(name)
+            if parse_unit(cert.units[i]).dimension != "length":
+                raise InputError(f"{cert.identifier}: {name}: not a length ({cert.units[i]})")
+            index.append(i)
+    return values[index].reshape(-1, 3), covariance[np.ix_(index, index)]
