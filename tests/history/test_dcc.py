@@ -190,3 +190,17 @@ def test_bad_inputs_to_the_export_are_refused(record):
         calibration_certificate(
             record, laboratory="L", email="e", country="DE", coverage_factor=0.5
         )
+
+
+def test_a_run_without_uncertainty_is_refused(tmp_path):
+    engine = open_history(tmp_path / "h.sqlite")
+    document = ParameterSet(
+        MACHINE.parameter_names,
+        np.zeros(len(MACHINE.parameter_names)),
+        MACHINE.parameter_units,
+        machine=MACHINE.name,
+        model="13",
+    ).to_document()
+    stored = add_result(engine, document, MACHINE)
+    with pytest.raises(InputError, match=r"run 1: parameter E_A0B: no uncertainty to certify"):
+        calibration_certificate(stored, laboratory="L", email="e", country="DE")

@@ -368,12 +368,15 @@ def calibration_certificate(
                 f"{source}: parameter {p['name']}: unit {p['unit']!r} has no D-SI "
                 "form here (length, angle or ratio)"
             )
-        if p["u"] is None:
-            raise InputError(f"{source}: parameter {p['name']}: no uncertainty to certify")
+        if re.search(r"\s", p["name"]):
+            raise InputError(f"{source}: parameter {p['name']!r}: a D-SI label has no spaces")
         si_units.append(_SI_UNITS[dimension][0])
     internal = np.array([to_internal(p["value"], p["unit"]) for p in record.parameters])
     covariance = document_covariance(record.result, names)
     if covariance is None:
+        missing = [p["name"] for p in record.parameters if p["u"] is None]
+        if missing:
+            raise InputError(f"{source}: parameter {missing[0]}: no uncertainty to certify")
         covariance = np.diag([to_internal(p["u"], p["unit"]) ** 2 for p in record.parameters])
     f = np.array([from_internal(1.0, unit) for unit in si_units])
     cov_si = covariance * np.outer(f, f)
