@@ -16,29 +16,20 @@ JCGM 100:2008 (GUM), annex H.1; JCGM 101:2008, §7.9 and §8.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from mtmetrology.cli.uncertainty import Method, evaluate_model
 from mtmetrology.report.demo import DemoContext
 from mtmetrology.report.results import add_result
 from mtmetrology.uncertainty.modelfile import load_model
 
-GUM_H1_YAML = """kind: measurement-model
-version: 1
-name: GUM H.1 end-gauge calibration
-inputs:
-  - {name: l_s, value: 50000623.6, u: 25, unit: nm, dof: 18}
-  - {name: d, value: 215, u: 9.7, unit: nm, dof: 25.6}
-  - {name: alpha_s, value: 11.5e-6, u: 1.2e-6, unit: /°C}
-  - {name: theta, value: -0.1, u: 0.41, unit: °C}
-  - {name: dalpha, value: 0.0, u: 0.58e-6, unit: /°C, dof: 50}
-  - {name: dtheta, value: 0.0, u: 0.029, unit: °C, dof: 2}
-outputs:
-  - {name: l, unit: nm, expression: "l_s + d - l_s * (alpha_s * dtheta + dalpha * theta)"}
-"""
+#: The model file of GUM H.1 shipped beside this script (also read by gum_h1_end_gauge.py).
+MODEL = Path(__file__).with_name("gum-h1-end-gauge.yaml")
 
 
 def main(ctx: DemoContext) -> None:
     ctx.rule("GUM H.1: GUF and Monte Carlo")
-    ctx.write_text(GUM_H1_YAML, "uncertainty", "gum-h1.yaml")
+    ctx.write_text(MODEL.read_text(encoding="utf-8"), "uncertainty", "gum-h1.yaml")
     loaded = load_model(ctx.path("uncertainty", "gum-h1.yaml"))
     with ctx.step("GUM H.1 by GUF and adaptive Monte Carlo (2 significant digits)"):
         document, g, r, validation = evaluate_model(

@@ -290,3 +290,16 @@ def test_interrupted_demo_leaves_nothing(tmp_path, monkeypatch):
     result = runner.invoke(app, ["demo", "--out", str(out)])
     assert result.exit_code == 130 and result.stderr.strip() == "interrupted: nothing written"
     assert list(out.parent.iterdir()) == []
+
+
+def test_demo_without_the_example_scripts_is_an_input_error(tmp_path, monkeypatch):
+    """Installed without the repository's examples/ folder: one line, exit 2, no folder."""
+    monkeypatch.setattr(demo_runner, "__file__", str(tmp_path / "a" / "b" / "c" / "demo.py"))
+    out = tmp_path / "mtm-demo"
+    result = runner.invoke(app, ["demo", "--out", str(out)])
+    assert result.exit_code == 2 and not out.exists()
+    folder = tmp_path / "examples"
+    assert result.stderr == (
+        f"error: the example scripts are not beside this installation (looked in {folder}); "
+        "run from a clone of the repository\n"
+    )

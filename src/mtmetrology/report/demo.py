@@ -15,6 +15,7 @@ replaced only if it is a previous demo folder (it holds the ``.mtm-demo`` marker
 
 from __future__ import annotations
 
+import argparse
 import importlib.util
 import os
 import shlex
@@ -30,7 +31,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-from mtmetrology.errors import InputError
+from mtmetrology.errors import InputError, MtmetrologyError
 from mtmetrology.io.files import write_json
 
 __all__ = [
@@ -238,13 +239,18 @@ def run_example(main: Callable[[DemoContext], None], name: str) -> list[str]:
     """Run one example script on its own: ``python examples/NAME.py [OUT] [--seed N]``.
 
     Its files and report go to ``OUT`` (default ``mtm-example-NAME``); the summary lines
-    are printed as the demo prints them.
+    are printed as the demo prints them. A refused request (``OUT`` exists and is not a
+    demo folder) prints one ``error:`` line and exits with its code (2).
     """
-    argv = sys.argv[1:]
-    seed = DEFAULT_SEED
-    if "--seed" in argv:
-        k = argv.index("--seed")
-        seed = int(argv[k + 1])
-        del argv[k : k + 2]
-    out = Path(argv[0]) if argv else Path(f"mtm-example-{name}")
-    return _run([main], out, seed, f"mtmetrology example: {name}", shlex.join(sys.argv))
+    parser = argparse.ArgumentParser(prog=f"python examples/{name}.py")
+    parser.add_argument("out", nargs="?", type=Path, default=Path(f"mtm-example-{name}"))
+    parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help="root seed")
+    args = parser.parse_args()
+    try:
+        return _run([main], args.out, args.seed, f"example {name}", shlex.join(sys.argv))
+    except MtmetrologyError as error:  # one line and its exit code, as ``mtm`` prints it
+        print(f"error: {error}", file=sys.stderr)
+        raise SystemExit(error.exit_code) from None
+    except KeyboardInterrupt:
+        print("interrupted: nothing written", file=sys.stderr)
+        raise SystemExit(130) from None
