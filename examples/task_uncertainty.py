@@ -27,9 +27,9 @@ import numpy as np
 from scipy.stats import binom
 
 from _five_axis import GAUGE_TOLERANCE, NOISE_UM, PRESET
-from mtmetrology.cli._common import readings_from_table
-from mtmetrology.cli.task import FeatureName, Form, task_feature
-from mtmetrology.fitting.features import GaugeLength
+from mtmetrology.cli._common import readings_from_table  # the reader of `mtm task`
+from mtmetrology.fitting.composite import CombinedFeature
+from mtmetrology.fitting.features import GaugeLength, SphereDiameter, Sphericity
 from mtmetrology.formatting import format_uncertainty, format_value
 from mtmetrology.io import read_csv_table
 from mtmetrology.io.tables import write_csv_table
@@ -151,7 +151,7 @@ def sphere_task_section(ctx: DemoContext, *, preset: str) -> None:
     unexplained = load_unexplained_covariance(ctx.path("task", "unexplained.json"))
     tolerance = Tolerance.parse(SPHERE_TOLERANCE)
     # What `mtm task uncertainty --feature sphere` evaluates: the diameter and the sphericity.
-    sphere = task_feature(FeatureName.sphere, Form.least_squares, None, 2.0 * m.tip_radius, 25)
+    sphere = CombinedFeature((SphereDiameter(2.0 * m.tip_radius, inner=False), Sphericity()))
     rows, intervals, big_u_um = [], [], []
     with ctx.step(
         f"a {SPHERE_DIAMETER_MM:g} mm sphere at {len(SPHERE_BC)} (B, C): task uncertainty"
