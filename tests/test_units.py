@@ -214,3 +214,15 @@ def test_display_unit_of_internal_units_and_of_others():
         assert parse_unit(inner).factor == 1.0  # an internal unit
         assert parse_unit(inner).dimension == parse_unit(customary).dimension
         assert display_unit(inner) == customary
+
+
+def test_display_unit_of_tells_a_position_from_an_error():
+    """Budget rows hold machine errors (µm, µrad) and axis readings (mm, degrees)."""
+    from mtmetrology.units import POSITION_MM, READING_RAD, display_unit_of
+
+    assert display_unit_of("mm", POSITION_MM) == "mm"
+    assert display_unit_of("mm", -0.999 * POSITION_MM) == "µm"
+    assert display_unit_of("rad", -READING_RAD) == "°"
+    assert display_unit_of("rad", 0.999 * READING_RAD) == "µrad"
+    assert display_unit_of("mm/mm", 1e3) == "µm/m"  # a ratio is never a position
+    assert display_unit_of("nm", 5e6) == "nm"  # a file's own unit is kept

@@ -15,7 +15,7 @@ import math
 import numbers
 from collections.abc import Sequence
 
-from mtmetrology.units import convert, display_unit
+from mtmetrology.units import convert, display_unit, display_unit_of
 
 __all__ = [
     "SHARE_DEFINITION",
@@ -149,7 +149,8 @@ def budget_cells(rows: Sequence, output_unit: str) -> tuple[list[list[str]], lis
     -------
     lines : list of list of str
         One line per input with u(x_i) > 0 (estimate and u in the input's display unit,
-        :func:`mtmetrology.units.display_unit`; c_i in display output unit per display
+        :func:`mtmetrology.units.display_unit_of`: errors in µm and µrad, positions and
+        axis readings in mm and degrees; c_i in display output unit per display
         input unit; u_i(y) in the output's display unit; the share as
         :data:`SHARE_DEFINITION`), then one line naming the inputs with u = 0.
     shown : list of int
@@ -161,7 +162,7 @@ def budget_cells(rows: Sequence, output_unit: str) -> tuple[list[list[str]], lis
         if b.u == 0:
             zero.append(b.input)
             continue
-        du = display_unit(b.unit) if b.unit else b.unit
+        du = display_unit_of(b.unit, b.estimate) if b.unit else b.unit
         u = float(convert(b.u, b.unit, du)) if du != b.unit else b.u
         est = float(convert(b.estimate, b.unit, du)) if du != b.unit else b.estimate
         contribution = b.contribution

@@ -35,6 +35,7 @@ __all__ = [
     "UnitError",
     "convert",
     "display_unit",
+    "display_unit_of",
     "from_internal",
     "internal_unit",
     "parse_unit",
@@ -221,6 +222,38 @@ def _rewrite(symbol: str, num_map: dict, den_map: dict) -> str:
         return symbol.strip()
     top = num_map[num_dim] if num else ""
     return f"{top}/{den_map[den_dim]}" + (f"^{power}" if power > 1 else "")
+
+
+#: A length this large (mm) is a position, shown in mm; an angle this large (rad) an axis
+#: reading, shown in degrees.  Smaller ones are errors, shown in µm and µrad.
+POSITION_MM = 1.0
+READING_RAD = 1e-2
+
+
+def display_unit_of(symbol: str, value: float) -> str:
+    """The display unit of a value stored in ``symbol``: positions and axis readings in
+    mm and degrees, errors in the customary units of :func:`display_unit`.
+
+    An input of a budget may be a machine error (E_A0B = −9.6 µrad) or an axis reading
+    (X = 91.662 67 mm, B = −42°); a plain length or angle of at least :data:`POSITION_MM`
+    mm or :data:`READING_RAD` rad is the second kind (a geometric error that large is no
+    longer small, and ISO 230-1 error motions are of the order of micrometres).
+
+    Examples
+    --------
+    >>> display_unit_of("mm", 91.66267), display_unit_of("mm", 0.004)
+    ('mm', 'µm')
+    >>> display_unit_of("rad", -0.733), display_unit_of("rad", 9.6e-6)
+    ('°', 'µrad')
+    >>> display_unit_of("mm/mm", 5.0)
+    'µm/m'
+    """
+    plain = symbol.strip()
+    if plain == "mm" and abs(value) >= POSITION_MM:
+        return "mm"
+    if plain == "rad" and abs(value) >= READING_RAD:
+        return "°"
+    return display_unit(symbol)
 
 
 def internal_unit(symbol: str) -> str:

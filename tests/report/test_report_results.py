@@ -168,14 +168,17 @@ def _task_like_guf():
 
 
 def test_budget_shows_display_units_one_share_definition_and_folds_zero_rows():
-    """E_A0B in µrad and E_XX1 in µm/m (not 'unit 1'); table shares = figure shares, Σ = 100 %."""
+    """E_A0B in µrad and E_XX1 in µm/m (not 'unit 1'), the readings in mm; table shares =
+    figure shares, Σ = 100 %."""
     g = _task_like_guf()
     rep = result_report(g)
     table, figure = _budget_blocks(rep, "y")
     rows = {r[0]: r for r in table.rows}
     assert rows["E_A0B"][1:4] == ("-9.6", "1.8", "µrad")
     assert rows["E_XX1"][1:4] == ("79.00", "0.60", "µm/m")
-    assert rows["X_1"][2:4] == ("0.40", "µm")
+    # an axis reading is a position, in mm (to the decimal of its u), not 91 662.67 µm
+    assert rows["X_1"][2:4] == ("0.00040", "mm")
+    assert len(rows["X_1"][1].split(".")[1]) == 5
     assert "B_1" not in rows and rows["1 input with u = 0: B_1"][2] == "0"
     shares = [float(r[7].removesuffix(" %")) for r in table.rows]
     assert sum(shares) == pytest.approx(100.0, abs=0.05 * len(shares))
