@@ -161,6 +161,39 @@ class SambaCalibration(SambaNotebookRepr):
             for c, v, s in zip("xyz", prob.tool_prior_value, prob.tool_prior, strict=True)
         ]
 
+    def propagation_factors(self) -> list[dict]:
+        """Uncertainty propagation factor of each error parameter: ``[{name, unit, u, upf,
+        upf_unit}]``.
+
+        ``u_i = sqrt(diag((JᵀWJ)⁻¹))_i`` of the weighted identification (probing σ and the
+        scale bar's u; ball centres and tool marginalised) in the parameter's customary
+        unit, and ``UPF_i = u_i / σ`` with σ the probing noise in µm (Alami Mchichi (2018),
+        eq. 6.14; Olarra et al. 2018): the unit of the parameter per µm of probing noise,
+        the same figure the design of the same set-up predicts (exact when the bar's u is
+        proportional to σ). None for a minimum-norm solution, where u is not defined.
+
+        References
+        ----------
+        Alami Mchichi, N. (2018), eq. 6.14 and Table 6.2.
+        """
+        sigma_um = float(from_internal(self.problem.sigma, "µm"))
+        u_int = self.identification.standard_uncertainty[self.parameter_indices()]
+        out = []
+        for name, unit, u in zip(
+            self.machine.parameter_names, self.machine.parameter_units, u_int, strict=True
+        ):
+            uc = None if self.minimum_norm else float(from_internal(u, unit))
+            out.append(
+                {
+                    "name": name,
+                    "unit": unit,
+                    "u": uc,
+                    "upf": None if uc is None else uc / sigma_um,
+                    "upf_unit": f"{unit}/µm",
+                }
+            )
+        return out
+
     def parameter_indices(self) -> np.ndarray:
         """Positions of the machine's error parameters among the unknowns."""
         names = self.identification.names
@@ -229,6 +262,7 @@ class SambaCalibration(SambaNotebookRepr):
             "sigma_um": float(from_internal(self.problem.sigma, "µm")),
             "input_covariance": input_covariance,
         }
+        doc["propagation_factors"] = self.propagation_factors()
         doc["balls"] = [
             {"id": b, "centre_mm": [float(v) for v in c]} for b, c in self.ball_centres().items()
         ]

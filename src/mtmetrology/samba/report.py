@@ -118,6 +118,24 @@ def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
             "vector marginalised).",
         )
     rep.section(
+        "Uncertainty propagation factors",
+        f"UPF = u / σ (Alami Mchichi (2018) eq. 6.14): u = sqrt(diag((JᵀWJ)⁻¹)) of the "
+        f"identification for σ = {rec['sigma_um']:.3g} µm per coordinate and the scale bar's "
+        "u, per µm of probing noise; the figure `mtm design samba` predicts for the same "
+        "set-up.",
+    )
+    if doc["propagation_factors"] and doc["propagation_factors"][0]["upf"] is not None:
+        rep.table(
+            ["parameter", "u", "unit", "UPF", "UPF unit"],
+            [
+                [f["name"], format_uncertainty(f["u"]), f["unit"], upf, f["upf_unit"]]
+                for f in doc["propagation_factors"]
+                for upf in [format_uncertainty(f["upf"])]
+            ],
+            caption="Two significant digits (JCGM 100:2008, 7.2.6); RESULT.json keeps full "
+            "precision.",
+        )
+    rep.section(
         "Sign conventions and reference points",
         "What a positive value of each parameter does and the point it is referred to.",
     )
