@@ -33,7 +33,7 @@ def test_detmax_improvement_of_4b2n_follows_table_5_3(m84):
     """Table 5.3, 84 parameters, 4B.2n: DETMAX takes the random start subset from 1058 to
     469, 55.7 %; the optimised subset beats all candidates (469 < Cond_N = 482). Small
     sweep (every third of the 450 pairs, one start; the 450-pair run is in
-    bench/bench_design_compare.py): improvement within 10 points of 55.7 % (measured
+    bench/study_design_compare.py): improvement within 10 points of 55.7 % (measured
     53.5 %), and the end below Cond_N."""
     res = compare_strategies(
         m84, PAIRS[::3], (LAB_IDS, LAB_CENTRES), n_balls=(4,), ks=(2,), starts=1, seed=1
