@@ -5,6 +5,11 @@ criterion O2, three DETMAX starts: Cond_N, Cond_n start → end, the improvement
 duration of each strategy beside the source's row. Also times each strategy (min and
 median over the sweep).
 
+Measured (2 cores shared, seed 1, k = 2 and 5): end 560 / 424 (3 balls) and 518 / 379
+(4 balls) against the table's 505 / 386 and 469 / 369; improvement 57.3 / 61.3 / 65.5 /
+55.0 % against 45.9 / 40.0 / 55.7 / 46.2 %; Cond_N 991 (3 balls) and 809 (4 balls) against
+588 and 482; 18–52 s per strategy.
+
 Not run by ``make bench`` (a study, not a speed benchmark): ``python
 bench/study_design_compare.py [k ...]`` (about 20 s per strategy on one core).
 """
