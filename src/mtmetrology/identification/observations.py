@@ -330,13 +330,18 @@ class BallCentreProblem:
     def _residuals_block(self, x: np.ndarray, z: np.ndarray) -> np.ndarray:
         k, n = x.shape[0], self.readings.shape[0]
         p, nb = self.n_params, self.n_balls
-        q = np.broadcast_to(self.readings, (k, n, self.machine.n_axes)).copy()
-        q[:, :, self._linear] = z[:, : n * self._linear.size].reshape(k, n, -1)
+        lin = z[:, : n * self._linear.size].reshape(k, n, -1)
         nt = len(self.tools)
         dtool = x[:, p + 3 * nb :] if self.estimate_tool else np.zeros((k, 3 * nt))
         tool = self.tools[None] + dtool.reshape(k, nt, 3)  # (k, n_tools, 3)
-        pos = self.machine.forward(
-            q, x[:, None, :p], senses=self.senses, tool=tool[:, self.tool_index]
+        # the rotary readings are not inputs: their rotations are computed once per pose
+        pos = self.machine.chain.positions_shared_poses(
+            self.readings,
+            self._linear,
+            lin,
+            x[:, :p],
+            senses=self.senses,
+            tool=tool[:, self.tool_index] if nt > 1 else tool,
         )  # (k, n, 3)
         centres = x[:, p : p + 3 * nb].reshape(k, nb, 3)
         r = np.empty((k, self.n_rows))
