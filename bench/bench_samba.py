@@ -126,6 +126,11 @@ def run(name, cal, inputs, trials, bench_guf=True):
         "in-process and 2-process results are bit-identical for a seed; GUF/MCM validation "
         "is in tests/samba/test_uncertainty.py"
     )
+    bench.notes.append(
+        "the trials share the rotary readings: rotations and rotary basis values are "
+        "computed once per pose (Chain.positions_shared_poses); A/B on a loaded machine, "
+        "10^5 trials in-process: 7.57 s min / 8.46 s median before, 3.41 / 3.74 s after"
+    )
     return bench
 
 

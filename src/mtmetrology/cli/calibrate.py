@@ -353,6 +353,18 @@ def _parameter_line(p: dict, k: float) -> str:
     )
 
 
+def _propagation_factors(factors: list[dict]) -> None:
+    """UPF = u/σ of each parameter (Alami Mchichi (2018) eq. 6.14), four to a line."""
+    from mtmetrology.formatting import format_uncertainty
+
+    cells = [f"{f['name']} {format_uncertainty(f['upf'])} {f['upf_unit']}" for f in factors]
+    if not cells or factors[0]["upf"] is None:
+        return
+    typer.echo("UPF = u of the identification per µm of probing noise:")
+    for i in range(0, len(cells), 4):
+        typer.echo("  " + ";  ".join(cells[i : i + 4]))
+
+
 def _summary(doc: dict, output: Path | None) -> None:
     ident = doc["identification"]
     typer.echo(f"SAMBA calibration: {ident['message']}")
@@ -365,6 +377,7 @@ def _summary(doc: dict, output: Path | None) -> None:
     )
     for p in doc["parameters"]:
         typer.echo("  " + _parameter_line(p, cov["k"]))
+    _propagation_factors(doc["propagation_factors"])
     v = doc["volumetric_error"]
     typer.echo(
         "volumetric error norm: unexplained mean {:.3f} max {:.3f} µm; nominal model mean "

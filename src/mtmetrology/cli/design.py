@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json as json_module
 import math
 from pathlib import Path
 from typing import Annotated
@@ -280,6 +281,96 @@ def _print(doc: dict, output: Path) -> None:
         pt.add_row(p["name"], f"{p['u']:.3g}", p["unit"])
     console.print(pt)
     console.print(f"programme written to {output}")
+
+
+def _list(text: str, option: str, cast):
+    try:
+        values = [cast(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise InputError(f"{option} {text!r}: a comma-separated list of numbers") from None
+    if not values:
+        raise InputError(f"{option}: give at least one value")
+    return values
+
+
+@app.command("compare")
+@user_errors
+def compare(
+    ctx: typer.Context,
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML file.")],
+    balls: Annotated[
+        Path, typer.Option("--balls", help="Placed balls YAML; n balls = the first n.")
+    ],
+    model: Annotated[str | None, typer.Option("--model", help="Error model (e.g. 13, 84).")] = None,
+    n_balls: Annotated[str, typer.Option("--n-balls", help="Ball counts, e.g. 1,2,3,4.")] = "1,4",
+    k: Annotated[str, typer.Option("--k", help="Multiples of unknowns/3, e.g. 2,3,5.")] = "2,3",
+    criterion: Annotated[
+        str, typer.Option("--criterion", help=f"Criteria among {', '.join(CRITERIA)}.")
+    ] = "O2",
+    indexations: Annotated[
+        Path | None, typer.Option("--indexations", help="Candidate indexations CSV: B,C (deg).")
+    ] = None,
+    sigma_um: Annotated[
+        float, typer.Option("--sigma-um", help="Probing noise: u of one coordinate, µm.")
+    ] = 1.0,
+    gauge_mm: Annotated[
+        float, typer.Option("--gauge-mm", help="Gauge-block length of the simulated check.")
+    ] = 300.0,
+    starts: Annotated[int, typer.Option("--starts", help="Random DETMAX starts.")] = 3,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of starts, truth and tests.")] = 0,
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Write the comparison JSON.")
+    ] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print the comparison as JSON.")] = False,
+    report_path: ReportOption = None,
+) -> None:
+    """Compare SAMBA strategies: balls x k x criterion, each planned by DETMAX and checked.
+
+    Each strategy: indexations, measurements, duration, condition number (all candidates,
+    DETMAX start and end), predicted u and UPF per parameter, and a simulated gauge-block
+    check (nominal and compensated model). Alami Mchichi (2018) Tables 5.2, 5.3, 5.5.
+    """
+    from mtmetrology.design.compare import compare_strategies
+
+    _positive(sigma_um, "--sigma-um")
+    _positive(gauge_mm, "--gauge-mm")
+    m = Machine.load(machine, model)
+    spec = load_balls(balls)
+    pairs = read_indexations(indexations) if indexations is not None else default_indexations()
+    result = compare_strategies(
+        m,
+        pairs,
+        ([b.id for b in spec.balls], [b.centre_mm for b in spec.balls]),
+        n_balls=_list(n_balls, "--n-balls", int),
+        ks=_list(k, "--k", float),
+        criteria=[c.strip() for c in criterion.split(",") if c.strip()],
+        bar=spec.scale_bar,
+        sigma_mm=float(to_internal(sigma_um, "µm")),
+        gauge_length_mm=gauge_mm,
+        starts=starts,
+        seed=seed,
+    )
+    doc = result.to_dict()
+    if output is not None:
+        with atomic_write(output) as fh:
+            fh.write(json_module.dumps(doc, indent=2, ensure_ascii=False, allow_nan=False))
+    if report_path is not None:
+        import mtmetrology.design.report  # noqa: F401  (registers the renderer)
+        from mtmetrology.report import Report
+        from mtmetrology.report.results import add_result
+
+        report = Report("SAMBA strategy comparison", command=command_line(ctx))
+        write_report(add_result(report, result), report_path)
+    if json:
+        print_json(doc)
+        return
+    header, rows = result.table()
+    table = RichTable(title=f"SAMBA strategies, {doc['model']}-parameter model")
+    for col in header:
+        table.add_column(col)
+    for row in rows:
+        table.add_row(*[str(v) for v in row])
+    Console().print(table)
 
 
 # laser-tracker verification (mtmetrology.cli.tracker): its commands join this group

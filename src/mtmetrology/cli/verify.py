@@ -16,6 +16,7 @@ from mtmetrology.cli._common import (
 )
 from mtmetrology.cli.calibrate import samba_report
 from mtmetrology.errors import InputError
+from mtmetrology.formatting import format_uncertainty
 from mtmetrology.io.files import write_json
 from mtmetrology.samba import read_length_readings, verify_length
 
@@ -51,21 +52,72 @@ def length(
         float | None,
         typer.Option("--tip-radius-mm", help="Effective tip radius (machine file's if omitted)."),
     ] = None,
+    temperature_c: Annotated[
+        float | None,
+        typer.Option("--temperature-c", help="Gauge temperature during the check, °C."),
+    ] = None,
+    u_temperature_c: Annotated[
+        float, typer.Option("--u-temperature-c", help="Standard uncertainty of it, °C.")
+    ] = 0.0,
+    cte: Annotated[
+        float, typer.Option("--cte", help="Gauge expansion coefficient, µm/(m·°C).")
+    ] = 10.8,
+    u_cte: Annotated[float, typer.Option("--u-cte", help="Its standard uncertainty.")] = 0.0,
+    tip_sphere: Annotated[
+        Path | None,
+        typer.Option("--tip-sphere", help="Stylus-centre points x,y,z (mm) on a reference sphere."),
+    ] = None,
+    sphere_diameter: Annotated[
+        float | None, typer.Option("--sphere-diameter", help="Its calibrated diameter, mm.")
+    ] = None,
+    u_sphere_diameter: Annotated[
+        float, typer.Option("--u-sphere-diameter", help="Standard uncertainty of it, mm.")
+    ] = 0.0,
+    sigma_points_um: Annotated[
+        float | None,
+        typer.Option("--sigma-points-um", help="Probing repeatability of the sphere points."),
+    ] = None,
     json: Annotated[bool, typer.Option("--json", help="Print the JSON document.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
     report_path: ReportOption = None,
 ) -> None:
+    from mtmetrology.fitting.least_squares import FitError
+    from mtmetrology.fitting.probe import effective_tip_diameter
+    from mtmetrology.io.tables import read_csv_table
+    from mtmetrology.samba.verify import thermal_reference
+    from mtmetrology.units import to_internal
+
     if u_length is not None and not u_length >= 0:
         raise InputError(f"--u-length must be >= 0, got {u_length}")
+    if (tip_sphere is None) != (sphere_diameter is None):
+        raise InputError("--tip-sphere and --sphere-diameter go together")
+    if tip_sphere is not None and tip_radius_mm is not None:
+        raise InputError("give --tip-radius-mm or --tip-sphere, not both")
     m, theta = machine_with_parameters(machine, params)
     data = read_length_readings(readings, m)
+    thermal = None
+    if temperature_c is not None:
+        thermal = thermal_reference(
+            length_mm, u_length or 0.0, temperature_c, u_temperature_c, cte * 1e-6, u_cte * 1e-6
+        )
+    tip_radius, u_tip = (m.tip_radius if tip_radius_mm is None else tip_radius_mm), None
+    if tip_sphere is not None:
+        points = read_csv_table(tip_sphere, required=["x", "y", "z"]).vectors(["x", "y", "z"])
+        sigma = None if sigma_points_um is None else to_internal(sigma_points_um, "µm")
+        try:
+            tip = effective_tip_diameter(points, sphere_diameter, u_sphere_diameter, sigma)
+        except FitError as err:
+            raise InputError(f"{tip_sphere}: {err}") from None
+        tip_radius, u_tip = tip.radius, tip.u
     check = verify_length(
         m,
         theta,
         data,
         length_mm,
-        tip_radius=m.tip_radius if tip_radius_mm is None else tip_radius_mm,
+        tip_radius=tip_radius,
         u_length=u_length,
+        thermal=thermal,
+        u_tip_diameter=u_tip,
     )
     doc = check.to_dict()
     report = None
@@ -88,8 +140,16 @@ def length(
             f"  {name:<12} mean {s['mean']:9.3f}  rms {s['rms']:9.3f}  "
             f"max |e| {s['max_abs']:9.3f}  range {s['range']:9.3f}"
         )
-    if u_length is not None:
-        typer.echo(f"  u(L) = {u_length:g} mm")
+    if doc["thermal"] is not None:
+        t = doc["thermal"]
+        typer.echo(
+            f"  reference L_T = {t['length_mm']:.5f} mm at {temperature_c:g} °C "
+            f"(sensitivity {1e3 * t['sensitivities']['temperature']:.2f} µm/°C)"
+        )
+    if doc["u_tip_diameter_mm"] is not None:
+        typer.echo(f"  tip radius {doc['tip_radius_mm']:.5f} mm from the reference sphere")
+    if doc["u_error_um"] is not None:
+        typer.echo(f"  u(e) of each error = {format_uncertainty(doc['u_error_um'])} µm")
 
 
 # laser-tracker verification (mtmetrology.cli.tracker): its commands join this group

@@ -19,6 +19,7 @@ designs. *Technometrics* 16(2), 203–210.
 
 from __future__ import annotations
 
+from mtmetrology.design.compare import StrategyComparison
 from mtmetrology.design.counts import MINUTES_PER_MEASUREMENT
 from mtmetrology.design.samba import SambaDesign
 from mtmetrology.formatting import format_uncertainty
@@ -146,4 +147,29 @@ def add_convergence(rep: Report, name: str, search) -> None:
             title=name,
         ),
         caption=caption,
+    )
+
+
+@renders(StrategyComparison, "SAMBA strategy comparison")
+def _strategy_comparison(rep: Report, comparison, **_) -> None:
+    """The sweep's table (Tables 5.3 and 5.5 of the source), the figure, mean UPF per unit."""
+    rep.section(
+        f"SAMBA strategy comparison, {comparison.model}-parameter model",
+        f"{len(comparison.strategies)} strategies on {comparison.n_candidates} candidate "
+        f"indexations, probing σ = {comparison.sigma_um:g} µm; condition numbers of the "
+        "column-scaled Jacobian (Cond_N: every candidate; start/end: DETMAX's random start "
+        f"and result); gauge block of {comparison.gauge_length_mm:g} mm simulated (module "
+        "notes of mtmetrology.design.compare).",
+    )
+    header, rows = comparison.table()
+    rep.table(header, rows)
+    rep.figure(comparison.figure(), caption="Condition number against test duration.")
+    units = sorted({u for s in comparison.strategies for u in s.mean_upf})
+    rep.table(
+        ["strategy", *[f"mean UPF ({u})" for u in units]],
+        [
+            [s.name, *[format_uncertainty(s.mean_upf[u]) for u in units]]
+            for s in comparison.strategies
+        ],
+        caption="Mean UPF per unit group (eq. 5.19 over parameters of one unit only).",
     )

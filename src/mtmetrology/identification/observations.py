@@ -126,6 +126,14 @@ class BallCentreProblem:
         ``estimate_tool``.  Adds the rows ``(t0 + Δt − t̄)/u_t`` and the inputs t̄.
     tool_prior_value : (3,) floats, optional
         The prior's value t̄ of the tool vector, mm; the machine's nominal tool by default.
+    tools : ndarray, shape (n_tools, 3), optional
+        Nominal vectors of several tools (e.g. two stylus lengths), mm; the machine's tool
+        by default.  With ``estimate_tool`` each tool has its own three corrections
+        (``tool <k> x|y|z``, k = 1, 2, ...): a second stylus length separates the errors one
+        length leaves confounded with the gains (e.g. E_AY1 ~ E_YY1, Alami Mchichi (2018)
+        Table 4.4).  No tool prior with several tools.
+    tool_index : sequence of int, length n, optional
+        Tool (row of ``tools``) of each indication; all the first by default.
 
     Attributes
     ----------
@@ -147,6 +155,8 @@ class BallCentreProblem:
         sigma: float,
         tool_prior=None,
         tool_prior_value=None,
+        tools=None,
+        tool_index=None,
     ):
         q = np.asarray(readings, dtype=float)
         if q.ndim != 2 or q.shape[1] != machine.n_axes:
@@ -173,13 +183,20 @@ class BallCentreProblem:
         self.tool_prior, self.tool_prior_value = _tool_prior(
             machine, estimate_tool, tool_prior, tool_prior_value
         )
+        self.tools, self.tool_index = _tools(machine, q.shape[0], tools, tool_index)
+        if len(self.tools) > 1 and tool_prior is not None:
+            raise InputError("a tool prior applies to one tool: give it with a single tool")
+        self._row_tool = self.tools[self.tool_index]
         self.n_params = machine.n_params
         self.n_balls = len(self.ball_ids)
         self._linear = np.array(
             [i for i, a in enumerate(machine.axis_names) if a in machine.linear_axes]
         )
         ball_names = [f"ball {b} {c}" for b in self.ball_ids for c in "xyz"]
-        tool_names = ["tool x", "tool y", "tool z"] if estimate_tool else []
+        labels = (
+            ["tool"] if len(self.tools) == 1 else [f"tool {k + 1}" for k in range(len(self.tools))]
+        )
+        tool_names = [f"{t} {c}" for t in labels for c in "xyz"] if estimate_tool else []
         self.names = (*machine.parameter_names, *ball_names, *tool_names)
 
     @property
@@ -240,7 +257,7 @@ class BallCentreProblem:
         """
         theta, _, dtool = self.split(np.asarray(x, dtype=float))
         d_axes = self.machine.evaluate(
-            self.readings, theta, senses=self.senses, tool=self.machine.tool + dtool, d_axes=True
+            self.readings, theta, senses=self.senses, tool=self._tool_of_rows(dtool), d_axes=True
         ).d_axes[:, :, self._linear]  # (n, 3, 3)
         n, nl = self.readings.shape[0], self._linear.size
         jac = np.zeros((self.n_rows, self.n_inputs))
@@ -276,6 +293,8 @@ class BallCentreProblem:
             sigma=self.sigma,
             tool_prior=self.tool_prior,
             tool_prior_value=z[self.n_inputs - 3 :] if self.n_prior else None,
+            tools=self.tools,
+            tool_index=self.tool_index,
         )
 
     def residuals_batch(self, x: np.ndarray, inputs: np.ndarray | None = None) -> np.ndarray:
@@ -311,14 +330,18 @@ class BallCentreProblem:
     def _residuals_block(self, x: np.ndarray, z: np.ndarray) -> np.ndarray:
         k, n = x.shape[0], self.readings.shape[0]
         p, nb = self.n_params, self.n_balls
-        q = np.broadcast_to(self.readings, (k, n, self.machine.n_axes)).copy()
-        q[:, :, self._linear] = z[:, : n * self._linear.size].reshape(k, n, -1)
-        tool = self.machine.tool + (x[:, p + 3 * nb :] if self.estimate_tool else np.zeros(3))
-        pos = self.machine.forward(
-            q,
-            x[:, None, :p],
+        lin = z[:, : n * self._linear.size].reshape(k, n, -1)
+        nt = len(self.tools)
+        dtool = x[:, p + 3 * nb :] if self.estimate_tool else np.zeros((k, 3 * nt))
+        tool = self.tools[None] + dtool.reshape(k, nt, 3)  # (k, n_tools, 3)
+        # the rotary readings are not inputs: their rotations are computed once per pose
+        pos = self.machine.chain.positions_shared_poses(
+            self.readings,
+            self._linear,
+            lin,
+            x[:, :p],
             senses=self.senses,
-            tool=np.broadcast_to(tool, (k, 3))[:, None, :],
+            tool=tool[:, self.tool_index] if nt > 1 else tool,
         )  # (k, n, 3)
         centres = x[:, p : p + 3 * nb].reshape(k, nb, 3)
         r = np.empty((k, self.n_rows))
@@ -329,28 +352,33 @@ class BallCentreProblem:
             dist = np.linalg.norm(centres[:, a] - centres[:, b], axis=1)
             r[:, 3 * n + j] = (dist - lengths[:, j]) / bar.u
         if self.n_prior:
-            r[:, -3:] = (tool - z[:, -3:]) / self.tool_prior
+            r[:, -3:] = (tool[:, 0] - z[:, -3:]) / self.tool_prior
         return r
 
     def split(self, x: np.ndarray):
-        """(θ, ball centres (n_balls, 3), tool correction (3,)) from the unknown vector."""
+        """(θ, ball centres (n_balls, 3), tool correction) from the unknown vector: the
+        correction is (3,) with one tool, (n_tools, 3) with several."""
         p, nb = self.n_params, self.n_balls
         theta = x[:p]
         centres = x[p : p + 3 * nb].reshape(nb, 3)
-        dtool = x[p + 3 * nb :] if self.estimate_tool else np.zeros(3)
-        return theta, centres, dtool
+        dtool = x[p + 3 * nb :] if self.estimate_tool else np.zeros(3 * len(self.tools))
+        return theta, centres, dtool.reshape(-1, 3) if len(self.tools) > 1 else dtool.reshape(3)
+
+    def _tool_of_rows(self, dtool: np.ndarray) -> np.ndarray:
+        """(n, 3) tool vector of each indication: nominal plus its tool's correction."""
+        return self._row_tool + np.reshape(dtool, (-1, 3))[self.tool_index]
 
     def initial(self, params: np.ndarray | None = None) -> np.ndarray:
         """Starting point: given (or zero) errors, each ball at the mean of its nominal
         predicted positions (Sepahi Boroujeni (2021), Ch. 5), zero tool correction."""
         theta = np.zeros(self.n_params) if params is None else np.asarray(params, dtype=float)
-        pos = self.machine.forward(self.readings, theta, senses=self.senses)
+        pos = self.machine.forward(self.readings, theta, senses=self.senses, tool=self._row_tool)
         centres = np.zeros((self.n_balls, 3))
         for i in range(self.n_balls):
             centres[i] = pos[self._ball_index == i].mean(axis=0)
         parts = [theta, centres.ravel()]
         if self.estimate_tool:
-            parts.append(np.zeros(3))
+            parts.append(np.zeros(3 * len(self.tools)))
         return np.concatenate(parts)
 
     def evaluate(self, x: np.ndarray, jacobian: bool = True):
@@ -360,7 +388,7 @@ class BallCentreProblem:
             self.readings,
             theta,
             senses=self.senses,
-            tool=self.machine.tool + dtool,
+            tool=self._tool_of_rows(dtool),
             d_params=jacobian,
             d_tool=jacobian and self.estimate_tool,
         )
@@ -372,7 +400,7 @@ class BallCentreProblem:
             r_bar[k] = (np.linalg.norm(centres[a] - centres[b]) - bar.length) / bar.u
         r_prior = []
         if self.n_prior:
-            r_prior = (self.machine.tool + dtool - self.tool_prior_value) / self.tool_prior
+            r_prior = (self.tools[0] + dtool - self.tool_prior_value) / self.tool_prior
         r = np.concatenate([r_coord.ravel(), r_bar, r_prior])
         if not jacobian:
             return r, None
@@ -383,7 +411,10 @@ class BallCentreProblem:
         cols = p + 3 * np.repeat(self._ball_index, 3) + np.tile(np.arange(3), n)
         jac[rows, cols] = -1.0 / self.sigma
         if self.estimate_tool:
-            jac[: 3 * n, p + 3 * self.n_balls :] = ev.d_tool.reshape(3 * n, 3) / self.sigma
+            first = p + 3 * self.n_balls + 3 * self.tool_index  # each row's tool columns
+            cols = first[:, None, None] + np.arange(3)[None, None, :]
+            rows = 3 * np.arange(n)[:, None, None] + np.arange(3)[None, :, None]
+            jac[rows, cols] = ev.d_tool / self.sigma
         for k, bar in enumerate(self.scale_bars):
             a, b = (self.ball_ids.index(e) for e in bar.ends)
             diff = centres[a] - centres[b]
@@ -393,6 +424,22 @@ class BallCentreProblem:
         if self.n_prior:
             jac[-3:, -3:] = np.diag(1.0 / self.tool_prior)
         return r, jac
+
+
+def _tools(machine: Machine, n: int, tools, tool_index):
+    """Validated (tools (n_tools, 3), tool_index (n,)) of a problem."""
+    t = machine.tool[None] if tools is None else np.asarray(tools, dtype=float)
+    if t.ndim != 2 or t.shape[1] != 3 or len(t) == 0 or not np.all(np.isfinite(t)):
+        raise InputError(f"tools must be (n_tools, 3) finite vectors (mm), got shape {t.shape}")
+    idx = np.zeros(n, dtype=int) if tool_index is None else np.asarray(tool_index)
+    if idx.shape != (n,) or not np.issubdtype(idx.dtype, np.integer):
+        raise InputError(f"tool_index must give one integer per indication ({n})")
+    if n and (idx.min() < 0 or idx.max() >= len(t)):
+        raise InputError(f"tool_index must lie in 0..{len(t) - 1}")
+    unused = sorted(set(range(len(t))) - set(idx.tolist()))
+    if unused:
+        raise InputError(f"tool(s) {', '.join(str(k + 1) for k in unused)} never used")
+    return t, idx
 
 
 def _tool_prior(machine: Machine, estimate_tool: bool, u, value):

@@ -485,6 +485,51 @@ class KinematicChain:
             )
         return out
 
+    def positions_shared_poses(self, readings, columns, values, params, *, senses=None, tool=None):
+        """Positions of K trials of n poses whose rotary readings are shared and whose
+        linear readings differ (a Monte Carlo of ball-centre indications).
+
+        The model of :meth:`evaluate` (equal to rounding); only the rotations and the
+        error-basis values of the rotary axes are computed once per pose instead of once
+        per (trial, pose).
+
+        Parameters
+        ----------
+        readings : ndarray, shape (n, n_axes)
+            The poses' readings (internal units); the columns ``columns`` are replaced.
+        columns : sequence of int
+            Reading columns that differ between trials (the linear axes).
+        values : ndarray, shape (K, n, len(columns))
+            Each trial's readings of those columns.
+        params : ndarray, shape (K, n_params)
+        senses : ndarray, shape (n, n_axes), optional
+        tool : ndarray, shape (K, 1 or n, 3) or (3,), optional
+
+        Returns
+        -------
+        ndarray, shape (K, n, 3)
+        """
+        q = np.asarray(readings, dtype=float)
+        k, n = values.shape[0], q.shape[0]
+        t = np.zeros(3) if tool is None else np.asarray(tool, dtype=float)
+        t = np.broadcast_to(t, (k, *t.shape[-2:]) if t.ndim == 3 else (k, 1, 3))
+        if senses is None and self.has_reversal:
+            senses = np.zeros(q.shape)
+        out = np.empty((k, n, 3))
+        step = max(1, self.chunk_size // max(n, 1))
+        for start in range(0, k, step):
+            sl = slice(start, start + step)
+            cols = [q[:, i] for i in range(q.shape[1])]
+            for j, i in enumerate(columns):
+                cols[i] = values[sl, :, j]
+            theta = np.ascontiguousarray(params[sl].T).T[:, None, :]
+            v, _, _, _ = self._sparse_chain(
+                _Columns(cols), theta, senses, t[sl], False, False, False
+            )
+            for i in range(3):
+                out[sl, :, i] = _dense(v[i])
+        return out
+
     def _evaluate_block(self, q, theta, senses, t, out: ChainEvaluation) -> None:
         """One numpy block of :meth:`evaluate`, written into the views of ``out``."""
         if theta.ndim > 1:
@@ -670,3 +715,14 @@ class KinematicChain:
                 has_motion = True
                 dde[c] = s3.add(dde[c], theta[..., j] * dphi[el.degrees[k]])
         return tuple(de), (tuple(dde) if has_motion else None), factors
+
+
+class _Columns:
+    """Readings as per-axis arrays of their own broadcastable shapes: ``q[..., i]`` of the
+    chain gives column i (rotary columns per pose, linear ones per trial and pose)."""
+
+    def __init__(self, columns):
+        self._columns = columns
+
+    def __getitem__(self, key):
+        return self._columns[key[-1]]

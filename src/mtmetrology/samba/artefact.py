@@ -8,6 +8,9 @@ balls:
   - {id: SB2, diameter_mm: 12.7}
 scale_bar: {ends: [SB1, SB2], length_mm: 305.2105, u_mm: 0.0012}
 stylus_tip_diameter_mm: 5.925
+tools:                          # optional: several styli, the records' tool column
+  - {id: long, vector_mm: [0, 0, -150]}
+  - {id: short, vector_mm: [0, 0, -100]}
 """
 
 from __future__ import annotations
@@ -39,6 +42,14 @@ class ScaleBarSpec(_Strict):
     u_mm: Number = Field(gt=0)
 
 
+class ToolSpec(_Strict):
+    """A tool (stylus) of a test with several: its id (the records' ``tool`` column) and
+    its nominal vector from the spindle nose to the stylus centre, mm."""
+
+    id: Text
+    vector_mm: tuple[Number, Number, Number]
+
+
 class SambaArtefact(_Strict):
     """A SAMBA artefact: master balls, scale-bar balls and the calibrated bar length."""
 
@@ -47,6 +58,7 @@ class SambaArtefact(_Strict):
     balls: list[BallSpec] = Field(min_length=1)
     scale_bar: ScaleBarSpec | None = None
     stylus_tip_diameter_mm: Number | None = Field(default=None, gt=0)
+    tools: list[ToolSpec] | None = Field(default=None, min_length=1)
 
     @model_validator(mode="after")
     def _ends_are_balls(self):
@@ -58,6 +70,10 @@ class SambaArtefact(_Strict):
             for end in self.scale_bar.ends:
                 if end not in ids:
                     raise ValueError(f"scale_bar end {end!r} is not one of the balls")
+        tools = [t.id for t in self.tools or []]
+        twice = sorted({t for t in tools if tools.count(t) > 1})
+        if twice:
+            raise ValueError(f"tool id(s) listed twice: {', '.join(twice)}")
         return self
 
     def scale_bars(self) -> list[ScaleBar]:

@@ -145,9 +145,17 @@ class SambaCalibration(SambaNotebookRepr):
 
     @property
     def tool(self) -> np.ndarray:
-        """Identified tool (stylus-centre) vector, mm (the nominal one unless estimated)."""
+        """Identified tool (stylus-centre) vector, mm (the nominal one unless estimated);
+        (n_tools, 3) in the order of :meth:`tool_ids` when the records name several."""
         _, _, dtool = self.problem.split(self.identification.estimate)
-        return self.machine.tool + dtool
+        tools = self.problem.tools
+        return (tools[0] if len(tools) == 1 else tools) + dtool
+
+    def tool_ids(self) -> list[str]:
+        """Ids of the tools of the records (artefact order), ``[]`` without a tool column."""
+        if self.records.tools is None:
+            return []
+        return [t.id for t in self.artefact.tools if t.id in set(self.records.tools)]
 
     def priors(self) -> list[dict]:
         """Prior knowledge entered as pseudo-observations: ``[{name, value, unit, u}]`` of
@@ -160,6 +168,39 @@ class SambaCalibration(SambaNotebookRepr):
             {"name": f"tool {c}", "value": float(v), "unit": "mm", "u": float(s)}
             for c, v, s in zip("xyz", prob.tool_prior_value, prob.tool_prior, strict=True)
         ]
+
+    def propagation_factors(self) -> list[dict]:
+        """Uncertainty propagation factor of each error parameter: ``[{name, unit, u, upf,
+        upf_unit}]``.
+
+        ``u_i = sqrt(diag((JᵀWJ)⁻¹))_i`` of the weighted identification (probing σ and the
+        scale bar's u; ball centres and tool marginalised) in the parameter's customary
+        unit, and ``UPF_i = u_i / σ`` with σ the probing noise in µm (Alami Mchichi (2018),
+        eq. 6.14; Olarra et al. 2018): the unit of the parameter per µm of probing noise,
+        the same figure the design of the same set-up predicts (exact when the bar's u is
+        proportional to σ). None for a minimum-norm solution, where u is not defined.
+
+        References
+        ----------
+        Alami Mchichi, N. (2018), eq. 6.14 and Table 6.2.
+        """
+        sigma_um = float(from_internal(self.problem.sigma, "µm"))
+        u_int = self.identification.standard_uncertainty[self.parameter_indices()]
+        out = []
+        for name, unit, u in zip(
+            self.machine.parameter_names, self.machine.parameter_units, u_int, strict=True
+        ):
+            uc = None if self.minimum_norm else float(from_internal(u, unit))
+            out.append(
+                {
+                    "name": name,
+                    "unit": unit,
+                    "u": uc,
+                    "upf": None if uc is None else uc / sigma_um,
+                    "upf_unit": f"{unit}/µm",
+                }
+            )
+        return out
 
     def parameter_indices(self) -> np.ndarray:
         """Positions of the machine's error parameters among the unknowns."""
@@ -229,10 +270,18 @@ class SambaCalibration(SambaNotebookRepr):
             "sigma_um": float(from_internal(self.problem.sigma, "µm")),
             "input_covariance": input_covariance,
         }
+        doc["propagation_factors"] = self.propagation_factors()
         doc["balls"] = [
             {"id": b, "centre_mm": [float(v) for v in c]} for b, c in self.ball_centres().items()
         ]
-        doc["tool_mm"] = [float(v) for v in self.tool]
+        if self.tool_ids():
+            doc["tools"] = [
+                {"id": t, "vector_mm": [float(v) for v in vec]}
+                for t, vec in zip(self.tool_ids(), np.atleast_2d(self.tool), strict=True)
+            ]
+            doc["tool_mm"] = doc["tools"][0]["vector_mm"]
+        else:
+            doc["tool_mm"] = [float(v) for v in self.tool]
         doc["tool_estimated"] = self.problem.estimate_tool
         doc["priors"] = self.priors()
         doc["residuals"] = [
@@ -274,12 +323,12 @@ def _vectors(result: IdentificationResult, problem: BallCentreProblem) -> np.nda
 _ADVICE = (
     (("tool x", "tool y"), "spindle indexing (one ball re-probed at S = 90, 180, 270°)"),
     (("tool z",), "indexations that tilt the tool against the table (B ≠ 0)"),
+    (("E_AY", "E_BY", "E_BZ", "E_CY"), "a second stylus length (one stylus cannot tell them)"),
     (("E_XX1", "E_YY1", "E_ZZ1"), "the scale bar (both balls probed, at two indexations)"),
     (
         ("E_ZC", "E_ZB", "E_CB", "E_CC", "E_BBb", "E_CCb"),
         "(B, C) indexations off any straight line c = k·b, approached from both senses",
     ),
-    (("E_AY", "E_BY", "E_BZ", "E_CY"), "a second stylus length (one stylus cannot tell them)"),
 )
 
 
@@ -308,6 +357,19 @@ def separation_advice(groups) -> str:
     if inseparable:
         parts.append(f"no probing of balls separates {'; '.join(inseparable)}")
     return "; ".join(parts)
+
+
+def _tools(records: SambaRecords, artefact: SambaArtefact) -> dict:
+    """``tools``/``tool_index`` of the problem when the records name a tool per indication
+    (the artefact's tools in their listed order, only those used)."""
+    if records.tools is None:
+        return {}
+    used = [t for t in artefact.tools if t.id in set(records.tools)]
+    ids = [t.id for t in used]
+    return {
+        "tools": np.array([t.vector_mm for t in used], dtype=float),
+        "tool_index": np.array([ids.index(t) for t in records.tools]),
+    }
 
 
 def calibrate(
@@ -364,6 +426,7 @@ def calibrate(
     1/u_t, the prior's value t0 an uncertain input); Gauss–Newton with column scaling on the
     project's least-squares core (Sepahi Boroujeni (2021), eqs 5-4 to 5-6).
     """
+    tools = _tools(records, artefact)
     problem = BallCentreProblem(
         machine,
         records.readings,
@@ -373,8 +436,9 @@ def calibrate(
         estimate_tool=estimate_tool,
         sigma=sigma,
         tool_prior=tool_prior,
+        **tools,
     )
-    report = [*machine.parameter_names, "tool x", "tool y", "tool z"]
+    report = [*machine.parameter_names, *(n for n in problem.names if n.startswith("tool"))]
     try:
         result = gauss_newton(problem, xtol=XTOL, report_names=report, minimum_norm=minimum_norm)
     except RankDeficientError as err:
@@ -400,6 +464,7 @@ def calibrate(
         estimate_tool=estimate_tool,
         sigma=sigma,
         tool_prior=tool_prior,
+        **tools,
     )
     nominal = gauss_newton(nominal_problem, minimum_norm=True)
     provenance = {
@@ -408,7 +473,7 @@ def calibrate(
         "minimum_norm": result.minimum_norm,
     }
     pset = result.parameter_set(machine, provenance)
-    if estimate_tool:  # what the calibration identifies, compensation uses
+    if estimate_tool and "tools" not in tools:  # what the calibration identifies, compensation uses
         _, _, dtool = problem.split(result.estimate)
         pset = replace(pset, tool=machine.tool + dtool)
     return SambaCalibration(

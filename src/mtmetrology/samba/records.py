@@ -19,6 +19,10 @@ either form with a ``campaign`` column
     so singular whenever K − 1 < 3n) is kept for the uncertainty: see
     :func:`mtmetrology.samba.uncertainty.indication_inputs` for how it is made usable.
 
+An optional ``tool`` column names the stylus of each indication (a test with two stylus
+lengths, Alami Mchichi (2018) Table 4.4); the artefact file's ``tools`` give their nominal
+vectors.
+
 Optional ``sense_<axis>`` columns (+1/−1) give the sense of motion of each axis (reversal
 terms); without them the senses follow from the order of the rows
 (:func:`mtmetrology.identification.senses_from_sequence`).
@@ -66,6 +70,8 @@ class SambaRecords:
         Linear readings (mm) of each campaign, when the file had a ``campaign`` column.
     sphere_rms : (n_measurements,) ndarray or None
         RMS radial residual of each raw-point sphere fit, mm.
+    tools : tuple of str or None
+        Tool id of each indication (the ``tool`` column), None without one.
     """
 
     source: str
@@ -76,6 +82,7 @@ class SambaRecords:
     lines: np.ndarray = field(repr=False)
     campaigns: np.ndarray | None = field(default=None, repr=False)
     sphere_rms: np.ndarray | None = field(default=None, repr=False)
+    tools: tuple[str, ...] | None = field(default=None, repr=False)
 
     @property
     def n_campaigns(self) -> int:
@@ -275,6 +282,16 @@ def read_records(path: str | Path, machine: Machine, artefact: SambaArtefact) ->
     _check_coverage(table.path, balls, lines, artefact)
     sub = table.take(rows)
     senses = _senses(machine, sub, q)
+    tools = None
+    if table.has("tool"):
+        tools = tuple(sub.strings("tool"))
+        known_tools = {t.id for t in artefact.tools or []}
+        bad = next((i for i, t in enumerate(tools) if t not in known_tools), None)
+        if bad is not None:
+            raise InputFileError(
+                f"{table.path}, line {lines[bad]}: tool {tools[bad]!r} is not in the "
+                f"artefact's tools ({', '.join(sorted(known_tools)) or 'none listed'})"
+            )
     return SambaRecords(
         source=str(table.path),
         form="raw-points" if raw else "centres",
@@ -284,6 +301,7 @@ def read_records(path: str | Path, machine: Machine, artefact: SambaArtefact) ->
         lines=lines,
         campaigns=campaigns,
         sphere_rms=rms,
+        tools=tools,
     )
 
 

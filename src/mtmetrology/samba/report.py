@@ -118,6 +118,24 @@ def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
             "vector marginalised).",
         )
     rep.section(
+        "Uncertainty propagation factors",
+        f"UPF = u / σ (Alami Mchichi (2018) eq. 6.14): u = sqrt(diag((JᵀWJ)⁻¹)) of the "
+        f"identification for σ = {rec['sigma_um']:.3g} µm per coordinate and the scale bar's "
+        "u, per µm of probing noise; the figure `mtm design samba` predicts for the same "
+        "set-up.",
+    )
+    if doc["propagation_factors"] and doc["propagation_factors"][0]["upf"] is not None:
+        rep.table(
+            ["parameter", "u", "unit", "UPF", "UPF unit"],
+            [
+                [f["name"], format_uncertainty(f["u"]), f["unit"], upf, f["upf_unit"]]
+                for f in doc["propagation_factors"]
+                for upf in [format_uncertainty(f["upf"])]
+            ],
+            caption="Two significant digits (JCGM 100:2008, 7.2.6); RESULT.json keeps full "
+            "precision.",
+        )
+    rep.section(
         "Sign conventions and reference points",
         "What a positive value of each parameter does and the point it is referred to.",
     )
@@ -282,6 +300,34 @@ def _length(rep: Report, check, **_) -> None:
         [[name, *(f"{doc[name][s]:.3g}" for s in stats)] for name in ("nominal", "compensated")],
         caption="errors in µm",
     )
+    if doc["thermal"] is not None or doc["u_error_um"] is not None:
+        t = doc["thermal"]
+        rows = [["reference length L_T (mm)", f"{doc['reference_length_mm']:.6f}"]]
+        if t is not None:
+            rows += [
+                [
+                    "sensitivity to temperature (µm/°C)",
+                    f"{1e3 * t['sensitivities']['temperature']:.3g}",
+                ],
+                *[
+                    [f"u contribution of {k} (µm)", format_uncertainty(1e3 * v)]
+                    for k, v in t["contributions_mm"].items()
+                ],
+            ]
+        if doc["u_tip_diameter_mm"] is not None:
+            rows.append(
+                [
+                    "u(d_tip), reference sphere (µm)",
+                    format_uncertainty(1e3 * doc["u_tip_diameter_mm"]),
+                ]
+            )
+        if doc["u_error_um"] is not None:
+            rows.append(["u(e) of each error (µm)", format_uncertainty(doc["u_error_um"])])
+        rep.table(
+            ["reference", "value"],
+            rows,
+            caption="L_T = L20 (1 + α (T − 20 °C)); u(e)² = u²(L_T) + u²(d_tip).",
+        )
     rep.table(
         ["pair", "error, nominal (µm)", "error, compensated (µm)"],
         [

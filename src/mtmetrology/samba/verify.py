@@ -15,6 +15,15 @@ deviation, range and largest magnitude show what the calibration does for a meas
 distance is Euclidean (the projection on the gauge axis differs by second order in the
 lateral errors).
 
+Thermal correction of the gauge (Alami Mchichi (2018) §6.5.3: its main explanation of the
+discrepancies): a gauge calibrated at 20 °C as L₂₀ is at temperature T during the check, so
+the reference is ``L_T = L₂₀ (1 + α (T − 20 °C))`` with α its expansion coefficient
+(hardened steel, 10.8 µm/(m·°C)). The measurement model of the reference gives
+``u²(L_T) = (1 + αΔT)² u²(L₂₀) + (L₂₀ ΔT)² u²(α) + (L₂₀ α)² u²(T)``: the sensitivity to T
+is L₂₀ α, 5.4 µm/°C on 500 mm (JCGM 100:2008, 5.1.2). The tip radius may come from a
+calibration on a reference sphere (:func:`mtmetrology.fitting.effective_tip_diameter`),
+whose u(d_tip) enters every length: ``u²(e) = u²(L_T) + u²(d_tip)``.
+
 READINGS CSV: ``pair,end,X,Y,Z,B,C[,S]`` (mm, degrees), ``end`` ``a`` or ``b``, one row
 per end and pair.
 
@@ -47,8 +56,90 @@ __all__ = [
     "error_statistics",
     "read_length_readings",
     "simulate_length_readings",
+    "thermal_reference",
     "verify_length",
 ]
+
+#: Expansion coefficient of a hardened steel gauge block, 1/°C (Alami Mchichi (2018) §6.5.3).
+STEEL_CTE = 10.8e-6
+REFERENCE_TEMPERATURE_C = 20.0
+
+
+@dataclass(frozen=True)
+class ThermalReference:
+    """The gauge's length at the check's temperature and its standard uncertainty (mm).
+
+    ``sensitivities`` are ∂L_T/∂L₂₀ (1), ∂L_T/∂α (mm·°C), ∂L_T/∂T (mm/°C); ``contributions``
+    the products with each input's u (mm).
+    """
+
+    length: float
+    u: float
+    sensitivities: dict
+    contributions: dict
+
+    def to_dict(self) -> dict:
+        return {
+            "length_mm": self.length,
+            "u_mm": self.u,
+            "sensitivities": self.sensitivities,
+            "contributions_mm": self.contributions,
+        }
+
+
+def thermal_reference(
+    length20: float,
+    u_length20: float,
+    temperature_c: float,
+    u_temperature_c: float,
+    cte: float = STEEL_CTE,
+    u_cte: float = 0.0,
+) -> ThermalReference:
+    """Reference length of a gauge at temperature T (module notes).
+
+    Parameters
+    ----------
+    length20, u_length20 : float
+        Calibrated length at 20 °C and its standard uncertainty, mm.
+    temperature_c, u_temperature_c : float
+        Gauge temperature during the check and its standard uncertainty, °C.
+    cte, u_cte : float
+        Expansion coefficient and its standard uncertainty, 1/°C; a positive α lengthens
+        the gauge above 20 °C.
+
+    Returns
+    -------
+    ThermalReference
+        ``L_T = L₂₀ (1 + α (T − 20))`` and ``u(L_T)`` by the law of propagation.
+
+    References
+    ----------
+    Alami Mchichi (2018), §6.5.3; JCGM 100:2008, 5.1.2.
+
+    Examples
+    --------
+    >>> r = thermal_reference(500.0, 0.00025, 21.0, 1.0)
+    >>> round(r.length, 6), round(r.sensitivities["temperature"] * 1e3, 3)
+    (500.0054, 5.4)
+    """
+    for name, v in (
+        ("u of the length", u_length20),
+        ("u of the temperature", u_temperature_c),
+        ("u of the expansion coefficient", u_cte),
+    ):
+        if not (v >= 0 and np.isfinite(v)):
+            raise InputFileError(f"{name} must be >= 0, got {v}")
+    if not (np.isfinite(temperature_c) and np.isfinite(cte)):
+        raise InputFileError("temperature and expansion coefficient must be finite numbers")
+    dt = temperature_c - REFERENCE_TEMPERATURE_C
+    sens = {"length20": 1.0 + cte * dt, "cte": length20 * dt, "temperature": length20 * cte}
+    contrib = {
+        "length20": sens["length20"] * u_length20,
+        "cte": sens["cte"] * u_cte,
+        "temperature": sens["temperature"] * u_temperature_c,
+    }
+    u = float(np.sqrt(sum(c**2 for c in contrib.values())))
+    return ThermalReference(length20 * (1.0 + cte * dt), u, sens, contrib)
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,14 +227,29 @@ class LengthCheck(SambaNotebookRepr):
     tip_radius: float
     nominal: np.ndarray = field(repr=False)
     compensated: np.ndarray = field(repr=False)
+    thermal: ThermalReference | None = None
+    u_tip_diameter: float | None = None
+
+    @property
+    def reference_length(self) -> float:
+        """L_T of the thermal correction, else the calibrated length, mm."""
+        return self.length if self.thermal is None else self.thermal.length
+
+    @property
+    def u_error(self) -> float | None:
+        """u(e) of every length error from the reference and the tip: ``sqrt(u²(L_T) +
+        u²(d_tip))``, mm; None when neither is stated."""
+        parts = [self.u_length if self.thermal is None else self.thermal.u, self.u_tip_diameter]
+        known = [p for p in parts if p is not None]
+        return float(np.sqrt(sum(p**2 for p in known))) if known else None
 
     @property
     def errors_nominal(self) -> np.ndarray:
-        return self.nominal - self.length
+        return self.nominal - self.reference_length
 
     @property
     def errors_compensated(self) -> np.ndarray:
-        return self.compensated - self.length
+        return self.compensated - self.reference_length
 
     def to_dict(self) -> dict:
         """The ``length-check`` document: per pair and summary statistics, µm."""
@@ -155,6 +261,12 @@ class LengthCheck(SambaNotebookRepr):
             "length_mm": self.length,
             "u_length_mm": self.u_length,
             "tip_radius_mm": self.tip_radius,
+            "u_tip_diameter_mm": self.u_tip_diameter,
+            "thermal": None if self.thermal is None else self.thermal.to_dict(),
+            "reference_length_mm": self.reference_length,
+            "u_error_um": None
+            if self.u_error is None
+            else float(from_internal(self.u_error, "µm")),
             "pairs": [
                 {
                     "pair": p,
@@ -178,6 +290,8 @@ def verify_length(
     *,
     tip_radius: float,
     u_length: float | None = None,
+    thermal: ThermalReference | None = None,
+    u_tip_diameter: float | None = None,
 ) -> LengthCheck:
     """Length errors of the nominal and the compensated machine model.
 
@@ -194,6 +308,12 @@ def verify_length(
         Effective stylus tip radius, mm.
     u_length : float, optional
         Standard uncertainty of L, mm (reported).
+    thermal : ThermalReference, optional
+        The gauge's length at the check's temperature (:func:`thermal_reference`): the
+        errors are taken against it and its u replaces ``u_length``.
+    u_tip_diameter : float, optional
+        Standard uncertainty of the effective tip diameter (from a reference-sphere
+        calibration), mm.
 
     Returns
     -------
@@ -222,7 +342,14 @@ def verify_length(
     nominal = lengths(None)
     compensated = nominal if params is None else lengths(params)
     return LengthCheck(
-        readings.pairs, float(length), u_length, float(tip_radius), nominal, compensated
+        readings.pairs,
+        float(length),
+        u_length,
+        float(tip_radius),
+        nominal,
+        compensated,
+        thermal,
+        u_tip_diameter,
     )
 
 
