@@ -14,8 +14,6 @@ from typing import Annotated
 
 import typer
 
-from mtmetrology.report.demo import DEFAULT_SEED, run_demo
-
 __all__ = ["demo"]
 
 
@@ -24,7 +22,10 @@ def demo(
     out: Annotated[Path, typer.Option("--out", help="Folder to write the demo into.")] = Path(
         "mtm-demo"
     ),
-    seed: Annotated[int, typer.Option(help="Root seed of every simulation.")] = DEFAULT_SEED,
+    seed: Annotated[
+        int | None,
+        typer.Option(help="Root seed of every simulation [default: the examples' own seed]."),
+    ] = None,
 ) -> None:
     """Run the engines end to end on built-in virtual machines and write a report.
 
@@ -35,10 +36,12 @@ def demo(
     compared with a GP error model: input files, JSON results, report.html, and the
     commands that redo each step. The steps are the scripts of ``examples/``.
     """
+    # the runner (report layer, matplotlib) loads when the demo runs, not for --help
     from mtmetrology.cli._common import command_line
+    from mtmetrology.report.demo import DEFAULT_SEED, run_demo
 
     try:
-        run_demo(out, seed, command=command_line(ctx))
+        run_demo(out, DEFAULT_SEED if seed is None else seed, command=command_line(ctx))
     except KeyboardInterrupt:
         typer.echo("interrupted: nothing written", err=True)
         raise typer.Exit(code=130) from None
