@@ -68,7 +68,6 @@ CLI_NUMPY_PENDING = {
     "mtmetrology.cli.predict",
     "mtmetrology.cli.repeatability",
     "mtmetrology.cli.simulate",
-    "mtmetrology.cli.task",
     "mtmetrology.cli.tracker",
 }
 #: The demo's modules import each other (the cycle is closed inside a function); issue 20
