@@ -65,7 +65,6 @@ CLI_NUMPY_PENDING = {
     "mtmetrology.cli.demo_sphere",
     "mtmetrology.cli.fit",
     "mtmetrology.cli.multilateration",
-    "mtmetrology.cli.predict",
     "mtmetrology.cli.repeatability",
     "mtmetrology.cli.simulate",
     "mtmetrology.cli.tracker",
