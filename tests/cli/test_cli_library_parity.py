@@ -1,0 +1,152 @@
+"""Every command's output equals, field for field, what the library call a notebook makes
+with the same inputs gives (issue 20): the command line only parses, calls and prints.
+
+Each case writes its input files, runs the command, and makes the one library call; the
+command's JSON (or CSV columns) must equal the result's ``to_dict()``.  A case fails when
+the command composes anything of its own (a field added, a value recomputed, another
+default).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from mtmetrology.cli import app
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+
+runner = CliRunner()
+MACHINE = Machine.load("five-axis-wcbxfzyst")
+# Table 7-1 gauge-block readings (Sepahi Boroujeni (2021)), the two faces of a length.
+TASK_POINTS = """point,X,Y,Z,B,C,end
+p1,-138.5650,94.6560,196.2320,-42,-293,1
+p2,-61.2880,48.3440,246.8170,-64,-124,2
+"""
+
+
+def _params(path, seed=1):
+    rng = np.random.default_rng(seed)
+    a = MACHINE.parameter_scales[:, None] * rng.normal(size=(13, 13))
+    ParameterSet(
+        MACHINE.parameter_names,
+        rng.normal(size=13) * MACHINE.parameter_scales * 3,
+        MACHINE.parameter_units,
+        covariance=a @ a.T,
+        machine=MACHINE.name,
+    ).save(path)
+    return path
+
+
+def _json(args: list[str]) -> dict:
+    result = runner.invoke(app, [str(a) for a in args])
+    assert result.exit_code == 0, result.output
+    return json.loads(result.stdout)
+
+
+def _plain(document: dict) -> dict:
+    """The document as JSON carries it (tuples become lists, numpy floats floats)."""
+    return json.loads(json.dumps(document, allow_nan=False))
+
+
+def case_task(tmp_path):
+    from mtmetrology.omm.task_request import task_uncertainty_from_files
+
+    (tmp_path / "points.csv").write_text(TASK_POINTS, encoding="utf-8")
+    params = _params(tmp_path / "params.json")
+    points = tmp_path / "points.csv"
+    lt = _params(tmp_path / "lt.json", seed=2)
+    cli = _json(
+        [
+            *("task", "uncertainty", points, "--machine", MACHINE.name, "--params", params),
+            *("--feature", "length", "--long-term", lt, "--tolerance", "100,-0.01,0.01"),
+            *("--guard-band-factor", "0.5", "--json"),
+        ]
+    )
+    library = task_uncertainty_from_files(
+        points,
+        MACHINE.name,
+        params,
+        "length",
+        long_term=lt,
+        tolerance="100,-0.01,0.01",
+        guard_band_factor=0.5,
+    )
+    # the parts the command used to compose itself are there to compare
+    assert cli["source"]["long_term"] == str(lt)
+    assert cli["decision"]["guard_band_factor"] == 0.5
+    return cli, library.to_dict()
+
+
+def case_fit(tmp_path):
+    from mtmetrology.fitting.element_fit import fit_points_file
+
+    rng = np.random.default_rng(3)
+    angle = rng.uniform(0.0, 2.0 * np.pi, 20)
+    r = 12.0 + 0.002 * rng.uniform(-0.5, 0.5, 20)
+    path = tmp_path / "ring.csv"
+    rows = "\n".join(
+        f"{x:.9f},{y:.9f},0" for x, y in zip(r * np.cos(angle), r * np.sin(angle), strict=True)
+    )
+    path.write_text("x,y,z\n" + rows + "\n", encoding="utf-8")
+    cli = _json(
+        [
+            *("fit", "circle", path, "--method", "minimum-zone", "--tip-radius", "1"),
+            *("--inside", "--json"),
+        ]
+    )
+    library = fit_points_file("circle", path, method="minimum-zone", tip_radius=1.0, inside=True)
+    return cli, library.to_dict()
+
+
+def case_predict(tmp_path):
+    from mtmetrology.io import read_csv_table
+    from mtmetrology.kinematics.compensation import compensate
+    from mtmetrology.kinematics.readings_table import readings_from_table
+
+    records = tmp_path / "r.csv"
+    records.write_text("X,Y,Z,B,C\n100,0,100,0,0\n-50,20,80,30,45\n", encoding="utf-8")
+    params = _params(tmp_path / "params.json")
+    result = runner.invoke(
+        app, ["predict", str(records), "--machine", MACHINE.name, "--params", str(params), "--u"]
+    )
+    assert result.exit_code == 0, result.output
+    rows = list(csv.DictReader(io.StringIO(result.stdout)))
+    cli = {
+        "points": [[float(r[c]) for c in "xyz"] for r in rows],
+        "u_um": [[float(r[f"u_{c}_um"]) for c in "xyz"] for r in rows],
+    }
+    pset = ParameterSet.load(params, MACHINE)
+    machine = pset.machine_for(MACHINE)
+    q = readings_from_table(machine, read_csv_table(records))
+    doc = compensate(machine, q, pset.vector_for(machine), pset.covariance, with_u=True).to_dict()
+    # the CSV carries 6 decimals of mm and of µm
+    library = {
+        "points": np.round(doc["points"], 6).tolist(),
+        "u_um": np.round(np.asarray(doc["u"]) * 1e3, 6).tolist(),
+    }
+    return cli, library
+
+
+CASES = {
+    "task uncertainty": case_task,
+    "fit": case_fit,
+    "predict": case_predict,
+}
+
+
+@pytest.mark.parametrize("command", sorted(CASES))
+def test_command_output_is_the_library_result(command, tmp_path):
+    cli, library = CASES[command](tmp_path)
+    assert cli == _plain(library)
+
+
+def test_parity_detects_a_field_the_command_would_add(tmp_path):
+    """The comparison is field for field: one extra field makes the documents differ."""
+    cli, library = case_fit(tmp_path)
+    assert cli != {**_plain(library), "added_by_the_command": 1}
