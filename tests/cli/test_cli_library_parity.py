@@ -133,7 +133,33 @@ def case_predict(tmp_path):
     return cli, library
 
 
+def case_budget(tmp_path):
+    from mtmetrology.budgets.iso15530 import iso15530_3_budget
+    from mtmetrology.uncertainty.conformity import Tolerance
+
+    values = 50.0 + 0.001 * np.random.default_rng(4).normal(size=12)
+    runs = tmp_path / "runs.csv"
+    runs.write_text("value\n" + "\n".join(f"{v:.6f}" for v in values) + "\n", "utf-8")
+    cli = _json(
+        [
+            *("budget", "iso15530-3", runs, "--calibrated", "50.0005", "--u-cal", "0.4"),
+            *("--u-w", "0.3", "--tolerance", "50,-0.01,0.01", "--json"),
+        ]
+    )
+    library = iso15530_3_budget(
+        np.round(values, 6),
+        calibrated=50.0005,
+        u_cal=0.4e-3,
+        u_w=0.3e-3,
+        tolerance=Tolerance.parse("50,-0.01,0.01"),
+        name="runs",
+        provenance={"runs": str(runs)},
+    )
+    return cli, library.to_dict()
+
+
 CASES = {
+    "budget iso15530-3": case_budget,
     "task uncertainty": case_task,
     "fit": case_fit,
     "predict": case_predict,
