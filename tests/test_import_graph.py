@@ -63,7 +63,6 @@ CLI_NUMPY_PENDING = {
     "mtmetrology.cli.demo_sections",
     "mtmetrology.cli.demo_sphere",
     "mtmetrology.cli.multilateration",
-    "mtmetrology.cli.repeatability",
     "mtmetrology.cli.simulate",
     "mtmetrology.cli.tracker",
 }

@@ -158,7 +158,24 @@ def case_budget(tmp_path):
     return cli, library.to_dict()
 
 
+def case_hysteresis(tmp_path):
+    from mtmetrology.omm.repeatability_records import hysteresis_from_file
+
+    rng = np.random.default_rng(5)
+    rows = [
+        f"{psi},{condition},{25.0 + 0.001 * rng.normal():.7f}"
+        for psi in (0, 90, 180, 270)
+        for condition in ("direct", "hysteresis")
+        for _ in range(4)
+    ]
+    records = tmp_path / "ring.csv"
+    records.write_text("psi,condition,r\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    cli = _json(["repeatability", "hysteresis", records, "--p", "0.9", "--json"])
+    return cli, hysteresis_from_file(records, p=0.9).to_dict()
+
+
 CASES = {
+    "repeatability hysteresis": case_hysteresis,
     "budget iso15530-3": case_budget,
     "task uncertainty": case_task,
     "fit": case_fit,
