@@ -62,7 +62,6 @@ CLI_NUMPY_PENDING = {
     "mtmetrology.cli.demo_samba",
     "mtmetrology.cli.demo_sections",
     "mtmetrology.cli.demo_sphere",
-    "mtmetrology.cli.multilateration",
     "mtmetrology.cli.simulate",
     "mtmetrology.cli.tracker",
 }

@@ -174,7 +174,42 @@ def case_hysteresis(tmp_path):
     return cli, hysteresis_from_file(records, p=0.9).to_dict()
 
 
+ML_STATIONS = """kind: multilateration-stations
+version: 1
+stations:
+  - {name: S1, position_mm: [750, 50, 30], dead_path_mm: 100}
+  - {name: S2, position_mm: [1250, 60, 40], dead_path_mm: 200}
+  - {name: S3, position_mm: [760, 560, 20], dead_path_mm: 300}
+  - {name: S4, position_mm: [1240, 540, 50], dead_path_mm: 400}
+"""
+
+
+def case_multilateration(tmp_path):
+    from mtmetrology.multilateration.requests import calibrate_multilateration_file
+
+    (tmp_path / "stations.yaml").write_text(ML_STATIONS, encoding="utf-8")
+    lengths = tmp_path / "lengths.csv"
+    result = runner.invoke(
+        app,
+        [
+            *("simulate", "multilateration", "--machine", "three-axis-xfyz", "--grid", "4,4,4"),
+            *("--stations", str(tmp_path / "stations.yaml"), "--seed", "1", "-o", str(lengths)),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    cli = _json(
+        [
+            *("calibrate", "multilateration", lengths, "--machine", "three-axis-xfyz"),
+            *("--mc", "4", "--seed", "3", "--json"),
+        ]
+    )
+    assert cli["provenance"]["map_monte_carlo"]["trials"] == 4
+    library = calibrate_multilateration_file(lengths, Machine.load("three-axis-xfyz"), mc=4, seed=3)
+    return cli, library.to_dict()
+
+
 CASES = {
+    "calibrate multilateration": case_multilateration,
     "repeatability hysteresis": case_hysteresis,
     "budget iso15530-3": case_budget,
     "task uncertainty": case_task,
