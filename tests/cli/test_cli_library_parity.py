@@ -208,7 +208,47 @@ def case_multilateration(tmp_path):
     return cli, library.to_dict()
 
 
+def case_tracker(tmp_path):
+    from mtmetrology.tracker import calibrate, files, read_measurements
+
+    (tmp_path / "tools.yaml").write_text(
+        "kind: tracker-tools\nversion: 1\n"
+        "tools_mm: [[0, 0, -100], [100, 0, -100], [0, 100, -100]]\n",
+        encoding="utf-8",
+    )
+    meas = tmp_path / "meas.csv"
+    result = runner.invoke(
+        app,
+        [
+            *("simulate", "tracker", "--machine", "three-axis-xfyz", "--tools"),
+            *(str(tmp_path / "tools.yaml"), "--seed", "4", "-o", str(meas)),
+            *("--mesh", "800:1200:100,100:500:200,200:400:100"),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    cli = _json(
+        [
+            "calibrate",
+            "tracker",
+            meas,
+            "--machine",
+            "three-axis-xfyz",
+            "--angle-urad",
+            "15",
+            "--json",
+        ]
+    )
+    library = calibrate(
+        Machine.load("three-axis-xfyz"),
+        read_measurements(meas),
+        noise=files.noise(15.0),
+        conditions=files.load_conditions(None),
+    )
+    return cli, library.to_dict()
+
+
 CASES = {
+    "calibrate tracker": case_tracker,
     "calibrate multilateration": case_multilateration,
     "repeatability hysteresis": case_hysteresis,
     "budget iso15530-3": case_budget,
