@@ -57,7 +57,6 @@ HEAVY = {"numpy", "scipy", "matplotlib", "jinja2", "dask", "sklearn"}
 #: cli modules that still compute (numpy at module level) until issue 20 moves their
 #: workflows into library calls; the test fails if one is cleaned and left listed here.
 CLI_NUMPY_PENDING = {
-    "mtmetrology.cli.cmm",
     "mtmetrology.cli.demo_cmm",
     "mtmetrology.cli.demo_samba",
     "mtmetrology.cli.demo_sections",

@@ -149,8 +149,7 @@ def predict(
             "--probes (or remove the column to use the machine's tool)"
         )
     if probes is not None:
-        from mtmetrology.cli.cmm import probe_tools
-        from mtmetrology.cmm.files import load_probes
+        from mtmetrology.cmm.files import load_probes, probe_tools
 
         tools = probe_tools(load_probes(probes), table)
     q = readings_from_table(m, table)
