@@ -61,7 +61,6 @@ CLI_NUMPY_PENDING = {
     "mtmetrology.cli.demo_samba",
     "mtmetrology.cli.demo_sections",
     "mtmetrology.cli.demo_sphere",
-    "mtmetrology.cli.simulate",
 }
 #: The demo's modules import each other (the cycle is closed inside a function); issue 20
 #: turns the demo's sections into examples/ scripts, which removes it.

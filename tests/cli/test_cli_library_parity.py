@@ -247,7 +247,29 @@ def case_tracker(tmp_path):
     return cli, library.to_dict()
 
 
+def case_simulate_length(tmp_path):
+    from mtmetrology.samba import simulate_length_check
+
+    out = tmp_path / "gauge.csv"
+    result = runner.invoke(
+        app,
+        [
+            *("simulate", "length", "--machine", MACHINE.name, "--end-a", "-100,-100,40"),
+            *("--end-b", "100,100,40", "--pairs", "6", "--noise-um", "0.5", "--seed", "5"),
+            *("-o", str(out)),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    rows = list(csv.reader(io.StringIO(out.read_text(encoding="utf-8"))))
+    cli = {"header": rows[0], "lines": rows[1:]}
+    check = simulate_length_check(
+        MACHINE, None, (-100, -100, 40), (100, 100, 40), pairs=6, noise=0.5e-3, seed=5
+    )
+    return cli, {"header": list(check.header), "lines": check.lines()}
+
+
 CASES = {
+    "simulate length": case_simulate_length,
     "calibrate tracker": case_tracker,
     "calibrate multilateration": case_multilateration,
     "repeatability hysteresis": case_hysteresis,
