@@ -268,7 +268,36 @@ def case_simulate_length(tmp_path):
     return cli, {"header": list(check.header), "lines": check.lines()}
 
 
+def case_repeatability_fit(tmp_path):
+    from mtmetrology.omm.repeatability_records import fit_repeatability_file
+
+    rng = np.random.default_rng(6)
+    rows = ["target,phi,theta,B,C,X_T,Y_T,Z_T,i,j,k,X,Y,Z,time"]
+    for t in range(45):
+        phi, theta = np.radians(rng.uniform(0, 90)), np.radians(rng.uniform(0, 360))
+        b, c = rng.uniform(-90, 90), rng.uniform(-180, 180)
+        target = rng.uniform(-200, 200, 3)
+        n = (np.sin(phi) * np.sin(theta), np.sin(phi) * np.cos(theta), np.cos(phi))
+        for s in range(6):
+            p = target + rng.normal(0, 0.001, 3)
+            rows.append(
+                f"T{t},{np.degrees(phi)},{np.degrees(theta)},{b},{c},{target[0]},{target[1]},"
+                f"{target[2]},{-n[0]},{-n[1]},{-n[2]},{p[0]:.6f},{p[1]:.6f},{p[2]:.6f},{s}"
+            )
+    records = tmp_path / "records.csv"
+    records.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    cli = _json(
+        [
+            *("repeatability", "fit", records, "-o", tmp_path / "R.json"),
+            *("--allow-few-targets", "--window", "3", "--seed", "2", "--json"),
+        ]
+    )
+    library = fit_repeatability_file(records, allow_few_targets=True, window=3, seed=2)
+    return cli, library.to_dict()
+
+
 CASES = {
+    "repeatability fit": case_repeatability_fit,
     "simulate length": case_simulate_length,
     "calibrate tracker": case_tracker,
     "calibrate multilateration": case_multilateration,
