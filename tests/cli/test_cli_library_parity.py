@@ -296,7 +296,68 @@ def case_repeatability_fit(tmp_path):
     return cli, library.to_dict()
 
 
+def case_ballplate(tmp_path):
+    import yaml
+
+    from mtmetrology.cmm.requests import calibrate_ballplate_files
+
+    probes = {"P0": [0, 0, -150], "PX1": [50, 0, -150], "PY1": [0, 50, -150]}
+    balls = [
+        {"id": f"{3 * j + i:02d}", "x_mm": 266.0 * i, "y_mm": 266.0 * j, "z_mm": 0.0}
+        for j in range(3)
+        for i in range(3)
+    ]
+    poses = [
+        ("H", [330, 230, 150], [0, 0, 0]),
+        ("VX", [330, 500, 10], [90, 0, 0]),
+        ("VY", [600, 230, 10], [90, 0, 90]),
+        ("T", [330, 230, 120], [30, 0, 0]),
+    ]
+    docs = {
+        "plate": {"kind": "ball-plate", "balls": balls, "u_mm": 0.0005},
+        "probes": {
+            "kind": "probe-set",
+            "probes": [{"id": k, "offset_mm": v} for k, v in probes.items()],
+        },
+        "positions": {
+            "kind": "ballplate-positions",
+            "positions": [
+                {"id": i, "origin_mm": o, "rotation_deg": r, "probes": list(probes)}
+                for i, o, r in poses
+            ],
+        },
+    }
+    path = {}
+    for name, doc in docs.items():
+        path[name] = tmp_path / f"{name}.yaml"
+        path[name].write_text(yaml.safe_dump(doc), encoding="utf-8")
+    records = tmp_path / "records.csv"
+    common = ["--machine", "cmm-moving-bridge", "--plate", path["plate"], "--probes"]
+    result = runner.invoke(
+        app,
+        [
+            str(a)
+            for a in [
+                *("simulate", "ballplate", *common, path["probes"], "--positions"),
+                *(path["positions"], "--seed", "3", "-o", records),
+            ]
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    cli = _json(
+        [
+            *("calibrate", "ballplate", records, *common, path["probes"]),
+            *("-o", tmp_path / "cal.json", "--sigma-um", "0.6", "--seed", "1", "--json"),
+        ]
+    )
+    library = calibrate_ballplate_files(
+        records, "cmm-moving-bridge", path["plate"], path["probes"], sigma=0.6e-3, seed=1
+    )
+    return cli, library.to_dict()
+
+
 CASES = {
+    "calibrate ballplate": case_ballplate,
     "repeatability fit": case_repeatability_fit,
     "simulate length": case_simulate_length,
     "calibrate tracker": case_tracker,

@@ -25,7 +25,6 @@ from mtmetrology.cli._common import (
 )
 from mtmetrology.cli._history import HistoryOption, record_in_history
 from mtmetrology.cmm.budget import ballplate_budget, cmm_statement, load_budget
-from mtmetrology.cmm.calibrate import calibrate_ballplate, cross_validate
 from mtmetrology.cmm.files import (
     load_plate,
     load_positions,
@@ -36,6 +35,7 @@ from mtmetrology.cmm.files import (
 )
 from mtmetrology.cmm.gp import GPErrorModel, fit_gp
 from mtmetrology.cmm.models import parse_model
+from mtmetrology.cmm.requests import AUTO_CANDIDATES, calibrate_ballplate_files
 from mtmetrology.cmm.simulate import simulate_ballplate
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError, atomic_write, check_output, write_json
@@ -45,7 +45,6 @@ from mtmetrology.units import from_internal, to_internal
 
 __all__ = ["gp_app", "register"]
 
-AUTO_CANDIDATES = ("seed", "full-1", "full-2", "full-3")
 
 FILES_HELP = (
     "Files: PLATE (kind: ball-plate; balls: list of id, x_mm, y_mm, z_mm; u_mm or "
@@ -148,20 +147,19 @@ def calibrate_ballplate_cmd(
     """
     sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
     m = Machine.load(machine)
-    rec, pl, pr = _inputs(records, plate, probes)
-    selection = None
-    if model == "auto":
-        if degrees:
-            raise InputFileError("--degrees applies to a full-<d> model, not to --model auto")
-        names = [c.strip() for c in candidates.split(",") if c.strip()]
-        for c in names:
-            parse_model(c)
-        selection = cross_validate(m, rec, pl, pr, names, sigma=sigma)
-        choice = parse_model(selection["chosen"])
-    else:
-        choice = parse_model(model, degrees)
-    cal = calibrate_ballplate(m, rec, pl, pr, model=choice, sigma=sigma, seed=seed)
-    doc = cal.to_document(selection)
+    request = calibrate_ballplate_files(
+        records,
+        m,
+        plate,
+        probes,
+        model=model,
+        degrees=degrees,
+        candidates=[c.strip() for c in candidates.split(",") if c.strip()],
+        sigma=sigma,
+        seed=seed,
+    )
+    cal, selection = request.calibration, request.selection
+    doc = request.to_dict()
     report = None
     if report_path is not None:
         report = _report(
