@@ -1,6 +1,6 @@
 """GP hyper-parameters at a bound are flagged; a non-rigid error separates GP and kinematic.
 
-The demo's virtual CMM (``mtm demo``, :mod:`mtmetrology.cli.demo_cmm`): with rigid errors
+The demo's virtual CMM (``mtm demo``, ``examples/cmm_ballplate.py``): with rigid errors
 of the seed model only, the GP with a seed-model mean has nothing left to fit, its
 amplitude ends at the lower bound of its search range and it predicts the kinematic mean
 (the two rows of the report's comparison were identical, issue 18); the result now says
@@ -10,12 +10,12 @@ position.
 
 from __future__ import annotations
 
+import importlib.util
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from mtmetrology.cli import demo_cmm
 from mtmetrology.cmm.compare import compare_models
 from mtmetrology.cmm.files import load_plate, load_positions, load_probes
 from mtmetrology.cmm.simulate import simulate_ballplate
@@ -23,6 +23,10 @@ from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.units import to_internal
 
+_SCRIPT = Path(__file__).resolve().parents[2] / "examples" / "cmm_ballplate.py"
+_SPEC = importlib.util.spec_from_file_location("cmm_ballplate", _SCRIPT)
+demo_cmm = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(demo_cmm)
 SIGMA = float(to_internal(demo_cmm.SIGMA_UM, "µm"))
 
 

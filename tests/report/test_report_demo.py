@@ -14,8 +14,9 @@ from scipy.stats import binom
 from test_report_browser import check_page
 from typer.testing import CliRunner
 
-from mtmetrology.cli import app, demo_sections
-from mtmetrology.cli.demo import MARKER, DemoSection
+from mtmetrology.cli import app
+from mtmetrology.report import demo as demo_runner
+from mtmetrology.report.demo import MARKER
 
 runner = CliRunner()
 
@@ -275,13 +276,30 @@ def test_demo_refuses_a_folder_it_did_not_write(tmp_path):
 
 
 def test_interrupted_demo_leaves_nothing(tmp_path, monkeypatch):
-    def interrupt(ctx):
-        ctx.write_text("half", "partial.txt")
-        raise KeyboardInterrupt
-
-    sections = [demo_sections.DEMO_SECTIONS[0], DemoSection("stop", "Ctrl-C", interrupt)]
-    monkeypatch.setattr(demo_sections, "DEMO_SECTIONS", sections)
-    out = tmp_path / "mtm-demo"
+    """The first example runs, the second writes a file and is interrupted (Ctrl-C)."""
+    scripts = tmp_path / "examples"
+    scripts.mkdir()
+    stop = (
+        "def main(ctx):\n    ctx.write_text('half', 'partial.txt')\n    raise KeyboardInterrupt\n"
+    )
+    (scripts / "stop.py").write_text(stop, encoding="utf-8")
+    first = demo_runner.examples_folder() / demo_runner.EXAMPLES[0]
+    monkeypatch.setattr(demo_runner, "EXAMPLES", [str(first), "stop.py"])
+    monkeypatch.setattr(demo_runner, "examples_folder", lambda: scripts)
+    out = tmp_path / "out" / "mtm-demo"
     result = runner.invoke(app, ["demo", "--out", str(out)])
     assert result.exit_code == 130 and result.stderr.strip() == "interrupted: nothing written"
-    assert list(tmp_path.iterdir()) == []
+    assert list(out.parent.iterdir()) == []
+
+
+def test_demo_without_the_example_scripts_is_an_input_error(tmp_path, monkeypatch):
+    """Installed without the repository's examples/ folder: one line, exit 2, no folder."""
+    monkeypatch.setattr(demo_runner, "__file__", str(tmp_path / "a" / "b" / "c" / "demo.py"))
+    out = tmp_path / "mtm-demo"
+    result = runner.invoke(app, ["demo", "--out", str(out)])
+    assert result.exit_code == 2 and not out.exists()
+    folder = tmp_path / "examples"
+    assert result.stderr == (
+        f"error: the example scripts are not beside this installation (looked in {folder}); "
+        "run from a clone of the repository\n"
+    )

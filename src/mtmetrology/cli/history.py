@@ -32,10 +32,17 @@ from mtmetrology.history import (
     parameter_trend,
     show_run,
 )
+from mtmetrology.history.dcc import (
+    calibration_certificate,
+    certified_ball_centres,
+    certified_length,
+    read_certificate,
+)
 from mtmetrology.history.records import machine_names
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import atomic_write, write_json
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.units import from_internal
 
 app = typer.Typer(
     help="Calibration history: record results, control charts, drift, long-term covariance."
@@ -423,3 +430,115 @@ def drift(
             f"due: {due} (P(|{result.parameter}| > {result.mpe:g} {result.unit}) passes "
             f"{1 - result.reliability:.3g})"
         )
+
+
+# Display unit of a certificate quantity by its SI unit (ISO 230-1 customary units).
+_DISPLAY = {"m": "µm", "rad": "µrad", "1": "µm/m"}
+
+
+def _print_certificate(cert) -> None:
+    typer.echo(
+        f"{cert.identifier}: {cert.item}, {cert.laboratory} ({cert.country}), "
+        f"{cert.begin.isoformat()} to {cert.end.isoformat()}; U = k u with "
+        f"k = {cert.coverage_factor:g}, p = {cert.coverage_probability:.4f}"
+    )
+    values, u, _ = cert.internal()
+    for name, si, value, s in zip(cert.names, cert.units, values, u, strict=True):
+        unit = _DISPLAY[si]
+        typer.echo(
+            f"  {name:<10} {from_internal(value, unit):>14.4f} "
+            f"U = {from_internal(cert.coverage_factor * s, unit):.2g} {unit}"
+        )
+
+
+@app.command("dcc")
+@user_errors
+def dcc(
+    run: Annotated[int, typer.Argument(help="Calibration run number (mtm history list).")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="CERT.xml to write.")],
+    laboratory: Annotated[str, typer.Option("--laboratory", help="Laboratory name.")],
+    email: Annotated[str, typer.Option("--email", help="Laboratory e-mail address.")],
+    country: Annotated[
+        str, typer.Option("--country", help="Laboratory country, ISO 3166-1 alpha-2 (DE).")
+    ],
+    coverage_factor: Annotated[
+        float, typer.Option("--coverage-factor", help="k of U = k u (>= 1).")
+    ] = 2.0,
+    db: Db = None,
+) -> None:
+    """Export a calibration run as a PTB Digital Calibration Certificate (DCC 3.1.2)."""
+    record = show_run(open_history(db), run)
+    cert = calibration_certificate(
+        record,
+        laboratory=laboratory,
+        email=email,
+        country=country,
+        coverage_factor=coverage_factor,
+    )
+    xml = cert.to_xml()
+    with atomic_write(output, "wb", encoding=None) as fh:
+        fh.write(xml)
+    _print_certificate(cert)
+    typer.echo(f"wrote {output}", err=True)
+
+
+@app.command("dcc-import")
+@user_errors
+def dcc_import(
+    certificate: Annotated[Path, typer.Argument(help="A DCC (XML), e.g. an artefact's.")],
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Write the values as JSON.")
+    ] = None,
+    scale_bar: Annotated[
+        Path | None,
+        typer.Option(
+            "--scale-bar",
+            help="SAMBA artefact (YAML) whose scale_bar length_mm and u_mm the certificate "
+            "sets; -o then writes the updated artefact.",
+        ),
+    ] = None,
+    quantity: Annotated[
+        str | None, typer.Option("--quantity", help="The certified length (default: the only).")
+    ] = None,
+    ball_plate: Annotated[
+        Path | None,
+        typer.Option(
+            "--ball-plate",
+            help="Ball-plate file (kind: ball-plate) whose centres and covariance_mm2 the "
+            "certificate sets (quantities ID_x, ID_y, ID_z); -o then writes the updated plate.",
+        ),
+    ] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """Read a DCC (a scale bar's or ball plate's certificate): values, u and covariance."""
+    cert = read_certificate(certificate)
+    document = cert.to_dict()
+    if scale_bar is not None:
+        document = load_document(scale_bar, "SAMBA artefact")
+        if not isinstance(document.get("scale_bar"), dict):
+            raise InputError(f"{scale_bar}: scale_bar: missing (ends, length_mm, u_mm)")
+        length, u = certified_length(cert, quantity)
+        document["scale_bar"] = {**document["scale_bar"], "length_mm": length, "u_mm": u}
+        typer.echo(
+            f"scale bar {cert.identifier}: {length:.6f} mm, u = {from_internal(u, 'µm'):.2g} µm",
+            err=True,
+        )
+    if ball_plate is not None:
+        if scale_bar is not None:
+            raise InputError("--scale-bar and --ball-plate: give one artefact")
+        document = load_document(ball_plate, "ball plate")
+        balls = document.get("balls")
+        if not isinstance(balls, list) or not all(isinstance(b, dict) for b in balls):
+            raise InputError(f"{ball_plate}: balls: missing (a list of id, x_mm, y_mm, z_mm)")
+        centres, covariance = certified_ball_centres(cert, [str(b.get("id")) for b in balls])
+        for ball, centre in zip(balls, centres.tolist(), strict=True):
+            ball.update(x_mm=centre[0], y_mm=centre[1], z_mm=centre[2])
+        document.pop("u_mm", None)
+        document["covariance_mm2"] = covariance.tolist()
+        typer.echo(f"ball plate {cert.identifier}: {len(balls)} centres", err=True)
+    if output is not None:
+        write_json(output, document)
+    if json:
+        print_json(document)
+        return
+    _print_certificate(cert)

@@ -35,10 +35,10 @@ from mtmetrology.formatting import (
 from mtmetrology.io import write_json
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.omm.task import TaskResult
-from mtmetrology.omm.task_request import task_feature, task_uncertainty_from_files
+from mtmetrology.omm.task_request import task_uncertainty_from_files
 from mtmetrology.units import from_internal
 
-__all__ = ["app", "task_feature"]  # task_feature: the demo builds its sphere with it
+__all__ = ["app"]
 
 app = typer.Typer(help="Uncertainty of on-machine measurement tasks.", no_args_is_help=True)
 

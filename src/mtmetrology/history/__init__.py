@@ -12,6 +12,11 @@ from mtmetrology.history.analysis import (
     parameter_trend,
 )
 from mtmetrology.history.database import DB_ENV, database_url, open_history
+from mtmetrology.history.dcc import (
+    CalibrationCertificate,
+    calibration_certificate,
+    read_certificate,
+)
 from mtmetrology.history.drift import DriftResult, fit_drift
 from mtmetrology.history.records import (
     RunRecord,
@@ -24,11 +29,13 @@ from mtmetrology.history.records import (
 
 __all__ = [
     "DB_ENV",
+    "CalibrationCertificate",
     "DriftResult",
     "RunRecord",
     "RunSummary",
     "TrendResult",
     "add_result",
+    "calibration_certificate",
     "database_url",
     "export_rows",
     "fit_drift",
@@ -37,5 +44,6 @@ __all__ = [
     "open_history",
     "parameter_drift",
     "parameter_trend",
+    "read_certificate",
     "show_run",
 ]

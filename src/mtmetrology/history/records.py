@@ -524,7 +524,7 @@ def parameter_series(
     return [r[0] for r in rows], [_utc(r[1]) for r in rows], rows[0][2], values, u
 
 
-def _document_covariance(doc: dict, names: list[str]) -> np.ndarray | None:
+def document_covariance(doc: dict, names: list[str]) -> np.ndarray | None:
     """A recorded document's parameter covariance (internal units) in ``names``' order: its
     ``covariance`` block (in the units listed with the parameters), else diag(u²), else
     None."""
@@ -546,7 +546,7 @@ def run_covariances(engine: Engine, ids: list[int], names: list[str]) -> list[np
     cal = schema.CalibrationRun
     with Session(engine) as session:
         documents = dict(session.execute(select(cal.id, cal.result).where(cal.id.in_(ids))).all())
-    return [_document_covariance(documents[i], names) for i in ids]
+    return [document_covariance(documents[i], names) for i in ids]
 
 
 def export_rows(engine: Engine, machine: str, *, since: datetime | None = None) -> list[dict]:

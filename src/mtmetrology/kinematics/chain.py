@@ -622,7 +622,10 @@ class KinematicChain:
             r_in = inputs[i]
             gs = el.varsign
             cols = {}
-            for c in set(el.components):
+            # the columns serve the parameter and reading Jacobians only (the inputs r_in
+            # are recorded for those); the tool Jacobian needs the linear part alone
+            wanted = d_params or (d_axes and dde is not None)
+            for c in set(el.components) if wanted else ():
                 if c < 3:
                     cols[c] = (a[0][c], a[1][c], a[2][c])
                 else:

@@ -1,49 +1,50 @@
-"""The sphere section of ``mtm demo``: a 25 mm sphere probed at several (B, C), its
-diameter with u, U and an ISO 14253-1 decision, and the coverage of the task intervals.
+"""Task uncertainty and ISO 14253-1 conformity on the calibrated five-axis machine: the
+gauge length and a sphere probed at several (B, C), with the coverage of the intervals.
 
-The probed points come from the SAMBA simulator (:func:`mtmetrology.samba.simulate_records`
-with raw points: the inverse kinematics of the *true* machine puts the stylus centre on
-the sphere, then 1 µm of noise per linear reading), so the same kinematic engine serves
-the simulation and the evaluation. Each orientation is one ``mtm task uncertainty
---feature sphere`` run on a file the demo writes, and its command is printed.
+Uses the files ``samba_calibration.py`` writes (its parameter set with covariance, the
+gauge-block readings, the residual vectors' covariance); run on its own into an empty
+folder, it runs that calibration first. The sphere's probed points come from the SAMBA
+simulator on the *true* machine (1 µm noise per linear reading), so one kinematic engine
+serves the simulation and the evaluation. Each task is one ``mtm task uncertainty`` run on
+a file the script writes, and its command is printed. Coverage: the simulation knows the
+true sphere diameter and the true gauge length, so the fraction of the task intervals
+(value ± U) that contain the truth is counted. Run it on its own::
 
-Coverage: the simulation knows the true sphere diameter and the true gauge length, so
-the fraction of the task intervals (value ± U) that contain the truth can be counted over
-the sphere orientations and the gauge-block indexations.
+    python examples/task_uncertainty.py [OUT]
 
 References
 ----------
 Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine
 Tool Metrology*. PhD thesis, Polytechnique Montréal, ch. 6–7. ISO 14253-1:2017.
-JCGM 100:2008 (GUM), §6.2–6.3 (expanded uncertainty, coverage probability).
+JCGM 100:2008 (GUM), §6.2–6.3; JCGM 101:2008, §7.9.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.stats import binom
 
-from mtmetrology.cli._common import readings_from_table
-from mtmetrology.cli.demo import DemoContext
-from mtmetrology.cli.task import FeatureName, Form, task_feature
-from mtmetrology.fitting.features import GaugeLength
+from _five_axis import GAUGE_TOLERANCE, NOISE_UM, PRESET
+from mtmetrology.fitting.composite import CombinedFeature
+from mtmetrology.fitting.features import GaugeLength, SphereDiameter, Sphericity
 from mtmetrology.formatting import format_uncertainty, format_value
 from mtmetrology.io import read_csv_table
 from mtmetrology.io.tables import write_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.kinematics.readings_table import readings_from_table  # the reader of `mtm task`
 from mtmetrology.omm.task import task_uncertainty
 from mtmetrology.omm.unexplained import load_unexplained_covariance
 from mtmetrology.report import figures
+from mtmetrology.report.demo import DemoContext
+from mtmetrology.report.results import add_result
 from mtmetrology.samba import simulate_records
 from mtmetrology.samba.artefact import SambaArtefact
 from mtmetrology.samba.simulate import ProbingProgramme
 from mtmetrology.uncertainty.conformity import Tolerance, decide
 from mtmetrology.units import from_internal, to_internal
-
-__all__ = ["sphere_task_section"]
 
 SPHERE_DIAMETER_MM = 25.0
 SPHERE_CENTRE_MM = (20.0, 30.0, 60.0)  # workpiece frame
@@ -51,7 +52,6 @@ SPHERE_POINTS = 25  # 24 on the equator and the pole (machine axes)
 # The orientations of the sphere measurement, degrees.
 SPHERE_BC = ((-40, 30), (-20, 150), (0, 0), (0, 270), (20, 90), (40, 210))
 SPHERE_TOLERANCE = f"{SPHERE_DIAMETER_MM},-0.008,0.008"
-NOISE_UM = 1.0
 # The gauge-block indexations (of gauge/gauge.csv) evaluated for the coverage check.
 COVERAGE_PAIRS = 10
 # The end-face centres of the demo's gauge block (workpiece frame, mm).
@@ -151,7 +151,7 @@ def sphere_task_section(ctx: DemoContext, *, preset: str) -> None:
     unexplained = load_unexplained_covariance(ctx.path("task", "unexplained.json"))
     tolerance = Tolerance.parse(SPHERE_TOLERANCE)
     # What `mtm task uncertainty --feature sphere` evaluates: the diameter and the sphericity.
-    sphere = task_feature(FeatureName.sphere, Form.least_squares, None, 2.0 * m.tip_radius, 25)
+    sphere = CombinedFeature((SphereDiameter(2.0 * m.tip_radius, inner=False), Sphericity()))
     rows, intervals, big_u_um = [], [], []
     with ctx.step(
         f"a {SPHERE_DIAMETER_MM:g} mm sphere at {len(SPHERE_BC)} (B, C): task uncertainty"
@@ -268,3 +268,99 @@ def _coverage(ctx: DemoContext, m, pset, unexplained, intervals) -> Coverage:
         [[n, covered, f"{100 * p:.1f} %", f"{coverage.p_at_most:.3f}"]],
     )
     return coverage
+
+
+def task_section(ctx: DemoContext, *, preset: str) -> None:
+    """The gauge length of the first indexation with its u, U and conformity decision."""
+
+    table = read_csv_table(ctx.path("gauge", "gauge.csv"), required=("pair", "end"))
+    first = [k for k, pair in enumerate(table.strings("pair")) if pair == "1"]
+    base = Machine.load(preset)
+    axes = [a for a in base.axis_names if table.has(a)]
+    rows = [
+        [str(n + 1), str(n + 1), *(table.strings(a)[k] for a in axes)] for n, k in enumerate(first)
+    ]
+    points = ctx.path("task", "gauge-pair.csv")
+    write_csv_table(points, ["point", "end", *axes], rows)
+    pset = ParameterSet.load(ctx.path("samba", "params.json"), base)
+    m = pset.machine_for(base)
+    readings = readings_from_table(m, read_csv_table(points, required=("point",)))
+    tolerance = Tolerance.parse(GAUGE_TOLERANCE)
+    unexplained = ctx.path("task", "unexplained.json")
+    seed = ctx.seed + 5
+    with ctx.step("task uncertainty of the gauge length (GUF validated by Monte Carlo)"):
+        result = task_uncertainty(
+            m,
+            readings,
+            pset.vector_for(m),
+            pset.covariance,
+            GaugeLength(tip_diameter=2.0 * m.tip_radius),
+            recalibrated=True,  # the virtual machine does not drift after its calibration
+            unexplained_covariance=load_unexplained_covariance(unexplained),
+            method="both",
+            seed=seed,
+        )
+    g = result.result.output()  # the Monte Carlo result, the reference of the validation
+    decision = decide(g.value, g.U, tolerance, unit="mm")
+    result = replace(result, decision=decision)
+    ctx.write_json(result.to_dict(), "task", "gauge-length.json")
+    ctx.command(
+        "the gauge length with its uncertainty and ISO 14253-1 decision",
+        "task", "uncertainty", ctx.shown("task", "gauge-pair.csv"), "--machine", preset,
+        "--params", ctx.shown("samba", "params.json"), "--feature", "length", "--recalibrated",
+        "--unexplained", ctx.shown("task", "unexplained.json"), "--method", "both",
+        "--seed", str(seed), "--tolerance", GAUGE_TOLERANCE,
+        "-o", ctx.shown("task", "gauge-length.json"),
+    )  # fmt: skip
+    u_um = float(from_internal(g.u, "µm"))
+    big_u_um = float(from_internal(g.U, "µm"))
+    ctx.report.section(
+        "Task uncertainty and conformity of the gauge length",
+        "The gauge length of the first indexation, compensated with the calibrated "
+        "parameters; its uncertainty by adaptive Monte Carlo (JCGM 101:2008, 7.9) over the "
+        "parameter covariance of the calibration (the compensation uses its estimate, whose "
+        "error does not cancel) and the unexplained volumetric error (the covariance of the "
+        "calibration's residual vectors; Sepahi Boroujeni (2021), ch. 6–7), with the "
+        "full-covariance GUF validated against it; the virtual machine does not drift, so "
+        "the task counts as recalibrated (no long-term term). The decision follows ISO "
+        "14253-1:2017 with guard bands of U: "
+        f"tolerance {tolerance.lower_limit:.6f} to {tolerance.upper_limit:.6f} mm.",
+    )
+    ctx.report.table(
+        ["length (mm)", "u (µm)", "U (µm)", "k", "acceptance zone (mm)", "decision"],
+        [[
+            format_value(g.value, g.u), format_uncertainty(u_um), format_uncertainty(big_u_um),
+            f"{g.k:.2f}",
+            "[{:.6f}, {:.6f}]".format(*decision.acceptance_zone), decision.decision.value,
+        ]],
+    )  # fmt: skip
+    add_result(ctx.report, result.guf)
+    add_result(
+        ctx.report,
+        result.validation,
+        units=dict(zip(result.guf.names, result.guf.units, strict=True)),
+    )
+    validated = "validated" if result.validation.passed else "NOT validated"
+    ctx.summary.append(
+        f"task: gauge length {format_value(g.value, g.u)} mm, u = {format_uncertainty(u_um)} µm, "
+        f"U = {format_uncertainty(big_u_um)} µm "
+        f"(k = {g.k:.2f}, Monte Carlo, {result.mcm.trials} trials; GUF {validated}); "
+        f"ISO 14253-1: {decision.decision.value}"
+    )
+
+
+def main(ctx: DemoContext) -> None:
+    if not ctx.path("samba", "params.json").exists():  # run on its own: calibrate first
+        import samba_calibration
+
+        samba_calibration.main(ctx)
+    ctx.rule("Task uncertainty and conformity")
+    task_section(ctx, preset=PRESET)
+    ctx.rule("A sphere at several B/C; coverage")
+    sphere_task_section(ctx, preset=PRESET)
+
+
+if __name__ == "__main__":
+    from mtmetrology.report.demo import run_example
+
+    run_example(main, "task_uncertainty")

@@ -1,5 +1,5 @@
-"""The CMM section of ``mtm demo``: ball-plate calibration of a bridge CMM, and the
-kinematic against the Gaussian-process error model on a held-out plate position.
+"""Ball-plate calibration of a bridge CMM; the kinematic and the Gaussian-process error
+models compared on a held-out plate position.
 
 A virtual ``cmm-moving-bridge`` with known errors of the source's (seed) model (µm, µrad:
 scale errors, a pitch, a yaw and an out-of-squareness-like constant) probes a 3 × 3 ball
@@ -8,7 +8,10 @@ vertical diagonal), 0.5 µm reading noise. The calibration uses all positions; t
 comparison leaves the diagonal out of both fits and judges them on its 36 lengths per
 stylus against the truth. The comparison is repeated on the same machine with a non-rigid
 error of the bridge that no kinematic model represents (:func:`non_rigid_error`), so that
-the report shows where each model wins. Small on purpose: the section runs in seconds.
+the report shows where each model wins. Small on purpose: it runs in seconds. Run it on
+its own::
+
+    python examples/cmm_ballplate.py [OUT]
 
 References
 ----------
@@ -22,17 +25,17 @@ from __future__ import annotations
 import numpy as np
 import yaml
 
-from mtmetrology.cli.demo import DemoContext
 from mtmetrology.cmm.calibrate import calibrate_ballplate
 from mtmetrology.cmm.compare import compare_models
 from mtmetrology.cmm.files import load_plate, load_positions, load_probes, write_records
 from mtmetrology.cmm.gp import fit_gp
+from mtmetrology.cmm.report import COVERAGE_FACTOR
 from mtmetrology.cmm.simulate import simulate_ballplate
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.report.demo import DemoContext
+from mtmetrology.report.results import add_result
 from mtmetrology.units import to_internal
-
-__all__ = ["cmm_section"]
 
 CMM = "cmm-moving-bridge"
 SIGMA_UM = 0.5  # reading repeatability of the source's CMM (Salacheep 2016, §4.4)
@@ -110,10 +113,8 @@ def non_rigid_error(q: np.ndarray) -> np.ndarray:
     return e
 
 
-def cmm_section(ctx: DemoContext) -> None:
-    from mtmetrology.cmm.report import COVERAGE_FACTOR
-    from mtmetrology.report.results import add_result
-
+def main(ctx: DemoContext) -> None:
+    ctx.rule("Bridge CMM: ball plate, kinematic and GP models")
     _write_inputs(ctx)
     base = Machine.load(CMM)
     plate, probes = (
@@ -252,3 +253,9 @@ def _where_each_wins(ctx: DemoContext, rigid, non_rigid) -> None:
         table,
         caption=f"Held-out position {HELD_OUT}, both models fitted without it.",
     )
+
+
+if __name__ == "__main__":
+    from mtmetrology.report.demo import run_example
+
+    run_example(main, "cmm_ballplate")

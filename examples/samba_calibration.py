@@ -1,10 +1,11 @@
-"""The SAMBA sections of ``mtm demo``: calibration with validated uncertainty, a gauge
-block before and after compensation, and the task uncertainty of that gauge length.
+"""A SAMBA calibration with validated uncertainty, a gauge block before and after
+compensation, and compensated coordinates, on the virtual five-axis machine.
 
-Every step is the SAMBA application (:mod:`mtmetrology.samba`) or the on-machine task
-uncertainty (:mod:`mtmetrology.omm.task`) run on files the demo writes into its folder, so
-each printed ``$ mtm`` command redoes it. The simulated records come from the
-``mtm simulate`` commands themselves, so a rerun rewrites the same CSV files.
+Every step is the SAMBA application (:mod:`mtmetrology.samba`) run on files the script
+writes into its folder, so each printed ``$ mtm`` command redoes it; the simulated
+records are those ``mtm simulate samba`` writes. Run it on its own::
+
+    python examples/samba_calibration.py [OUT]
 
 References
 ----------
@@ -13,28 +14,38 @@ optimisée des artefacts et de la séquence de mesure de la méthode SAMBA en vu
 estimation efficace des erreurs géométriques*. PhD thesis, École Polytechnique de
 Montréal. Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with
 On-Machine Tool Metrology*. PhD thesis, Polytechnique Montréal, ch. 5–7. JCGM 101:2008,
-§7.9 (adaptive Monte Carlo); JCGM 102:2011, §8 (validation); ISO 14253-1:2017.
+§7.9 (adaptive Monte Carlo); JCGM 102:2011, §8 (validation).
 """
 
 from __future__ import annotations
 
 import io
 from contextlib import redirect_stderr
-from dataclasses import replace
 
 import numpy as np
 
+from _five_axis import (
+    ARTEFACT_YAML,
+    GAUGE_END_A,
+    GAUGE_END_B,
+    GAUGE_LENGTH_MM,
+    GAUGE_PAIRS,
+    GAUGE_READINGS,
+    GAUGE_U_MM,
+    GRID,
+    NOISE_UM,
+    PRESET,
+    SETUP,
+    true_errors,
+)
 from mtmetrology.cli import simulate as simulate_cli
-from mtmetrology.cli._common import readings_from_table
-from mtmetrology.cli.demo import DemoContext
-from mtmetrology.fitting.features import GaugeLength
+from mtmetrology.cli.predict import add_compensation
 from mtmetrology.formatting import format_uncertainty, format_value
-from mtmetrology.io import read_csv_table
-from mtmetrology.io.tables import write_csv_table
+from mtmetrology.io.tables import format_decimal, write_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
-from mtmetrology.omm.task import task_uncertainty
 from mtmetrology.report import figures
+from mtmetrology.report.demo import DemoContext
 from mtmetrology.report.results import add_result
 from mtmetrology.samba import (
     SambaSetup,
@@ -43,25 +54,14 @@ from mtmetrology.samba import (
     indication_inputs,
     load_artefact,
     load_balls,
+    probing_sequence,
     read_length_readings,
     read_poses,
     read_records,
     simulate_records,
     verify_length,
 )
-from mtmetrology.uncertainty.conformity import Tolerance, decide
 from mtmetrology.units import from_internal, to_internal
-
-__all__ = ["samba_calibration_section", "task_section"]
-
-NOISE_UM = 1.0
-# A gauge block lying diagonally on the table, probed at 30 random (B, C) indexations.
-GAUGE_END_A, GAUGE_END_B = "-100,-100,40", "100,100,40"
-GAUGE_LENGTH_MM = 282.842712
-GAUGE_U_MM = 0.0005
-GAUGE_PAIRS = 30
-# The drawing's tolerance on the gauge length: nominal, lower and upper deviation (mm).
-GAUGE_TOLERANCE = f"{GAUGE_LENGTH_MM},-0.010,0.010"
 
 
 def _balls_yaml(setup: SambaSetup) -> str:
@@ -293,81 +293,79 @@ def _unexplained_document(ctx: DemoContext, residual_vectors: np.ndarray) -> Non
     )
 
 
-def task_section(ctx: DemoContext, *, preset: str) -> None:
-    """The gauge length of the first indexation with its u, U and conformity decision."""
-    from mtmetrology.omm.unexplained import load_unexplained_covariance
+def calibration_section(ctx: DemoContext) -> None:
+    m = Machine.load(PRESET)
+    truth = ParameterSet(
+        m.parameter_names,
+        true_errors(m),
+        m.parameter_units,
+        machine=m.name,
+        model=m.model_name,
+        provenance={"source": "mtm demo: the simulated truth"},
+    )
+    plan = probing_sequence(m, SETUP, GRID)
+    samba_calibration_section(ctx, preset=PRESET, setup=SETUP, plan=plan, truth=truth)
 
-    table = read_csv_table(ctx.path("gauge", "gauge.csv"), required=("pair", "end"))
-    first = [k for k, pair in enumerate(table.strings("pair")) if pair == "1"]
-    base = Machine.load(preset)
-    axes = [a for a in base.axis_names if table.has(a)]
-    rows = [
-        [str(n + 1), str(n + 1), *(table.strings(a)[k] for a in axes)] for n, k in enumerate(first)
-    ]
-    points = ctx.path("task", "gauge-pair.csv")
-    write_csv_table(points, ["point", "end", *axes], rows)
-    pset = ParameterSet.load(ctx.path("samba", "params.json"), base)
-    m = pset.machine_for(base)
-    readings = readings_from_table(m, read_csv_table(points, required=("point",)))
-    tolerance = Tolerance.parse(GAUGE_TOLERANCE)
-    unexplained = ctx.path("task", "unexplained.json")
-    seed = ctx.seed + 5
-    with ctx.step("task uncertainty of the gauge length (GUF validated by Monte Carlo)"):
-        result = task_uncertainty(
-            m,
-            readings,
-            pset.vector_for(m),
-            pset.covariance,
-            GaugeLength(tip_diameter=2.0 * m.tip_radius),
-            recalibrated=True,  # the virtual machine does not drift after its calibration
-            unexplained_covariance=load_unexplained_covariance(unexplained),
-            method="both",
-            seed=seed,
-        )
-    g = result.result.output()  # the Monte Carlo result, the reference of the validation
-    decision = decide(g.value, g.U, tolerance, unit="mm")
-    result = replace(result, decision=decision)
-    ctx.write_json(result.to_dict(), "task", "gauge-length.json")
-    ctx.command(
-        "the gauge length with its uncertainty and ISO 14253-1 decision",
-        "task", "uncertainty", ctx.shown("task", "gauge-pair.csv"), "--machine", preset,
-        "--params", ctx.shown("samba", "params.json"), "--feature", "length", "--recalibrated",
-        "--unexplained", ctx.shown("task", "unexplained.json"), "--method", "both",
-        "--seed", str(seed), "--tolerance", GAUGE_TOLERANCE,
-        "-o", ctx.shown("task", "gauge-length.json"),
-    )  # fmt: skip
-    u_um = float(from_internal(g.u, "µm"))
-    big_u_um = float(from_internal(g.U, "µm"))
+
+def prediction_section(ctx: DemoContext) -> None:
+
+    m = Machine.load(PRESET)
+    pset = ParameterSet.load(ctx.path("samba", "params.json"), m)
+    q = m.readings_from_customary(GAUGE_READINGS)
+    header = ["id", *GAUGE_READINGS]
+    rows = [[f"p{i + 1}", *(f"{GAUGE_READINGS[a][i]:g}" for a in GAUGE_READINGS)] for i in range(2)]
+    write_csv_table(ctx.path("prediction", "gauge.csv"), header, rows)
+    nominal, true = (m.forward(q, theta) for theta in (None, true_errors(m)))
+    # compensated as `mtm predict` does: the identified parameters and tool vector
+    identified = pset.machine_for(m).forward(q, pset.values)
+    # written as `mtm predict -o` writes them, so that its rerun rewrites the same file
+    xyz = [format_decimal(identified[:, k], 6).to_pylist() for k in range(3)]
+    xyz_rows = [[*r, *(c[i] for c in xyz)] for i, r in enumerate(rows)]
+    write_csv_table(ctx.path("prediction", "gauge-xyz.csv"), [*header, "x", "y", "z"], xyz_rows)
+    lengths = [float(np.linalg.norm(p[1] - p[0])) for p in (nominal, identified, true)]
+    error_um = float(from_internal(lengths[1] - lengths[2], "µm"))
     ctx.report.section(
-        "Task uncertainty and conformity of the gauge length",
-        "The gauge length of the first indexation, compensated with the calibrated "
-        "parameters; its uncertainty by adaptive Monte Carlo (JCGM 101:2008, 7.9) over the "
-        "parameter covariance of the calibration (the compensation uses its estimate, whose "
-        "error does not cancel) and the unexplained volumetric error (the covariance of the "
-        "calibration's residual vectors; Sepahi Boroujeni (2021), ch. 6–7), with the "
-        "full-covariance GUF validated against it; the virtual machine does not drift, so "
-        "the task counts as recalibrated (no long-term term). The decision follows ISO "
-        "14253-1:2017 with guard bands of U: "
-        f"tolerance {tolerance.lower_limit:.6f} to {tolerance.upper_limit:.6f} mm.",
+        "Compensated coordinates",
+        "The two probed points of a gauge-block measurement at two (B, C) orientations "
+        "(Sepahi Boroujeni (2021), Table 7-1), compensated with the identified parameters. "
+        "The distance between the two stylus centres on the true machine is known in the "
+        "simulation: the compensation error is what the calibration leaves.",
     )
     ctx.report.table(
-        ["length (mm)", "u (µm)", "U (µm)", "k", "acceptance zone (mm)", "decision"],
-        [[
-            format_value(g.value, g.u), format_uncertainty(u_um), format_uncertainty(big_u_um),
-            f"{g.k:.2f}",
-            "[{:.6f}, {:.6f}]".format(*decision.acceptance_zone), decision.decision.value,
-        ]],
-    )  # fmt: skip
-    add_result(ctx.report, result.guf)
-    add_result(
-        ctx.report,
-        result.validation,
-        units=dict(zip(result.guf.names, result.guf.units, strict=True)),
+        ["distance of the stylus centres", "mm"],
+        [
+            ["nominal kinematics (no compensation)", f"{lengths[0]:.4f}"],
+            ["compensated with the identified parameters", f"{lengths[1]:.4f}"],
+            ["on the true machine", f"{lengths[2]:.4f}"],
+        ],
     )
-    validated = "validated" if result.validation.passed else "NOT validated"
+    add_compensation(ctx.report, m, identified, nominal)
+    ctx.command(
+        "compensated coordinates",
+        "predict",
+        "--machine",
+        PRESET,
+        "--params",
+        ctx.shown("samba", "params.json"),
+        ctx.shown("prediction", "gauge.csv"),
+        "-o",
+        ctx.shown("prediction", "gauge-xyz.csv"),
+    )
     ctx.summary.append(
-        f"task: gauge length {format_value(g.value, g.u)} mm, u = {format_uncertainty(u_um)} µm, "
-        f"U = {format_uncertainty(big_u_um)} µm "
-        f"(k = {g.k:.2f}, Monte Carlo, {result.mcm.trials} trials; GUF {validated}); "
-        f"ISO 14253-1: {decision.decision.value}"
+        f"compensation: gauge-point distance off by {error_um:+.2f} µm from the true machine "
+        f"(uncompensated: {float(from_internal(lengths[0] - lengths[2], 'µm')):+.1f} µm)"
     )
+
+
+def main(ctx: DemoContext) -> None:
+    ctx.rule("SAMBA calibration and a gauge block")
+    ctx.write_text(ARTEFACT_YAML, "samba", "samba.yaml")  # as five_axis_machine.py writes it
+    calibration_section(ctx)
+    ctx.rule("Compensated coordinates")
+    prediction_section(ctx)
+
+
+if __name__ == "__main__":
+    from mtmetrology.report.demo import run_example
+
+    run_example(main, "samba_calibration")

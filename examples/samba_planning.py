@@ -1,24 +1,26 @@
-"""``mtm demo``, planning: DETMAX chooses the balls and indexations of a SAMBA test.
+"""Planning a SAMBA test by DETMAX: the balls and (B, C) indexations of a five-axis test.
 
 Two balls are chosen from a grid of twelve candidates (three positions in X, two in Y, two
 stem lengths) and then the (B, C) indexations, by the D criterion, for the 13-parameter
 model (Alami Mchichi 2018, §5.5–5.7); the predicted standard uncertainty of every parameter
-and the test duration come with the programme. The section calls the functions
-``mtm design samba`` calls, with the same arguments, so the printed command rewrites the
-same programme.
+and the test duration come with the programme. It calls :func:`mtmetrology.design.samba.plan_samba`
+with the arguments ``mtm design samba`` uses, so the printed command rewrites the same
+programme. Run it on its own::
+
+    python examples/samba_planning.py [OUT]
 """
 
 from __future__ import annotations
 
-from mtmetrology.cli.demo import DemoContext
+import mtmetrology.design.report  # noqa: F401  (registers the plan renderer)
 from mtmetrology.design.accessibility import AccessibilityRule
 from mtmetrology.design.inputs import axis_grid, grid_indexations, load_ball_grid
 from mtmetrology.design.samba import plan_samba
 from mtmetrology.io.tables import write_csv_table
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.report.demo import DemoContext
+from mtmetrology.report.results import add_result
 from mtmetrology.units import to_internal
-
-__all__ = ["planning_section"]
 
 PRESET = "five-axis-wcbxfzyst"
 GRID_YAML = """kind: samba-ball-grid
@@ -30,10 +32,8 @@ B_GRID, C_GRID = "-60:60:20", "0:330:30"
 SIGMA_UM = 1.0
 
 
-def planning_section(ctx: DemoContext) -> None:
-    import mtmetrology.design.report  # noqa: F401  (registers the plan renderer)
-    from mtmetrology.report.results import add_result
-
+def main(ctx: DemoContext) -> None:
+    ctx.rule("Planning a SAMBA test by DETMAX")
     machine = Machine.load(PRESET, "13")
     ctx.write_text(GRID_YAML, "planning", "ball-grid.yaml")
     grid = load_ball_grid(ctx.path("planning", "ball-grid.yaml"))
@@ -78,3 +78,9 @@ def planning_section(ctx: DemoContext) -> None:
         f"({doc['duration_h']:.1f} h); rank {doc['rank']}/{doc['n_unknowns']}, "
         f"scaled condition number {doc['condition_scaled']:.0f}"
     )
+
+
+if __name__ == "__main__":
+    from mtmetrology.report.demo import run_example
+
+    run_example(main, "samba_planning")

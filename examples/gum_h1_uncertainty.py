@@ -1,0 +1,78 @@
+"""GUM H.1, the end-gauge calibration, by the GUF and by adaptive Monte Carlo, validated.
+
+The measurement model of JCGM 100:2008, annex H.1, as a model file: the GUF gives
+u = 32 nm and U_99 = 93 nm as the annex; the adaptive Monte Carlo method of JCGM 101:2008
+gives u = 34 nm, as the annex's second-order analysis (H.1.7), and a shorter 99 %
+interval, so the GUF is not validated at two significant digits (JCGM 101, §8). What
+``mtm uncertainty run --method both --adaptive`` computes (its command is printed).
+``gum_h1_end_gauge.py`` prints the same case as a certificate. Run it on its own::
+
+    python examples/gum_h1_uncertainty.py [OUT]
+
+References
+----------
+JCGM 100:2008 (GUM), annex H.1; JCGM 101:2008, §7.9 and §8.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from mtmetrology.cli.uncertainty import Method, evaluate_model
+from mtmetrology.report.demo import DemoContext
+from mtmetrology.report.results import add_result
+from mtmetrology.uncertainty.modelfile import load_model
+
+#: The model file of GUM H.1 shipped beside this script (also read by gum_h1_end_gauge.py).
+MODEL = Path(__file__).with_name("gum-h1-end-gauge.yaml")
+
+
+def main(ctx: DemoContext) -> None:
+    ctx.rule("GUM H.1: GUF and Monte Carlo")
+    ctx.write_text(MODEL.read_text(encoding="utf-8"), "uncertainty", "gum-h1.yaml")
+    loaded = load_model(ctx.path("uncertainty", "gum-h1.yaml"))
+    with ctx.step("GUM H.1 by GUF and adaptive Monte Carlo (2 significant digits)"):
+        document, g, r, validation = evaluate_model(
+            loaded,
+            ctx.path("uncertainty", "gum-h1.yaml"),
+            Method.both,
+            adaptive=True,
+            digits=2,
+            seed=ctx.seed,
+            p=0.99,
+        )
+    ctx.write_json(document, "uncertainty", "gum-h1-result.json")
+    ctx.report.section(
+        "Uncertainty of a measurement model: GUM H.1",
+        "The end-gauge calibration of JCGM 100:2008, annex H.1: the GUF gives u = 32 nm and "
+        "U_99 = 93 nm as the annex; the adaptive Monte Carlo method of JCGM 101:2008 gives "
+        "u = 34 nm, as the annex's second-order analysis (H.1.7), and a shorter 99 % "
+        "interval, so the GUF is not validated at two significant digits.",
+    )
+    add_result(ctx.report, validation, units=dict(zip(g.names, g.units, strict=True)))
+    add_result(ctx.report, g)
+    add_result(ctx.report, r, names=loaded.output_names, units=loaded.output_units, guf=g)
+    ctx.command(
+        "GUF, Monte Carlo and validation",
+        "uncertainty",
+        "run",
+        ctx.shown("uncertainty", "gum-h1.yaml"),
+        "--method",
+        "both",
+        "--adaptive",
+        "--seed",
+        str(ctx.seed),
+        "--p",
+        "0.99",
+    )
+    ctx.summary.append(
+        f"GUM H.1: GUF u = {g.standard_uncertainty[0]:.1f} nm, Monte Carlo u = "
+        f"{r.standard_uncertainty[0]:.1f} nm ({r.trials} trials), GUF "
+        f"{'validated' if validation.passed else 'not validated'} at p = 0.99"
+    )
+
+
+if __name__ == "__main__":
+    from mtmetrology.report.demo import run_example
+
+    run_example(main, "gum_h1_uncertainty")

@@ -1,0 +1,603 @@
+"""Digital Calibration Certificates (PTB DCC 3.1.2 with D-SI 2.1.0 quantities).
+
+:func:`calibration_certificate` makes the certificate of a recorded calibration run,
+:meth:`CalibrationCertificate.to_xml` writes it as ``dcc:digitalCalibrationCertificate``
+(built element by element with lxml) and :func:`read_certificate` reads one back, or the
+certificate of an artefact (a scale bar's length, a ball plate's centres) as calibrated
+values with their uncertainty. Every certificate written or read is validated against the
+XSDs shipped in ``history/schemas`` (LGPL v3, see ``NOTICE.md``); nothing is fetched.
+
+The measurement result is one ``si:realListXMLList``: the parameter names
+(``labelXMLList``), values and units in coherent SI units (``\\metre``, ``\\radian``,
+``\\one``), the expanded uncertainties ``U_i = k u_i`` with their coverage factor and
+coverage probability, and the covariance matrix of the parameters
+(``ellipsoidalRegionXMLList``, in the products of the units).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from datetime import date
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+from lxml import etree
+from scipy.stats import norm
+
+from mtmetrology.errors import InputError
+from mtmetrology.history.records import RunRecord, document_covariance
+from mtmetrology.units import from_internal, parse_unit, to_internal
+
+__all__ = [
+    "DCC_NS",
+    "SCHEMA_VERSION",
+    "SI_NS",
+    "CalibrationCertificate",
+    "calibration_certificate",
+    "certified_ball_centres",
+    "certified_length",
+    "read_certificate",
+    "validate_certificate",
+]
+
+DCC_NS = "https://ptb.de/dcc"
+SI_NS = "https://ptb.de/si"
+SCHEMA_VERSION = "3.1.2"
+_SCHEMAS = Path(__file__).parent / "schemas"
+_NS = {"dcc": DCC_NS, "si": SI_NS}
+# Dimension of a parameter -> (mtmetrology symbol of its coherent SI unit, D-SI unit).
+_SI_UNITS = {"length": ("m", r"\metre"), "angle": ("rad", r"\radian"), "ratio": ("1", r"\one")}
+_PREFIXES = {"": "", "nano": "n", "micro": "µ", "milli": "m", "kilo": "k"}
+_BASES = {"metre": "m", "radian": "rad"}
+_D_SI_SIMPLE = re.compile(r"^(?:\\(nano|micro|milli|kilo))?\\(metre|radian)$")
+
+
+class _LocalSchemas(etree.Resolver):
+    """Resolve the D-SI import of dcc.xsd (an https URL) to the shipped copy."""
+
+    def resolve(self, url, pubid, context):
+        if url.endswith("/SI_Format.xsd"):
+            return self.resolve_filename(str(_SCHEMAS / "SI_Format.xsd"), context)
+        return None
+
+
+@cache
+def _schema() -> etree.XMLSchema:
+    parser = etree.XMLParser(no_network=True)
+    parser.resolvers.add(_LocalSchemas())
+    return etree.XMLSchema(etree.parse(str(_SCHEMAS / "dcc.xsd"), parser))
+
+
+def validate_certificate(tree: etree._ElementTree, source: str = "certificate") -> None:
+    """Validate a DCC against the shipped XSDs (DCC 3.1.2, D-SI 2.1.0).
+
+    Raises
+    ------
+    InputError
+        Naming ``source``, the line and libxml2's message of the first violation.
+    """
+    schema = _schema()
+    if not schema.validate(tree):
+        first = schema.error_log[0]
+        raise InputError(
+            f"{source}: line {first.line}: not a valid DCC {SCHEMA_VERSION}: {first.message}"
+        )
+
+
+def coverage_probability(k: float) -> float:
+    """Coverage probability of ``y ± k u`` for a normal distribution, ``p = 2 Φ(k) − 1``."""
+    return float(2.0 * norm.cdf(k) - 1.0)
+
+
+def _product_unit(a: str, b: str) -> str:
+    """D-SI unit of the product of two D-SI units (covariance entries)."""
+    if a == r"\one":
+        return b
+    if b == r"\one":
+        return a
+    return a + r"\tothe{2}" if a == b else a + b
+
+
+def _mtm_unit(d_si: str, source: str) -> str:
+    """mtmetrology symbol of a simple D-SI unit (``\\micro\\metre`` -> ``µm``)."""
+    if d_si == r"\one":
+        return "1"
+    match = _D_SI_SIMPLE.match(d_si)
+    if match is None:
+        raise InputError(f"{source}: unit {d_si!r}: not a D-SI length, angle or \\one")
+    return _PREFIXES[match.group(1) or ""] + _BASES[match.group(2)]
+
+
+@dataclass(frozen=True)
+class CalibrationCertificate:
+    """The content of a digital calibration certificate that mtmetrology writes and reads.
+
+    Measurement model: the certificate states, for each quantity, the value ``y_i``, the
+    expanded uncertainty ``U_i = k u_i`` (coverage probability ``p = 2 Φ(k) − 1`` for a
+    normal distribution) and the covariance ``cov(y_i, y_j)`` of the quantities; values in
+    coherent SI units (``units``: m, rad, 1).
+
+    Attributes
+    ----------
+    identifier : str
+        The certificate's unique identifier (``dcc:uniqueIdentifier``).
+    item : str
+        The calibrated item: the machine or artefact name.
+    laboratory, email, country : str
+        Calibration laboratory, its e-mail address and ISO 3166-1 country code (the
+        laboratory is also the customer: an in-house calibration of the lab's machine).
+    begin, end : date
+        Performance dates of the calibration (UTC).
+    software_version : str
+    result : str
+        Name of the measurement result (e.g. the error model).
+    names, units : tuple of str
+        Quantities and their mtmetrology unit symbols (coherent SI).
+    values, u : tuple of float
+        Values and standard uncertainties, in ``units``.
+    covariance : tuple of tuple of float
+        Covariance of the values (products of ``units``).
+    coverage_factor, coverage_probability : float
+    """
+
+    identifier: str
+    item: str
+    laboratory: str
+    email: str
+    country: str
+    begin: date
+    end: date
+    software_version: str
+    result: str
+    names: tuple[str, ...]
+    units: tuple[str, ...]
+    values: tuple[float, ...]
+    u: tuple[float, ...]
+    covariance: tuple[tuple[float, ...], ...]
+    coverage_factor: float
+    coverage_probability: float
+
+    def internal(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Values, standard uncertainties and covariance in internal units (mm, rad, 1)."""
+        f = np.array([to_internal(1.0, unit) for unit in self.units])
+        return (
+            np.asarray(self.values) * f,
+            np.asarray(self.u) * f,
+            np.asarray(self.covariance) * np.outer(f, f),
+        )
+
+    def to_dict(self) -> dict:
+        """The JSON form (``kind: calibration-certificate``, version 1)."""
+        return {
+            "kind": "calibration-certificate",
+            "version": 1,
+            "identifier": self.identifier,
+            "item": self.item,
+            "laboratory": self.laboratory,
+            "email": self.email,
+            "country": self.country,
+            "begin": self.begin.isoformat(),
+            "end": self.end.isoformat(),
+            "software_version": self.software_version,
+            "result": self.result,
+            "quantities": [
+                {"name": n, "unit": unit, "value": v, "u": s}
+                for n, unit, v, s in zip(self.names, self.units, self.values, self.u, strict=True)
+            ],
+            "covariance": [list(row) for row in self.covariance],
+            "coverage_factor": self.coverage_factor,
+            "coverage_probability": self.coverage_probability,
+        }
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> CalibrationCertificate:
+        """Inverse of :meth:`to_dict`."""
+        q = doc["quantities"]
+        return cls(
+            identifier=doc["identifier"],
+            item=doc["item"],
+            laboratory=doc["laboratory"],
+            email=doc["email"],
+            country=doc["country"],
+            begin=date.fromisoformat(doc["begin"]),
+            end=date.fromisoformat(doc["end"]),
+            software_version=doc["software_version"],
+            result=doc["result"],
+            names=tuple(e["name"] for e in q),
+            units=tuple(e["unit"] for e in q),
+            values=tuple(float(e["value"]) for e in q),
+            u=tuple(float(e["u"]) for e in q),
+            covariance=tuple(tuple(float(c) for c in row) for row in doc["covariance"]),
+            coverage_factor=float(doc["coverage_factor"]),
+            coverage_probability=float(doc["coverage_probability"]),
+        )
+
+    def to_xml(self) -> bytes:
+        """The certificate as a ``dcc:digitalCalibrationCertificate`` (UTF-8), validated.
+
+        References
+        ----------
+        PTB, DCC – Digital Calibration Certificate, XSD version 3.1.2, https://ptb.de/dcc.
+        PTB, D-SI – Digital System of Units, XSD version 2.1.0, doi:10.5281/zenodo.3366901.
+        """
+        tree = etree.ElementTree(_certificate_element(self))
+        validate_certificate(tree)
+        return etree.tostring(tree, xml_declaration=True, encoding="UTF-8", pretty_print=True)
+
+
+def _d(tag: str) -> str:
+    return f"{{{DCC_NS}}}{tag}"
+
+
+def _s(tag: str) -> str:
+    return f"{{{SI_NS}}}{tag}"
+
+
+def _sub(parent, tag: str, text: str | None = None, **attributes):
+    element = etree.SubElement(parent, tag, attributes)
+    if text is not None:
+        element.text = text
+    return element
+
+
+def _named(parent, tag: str, text: str):
+    """``<dcc:TAG><dcc:content lang="en">text</dcc:content></dcc:TAG>``."""
+    element = _sub(parent, _d(tag))
+    _sub(element, _d("content"), text, lang="en")
+    return element
+
+
+def _decimals(values) -> str:
+    return " ".join(repr(float(v)) for v in values)
+
+
+def _contact(element, cert: CalibrationCertificate) -> None:
+    _named(element, "name", cert.laboratory)
+    _sub(element, _d("eMail"), cert.email)
+    _sub(_sub(element, _d("location")), _d("countryCode"), cert.country)
+
+
+def _certificate_element(cert: CalibrationCertificate):
+    d_units = [_SI_UNITS[parse_unit(unit).dimension][1] for unit in cert.units]
+    root = etree.Element(_d("digitalCalibrationCertificate"), nsmap=_NS)
+    root.set("schemaVersion", SCHEMA_VERSION)
+    admin = _sub(root, _d("administrativeData"))
+    software = _sub(_sub(admin, _d("dccSoftware")), _d("software"))
+    _named(software, "name", "mtmetrology")
+    _sub(software, _d("release"), cert.software_version)
+    core = _sub(admin, _d("coreData"))
+    _sub(core, _d("countryCodeISO3166_1"), cert.country)
+    _sub(core, _d("usedLangCodeISO639_1"), "en")
+    _sub(core, _d("mandatoryLangCodeISO639_1"), "en")
+    _sub(core, _d("uniqueIdentifier"), cert.identifier)
+    _sub(core, _d("beginPerformanceDate"), cert.begin.isoformat())
+    _sub(core, _d("endPerformanceDate"), cert.end.isoformat())
+    _sub(core, _d("performanceLocation"), "customer")
+    items = _sub(admin, _d("items"))
+    item = _sub(items, _d("item"))
+    _named(item, "name", cert.item)
+    _named(_sub(item, _d("manufacturer")), "name", "not stated")
+    identification = _sub(_sub(item, _d("identifications")), _d("identification"))
+    _sub(identification, _d("issuer"), "customer")
+    _sub(identification, _d("value"), cert.item)
+    _contact(_sub(_sub(admin, _d("calibrationLaboratory")), _d("contact")), cert)
+    person = _sub(_sub(admin, _d("respPersons")), _d("respPerson"))
+    _named(_sub(person, _d("person")), "name", cert.laboratory)
+    _contact(_sub(admin, _d("customer")), cert)
+
+    result = _sub(_sub(root, _d("measurementResults")), _d("measurementResult"))
+    _named(result, "name", cert.result)
+    one = _sub(_sub(result, _d("results")), _d("result"))
+    _named(one, "name", "parameters")
+    quantity = _sub(_sub(one, _d("data")), _d("quantity"))
+    _named(quantity, "name", "parameter values")
+    listed = _sub(quantity, _s("realListXMLList"))
+    _sub(listed, _s("labelXMLList"), " ".join(cert.names))
+    _sub(listed, _s("valueXMLList"), _decimals(cert.values))
+    _sub(listed, _s("unitXMLList"), " ".join(d_units))
+    expanded = _sub(listed, _s("expandedUncXMLList"))
+    _sub(expanded, _s("uncertaintyXMLList"), _decimals(cert.coverage_factor * np.array(cert.u)))
+    _sub(expanded, _s("coverageFactorXMLList"), repr(float(cert.coverage_factor)))
+    _sub(expanded, _s("coverageProbabilityXMLList"), repr(float(cert.coverage_probability)))
+    _sub(expanded, _s("distributionXMLList"), "normal")
+    region = _sub(listed, _s("ellipsoidalRegionXMLList"))
+    matrix = _sub(region, _s("covarianceMatrix"))
+    for j, column_unit in enumerate(d_units):
+        column = _sub(matrix, _s("column"))
+        for i, row_unit in enumerate(d_units):
+            entry = _sub(column, _s("covariance"))
+            _sub(entry, _s("value"), repr(float(cert.covariance[i][j])))
+            _sub(entry, _s("unit"), _product_unit(row_unit, column_unit))
+    _sub(region, _s("coverageFactor"), repr(float(cert.coverage_factor)))
+    _sub(region, _s("coverageProbability"), repr(float(cert.coverage_probability)))
+    _sub(region, _s("distribution"), "normal")
+    return root
+
+
+def calibration_certificate(
+    record: RunRecord,
+    *,
+    laboratory: str,
+    email: str,
+    country: str,
+    coverage_factor: float = 2.0,
+) -> CalibrationCertificate:
+    """The certificate of a recorded calibration run.
+
+    Parameters
+    ----------
+    record : RunRecord
+        A calibration run (:func:`~mtmetrology.history.show_run`) whose parameters all
+        have a standard uncertainty.
+    laboratory, email : str
+        Name and e-mail address of the calibration laboratory.
+    country : str
+        Its ISO 3166-1 alpha-2 country code (two capital letters).
+    coverage_factor : float
+        ``k`` of the expanded uncertainties ``U = k u``, ``k >= 1``; the coverage probability
+        stated is ``p = 2 Φ(k) − 1`` (normal distribution).
+
+    Returns
+    -------
+    CalibrationCertificate
+        Values, ``u`` and covariance (the run's own covariance, else ``diag(u²)``) in
+        coherent SI units.
+
+    Raises
+    ------
+    InputError
+        Not a calibration run, a parameter without ``u`` or without a D-SI unit, a bad
+        country code or coverage factor.
+    """
+    source = f"run {record.id}"
+    if record.category != "calibration":
+        raise InputError(f"{source}: a {record.category} run; a certificate needs a calibration")
+    if not re.fullmatch(r"[A-Z]{2}", country):
+        raise InputError(f"--country {country!r}: an ISO 3166-1 alpha-2 code such as DE")
+    if not (math.isfinite(coverage_factor) and coverage_factor >= 1.0):
+        raise InputError(f"--coverage-factor {coverage_factor}: must be >= 1")
+    names = [p["name"] for p in record.parameters]
+    si_units = []
+    for p in record.parameters:
+        dimension = parse_unit(p["unit"]).dimension
+        if dimension not in _SI_UNITS:
+            raise InputError(
+                f"{source}: parameter {p['name']}: unit {p['unit']!r} has no D-SI "
+                "form here (length, angle or ratio)"
+            )
+        if re.search(r"\s", p["name"]):
+            raise InputError(f"{source}: parameter {p['name']!r}: a D-SI label has no spaces")
+        si_units.append(_SI_UNITS[dimension][0])
+    internal = np.array([to_internal(p["value"], p["unit"]) for p in record.parameters])
+    covariance = document_covariance(record.result, names)
+    if covariance is None:
+        missing = [p["name"] for p in record.parameters if p["u"] is None]
+        if missing:
+            raise InputError(f"{source}: parameter {missing[0]}: no uncertainty to certify")
+        covariance = np.diag([to_internal(p["u"], p["unit"]) ** 2 for p in record.parameters])
+    f = np.array([from_internal(1.0, unit) for unit in si_units])
+    cov_si = covariance * np.outer(f, f)
+    return CalibrationCertificate(
+        identifier=f"{record.machine}-calibration-{record.id}-{record.content_sha256[:12]}",
+        item=record.machine,
+        laboratory=laboratory,
+        email=email,
+        country=country,
+        begin=record.performed_at.date(),
+        end=record.performed_at.date(),
+        software_version=record.software_version,
+        result=f"{record.kind} of {record.machine}",
+        names=tuple(names),
+        units=tuple(si_units),
+        values=tuple(float(v) for v in internal * f),
+        u=tuple(float(s) for s in np.sqrt(np.diag(cov_si))),
+        covariance=tuple(tuple(float(c) for c in row) for row in cov_si),
+        coverage_factor=float(coverage_factor),
+        coverage_probability=coverage_probability(coverage_factor),
+    )
+
+
+def _text(element, path: str, source: str) -> str:
+    found = element.find(path, _NS)
+    if found is None or found.text is None:
+        raise InputError(f"{source}: element {path} missing")
+    return found.text.strip()
+
+
+def _floats(element, path: str, source: str) -> np.ndarray:
+    return np.array([float(t) for t in _text(element, path, source).split()])
+
+
+def _per_quantity(values: np.ndarray, n: int, field: str, source: str) -> np.ndarray:
+    """A D-SI XML list of length n, or of length 1 meaning the same for all."""
+    if values.size == 1:
+        return np.full(n, values[0])
+    if values.size != n:
+        raise InputError(f"{source}: {field}: {values.size} entries for {n} values")
+    return values
+
+
+def read_certificate(path: str | Path) -> CalibrationCertificate:
+    """Read a DCC: the first ``si:realListXMLList`` of its measurement results.
+
+    The file is validated against the shipped XSDs. Standard uncertainties are
+    ``u_i = U_i / k_i`` (``expandedUncXMLList``; ``coverage_factor`` and
+    ``coverage_probability`` of the result are the first quantity's); the covariance is the
+    ``ellipsoidalRegionXMLList`` matrix when present, else ``diag(u²)``. Values are
+    converted to coherent SI units (m, rad, 1) by :mod:`mtmetrology.units`.
+
+    Raises
+    ------
+    InputError
+        Naming the file and the element: not XML, not a valid DCC, no list of real values,
+        units other than length, angle or one, inconsistent list lengths.
+    """
+    source = str(path)
+    try:
+        tree = etree.parse(source, etree.XMLParser(no_network=True, resolve_entities=False))
+    except (OSError, etree.XMLSyntaxError) as exc:
+        raise InputError(f"{source}: not a readable XML file: {exc}") from None
+    validate_certificate(tree, source)
+    root = tree.getroot()
+    listed = root.find(".//dcc:measurementResults//si:realListXMLList", _NS)
+    if listed is None:
+        raise InputError(f"{source}: measurementResults: no si:realListXMLList of values")
+    values = _floats(listed, "si:valueXMLList", source)
+    n = values.size
+    d_units = _text(listed, "si:unitXMLList", source).split()
+    if len(d_units) == 1:
+        d_units = d_units * n
+    elif len(d_units) != n:
+        raise InputError(f"{source}: si:unitXMLList: {len(d_units)} entries for {n} values")
+    labels = listed.find("si:labelXMLList", _NS)
+    names = (labels.text or "").split() if labels is not None else [f"q{i + 1}" for i in range(n)]
+    if len(names) != n:
+        raise InputError(f"{source}: si:labelXMLList: {len(names)} labels for {n} values")
+    units = [_mtm_unit(unit, source) for unit in d_units]
+    si = [_SI_UNITS[parse_unit(unit).dimension] for unit in units]
+    f = np.array(
+        [
+            from_internal(to_internal(1.0, unit), mtm)
+            for unit, (mtm, _) in zip(units, si, strict=True)
+        ]
+    )
+    expanded = listed.find("si:expandedUncXMLList", _NS)
+    if expanded is None:
+        raise InputError(f"{source}: si:expandedUncXMLList missing: no uncertainty stated")
+    big_u = _per_quantity(
+        _floats(expanded, "si:uncertaintyXMLList", source), n, "si:uncertaintyXMLList", source
+    )
+    k = _per_quantity(
+        _floats(expanded, "si:coverageFactorXMLList", source), n, "si:coverageFactorXMLList", source
+    )
+    p = _per_quantity(
+        _floats(expanded, "si:coverageProbabilityXMLList", source),
+        n,
+        "si:coverageProbabilityXMLList",
+        source,
+    )
+    u = big_u / k * f
+    matrix = listed.find("si:ellipsoidalRegionXMLList/si:covarianceMatrix", _NS)
+    if matrix is None:
+        covariance = np.diag(u**2)
+    else:
+        columns = matrix.findall("si:column", _NS)
+        entries = [[c for c in column.findall("si:covariance", _NS)] for column in columns]
+        if len(columns) != n or any(len(column) != n for column in entries):
+            raise InputError(f"{source}: si:covarianceMatrix: not {n} columns of {n} entries")
+        covariance = np.empty((n, n))
+        for j, column in enumerate(entries):
+            for i, entry in enumerate(column):
+                unit = _text(entry, "si:unit", source)
+                if unit != _product_unit(d_units[i], d_units[j]):
+                    raise InputError(
+                        f"{source}: si:covarianceMatrix column {j + 1} entry "
+                        f"{i + 1}: unit {unit!r}, expected "
+                        f"{_product_unit(d_units[i], d_units[j])!r}"
+                    )
+                covariance[i, j] = float(_text(entry, "si:value", source)) * f[i] * f[j]
+    core = root.find("dcc:administrativeData/dcc:coreData", _NS)
+    contact = root.find("dcc:administrativeData/dcc:calibrationLaboratory/dcc:contact", _NS)
+    item = root.find("dcc:administrativeData/dcc:items/dcc:item/dcc:name/dcc:content", _NS)
+    software = root.find("dcc:administrativeData/dcc:dccSoftware/dcc:software/dcc:release", _NS)
+    result = root.find(".//dcc:measurementResult/dcc:name/dcc:content", _NS)
+    return CalibrationCertificate(
+        identifier=_text(core, "dcc:uniqueIdentifier", source),
+        item="" if item is None else (item.text or ""),
+        laboratory=_text(contact, "dcc:name/dcc:content", source),
+        email=_text(contact, "dcc:eMail", source),
+        country=_text(core, "dcc:countryCodeISO3166_1", source),
+        begin=date.fromisoformat(_text(core, "dcc:beginPerformanceDate", source)),
+        end=date.fromisoformat(_text(core, "dcc:endPerformanceDate", source)),
+        software_version="" if software is None else (software.text or ""),
+        result="" if result is None else (result.text or ""),
+        names=tuple(names),
+        units=tuple(mtm for mtm, _ in si),
+        values=tuple(float(v) for v in values * f),
+        u=tuple(float(s) for s in u),
+        covariance=tuple(tuple(float(c) for c in row) for row in covariance),
+        coverage_factor=float(k[0]),
+        coverage_probability=float(p[0]),
+    )
+
+
+def certified_length(
+    cert: CalibrationCertificate, quantity: str | None = None
+) -> tuple[float, float]:
+    """A certified length and its standard uncertainty, in mm (e.g. a scale bar's).
+
+    Parameters
+    ----------
+    cert : CalibrationCertificate
+    quantity : str, optional
+        Its name in the certificate; by default the certificate's only length.
+
+    Returns
+    -------
+    (length, u) : (float, float)
+        In mm, ``u = U / k`` of the certificate.
+
+    Raises
+    ------
+    InputError
+        No such quantity, not a length, or several lengths and no ``quantity``.
+    """
+    values, u, _ = cert.internal()
+    lengths = [i for i, unit in enumerate(cert.units) if parse_unit(unit).dimension == "length"]
+    if quantity is None:
+        if len(lengths) != 1:
+            raise InputError(
+                f"{cert.identifier}: {len(lengths)} lengths certified; name one with --quantity"
+            )
+        i = lengths[0]
+    else:
+        if quantity not in cert.names:
+            raise InputError(f"--quantity {quantity!r}: not a quantity of {cert.identifier}")
+        i = cert.names.index(quantity)
+        if i not in lengths:
+            raise InputError(f"--quantity {quantity!r}: not a length ({cert.units[i]})")
+    return float(values[i]), float(u[i])
+
+
+def certified_ball_centres(
+    cert: CalibrationCertificate, ball_ids: list[str]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Ball centres of a ball plate's certificate and their covariance, in mm and mm².
+
+    The certificate names each coordinate ``ID_x``, ``ID_y``, ``ID_z`` (its labels); the
+    result is ordered as ``ball_ids``, coordinates ``x0 y0 z0 x1 ...`` (the order of the
+    ``covariance_mm2`` of a ``ball-plate`` file).
+
+    Parameters
+    ----------
+    cert : CalibrationCertificate
+    ball_ids : list of str
+        The balls wanted, in order.
+
+    Returns
+    -------
+    centres : ndarray, shape (n, 3)
+        mm.
+    covariance : ndarray, shape (3n, 3n)
+        mm², the certificate's covariance (or diag(u²)) of these coordinates.
+
+    Raises
+    ------
+    InputError
+        A coordinate of a ball missing from the certificate, or not a length.
+    """
+    values, _, covariance = cert.internal()
+    index = []
+    for ball in ball_ids:
+        for axis in "xyz":
+            name = f"{ball}_{axis}"
+            if name not in cert.names:
+                raise InputError(f"{cert.identifier}: ball {ball!r}: no quantity {name!r}")
+            i = cert.names.index(name)
+            if parse_unit(cert.units[i]).dimension != "length":
+                raise InputError(f"{cert.identifier}: {name}: not a length ({cert.units[i]})")
+            index.append(i)
+    return values[index].reshape(-1, 3), covariance[np.ix_(index, index)]

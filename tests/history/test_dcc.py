@@ -1,0 +1,206 @@
+"""Digital Calibration Certificate export and import (PTB DCC 3.1.2, D-SI 2.1.0)."""
+
+from __future__ import annotations
+
+import hashlib
+from datetime import date
+from pathlib import Path
+
+import numpy as np
+import pytest
+from lxml import etree
+
+from mtmetrology.errors import InputError
+from mtmetrology.history import add_result, open_history
+from mtmetrology.history.dcc import (
+    DCC_NS,
+    SI_NS,
+    CalibrationCertificate,
+    calibration_certificate,
+    coverage_probability,
+    read_certificate,
+    validate_certificate,
+)
+from mtmetrology.history.records import document_covariance
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+
+MACHINE = Machine.load("five-axis-wcbxfzyst")
+SCHEMAS = Path(__file__).parents[2] / "src/mtmetrology/history/schemas"
+NS = {"dcc": DCC_NS, "si": SI_NS}
+
+
+def _correlated_calibration(seed: int = 7) -> dict:
+    """A parameter-set with a full (non-diagonal) covariance, customary units."""
+    rng = np.random.default_rng(seed)
+    n = len(MACHINE.parameter_names)
+    a = rng.normal(size=(n, n))
+    scales = MACHINE.parameter_scales
+    covariance = (a @ a.T / n + np.eye(n)) * np.outer(scales, scales) * 0.3**2
+    values = rng.normal(0.0, 5.0, n) * scales
+    pset = ParameterSet(
+        MACHINE.parameter_names,
+        values,
+        MACHINE.parameter_units,
+        covariance,
+        machine=MACHINE.name,
+        model="13",
+    )
+    return pset.to_document()
+
+
+@pytest.fixture
+def record(tmp_path):
+    engine = open_history(tmp_path / "h.sqlite")
+    return add_result(engine, _correlated_calibration(), MACHINE)
+
+
+def _certificate(record, k=2.0):
+    return calibration_certificate(
+        record, laboratory="Lab", email="lab@example.org", country="DE", coverage_factor=k
+    )
+
+
+def test_shipped_schemas_are_the_published_versions_with_their_notice():
+    digests = {
+        "dcc.xsd": "daf869dc4d03b53ca2d33fc4894ffa4ec4e109b81fcd0ebcd74aa8a63f617e11",
+        "SI_Format.xsd": "b0068e2a57512172df79352f28089765859cb1bb1c4458341feae97e3585a265",
+    }
+    for name, digest in digests.items():
+        assert hashlib.sha256((SCHEMAS / name).read_bytes()).hexdigest() == digest
+    assert etree.parse(str(SCHEMAS / "dcc.xsd")).getroot().get("version") == "3.1.2"
+    assert etree.parse(str(SCHEMAS / "SI_Format.xsd")).getroot().get("version") == "2.1.0"
+    licence = (SCHEMAS / "COPYING.LESSER").read_text()
+    assert licence.startswith("GNU LESSER GENERAL PUBLIC LICENSE\nVersion 3")
+
+
+def test_exported_certificate_validates_and_states_k_p_and_covariance(record, tmp_path):
+    cert = _certificate(record)
+    xml = cert.to_xml()
+    tree = etree.ElementTree(etree.fromstring(xml))
+    validate_certificate(tree)  # raises if invalid
+    listed = tree.find(".//si:realListXMLList", NS)
+    assert listed.find("si:labelXMLList", NS).text.split() == list(MACHINE.parameter_names)
+    expanded = listed.find("si:expandedUncXMLList", NS)
+    big_u = np.array(expanded.find("si:uncertaintyXMLList", NS).text.split(), dtype=float)
+    assert float(expanded.find("si:coverageFactorXMLList", NS).text) == 2.0
+    p = float(expanded.find("si:coverageProbabilityXMLList", NS).text)
+    assert p == pytest.approx(0.954499736, abs=1e-9)  # 2 Φ(2) − 1
+    columns = listed.findall("si:ellipsoidalRegionXMLList/si:covarianceMatrix/si:column", NS)
+    n = len(MACHINE.parameter_names)
+    assert len(columns) == n
+    assert all(len(c.findall("si:covariance", NS)) == n for c in columns)
+    # U = k u with u the square root of the covariance diagonal, in SI units (m, rad, 1).
+    internal = document_covariance(record.result, list(MACHINE.parameter_names))
+    to_si = np.array([1e-3 if u == "m" else 1.0 for u in cert.units])
+    np.testing.assert_allclose(big_u, 2.0 * np.sqrt(np.diag(internal)) * to_si, rtol=1e-14)
+
+
+def test_a_tampered_certificate_fails_validation(record):
+    tree = etree.ElementTree(etree.fromstring(_certificate(record).to_xml()))
+    tree.find(".//si:coverageFactorXMLList", NS).text = "0.5"  # k < 1: not a kValue
+    with pytest.raises(InputError, match=r"not a valid DCC 3\.1\.2"):
+        validate_certificate(tree, "cert.xml")
+
+
+def test_export_then_import_gives_the_same_values_u_and_covariance(record, tmp_path):
+    cert = _certificate(record, k=2.5)
+    path = tmp_path / "cert.xml"
+    path.write_bytes(cert.to_xml())
+    back = read_certificate(path)
+    exact, again = cert.to_dict(), back.to_dict()
+    assert {k: v for k, v in again.items() if k != "quantities"} == {
+        k: v for k, v in exact.items() if k != "quantities"
+    }
+    assert back.names == cert.names and back.units == cert.units and back.values == cert.values
+    np.testing.assert_allclose(back.u, cert.u, rtol=1e-15)  # U / k: one rounding
+    assert CalibrationCertificate.from_dict(back.to_dict()) == back
+    values, u, covariance = back.internal()
+    names = list(MACHINE.parameter_names)
+    expected = [p["value"] * MACHINE.parameter_scales[i] for i, p in enumerate(record.parameters)]
+    np.testing.assert_allclose(values, expected, rtol=1e-14, atol=1e-300)
+    np.testing.assert_allclose(
+        covariance, document_covariance(record.result, names), rtol=1e-14, atol=0
+    )
+    np.testing.assert_allclose(u, np.sqrt(np.diag(covariance)), rtol=1e-14)
+    assert back.coverage_probability == coverage_probability(2.5)
+
+
+def test_coverage_probability_of_k_1_is_the_one_sigma_probability():
+    assert coverage_probability(1.0) == pytest.approx(0.682689492137, abs=1e-12)
+
+
+def _artefact_certificate(tmp_path, unit_length=r"\milli\metre") -> Path:
+    """A third-party scale-bar DCC written by hand: length in mm, U for k = 2, no covariance."""
+    cert = CalibrationCertificate(
+        identifier="SB-2026-001",
+        item="scale bar SB-305",
+        laboratory="Reference Lab",
+        email="ref@example.org",
+        country="CH",
+        begin=date(2026, 1, 12),
+        end=date(2026, 1, 13),
+        software_version="x",
+        result="length",
+        names=("L_SB1_SB2",),
+        units=("m",),
+        values=(0.3052105,),
+        u=(1.2e-6,),
+        covariance=((1.44e-12,),),
+        coverage_factor=2.0,
+        coverage_probability=0.9545,
+    )
+    root = etree.fromstring(cert.to_xml())
+    listed = root.find(".//si:realListXMLList", NS)
+    listed.remove(listed.find("si:ellipsoidalRegionXMLList", NS))
+    listed.find("si:valueXMLList", NS).text = "305.2105"
+    listed.find("si:unitXMLList", NS).text = unit_length
+    listed.find("si:expandedUncXMLList/si:uncertaintyXMLList", NS).text = "0.0024"
+    path = tmp_path / "scale_bar.xml"
+    path.write_bytes(etree.tostring(root))
+    return path
+
+
+def test_artefact_certificate_in_mm_gives_the_calibrated_length_and_u(tmp_path):
+    cert = read_certificate(_artefact_certificate(tmp_path))
+    values, u, covariance = cert.internal()  # mm
+    assert cert.item == "scale bar SB-305"
+    assert values[0] == pytest.approx(305.2105, rel=1e-15)
+    assert u[0] == pytest.approx(0.0012, rel=1e-12)  # U / k = 0.0024 mm / 2
+    assert covariance[0, 0] == pytest.approx(0.0012**2, rel=1e-12)
+
+
+def test_artefact_certificate_in_an_unknown_unit_is_refused(tmp_path):
+    path = _artefact_certificate(tmp_path, unit_length=r"\kelvin")
+    with pytest.raises(InputError, match=r"scale_bar.xml: unit '\\\\kelvin'"):
+        read_certificate(path)
+
+
+def test_not_a_dcc_is_refused_naming_the_file(tmp_path):
+    path = tmp_path / "other.xml"
+    path.write_text("<root/>")
+    with pytest.raises(InputError, match=r"other\.xml: line 1: not a valid DCC"):
+        read_certificate(path)
+
+
+def test_bad_inputs_to_the_export_are_refused(record):
+    with pytest.raises(InputError, match="--country 'Germany'"):
+        calibration_certificate(record, laboratory="L", email="e", country="Germany")
+    with pytest.raises(InputError, match=r"--coverage-factor 0\.5"):
+        calibration_certificate(
+            record, laboratory="L", email="e", country="DE", coverage_factor=0.5
+        )
+
+
+def test_a_run_without_uncertainty_is_refused(tmp_path):
+    engine = open_history(tmp_path / "h.sqlite")
+    document = ParameterSet(
+        MACHINE.parameter_names,
+        np.zeros(len(MACHINE.parameter_names)),
+        MACHINE.parameter_units,
+        machine=MACHINE.name,
+        model="13",
+    ).to_document()
+    stored = add_result(engine, document, MACHINE)
+    with pytest.raises(InputError, match=r"run 1: parameter E_A0B: no uncertainty to certify"):
+        calibration_certificate(stored, laboratory="L", email="e", country="DE")
