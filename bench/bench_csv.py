@@ -29,10 +29,10 @@ from pathlib import Path
 import numpy as np
 
 from harness import Benchmark
-from mtmetrology.cli._common import readings_from_table
 from mtmetrology.fitting.least_squares import fit_sphere
 from mtmetrology.io import atomic_write, read_csv_table, write_columns
 from mtmetrology.kinematics import Machine
+from mtmetrology.kinematics.readings_table import readings_from_table
 
 ROWS = 1_000_000
 SRC = str(Path(__file__).resolve().parents[1] / "src")

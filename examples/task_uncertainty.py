@@ -27,7 +27,6 @@ import numpy as np
 from scipy.stats import binom
 
 from _five_axis import GAUGE_TOLERANCE, NOISE_UM, PRESET
-from mtmetrology.cli._common import readings_from_table  # the reader of `mtm task`
 from mtmetrology.fitting.composite import CombinedFeature
 from mtmetrology.fitting.features import GaugeLength, SphereDiameter, Sphericity
 from mtmetrology.formatting import format_uncertainty, format_value
@@ -35,6 +34,7 @@ from mtmetrology.io import read_csv_table
 from mtmetrology.io.tables import write_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.kinematics.readings_table import readings_from_table  # the reader of `mtm task`
 from mtmetrology.omm.task import task_uncertainty
 from mtmetrology.omm.unexplained import load_unexplained_covariance
 from mtmetrology.report import figures

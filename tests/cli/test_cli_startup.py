@@ -64,7 +64,6 @@ def test_listing_loads_no_command_and_no_engine(loaded):
         "mtmetrology.errors",
         "mtmetrology.io",
         "mtmetrology.io.files",
-        "mtmetrology.units",
     }
     assert not _top(loaded["--help"]) & {"scipy", "pyarrow", "pydantic", "yaml"}
 

@@ -70,6 +70,7 @@ __all__ = [
     "CharacteristicBudget",
     "VolumetricMapBudget",
     "characteristics",
+    "load_map",
     "map_for_points",
     "volumetric_map_budget",
 ]
@@ -329,6 +330,34 @@ def map_for_points(machine, params, points: np.ndarray, spacing: float = 10.0) -
 def _sqrt_psd(cov: np.ndarray) -> np.ndarray:
     w, v = np.linalg.eigh(cov)
     return v * np.sqrt(np.clip(w, 0.0, None))
+
+
+def load_map(machine, path, points: np.ndarray) -> VolumetricMap:
+    """The volumetric map of a file: a ``volumetric-map`` document as it is, or a parameter
+    set (with its covariance) mapped on a grid covering ``points`` (:func:`map_for_points`).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine the parameter set belongs to.
+    path : path
+        The map or the parameter set (JSON/YAML).
+    points : (N, 3) array
+        Points the map must cover, mm.
+
+    Returns
+    -------
+    VolumetricMap
+    """
+    from mtmetrology.io.documents import load_document
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+    from mtmetrology.kinematics.volumetric_map import MAP_KIND
+
+    doc = load_document(path, "map or parameter set")
+    if isinstance(doc, dict) and doc.get("kind") == MAP_KIND:
+        return VolumetricMap.from_dict(doc, str(path))
+    pset = ParameterSet.from_document(doc, machine, str(path))
+    return map_for_points(machine, pset, points)
 
 
 def volumetric_map_budget(

@@ -37,8 +37,7 @@ from mtmetrology.errors import (
     InputError,
     MtmetrologyError,
 )
-from mtmetrology.io.files import InputFileError, committed
-from mtmetrology.units import from_internal
+from mtmetrology.io.files import committed
 
 if TYPE_CHECKING:  # loaded by the commands that use them: mtm --help needs none
     import numpy as np
@@ -207,48 +206,17 @@ def print_json(document: dict) -> None:
 
 
 def readings_from_table(machine: Machine, table: Table) -> np.ndarray:
-    """Internal readings from a CSV with one column per axis (mm, degrees); S defaults to 0.
+    """:func:`mtmetrology.kinematics.readings_table.readings_from_table`, loaded on use."""
+    from mtmetrology.kinematics import readings_table
 
-    A reading outside the travel of its axis (machine file ``travel_mm``/``travel_deg``)
-    is refused with its line: no measurement was taken there.
-    """
-    import numpy as np
-
-    readings = np.zeros((len(table), machine.n_axes))  # a missing S stays 0
-    for k, a in enumerate(machine.axis_names):
-        if a == "S" and not table.has(a):
-            continue
-        travel = machine.axes[a].travel
-        unit = "mm" if machine.axes[a].linear else "deg"
-        bounds = None
-        if travel is not None:
-            low, high = (float(from_internal(t, unit)) for t in travel)
-            slack = 1e-9 * max(abs(low), abs(high), 1.0)  # the round trip through rad
-            bounds = (low - slack, high + slack)
-        readings[:, k] = table.floats(a, bounds=bounds, unit=unit)
-    # In place, one column at a time: records of millions of rows are not copied thrice.
-    readings *= machine.readings_from_customary(np.ones(machine.n_axes))
-    return readings
+    return readings_table.readings_from_table(machine, table)
 
 
 def senses_from_table(machine: Machine, table: Table) -> np.ndarray | None:
-    """``sense_<axis>`` columns (+1/−1) when present, else None."""
-    import numpy as np
+    """:func:`mtmetrology.kinematics.readings_table.senses_from_table`, loaded on use."""
+    from mtmetrology.kinematics import readings_table
 
-    names = [f"sense_{a}" for a in machine.axis_names]
-    if not any(table.has(n) for n in names):
-        return None
-    out = np.ones((len(table), machine.n_axes))
-    for k, n in enumerate(names):
-        if table.has(n):
-            v = table.floats(n)
-            bad = np.flatnonzero(~np.isin(v, (-1.0, 1.0)))
-            if bad.size:
-                raise InputFileError(
-                    f"{table.path}, line {table.lines[bad[0]]}: column {n!r} must be +1 or -1"
-                )
-            out[:, k] = v
-    return out
+    return readings_table.senses_from_table(machine, table)
 
 
 ReportOption = Annotated[

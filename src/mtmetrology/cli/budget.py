@@ -5,13 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from mtmetrology.budgets.iso15530 import Policy, RepeatabilityMethod, iso15530_3_budget
 from mtmetrology.budgets.volumetric_map import (
     FEATURE_KINDS,
-    map_for_points,
+    load_map,
     volumetric_map_budget,
 )
 from mtmetrology.cli._common import (
@@ -24,11 +23,8 @@ from mtmetrology.cli._common import (
 from mtmetrology.errors import InputError
 from mtmetrology.formatting import format_uncertainty
 from mtmetrology.io import check_output, read_csv_table
-from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import write_json
 from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
-from mtmetrology.kinematics.volumetric_map import MAP_KIND, VolumetricMap
 from mtmetrology.uncertainty.conformity import Tolerance
 from mtmetrology.units import to_internal
 
@@ -102,7 +98,7 @@ def iso15530_3(
         u_cal=_um(u_cal, "--u-cal"),
         u_w=_um(u_w, "--u-w"),
         u_b=_um(u_b, "--u-b"),
-        series=None if series is None else np.asarray(series),
+        series=series,
         policy=policy,
         repeatability_method=u_p_method,
         probe_error=_um(probe_u, "--probe-u"),
@@ -165,14 +161,6 @@ Prints the budget in the layout of Mutilba et al., Table 1 (µm).
 """
 
 
-def _load_map(machine: Machine, params: Path, points) -> VolumetricMap:
-    doc = load_document(params, "map or parameter set")
-    if isinstance(doc, dict) and doc.get("kind") == MAP_KIND:
-        return VolumetricMap.from_dict(doc, str(params))
-    pset = ParameterSet.from_document(doc, machine, str(params))
-    return map_for_points(machine, pset, points)
-
-
 @app.command("volumetric-map", help=MAP_HELP)
 @user_errors
 def volumetric_map(
@@ -232,8 +220,8 @@ def volumetric_map(
         raise InputError(f"--trials must be at least 2, got {trials}")
     m = Machine.load(machine)
     table = read_csv_table(points, required=["x", "y", "z"])
-    xyz = np.column_stack([table.floats(c) for c in "xyz"])
-    vmap = _load_map(m, params, xyz)
+    xyz = table.vectors("xyz")
+    vmap = load_map(m, params, xyz)
     runs = None
     if repeats is not None:
         r = read_csv_table(repeats, required=["characteristic", "value"], min_rows=2)
@@ -246,8 +234,8 @@ def volumetric_map(
         xyz,
         vmap,
         feature,
-        cycles=np.asarray(table.strings("cycle")) if table.has("cycle") else None,
-        series=np.asarray(table.strings("series")) if table.has("series") else None,
+        cycles=table.strings("cycle") if table.has("cycle") else None,
+        series=table.strings("series") if table.has("series") else None,
         machine=m.name,
         mode=mode,
         repeatability_method=u_p_method,

@@ -9,10 +9,10 @@ applications (SAMBA); ``gp`` is this module's own group, :data:`gp_app`.
 from __future__ import annotations
 
 import inspect
+import math
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from mtmetrology.cli._common import (
@@ -25,26 +25,26 @@ from mtmetrology.cli._common import (
 )
 from mtmetrology.cli._history import HistoryOption, record_in_history
 from mtmetrology.cmm.budget import ballplate_budget, cmm_statement, load_budget
-from mtmetrology.cmm.calibrate import calibrate_ballplate, cross_validate
 from mtmetrology.cmm.files import (
     load_plate,
     load_positions,
     load_probes,
+    probe_tools,
     read_records,
     write_records,
 )
 from mtmetrology.cmm.gp import GPErrorModel, fit_gp
 from mtmetrology.cmm.models import parse_model
+from mtmetrology.cmm.requests import AUTO_CANDIDATES, calibrate_ballplate_files
 from mtmetrology.cmm.simulate import simulate_ballplate
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError, atomic_write, check_output, write_json
-from mtmetrology.io.tables import Table, read_csv_table, write_columns
+from mtmetrology.io.tables import read_csv_table, write_columns
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.units import from_internal, to_internal
 
-__all__ = ["gp_app", "probe_tools", "register"]
+__all__ = ["gp_app", "register"]
 
-AUTO_CANDIDATES = ("seed", "full-1", "full-2", "full-3")
 
 FILES_HELP = (
     "Files: PLATE (kind: ball-plate; balls: list of id, x_mm, y_mm, z_mm; u_mm or "
@@ -75,7 +75,7 @@ OutOpt = Annotated[Path, typer.Option("-o", "--output", help="Output file.")]
 
 
 def _positive(value: float, name: str) -> float:
-    if not (np.isfinite(value) and value > 0):
+    if not (math.isfinite(value) and value > 0):
         raise InputFileError(f"{name}: must be a positive number, got {value}")
     return value
 
@@ -104,24 +104,6 @@ def _add_result(report, result, **context) -> None:
 def _inputs(records: Path, plate: Path, probes: Path):
     pl, pr = load_plate(plate), load_probes(probes)
     return read_records(records, pl, pr), pl, pr
-
-
-def probe_tools(probes, table: Table) -> np.ndarray:
-    """Tool vectors (n, 3), mm, from a ``probe`` column and a probe set.
-
-    Raises
-    ------
-    InputFileError
-        Missing ``probe`` column or a probe id not in the set (file and line named).
-    """
-    ids = table.strings("probe")
-    for i, pid in enumerate(ids):
-        if pid not in probes.ids:
-            raise InputFileError(
-                f"{table.path}, line {table.lines[i]}: probe {pid!r} is not in the probe set "
-                f"({', '.join(probes.ids)})"
-            )
-    return probes.offsets(ids)
 
 
 @user_errors
@@ -165,20 +147,19 @@ def calibrate_ballplate_cmd(
     """
     sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
     m = Machine.load(machine)
-    rec, pl, pr = _inputs(records, plate, probes)
-    selection = None
-    if model == "auto":
-        if degrees:
-            raise InputFileError("--degrees applies to a full-<d> model, not to --model auto")
-        names = [c.strip() for c in candidates.split(",") if c.strip()]
-        for c in names:
-            parse_model(c)
-        selection = cross_validate(m, rec, pl, pr, names, sigma=sigma)
-        choice = parse_model(selection["chosen"])
-    else:
-        choice = parse_model(model, degrees)
-    cal = calibrate_ballplate(m, rec, pl, pr, model=choice, sigma=sigma, seed=seed)
-    doc = cal.to_document(selection)
+    request = calibrate_ballplate_files(
+        records,
+        m,
+        plate,
+        probes,
+        model=model,
+        degrees=degrees,
+        candidates=[c.strip() for c in candidates.split(",") if c.strip()],
+        sigma=sigma,
+        seed=seed,
+    )
+    cal, selection = request.calibration, request.selection
+    doc = request.to_dict()
     report = None
     if report_path is not None:
         report = _report(
@@ -207,11 +188,16 @@ def calibrate_ballplate_cmd(
         )
     typer.echo(
         f"{cal.model}: {cal.machine.n_params} parameters, rms residual "
-        f"{doc['fit']['rms_residual_um']:.3g} µm; U1 {np.round(u['U1_um'], 3).tolist()} "
-        f"U2 {np.round(u['U2_um'], 3).tolist()} U3 {np.round(u['U3_um'], 3).tolist()} µm; "
+        f"{doc['fit']['rms_residual_um']:.3g} µm; U1 {_rounded(u['U1_um'])} "
+        f"U2 {_rounded(u['U2_um'])} U3 {_rounded(u['U3_um'])} µm; "
         f"wrote {output}",
         err=True,
     )
+
+
+def _rounded(values) -> list[float]:
+    """Values to 3 decimals, as a list (the console line)."""
+    return [round(float(v), 3) for v in values]
 
 
 def _print_selection(selection: dict) -> None:
@@ -300,14 +286,14 @@ def simulate_ballplate_cmd(
     ] = False,
 ) -> None:
     """Simulate ball-plate records (position,ball,probe,X,Y,Z) of a virtual CMM."""
-    if not (np.isfinite(sigma_um) and sigma_um >= 0):
+    if not (math.isfinite(sigma_um) and sigma_um >= 0):
         raise InputFileError(f"--sigma-um: must be >= 0, got {sigma_um}")
     m, theta = machine_with_parameters(machine, params)
     pl, pr = load_plate(plate), load_probes(probes)
     pos = load_positions(positions, pr)
     camp = simulate_ballplate(
         m,
-        np.zeros(m.n_params) if theta is None else theta,
+        theta,
         pl,
         pos,
         pr,
@@ -386,7 +372,7 @@ def gp_predict(
     m = Machine.load(machine)
     gp = GPErrorModel.from_document(load_document(model, "GP model"), m, str(model))
     table = read_csv_table(readings, required=["X", "Y", "Z", "probe"])
-    q = np.column_stack([table.floats(a) for a in "XYZ"])
+    q = table.vectors("XYZ")
     tools = probe_tools(load_probes(probes), table)
     pts, u = gp.predict(q, tools)
     u_um = from_internal(u, "µm")

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from mtmetrology.cli._common import (
@@ -21,23 +21,20 @@ from mtmetrology.io import check_output
 from mtmetrology.io.files import write_json
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
-from mtmetrology.multilateration.files import read_lengths, read_stations, write_lengths
+from mtmetrology.multilateration.files import read_stations, write_lengths
 from mtmetrology.multilateration.problem import parse_spec
-from mtmetrology.multilateration.workflow import (
-    calibrate_multilateration,
-    map_monte_carlo,
-    simulate_lengths,
+from mtmetrology.multilateration.requests import (
+    calibrate_multilateration_file,
+    pose_grid,
+    reflector_tools,
 )
+from mtmetrology.multilateration.workflow import simulate_lengths
 from mtmetrology.units import from_internal
 
 simulate_app = typer.Typer()
 calibrate_app = typer.Typer()
 
 SPEC_HELP = "Length uncertainty U(k=2) = A + B·L, e.g. 0.2um+0.3um/m (LaserTRACER NG)."
-#: Reflector offsets from the machine's tool when none is given: on the spindle axis and
-#: two lateral ones, so that the yaws of the tool-side axes are observable.
-DEFAULT_TOOL_OFFSETS = ((0.0, 0.0, 0.0), (80.0, 0.0, -50.0), (0.0, 80.0, -50.0))
-
 SIMULATE_HELP = """Lengths of a sequential multilateration on a virtual machine.
 
 STATIONS.yaml: kind multilateration-stations, version 1, stations: [{name, position_mm,
@@ -68,31 +65,16 @@ def _vector(text: str, option: str) -> tuple[float, float, float]:
         values = tuple(float(p) for p in parts)
     except ValueError:
         values = ()
-    if len(values) != 3 or not all(np.isfinite(values)):
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
         raise InputError(f"{option} needs three numbers x,y,z in mm, got {text!r}")
     return values
 
 
-def _grid(machine: Machine, text: str) -> np.ndarray:
+def _grid(text: str) -> list[int]:
     try:
-        counts = [int(c) for c in text.split(",")]
+        return [int(c) for c in text.split(",")]
     except ValueError:
-        counts = []
-    linear = [a for a in machine.axis_names if machine.axes[a].linear]
-    if len(counts) != len(linear) or min(counts) < 2:
-        raise InputError(
-            f"--grid needs {len(linear)} node counts >= 2 (axes {''.join(linear)}), got {text!r}"
-        )
-    axes = []
-    for a, n in zip(linear, counts, strict=True):
-        travel = machine.axes[a].travel
-        if travel is None:
-            raise InputError(f"--grid: axis {a} of {machine.name} has no travel_mm")
-        axes.append(np.linspace(*travel, n))
-    nodes = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, len(linear))
-    q = np.zeros((len(nodes), machine.n_axes))
-    q[:, [machine.axis_names.index(a) for a in linear]] = nodes
-    return q
+        raise InputError(f"--grid needs node counts NX,NY,NZ, got {text!r}") from None
 
 
 @simulate_app.command("multilateration", help=SIMULATE_HELP)
@@ -121,16 +103,13 @@ def simulate_multilateration(
         pset = ParameterSet.load(truth, m)
         m = pset.machine_for(m)
         theta = pset.vector_for(m)
-    if tool:
-        tools = np.array([_vector(t, "--tool") for t in tool])
-    else:
-        tools = m.tool + np.array(DEFAULT_TOOL_OFFSETS)
+    tools = [_vector(t, "--tool") for t in tool or ()]
     record = simulate_lengths(
         m,
         theta,
         read_stations(stations),
-        _grid(m, grid),
-        tools,
+        pose_grid(m, _grid(grid)),
+        reflector_tools(m, tools),
         spec=parse_spec(noise),
         seed=seed,
     )
@@ -157,21 +136,10 @@ def calibrate_multilateration_cmd(
     for target in (output, report_path):
         if target is not None:
             check_output(target, [lengths])
-    if mc < 0:
-        raise InputError(f"--mc must be >= 0 trials, got {mc}")
     m = Machine.load(machine, model)
-    record = read_lengths(lengths, m)
-    result = calibrate_multilateration(
-        m, record, spec=parse_spec(noise), provenance={"lengths": str(lengths)}
-    )
+    result = calibrate_multilateration_file(lengths, m, noise=noise, mc=mc, seed=seed)
     doc = result.to_dict()
-    check = None
-    if mc:
-        pos = m.forward(record.readings)
-        axes = [np.linspace(pos[:, k].min(), pos[:, k].max(), 3) for k in range(3)]
-        points = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
-        check = map_monte_carlo(m, record, result, points, trials=mc, seed=seed)
-        doc["provenance"]["map_monte_carlo"] = check.to_dict()
+    check = result.map_check
     report = None
     if report_path is not None:
         from mtmetrology.report import Report

@@ -6,15 +6,12 @@ import sys
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from mtmetrology._memory import release_free_memory
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
-    readings_from_table,
-    senses_from_table,
     user_errors,
     write_report,
 )
@@ -26,18 +23,18 @@ from mtmetrology.io import (
     write_columns,
 )
 from mtmetrology.io.documents import load_document
-from mtmetrology.kinematics.compensation import compensated_points
+from mtmetrology.kinematics.compensation import compensate, correction_statistics
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.kinematics.readings_table import readings_from_table, senses_from_table
 from mtmetrology.units import from_internal
 
 
-def add_compensation(report, machine: Machine, xyz: np.ndarray, nominal: np.ndarray) -> None:
+def add_compensation(report, machine: Machine, xyz, nominal) -> None:
     """The correction each point receives from the error model: statistics and vectors."""
     from mtmetrology.report import figures
 
-    correction = from_internal(xyz - nominal, "µm")  # (n, 3)
-    size = np.linalg.norm(correction, axis=1)
+    correction, largest, rms = correction_statistics(xyz, nominal)
     report.section(
         "Compensation",
         f"{machine.name}, model {machine.model_name or 'custom'}: x, y, z are the stylus-centre "
@@ -47,9 +44,9 @@ def add_compensation(report, machine: Machine, xyz: np.ndarray, nominal: np.ndar
     report.table(
         ["quantity", "value", "unit"],
         [
-            ["points", len(size), ""],
-            ["largest correction", f"{size.max():.4g}", "µm"],
-            ["rms correction", f"{np.sqrt(np.mean(size**2)):.4g}", "µm"],
+            ["points", len(correction), ""],
+            ["largest correction", f"{largest:.4g}", "µm"],
+            ["rms correction", f"{rms:.4g}", "µm"],
         ],
     )
     report.figure(
@@ -82,9 +79,6 @@ def read_error_model(path: Path, machine: Machine):
 
 #: Standard uncertainty columns of ``--u``, µm.
 U_COLUMNS = ("u_x_um", "u_y_um", "u_z_um")
-
-#: Rows evaluated at once: bounds the memory of the kinematic chain on large records.
-CHUNK_ROWS = 1 << 16
 
 
 @user_errors
@@ -155,55 +149,36 @@ def predict(
             "--probes (or remove the column to use the machine's tool)"
         )
     if probes is not None:
-        from mtmetrology.cli.cmm import probe_tools
-        from mtmetrology.cmm.files import load_probes
+        from mtmetrology.cmm.files import load_probes, probe_tools
 
         tools = probe_tools(load_probes(probes), table)
     q = readings_from_table(m, table)
     senses = senses_from_table(m, table)
     release_free_memory()  # the float casts of the columns, now copied into q
-    reversal = [p.name for p in m.parameters if p.kind == "reversal"]
-    if reversal and senses is None:
-        columns = ", ".join(
-            sorted({f"sense_{p.axis}" for p in m.parameters if p.kind == "reversal"})
-        )
-        raise InputFileError(
-            f"{readings}: the parameter set has reversal terms ({', '.join(reversal)}); "
-            f"add the sense-of-motion column(s) {columns} (+1 or -1)"
-        )
-    xyz = np.empty((len(table), 3))
-    u = np.empty((len(table), 3)) if with_u else None
-    for start in range(0, len(table), CHUNK_ROWS):
-        rows = slice(start, start + CHUNK_ROWS)
-        tool = m.tool if tools is None else tools[rows]
-        s_rows = None if senses is None else senses[rows]
-        if gp is not None:
-            xyz[rows], u_gp = gp.predict(q[rows], tool)
-            if u is not None:
-                u[rows] = u_gp
-        elif u is not None:
-            xyz[rows], u[rows] = compensated_points(
-                m, q[rows], theta, pset.covariance, senses=s_rows, tool=tool
-            )
-        else:
-            xyz[rows] = m.forward(q[rows], theta, senses=s_rows, tool=tool)
-    bad = ~np.isfinite(xyz).all(axis=1)
-    if bad.any():
-        raise InputFileError(
-            f"{readings}, line {table.lines[np.argmax(bad)]}: the compensated position is not "
-            "finite; check the readings and the parameter set"
-        )
+    result = compensate(
+        m,
+        q,
+        theta,
+        None if pset is None else pset.covariance,
+        senses=senses,
+        tool=tools,
+        error_model=gp,
+        with_u=with_u,
+        source=str(readings),
+        lines=table.lines,
+    )
+    xyz, u = result.points, result.u
     if report_path is not None:
         from mtmetrology.report import Report
         from mtmetrology.report.results import add_result
 
-        nominal = m.forward(q, None, senses=senses, tool=m.tool if tools is None else tools)
+        nominal = compensate(m, q, senses=senses, tool=tools).points
         report = Report(
             f"Compensated coordinates: {readings.name}",
             command=command_line(ctx),
             provenance={"inputs": inputs},
         )
-        add_compensation(report, m, xyz, np.atleast_2d(nominal))
+        add_compensation(report, m, xyz, nominal)
         if pset is not None:
             add_result(report, pset)
         write_report(report, report_path)

@@ -15,7 +15,6 @@ import json
 from pathlib import Path
 from typing import Annotated, Literal
 
-import numpy as np
 import typer
 
 from mtmetrology.cli._common import (
@@ -25,57 +24,24 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
-from mtmetrology.errors import InputError
 from mtmetrology.formatting import format_uncertainty, format_value
-from mtmetrology.io import read_csv_table, write_json
-from mtmetrology.omm.hysteresis import HYSTERESIS_KINDS, hysteresis_errors, radial_projection
+from mtmetrology.io import write_json
 from mtmetrology.omm.repeatability import (
     COVARIANCE_OUTPUTS,
     MIN_TARGETS_PER_COEFFICIENT,
     STD_OUTPUTS,
-    factors_from_file_units,
-    fit_repeatability_model,
-    target_statistics,
 )
-from mtmetrology.omm.repeatability_windows import WINDOW_OUTPUTS, window_statistics
-from mtmetrology.units import to_internal
+from mtmetrology.omm.repeatability_records import fit_repeatability_file, hysteresis_from_file
+from mtmetrology.omm.repeatability_windows import WINDOW_OUTPUTS
 
 app = typer.Typer(
     help="Probing repeatability models (on-machine measurement).", no_args_is_help=True
 )
 
-RECORD_COLUMNS = ("target", "phi", "theta", "B", "C", "X_T", "Y_T", "Z_T", "i", "j", "k")
-READING_COLUMNS = ("X", "Y", "Z", "time")
-CENTRE_COLUMNS = ("centre_X", "centre_Y", "centre_Z")
-
 
 @app.callback()
 def _group() -> None:
     """Probing repeatability models (on-machine measurement)."""
-
-
-def _read_records(path: Path) -> dict:
-    table = read_csv_table(path, required=RECORD_COLUMNS + READING_COLUMNS)
-    factors = factors_from_file_units(
-        *(table.floats(c) for c in ("phi", "theta", "B", "C", "X_T", "Y_T", "Z_T"))
-    )
-    approach = np.column_stack([table.floats(c) for c in "ijk"])
-    length = np.linalg.norm(approach, axis=1)
-    if np.any(length == 0):
-        line = table.lines[int(np.flatnonzero(length == 0)[0])]
-        raise InputError(f"{path}, line {line}: the approach (i, j, k) is the zero vector")
-    centre = None
-    if any(table.has(c) for c in CENTRE_COLUMNS):
-        centre = np.column_stack([table.floats(c) for c in CENTRE_COLUMNS])
-    return dict(
-        target=table.strings("target"),
-        factors=factors,
-        readings=np.column_stack([table.floats(c) for c in "XYZ"]),
-        normal=-approach / length[:, None],  # the probe approaches along −n̂
-        time=table.floats("time"),
-        centre=centre,
-        where=str(path),
-    )
 
 
 @app.command("fit")
@@ -153,33 +119,17 @@ def fit(
     first. --window W adds a "windows" block (σ per window start, µm) and, with --report,
     a figure of σ against the window start.
     """
-    data = _read_records(records)
-    stats = target_statistics(**data, drift=drift)
-    windows = None
-    if window is not None:
-        windows = window_statistics(
-            data["target"],
-            data["readings"],
-            data["normal"],
-            data["time"],
-            window=window,
-            first_iteration=window_from,
-            where=data["where"],
-        )
-    model = fit_repeatability_model(
-        stats,
+    result = fit_repeatability_file(
+        records,
         holdout=holdout,
         seed=seed,
-        min_targets_per_coefficient=0.0 if allow_few_targets else MIN_TARGETS_PER_COEFFICIENT,
+        allow_few_targets=allow_few_targets,
+        drift=drift,
+        window=window,
+        window_from=window_from,
     )
-    document = model.to_dict()
-    document["source"] = str(records)
-    document["statistics"] = stats.to_dict()
-    if windows is not None:
-        document["windows"] = {"first_iteration": window_from, **windows.to_dict()}
-    zero = [t for t, z in zip(stats.targets, stats.zero_variance, strict=True) if z.any()]
-    document["resolution_warnings"] = zero
-    json.dumps(document, allow_nan=False)  # refuse NaN before anything is written
+    document = result.to_dict()
+    zero = result.resolution_warnings
     report = None if report_path is None else _report(ctx, records, document)
     _write(document, output, "repeatability model", report, report_path)
     if json_output:
@@ -323,43 +273,6 @@ def _report(ctx: typer.Context, records: Path, document: dict):
     return rep
 
 
-#: condition label -> (test, affected): H = mean r (affected) − mean r (reference).
-_CONDITIONS = {
-    label: (kind, flag)
-    for kind, labels in HYSTERESIS_KINDS.items()
-    for label, flag in zip(labels, (True, False), strict=True)
-}
-
-
-def _read_hysteresis_records(path: Path):
-    table = read_csv_table(path, required=("psi", "condition"))
-    labels = table.strings("condition")
-    for label, line in zip(labels, table.lines, strict=True):
-        if label not in _CONDITIONS:
-            raise InputError(
-                f"{path}, line {line}: column 'condition' holds {label!r}; use direct and "
-                "hysteresis (probing test) or + and - (axis test)"
-            )
-    kinds = {_CONDITIONS[label][0] for label in labels}
-    if len(kinds) != 1:
-        raise InputError(
-            f"{path}: column 'condition' mixes the probing test (direct, hysteresis) and the "
-            "axis test (+, -); give each test its own file"
-        )
-    psi = to_internal(table.floats("psi"), "deg")
-    if table.has("r") == (table.has("X") or table.has("Y")):
-        raise InputError(
-            f"{path}: give either the radial projection in column 'r' or the readings in "
-            "columns 'X' and 'Y' (relative to the ring centre), not both"
-        )
-    if table.has("r"):
-        radius = table.floats("r")
-    else:
-        radius = radial_projection(table.floats("X"), table.floats("Y"), psi)
-    affected = np.array([_CONDITIONS[label][1] for label in labels])
-    return psi, radius, affected, kinds.pop()
-
-
 @app.command("hysteresis")
 @user_errors
 def hysteresis(
@@ -393,11 +306,10 @@ def hysteresis(
     Welch–Satterthwaite degrees of freedom. Summary: the mean of H over the indexations
     with u = √(Σu²)/m, the mean of |H| and the RMS of u(H). Output unit: µm.
     """
-    psi, radius, affected, kind = _read_hysteresis_records(records)
-    result = hysteresis_errors(psi, radius, affected, kind=kind, p=p, where=str(records))
+    result = hysteresis_from_file(records, p=p)
     document = result.to_dict()
-    document["source"] = str(records)
     json.dumps(document, allow_nan=False)  # refuse NaN before anything is written
+    kind = result.kind
     report = None if report_path is None else _hysteresis_report(ctx, records, document)
     _write(document, output, "hysteresis result", report, report_path)
     if json_output:

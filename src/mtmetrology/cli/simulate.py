@@ -2,22 +2,21 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from mtmetrology.cli._common import user_errors
 from mtmetrology.errors import InputError
-from mtmetrology.io.tables import write_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.samba import (
     load_artefact,
     load_balls,
     read_poses,
-    simulate_length_readings,
+    simulate_length_check,
     simulate_records,
 )
 from mtmetrology.units import to_internal
@@ -57,7 +56,7 @@ centre against end a and end b of a length whose end-face centres END_A and END_
 """
 
 
-def _truth(machine: Machine, truth: Path | None) -> tuple[Machine, np.ndarray | None]:
+def _truth(machine: Machine, truth: Path | None):
     if truth is None:
         return machine, None
     pset = ParameterSet.load(truth, machine)
@@ -103,9 +102,11 @@ def samba(
     if noise_um < 0 or drift_um < 0:
         raise InputError("--noise-um and --drift-um must be >= 0")
     m, theta = _truth(Machine.load(machine, model), truth)
-    offset = np.zeros(3)
+    offset = (0.0, 0.0, 0.0)
     if tool_offset_um:
-        offset = to_internal(_vector(tool_offset_um, "--tool-offset-um", "µm"), "µm")
+        offset = tuple(
+            float(to_internal(v, "µm")) for v in _vector(tool_offset_um, "--tool-offset-um", "µm")
+        )
     rec = simulate_records(
         m,
         theta,
@@ -124,14 +125,14 @@ def samba(
     typer.echo(f"wrote {len(rec)} rows to {output}", err=True)
 
 
-def _vector(text: str, option: str, unit: str = "mm") -> np.ndarray:
+def _vector(text: str, option: str, unit: str = "mm") -> tuple[float, float, float]:
     """Three comma-separated numbers of an option."""
     parts = [p for p in text.split(",") if p.strip()]
     try:
-        values = np.array([float(p) for p in parts])
+        values = tuple(float(p) for p in parts)
     except ValueError:
-        values = np.array([])
-    if values.shape != (3,) or not np.all(np.isfinite(values)):
+        values = ()
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
         raise InputError(f"{option} needs three numbers x,y,z in {unit}, got {text!r}")
     return values
 
@@ -152,23 +153,16 @@ def length(
     noise_um: Annotated[float, typer.Option("--noise-um", help="Reading noise, µm.")] = 0.0,
     seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
 ) -> None:
-    if pairs < 1:
-        raise InputError(f"--pairs must be at least 1, got {pairs}")
     m, theta = _truth(Machine.load(machine, model), truth)
-    rng = np.random.default_rng(seed)
-    bc = np.column_stack([rng.uniform(-b_max_deg, b_max_deg, pairs), rng.uniform(0, 360, pairs)])
-    header, rows = simulate_length_readings(
+    check = simulate_length_check(
         m,
         theta,
         _vector(end_a, "--end-a"),
         _vector(end_b, "--end-b"),
-        bc,
-        tip_radius=m.tip_radius,
+        pairs=pairs,
+        b_max_deg=b_max_deg,
         noise=float(to_internal(noise_um, "µm")),
-        seed=rng,
+        seed=seed,
     )
-    lines = [
-        [str(k // 2 + 1), "ab"[k % 2], *(f"{v:.6f}" for v in row)] for k, row in enumerate(rows)
-    ]
-    write_csv_table(output, header, lines)
+    check.write(output)
     typer.echo(f"wrote {pairs} pairs to {output}", err=True)

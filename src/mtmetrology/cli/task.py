@@ -11,58 +11,34 @@ volumetric errors (``--unexplained``).
 
 from __future__ import annotations
 
-from dataclasses import replace
+import math
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
     print_json,
-    readings_from_table,
-    senses_from_table,
     user_errors,
     write_report,
 )
-from mtmetrology.cli._history import load_parameters
-from mtmetrology.errors import InputError
-from mtmetrology.fitting.composite import CombinedFeature, PointCoordinates
-from mtmetrology.fitting.features import (
-    BallCentre,
-    CircleCentre,
-    CircleDiameter,
-    CylinderDiameter,
-    Cylindricity,
-    Flatness,
-    GaugeLength,
-    Roundness,
-    SphereDiameter,
-    Sphericity,
-)
-from mtmetrology.fitting.zone_features import (
-    MinimumZoneCylindricity,
-    MinimumZoneFlatness,
-    MinimumZoneRoundness,
-    MinimumZoneSphericity,
-)
+from mtmetrology.cli._history import HISTORY_PARAMS, load_parameters
 from mtmetrology.formatting import (
     SHARE_DEFINITION,
     format_share,
     format_uncertainty,
     format_value,
 )
-from mtmetrology.io import read_csv_table, write_json
+from mtmetrology.io import write_json
 from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
-from mtmetrology.omm.repeatability_file import load_repeatability_model
-from mtmetrology.omm.task import TaskResult, reading_covariance, task_uncertainty
-from mtmetrology.omm.unexplained import load_unexplained_covariance
-from mtmetrology.uncertainty.conformity import Tolerance, decide
+from mtmetrology.omm.task import TaskResult
+from mtmetrology.omm.task_request import task_uncertainty_from_files
 from mtmetrology.units import from_internal
+
+__all__ = ["app"]
 
 app = typer.Typer(help="Uncertainty of on-machine measurement tasks.", no_args_is_help=True)
 
@@ -99,68 +75,9 @@ class Simulator(StrEnum):
     sampled = "sampled"
 
 
-#: The features with a form error, which ``--form minimum-zone`` may evaluate.
-FORM_FEATURES = ("sphere", "circle", "plane", "cylinder")
-#: Default side: a ball is probed from outside, a circle or a cylinder is a bore.
-DEFAULT_SIDE = {"sphere": Side.outer, "circle": Side.inner, "cylinder": Side.inner}
-
-
 @app.callback()
 def _group() -> None:
     """Uncertainty of on-machine measurement tasks."""
-
-
-def _points(path: Path, machine: Machine, feature: FeatureName, need_approach: bool):
-    table = read_csv_table(path, required=("point",))
-    readings = readings_from_table(machine, table)
-    order = np.arange(len(table))
-    if feature is FeatureName.length:
-        if len(table) != 2:
-            raise InputError(
-                f"{path}: a length needs exactly 2 points (one pair), got {len(table)}"
-            )
-        if table.has("end"):
-            ends = table.floats("end")
-            if sorted(ends.tolist()) != [1.0, 2.0]:
-                raise InputError(f"{path}: column 'end' must hold 1 and 2")
-            order = np.argsort(ends)
-    approach = None
-    if need_approach:
-        approach = np.column_stack([table.floats(c) for c in "ijk"])
-    senses = senses_from_table(machine, table)
-    return (
-        readings[order],
-        None if approach is None else approach[order],
-        None if senses is None else senses[order],
-    )
-
-
-def task_feature(name: FeatureName, form: Form, side: Side | None, d_tip: float, n_points: int):
-    """The feature function g(q): the size (tip-compensated, least squares) and the form
-    (least-squares peak-to-valley or minimum zone) of the element, its centre, or the
-    compensated coordinates themselves (Sepahi Boroujeni (2021), Table 7-1)."""
-    inner = (side or DEFAULT_SIDE.get(name.value, Side.outer)) is Side.inner
-    zone = form is Form.minimum_zone
-    parts = {
-        FeatureName.length: lambda: (GaugeLength(tip_diameter=d_tip),),
-        FeatureName.sphere: lambda: (
-            SphereDiameter(d_tip, inner=inner),
-            MinimumZoneSphericity() if zone else Sphericity(),
-        ),
-        FeatureName.circle: lambda: (
-            CircleDiameter(inner=inner, tip_diameter=d_tip),
-            MinimumZoneRoundness() if zone else Roundness(),
-        ),
-        FeatureName.plane: lambda: (MinimumZoneFlatness() if zone else Flatness(),),
-        FeatureName.cylinder: lambda: (
-            CylinderDiameter(inner=inner, tip_diameter=d_tip),
-            MinimumZoneCylindricity() if zone else Cylindricity(),
-        ),
-        FeatureName.sphere_centre: lambda: (BallCentre(name="sphere_centre"),),
-        FeatureName.circle_centre: lambda: (CircleCentre(),),
-        FeatureName.points: lambda: (PointCoordinates(n_points),),
-    }[name]()
-    return parts[0] if len(parts) == 1 else CombinedFeature(parts)
 
 
 @app.command("uncertainty")
@@ -260,80 +177,38 @@ def uncertainty(
     Method: GUF with the covariance simulator, adaptive Monte Carlo (JCGM 101/102), or both
     with the validation of the GUF.
     """
-    tol = Tolerance.parse(tolerance) if tolerance is not None else None
-    if recalibrated and long_term is not None:
-        raise InputError(
-            "--long-term and --recalibrated: a machine recalibrated for the task has no "
-            "long-term term; give one of them"
-        )
-    if not recalibrated and long_term is None:
-        raise InputError(
-            "state the long-term variation of the parameters since the calibration: "
-            "--long-term FILE (mtm calibrate long-term), or --recalibrated"
-        )
-    if side is not None and feature.value not in DEFAULT_SIDE:
-        raise InputError(
-            f"--side applies to a sphere, circle or cylinder, not to a {feature.value}"
-        )
-    if form is Form.minimum_zone and feature.value not in FORM_FEATURES:
-        raise InputError(f"--form minimum-zone applies to a form error, not to a {feature.value}")
-    base = Machine.load(machine_name)
-    pset = ParameterSet.load(params, base)
-    machine = pset.machine_for(base)
-    if pset.covariance is None:
-        raise InputError(f"{params}: no covariance; the task uncertainty needs one")
-    sigma_lt = None
-    if long_term is not None:
-        lt = load_parameters(long_term, base)
-        if lt.covariance is None:
-            raise InputError(f"{long_term}: no covariance; --long-term needs one")
-        if set(lt.names) != set(pset.names):
-            raise InputError(f"{long_term}: parameter names differ from those of {params}")
-        sigma_lt = _ordered_covariance(lt, machine)
-    readings, approach, senses = _points(points_csv, machine, feature, repeatability is not None)
-    d_tip = 2.0 * machine.tip_radius if tip_diameter is None else tip_diameter
-    feat = task_feature(feature, form, side, d_tip, len(readings))
-    if len(readings) < feat.min_points:
-        raise InputError(
-            f"{points_csv}: a {feature.value} needs at least {feat.min_points} points "
-            f"({form.value}), got {len(readings)}"
-        )
-    v = None
-    if repeatability is not None:
-        v = reading_covariance(machine, load_repeatability_model(repeatability), readings, approach)
-    cov_e = load_unexplained_covariance(unexplained) if unexplained is not None else None
-    target = _tolerance_index(feat, tolerance_output, tol)
-    result = task_uncertainty(
-        machine,
-        readings,
-        pset.vector_for(machine),
-        _ordered_covariance(pset, machine),
-        feat,
-        long_term_covariance=sigma_lt,
+    lt = long_term
+    if long_term is not None and str(long_term).startswith(HISTORY_PARAMS):
+        lt = load_parameters(long_term, Machine.load(machine_name))
+    result = task_uncertainty_from_files(
+        points_csv,
+        machine_name,
+        params,
+        feature.value,
+        long_term=lt,
+        long_term_source=None if long_term is None else str(long_term),
         recalibrated=recalibrated,
-        reading_covariance=v,
-        unexplained_covariance=cov_e,
-        senses=senses,
-        p=p,
+        repeatability=repeatability,
+        unexplained=unexplained,
+        form=form.value,
+        side=None if side is None else side.value,
+        tip_diameter=tip_diameter,
         method=method.value,
         simulator=simulator.value,
         draws=draws,
         trials=trials,
         digits=digits,
         seed=seed,
+        tolerance=tolerance,
+        tolerance_output=tolerance_output,
+        guard_band_factor=guard_band_factor,
+        p=p,
     )
-    if tol is not None:
-        out = result.result.outputs[target]
-        decision = decide(out.value, out.U, tol, guard_band_factor=guard_band_factor, unit="mm")
-        result = replace(result, decision=decision)
     document = result.to_dict()
-    document["source"] = {"points": str(points_csv), "params": str(params)}
-    if long_term is not None:
-        document["source"]["long_term"] = str(long_term)
     if report_path is not None:
         optional = (long_term, repeatability, unexplained)
         inputs = [points_csv, params, *(f for f in optional if f is not None)]
-        _write_report(report_path, result, command_line(ctx), inputs, target)
+        _write_report(report_path, result, command_line(ctx), inputs)
     if output is not None:
         write_json(output, document)
     if json_output:
@@ -347,28 +222,9 @@ def _label(group: str) -> str:
     return group.replace("long_term", "long-term").replace("_", " ")
 
 
-def _ordered_covariance(pset: ParameterSet, machine: Machine) -> np.ndarray:
-    """The set's covariance in ``machine.parameter_names`` order."""
-    order = [pset.names.index(n) for n in machine.parameter_names]
-    return pset.covariance[np.ix_(order, order)]
-
-
-def _tolerance_index(feature, name: str | None, tol: Tolerance | None) -> int:
-    """Index of the toleranced output: the named one, else the feature's first."""
-    names = list(feature.output_names)
-    if name is None:
-        return 0
-    if tol is None:
-        raise InputError("--tolerance-output needs --tolerance")
-    if name not in names:
-        raise InputError(f"--tolerance-output: {name!r} is not an output ({', '.join(names)})")
-    return names.index(name)
-
-
-def _write_report(
-    path: Path, result: TaskResult, command: str, inputs: list[Path], target: int
-) -> None:
+def _write_report(path: Path, result: TaskResult, command: str, inputs: list[Path]) -> None:
     """Values with u and U, the budget by source, the validation and the decision."""
+    target = result.target
     from mtmetrology.report import Report, figures
     from mtmetrology.report.results import add_result
 
@@ -426,8 +282,8 @@ def _write_report(
         d = result.decision.to_dict()
         tol = result.decision.tolerance
         value, big_u = float(r.outputs[target].value), float(r.outputs[target].U)
-        lower = tol.lower_limit if np.isfinite(tol.lower_limit) else None
-        upper = tol.upper_limit if np.isfinite(tol.upper_limit) else None
+        lower = tol.lower_limit if math.isfinite(tol.lower_limit) else None
+        upper = tol.upper_limit if math.isfinite(tol.upper_limit) else None
         rep.section(f"Conformity decision of {name} (ISO 14253-1:2017)", str(d["decision"]))
         rep.figure(figures.conformity_zones(value, big_u, lower, upper, name=name, unit="mm"))
     write_report(rep, path)

@@ -11,7 +11,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from mtmetrology.cli._common import (
@@ -43,64 +42,12 @@ NoiseOption = Annotated[
 ]
 
 
-def _pose(path: Path | None):
-    from mtmetrology.io.documents import load_document
-    from mtmetrology.kinematics.tracker import TrackerPose
-    from mtmetrology.tracker import PAPER_POSE
-
-    if path is None:
-        return PAPER_POSE
-    doc = load_document(path, "tracker pose")
-    if not isinstance(doc, dict) or doc.get("kind") != "tracker-pose":
-        raise InputError(f"{path}: kind: expected 'tracker-pose'")
-    return TrackerPose.from_dict({k: v for k, v in doc.items() if k not in ("kind", "version")},
-                                 str(path))  # fmt: skip
-
-
-def _tools(path: Path | None) -> np.ndarray:
-    from mtmetrology.io.documents import load_document
-
-    if path is None:
-        return np.array([[0.0, 0.0, -100.0]])
-    doc = load_document(path, "tracker tools")
-    if not isinstance(doc, dict) or doc.get("kind") != "tracker-tools":
-        raise InputError(f"{path}: kind: expected 'tracker-tools'")
-    try:
-        tools = np.array(doc["tools_mm"], dtype=float)
-    except (KeyError, TypeError, ValueError):
-        raise InputError(f"{path}: tools_mm: a list of [x, y, z] in mm is required") from None
-    if tools.ndim != 2 or tools.shape[1] != 3 or not np.all(np.isfinite(tools)):
-        raise InputError(f"{path}: tools_mm: each tool must be three finite numbers (mm)")
-    return tools
-
-
-def _noise(angle_urad: float):
-    from mtmetrology.kinematics.tracker import TrackerNoise
-    from mtmetrology.units import to_internal
-
-    if not np.isfinite(angle_urad) or angle_urad <= 0:
-        raise InputError(f"--angle-urad must be a positive number, got {angle_urad}")
-    return TrackerNoise(u_angle=float(to_internal(angle_urad, "µrad")))
-
-
 CONDITIONS_HELP = (
     "CONDITIONS.yaml: kind tracker-conditions, version 1, any of sensor_temperatures_C "
     "(3 x 2, per axis X, Y, Z at the lower and upper travel end), u_sensor_K, cte_per_K, "
     "u_cte_per_K, reversal_mm, repeatability_mm, geometric_random, geometric_distribution "
     "(normal or beta); 20 °C, steel, none otherwise."
 )
-
-
-def _conditions(path: Path | None):
-    from mtmetrology.io.documents import load_document
-    from mtmetrology.tracker import MachineConditions
-
-    if path is None:
-        return MachineConditions()
-    doc = load_document(path, "tracker conditions")
-    if not isinstance(doc, dict) or doc.get("kind") != "tracker-conditions":
-        raise InputError(f"{path}: kind: expected 'tracker-conditions'")
-    return MachineConditions.from_dict(doc, str(path))
 
 
 @simulate_app.command("tracker")
@@ -121,18 +68,18 @@ def simulate_tracker(
     """Tracker readings (range, azimuth, elevation) and axis temperatures of a virtual
     verification of a machine with known errors."""
     from mtmetrology.kinematics.machine import Machine
-    from mtmetrology.tracker import parse_mesh, simulate
+    from mtmetrology.tracker import files, parse_mesh, simulate
 
     m = Machine.load(machine)
-    theta = _truth(m, truth)
+    theta = files.true_errors(m, truth)
     meas = simulate(
         m,
         theta,
-        _pose(pose),
+        files.load_pose(pose),
         parse_mesh(mesh, m),
-        _tools(tools),
-        noise=_noise(angle_urad),
-        conditions=_conditions(conditions),
+        files.load_tools(tools),
+        noise=files.noise(angle_urad),
+        conditions=files.load_conditions(conditions),
         seed=seed,
     )
     meas.write(output)
@@ -155,11 +102,13 @@ def calibrate_tracker(
     """Identify the error functions (with covariance) and the tracker pose; name what the
     set-up cannot see and what to add."""
     from mtmetrology.kinematics.machine import Machine
-    from mtmetrology.tracker import calibrate, read_measurements
+    from mtmetrology.tracker import calibrate, files, read_measurements
 
     m = Machine.load(machine, model)
     meas = read_measurements(measurements)
-    cal = calibrate(m, meas, noise=_noise(angle_urad), conditions=_conditions(conditions))
+    cal = calibrate(
+        m, meas, noise=files.noise(angle_urad), conditions=files.load_conditions(conditions)
+    )
     doc = cal.to_dict()
     report = None
     if report_path is not None:
@@ -174,19 +123,6 @@ def calibrate_tracker(
         print_json(doc)
     else:
         typer.echo(cal.summary())
-
-
-def _truth(m, truth: Path | None) -> np.ndarray:
-    from mtmetrology.kinematics.parameter_set import ParameterSet
-
-    if truth is None:
-        return np.zeros(m.n_params)
-    pset = ParameterSet.load(truth, m)
-    values = dict(zip(pset.names, pset.values, strict=True))
-    unknown = [n for n in values if n not in m.parameter_names]
-    if unknown:
-        raise InputError(f"{truth}: {unknown[0]} is not a parameter of the model {m.model_name}")
-    return np.array([values.get(n, 0.0) for n in m.parameter_names])
 
 
 @verify_app.command("tracker")
@@ -214,19 +150,19 @@ def verify_tracker(
     of the mean final volumetric error (mean, σ, mean + 2σ, maximum), distribution fits,
     held-out coverage of the predicted uncertainty."""
     from mtmetrology.kinematics.machine import Machine
-    from mtmetrology.tracker import parse_mesh
+    from mtmetrology.tracker import files, parse_mesh
     from mtmetrology.tracker.verify import verify
 
     m = Machine.load(machine)
     result = verify(
         m,
-        _truth(m, truth),
-        _pose(pose),
+        files.true_errors(m, truth),
+        files.load_pose(pose),
         parse_mesh(mesh, m),
-        _tools(tools),
+        files.load_tools(tools),
         trials=trials,
-        noise=_noise(angle_urad),
-        conditions=_conditions(conditions),
+        noise=files.noise(angle_urad),
+        conditions=files.load_conditions(conditions),
         seed=seed,
     )
     doc = result.to_dict()
@@ -283,14 +219,14 @@ def tracker_placement(
     """Placement study of the tracker over the allowed region: criterion per candidate pose,
     colour map, best pose (refusing poses inside the workspace or beyond the limits)."""
     from mtmetrology.kinematics.machine import Machine
-    from mtmetrology.tracker import parse_mesh
+    from mtmetrology.tracker import files, parse_mesh
     from mtmetrology.tracker.placement import plan_placement
 
     m = Machine.load(machine)
     study = plan_placement(
         m,
         parse_mesh(mesh, m),
-        _tools(tools),
+        files.load_tools(tools),
         region=_region(region),
         direction=direction,
         criterion=criterion,

@@ -24,7 +24,6 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
-from mtmetrology.cli.task import _ordered_covariance
 from mtmetrology.errors import InputError
 from mtmetrology.fitting.features import SphereDiameter, Sphericity
 from mtmetrology.io import read_csv_table, write_json
@@ -34,6 +33,7 @@ from mtmetrology.omm.pooling import pooling_experiment
 from mtmetrology.omm.reference import thermal_reference_value
 from mtmetrology.omm.repeatability_file import load_repeatability_model
 from mtmetrology.omm.task import reading_covariance
+from mtmetrology.omm.task_request import ordered_covariance as _ordered_covariance
 from mtmetrology.omm.unexplained import load_unexplained_covariance
 from mtmetrology.omm.validation import GaugeValidation, validate_gauge
 from mtmetrology.units import to_internal

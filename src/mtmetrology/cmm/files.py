@@ -53,6 +53,7 @@ __all__ = [
     "load_plate",
     "load_positions",
     "load_probes",
+    "probe_tools",
     "read_records",
     "rotation_matrix",
     "validate_records",
@@ -332,3 +333,21 @@ def write_records(path: str | Path, records: BallPlateRecords) -> None:
         )
     )
     write_csv_table(path, list(RECORD_COLUMNS), rows)
+
+
+def probe_tools(probes: ProbeSet, table) -> np.ndarray:
+    """Tool vectors (n, 3), mm, from the ``probe`` column of a table and a probe set.
+
+    Raises
+    ------
+    InputFileError
+        Missing ``probe`` column or a probe id not in the set (file and line named).
+    """
+    ids = table.strings("probe")
+    for i, pid in enumerate(ids):
+        if pid not in probes.ids:
+            raise InputFileError(
+                f"{table.path}, line {table.lines[i]}: probe {pid!r} is not in the probe set "
+                f"({', '.join(probes.ids)})"
+            )
+    return probes.offsets(ids)

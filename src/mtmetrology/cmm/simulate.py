@@ -76,8 +76,8 @@ def simulate_ballplate(
     ----------
     machine : Machine
         The CMM with the error parameters of ``theta`` active.
-    theta : array_like, shape (n_params,)
-        True errors, internal units.
+    theta : array_like, shape (n_params,), or None
+        True errors, internal units (None: no errors).
     plate, positions, probes
         Plate (certificate), positions (pose and styli), probe set.
     sigma : float
@@ -115,6 +115,8 @@ def simulate_ballplate(
                 targets.append(c)
                 tools.append(t)
     targets, tools = np.array(targets), np.array(tools)
+    if theta is None:
+        theta = np.zeros(machine.n_params)
     start = targets - tools
     q = machine.inverse(targets, start, theta, tool=tools)
     if residual_error is not None:

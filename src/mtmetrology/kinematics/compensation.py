@@ -18,11 +18,26 @@ measurement*, 5.1.2 (law of propagation of uncertainty).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass
+
 import numpy as np
 
+from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.units import from_internal
 
-__all__ = ["compensated_points", "compensation_covariance"]
+__all__ = [
+    "CHUNK_ROWS",
+    "Compensation",
+    "compensate",
+    "compensated_points",
+    "compensation_covariance",
+    "correction_statistics",
+]
+
+#: Rows evaluated at once: bounds the memory of the kinematic chain on large records.
+CHUNK_ROWS = 1 << 16
 
 
 def compensation_covariance(
@@ -95,3 +110,154 @@ def compensated_points(
         machine, readings, parameters, covariance, senses=senses, tool=tool
     )
     return points, np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
+
+
+@dataclass(frozen=True)
+class Compensation:
+    """Compensated stylus-centre coordinates of a record (:func:`compensate`).
+
+    Attributes
+    ----------
+    points : (n, 3) ndarray, mm
+        f(φ, δ̂) in the workpiece frame.
+    u : (n, 3) ndarray or None, mm
+        Standard uncertainty of each coordinate (None when not asked for).
+    """
+
+    points: np.ndarray
+    u: np.ndarray | None = None
+
+    def to_dict(self) -> dict:
+        """``compensated-points`` document (mm)."""
+        return {
+            "kind": "compensated-points",
+            "version": 1,
+            "unit": "mm",
+            "points": self.points.tolist(),
+            "u": None if self.u is None else self.u.tolist(),
+        }
+
+    @classmethod
+    def from_dict(cls, document: dict) -> Compensation:
+        """Inverse of :meth:`to_dict`."""
+        u = document.get("u")
+        return cls(
+            np.asarray(document["points"], dtype=float).reshape(-1, 3),
+            None if u is None else np.asarray(u, dtype=float).reshape(-1, 3),
+        )
+
+
+def compensate(
+    machine: Machine,
+    readings: np.ndarray,
+    parameters: np.ndarray | None = None,
+    covariance: np.ndarray | None = None,
+    *,
+    senses: np.ndarray | None = None,
+    tool: np.ndarray | None = None,
+    error_model=None,
+    with_u: bool = False,
+    source: str = "readings",
+    lines: Sequence[int] | None = None,
+    chunk_rows: int = CHUNK_ROWS,
+) -> Compensation:
+    """Compensated coordinates q = f(φ, δ̂) of a record, evaluated in chunks of rows.
+
+    With ``with_u``, u(q_i) = √[G U_θ Gᵀ]_ii, G = ∂f/∂δ (:func:`compensated_points`), or
+    the posterior standard deviation of ``error_model``.
+
+    Parameters
+    ----------
+    machine : Machine
+    readings : (n, n_axes) array
+        Internal readings (mm, rad).
+    parameters : (P,) array, optional
+        δ̂, internal units (zero when omitted).
+    covariance : (P, P) array, optional
+        U_θ of δ̂; required by ``with_u`` without an ``error_model``.
+    senses : (n, n_axes) array, optional
+        +1/−1 traverse senses; required when the machine has reversal terms.
+    tool : (3,) or (n, 3) array, optional
+        Tool vector, mm (the machine's when omitted).
+    error_model : object with ``predict(readings, tools) -> (points, u)``, optional
+        A non-parametric error model (e.g. :class:`mtmetrology.cmm.gp.GPErrorModel`) used
+        instead of ``parameters``.
+    with_u : bool
+        Also return the standard uncertainty of each coordinate.
+    source, lines
+        The file and line of each row, named by the errors.
+    chunk_rows : int
+        Rows evaluated at once (bounds the memory of the kinematic chain).
+
+    Returns
+    -------
+    Compensation
+
+    Raises
+    ------
+    InputError
+        ``with_u`` without a covariance, reversal terms without senses, or a row whose
+        compensated position is not finite.
+
+    References
+    ----------
+    JCGM 100:2008, 5.1.2.
+    """
+    if with_u and covariance is None and error_model is None:
+        raise InputError("the uncertainty of compensated points needs a parameter covariance")
+    reversal = [p for p in machine.parameters if p.kind == "reversal"]
+    if reversal and senses is None:
+        columns = ", ".join(sorted({f"sense_{p.axis}" for p in reversal}))
+        raise InputError(
+            f"{source}: the parameter set has reversal terms "
+            f"({', '.join(p.name for p in reversal)}); add the sense-of-motion column(s) "
+            f"{columns} (+1 or -1)"
+        )
+    n = len(readings)
+    points = np.empty((n, 3))
+    u = np.empty((n, 3)) if with_u else None
+    for start in range(0, n, chunk_rows):
+        rows = slice(start, start + chunk_rows)
+        t = tool if tool is None or np.ndim(tool) == 1 else tool[rows]
+        t = machine.tool if t is None else t
+        s_rows = None if senses is None else senses[rows]
+        if error_model is not None:
+            points[rows], u_model = error_model.predict(readings[rows], t)
+            if u is not None:
+                u[rows] = u_model
+        elif u is not None:
+            points[rows], u[rows] = compensated_points(
+                machine, readings[rows], parameters, covariance, senses=s_rows, tool=t
+            )
+        else:
+            points[rows] = machine.forward(readings[rows], parameters, senses=s_rows, tool=t)
+    bad = ~np.isfinite(points).all(axis=1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(
+            f"{source}, line {i + 1 if lines is None else lines[i]}: the compensated position "
+            "is not finite; check the readings and the parameter set"
+        )
+    return Compensation(points, u)
+
+
+def correction_statistics(
+    points: np.ndarray, nominal: np.ndarray
+) -> tuple[np.ndarray, float, float]:
+    """The correction each point receives from the error model, and its size.
+
+    Parameters
+    ----------
+    points, nominal : (n, 3) array, mm
+        Compensated and nominal (error-free) positions.
+
+    Returns
+    -------
+    correction : (n, 3) ndarray, µm
+        ``points - nominal``.
+    largest, rms : float, µm
+        max_i ‖c_i‖ and √(mean_i ‖c_i‖²).
+    """
+    correction = from_internal(np.asarray(points) - np.atleast_2d(nominal), "µm")
+    size = np.linalg.norm(correction, axis=1)
+    return correction, float(size.max()), float(np.sqrt(np.mean(size**2)))

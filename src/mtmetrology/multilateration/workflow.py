@@ -157,6 +157,9 @@ class MultilaterationResult:
     diagnostics : dict
         The identifiability report (:meth:`IdentifiabilityReport.to_dict`).
     message : str
+    map_check : MapMonteCarlo or None
+        The Monte Carlo check of the map uncertainty, when one was run (its document is
+        ``provenance.map_monte_carlo``).
     """
 
     parameters: ParameterSet
@@ -168,6 +171,7 @@ class MultilaterationResult:
     variance_factor: float | None
     diagnostics: dict = field(repr=False)
     message: str = ""
+    map_check: MapMonteCarlo | None = None
 
     def to_dict(self) -> dict:
         """The MAP.json form: a parameter-set document whose provenance holds the set-up."""
@@ -194,6 +198,8 @@ class MultilaterationResult:
             "diagnostics": self.diagnostics,
             "message": self.message,
         }
+        if self.map_check is not None:
+            doc["provenance"]["map_monte_carlo"] = self.map_check.to_dict()
         return doc
 
     @classmethod

@@ -92,6 +92,8 @@ class HysteresisResult:
         Σ |H_ψ| / m (descriptive: the magnitude of the hysteresis whatever its sign).
     rms_u : float, mm
         √(Σ u²(H_ψ) / m): the typical u(H_ψ) of one indexation.
+    source : str or None
+        The records file, recorded as ``source`` in the document.
     """
 
     kind: str
@@ -111,6 +113,7 @@ class HysteresisResult:
     mean_u: float
     mean_abs: float
     rms_u: float
+    source: str | None = None
 
     def __len__(self) -> int:
         return self.psi.size
@@ -142,7 +145,7 @@ class HysteresisResult:
     def to_dict(self) -> dict:
         """The ``hysteresis-result`` JSON document (deg, mm, µm)."""
         affected, reference = HYSTERESIS_KINDS[self.kind]
-        return {
+        doc = {
             "kind": "hysteresis-result",
             "version": 1,
             "test": self.kind,
@@ -171,6 +174,9 @@ class HysteresisResult:
                 "unit": "µm",
             },
         }
+        if self.source is not None:
+            doc["source"] = self.source
+        return doc
 
 
 def _deg(angle) -> float:

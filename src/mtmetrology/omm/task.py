@@ -175,7 +175,12 @@ class TaskResult:
     long_term : {"propagated", "recalibrated", "not given"}
         Whether the long-term variation of the parameters is in the budget.
     decision : ConformityDecision or None
-        ISO 14253-1:2017 decision when a tolerance was given (first output of ``result``).
+        ISO 14253-1:2017 decision when a tolerance was given (of output ``target``).
+    target : int
+        Index of the output the tolerance applies to (0: the feature's first).
+    source : dict or None
+        The files of the request, recorded as ``source`` in the document
+        (:func:`~mtmetrology.omm.task_request.task_uncertainty_from_files`).
     """
 
     method: str
@@ -188,6 +193,8 @@ class TaskResult:
     shares: dict
     long_term: str = "not given"
     decision: ConformityDecision | None = None
+    target: int = 0
+    source: dict | None = None
 
     @property
     def result(self) -> GUFResult | MCMResult:
@@ -212,6 +219,8 @@ class TaskResult:
         doc["points"] = {"unit": "mm", "compensated": self.points.tolist()}
         if self.decision is not None:
             doc["decision"] = self.decision.to_dict()
+        if self.source is not None:
+            doc["source"] = dict(self.source)
         return doc
 
 

@@ -32,6 +32,7 @@ _EXPORTS = {
     "uncertainty_model": "mtmetrology.samba.uncertainty",
     "LengthCheck": "mtmetrology.samba.verify",
     "read_length_readings": "mtmetrology.samba.verify",
+    "simulate_length_check": "mtmetrology.samba.verify",
     "simulate_length_readings": "mtmetrology.samba.verify",
     "verify_length": "mtmetrology.samba.verify",
 }
@@ -54,6 +55,7 @@ __all__ = [
     "read_length_readings",
     "read_poses",
     "read_records",
+    "simulate_length_check",
     "simulate_length_readings",
     "simulate_records",
     "uncertainty_model",

@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from mtmetrology.io.files import InputFileError
-from mtmetrology.io.tables import read_csv_table
+from mtmetrology.io.tables import read_csv_table, write_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.samba.notebook import SambaNotebookRepr
@@ -55,6 +55,7 @@ __all__ = [
     "LengthReadings",
     "error_statistics",
     "read_length_readings",
+    "simulate_length_check",
     "simulate_length_readings",
     "thermal_reference",
     "verify_length",
@@ -399,3 +400,90 @@ def simulate_length_readings(
     q[:, linear] += noise * as_generator(seed).standard_normal((q.shape[0], len(linear)))
     check_travel(machine, q, lambda i: f"pair {i // 2 + 1}")
     return ("pair", "end", *machine.axis_names), machine.readings_to_customary(q)
+
+
+@dataclass(frozen=True, eq=False)
+class SimulatedLengthCheck:
+    """Customary readings of a virtual length check (:func:`simulate_length_check`).
+
+    Attributes
+    ----------
+    header : tuple of str
+        ``pair, end`` and the axis names.
+    rows : (2·n_pairs, n_axes) ndarray
+        Readings (mm, degrees): pair 1 end a, pair 1 end b, ...
+    """
+
+    header: tuple[str, ...]
+    rows: np.ndarray
+
+    @property
+    def pairs(self) -> int:
+        return len(self.rows) // 2
+
+    def lines(self) -> list[list[str]]:
+        """The CSV rows ``pair,end,<readings to 6 decimals>`` that ``mtm verify length``
+        reads."""
+        return [
+            [str(k // 2 + 1), "ab"[k % 2], *(f"{v:.6f}" for v in row)]
+            for k, row in enumerate(self.rows)
+        ]
+
+    def write(self, path: str | Path) -> None:
+        """Write READINGS.csv (atomically)."""
+        write_csv_table(path, self.header, self.lines())
+
+    def to_dict(self) -> dict:
+        """The readings as a document (the CSV's header and rows)."""
+        return {
+            "kind": "length-check-readings",
+            "version": 1,
+            "header": list(self.header),
+            "rows": [[float(v) for v in row] for row in self.rows],
+        }
+
+
+def simulate_length_check(
+    machine: Machine,
+    truth: np.ndarray | None,
+    end_a,
+    end_b,
+    *,
+    pairs: int = 20,
+    b_max_deg: float = 45.0,
+    noise: float = 0.0,
+    seed: SeedLike = None,
+) -> SimulatedLengthCheck:
+    """A gauge-block length check on a virtual machine at random indexations.
+
+    ``pairs`` indexations B ~ U(−b_max, b_max), C ~ U(0, 360) degrees are drawn from
+    ``seed``; the same generator then draws the reading noise
+    (:func:`simulate_length_readings`, the stylus tip radius the machine's).
+
+    Parameters
+    ----------
+    machine : Machine
+    truth : (n_params,) ndarray or None
+        True errors (internal units).
+    end_a, end_b : (3,) array_like
+        End-face centres in the workpiece frame, mm.
+    pairs : int
+        Number of (B, C) indexations, at least 1.
+    b_max_deg : float
+        Largest |B|, degrees.
+    noise : float
+        Standard deviation of each linear reading, mm.
+    seed : int, SeedSequence or Generator
+
+    Returns
+    -------
+    SimulatedLengthCheck
+    """
+    if pairs < 1:
+        raise InputFileError(f"--pairs must be at least 1, got {pairs}")
+    rng = as_generator(seed)
+    bc = np.column_stack([rng.uniform(-b_max_deg, b_max_deg, pairs), rng.uniform(0, 360, pairs)])
+    header, rows = simulate_length_readings(
+        machine, truth, end_a, end_b, bc, tip_radius=machine.tip_radius, noise=noise, seed=rng
+    )
+    return SimulatedLengthCheck(header, rows)

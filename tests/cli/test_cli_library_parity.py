@@ -1,0 +1,382 @@
+"""Every command's output equals, field for field, what the library call a notebook makes
+with the same inputs gives (issue 20): the command line only parses, calls and prints.
+
+Each case writes its input files, runs the command, and makes the one library call; the
+command's JSON (or CSV columns) must equal the result's ``to_dict()``.  A case fails when
+the command composes anything of its own (a field added, a value recomputed, another
+default).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from mtmetrology.cli import app
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+
+runner = CliRunner()
+MACHINE = Machine.load("five-axis-wcbxfzyst")
+# Table 7-1 gauge-block readings (Sepahi Boroujeni (2021)), the two faces of a length.
+TASK_POINTS = """point,X,Y,Z,B,C,end
+p1,-138.5650,94.6560,196.2320,-42,-293,1
+p2,-61.2880,48.3440,246.8170,-64,-124,2
+"""
+
+
+def _params(path, seed=1):
+    rng = np.random.default_rng(seed)
+    a = MACHINE.parameter_scales[:, None] * rng.normal(size=(13, 13))
+    ParameterSet(
+        MACHINE.parameter_names,
+        rng.normal(size=13) * MACHINE.parameter_scales * 3,
+        MACHINE.parameter_units,
+        covariance=a @ a.T,
+        machine=MACHINE.name,
+    ).save(path)
+    return path
+
+
+def _json(args: list[str]) -> dict:
+    result = runner.invoke(app, [str(a) for a in args])
+    assert result.exit_code == 0, result.output
+    return json.loads(result.stdout)
+
+
+def _plain(document: dict) -> dict:
+    """The document as JSON carries it (tuples become lists, numpy floats floats)."""
+    return json.loads(json.dumps(document, allow_nan=False))
+
+
+def case_task(tmp_path):
+    from mtmetrology.omm.task_request import task_uncertainty_from_files
+
+    (tmp_path / "points.csv").write_text(TASK_POINTS, encoding="utf-8")
+    params = _params(tmp_path / "params.json")
+    points = tmp_path / "points.csv"
+    lt = _params(tmp_path / "lt.json", seed=2)
+    cli = _json(
+        [
+            *("task", "uncertainty", points, "--machine", MACHINE.name, "--params", params),
+            *("--feature", "length", "--long-term", lt, "--tolerance", "100,-0.01,0.01"),
+            *("--guard-band-factor", "0.5", "--json"),
+        ]
+    )
+    library = task_uncertainty_from_files(
+        points,
+        MACHINE.name,
+        params,
+        "length",
+        long_term=lt,
+        tolerance="100,-0.01,0.01",
+        guard_band_factor=0.5,
+    )
+    # the parts the command used to compose itself are there to compare
+    assert cli["source"]["long_term"] == str(lt)
+    assert cli["decision"]["guard_band_factor"] == 0.5
+    return cli, library.to_dict()
+
+
+def case_fit(tmp_path):
+    from mtmetrology.fitting.element_fit import fit_points_file
+
+    rng = np.random.default_rng(3)
+    angle = rng.uniform(0.0, 2.0 * np.pi, 20)
+    r = 12.0 + 0.002 * rng.uniform(-0.5, 0.5, 20)
+    path = tmp_path / "ring.csv"
+    rows = "\n".join(
+        f"{x:.9f},{y:.9f},0" for x, y in zip(r * np.cos(angle), r * np.sin(angle), strict=True)
+    )
+    path.write_text("x,y,z\n" + rows + "\n", encoding="utf-8")
+    cli = _json(
+        [
+            *("fit", "circle", path, "--method", "minimum-zone", "--tip-radius", "1"),
+            *("--inside", "--json"),
+        ]
+    )
+    library = fit_points_file("circle", path, method="minimum-zone", tip_radius=1.0, inside=True)
+    return cli, library.to_dict()
+
+
+def case_predict(tmp_path):
+    from mtmetrology.io import read_csv_table
+    from mtmetrology.kinematics.compensation import compensate
+    from mtmetrology.kinematics.readings_table import readings_from_table
+
+    records = tmp_path / "r.csv"
+    records.write_text("X,Y,Z,B,C\n100,0,100,0,0\n-50,20,80,30,45\n", encoding="utf-8")
+    params = _params(tmp_path / "params.json")
+    result = runner.invoke(
+        app, ["predict", str(records), "--machine", MACHINE.name, "--params", str(params), "--u"]
+    )
+    assert result.exit_code == 0, result.output
+    rows = list(csv.DictReader(io.StringIO(result.stdout)))
+    cli = {
+        "points": [[float(r[c]) for c in "xyz"] for r in rows],
+        "u_um": [[float(r[f"u_{c}_um"]) for c in "xyz"] for r in rows],
+    }
+    pset = ParameterSet.load(params, MACHINE)
+    machine = pset.machine_for(MACHINE)
+    q = readings_from_table(machine, read_csv_table(records))
+    doc = compensate(machine, q, pset.vector_for(machine), pset.covariance, with_u=True).to_dict()
+    # the CSV carries 6 decimals of mm and of µm
+    library = {
+        "points": np.round(doc["points"], 6).tolist(),
+        "u_um": np.round(np.asarray(doc["u"]) * 1e3, 6).tolist(),
+    }
+    return cli, library
+
+
+def case_budget(tmp_path):
+    from mtmetrology.budgets.iso15530 import iso15530_3_budget
+    from mtmetrology.uncertainty.conformity import Tolerance
+
+    values = 50.0 + 0.001 * np.random.default_rng(4).normal(size=12)
+    runs = tmp_path / "runs.csv"
+    runs.write_text("value\n" + "\n".join(f"{v:.6f}" for v in values) + "\n", "utf-8")
+    cli = _json(
+        [
+            *("budget", "iso15530-3", runs, "--calibrated", "50.0005", "--u-cal", "0.4"),
+            *("--u-w", "0.3", "--tolerance", "50,-0.01,0.01", "--json"),
+        ]
+    )
+    library = iso15530_3_budget(
+        np.round(values, 6),
+        calibrated=50.0005,
+        u_cal=0.4e-3,
+        u_w=0.3e-3,
+        tolerance=Tolerance.parse("50,-0.01,0.01"),
+        name="runs",
+        provenance={"runs": str(runs)},
+    )
+    return cli, library.to_dict()
+
+
+def case_hysteresis(tmp_path):
+    from mtmetrology.omm.repeatability_records import hysteresis_from_file
+
+    rng = np.random.default_rng(5)
+    rows = [
+        f"{psi},{condition},{25.0 + 0.001 * rng.normal():.7f}"
+        for psi in (0, 90, 180, 270)
+        for condition in ("direct", "hysteresis")
+        for _ in range(4)
+    ]
+    records = tmp_path / "ring.csv"
+    records.write_text("psi,condition,r\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    cli = _json(["repeatability", "hysteresis", records, "--p", "0.9", "--json"])
+    return cli, hysteresis_from_file(records, p=0.9).to_dict()
+
+
+ML_STATIONS = """kind: multilateration-stations
+version: 1
+stations:
+  - {name: S1, position_mm: [750, 50, 30], dead_path_mm: 100}
+  - {name: S2, position_mm: [1250, 60, 40], dead_path_mm: 200}
+  - {name: S3, position_mm: [760, 560, 20], dead_path_mm: 300}
+  - {name: S4, position_mm: [1240, 540, 50], dead_path_mm: 400}
+"""
+
+
+def case_multilateration(tmp_path):
+    from mtmetrology.multilateration.requests import calibrate_multilateration_file
+
+    (tmp_path / "stations.yaml").write_text(ML_STATIONS, encoding="utf-8")
+    lengths = tmp_path / "lengths.csv"
+    result = runner.invoke(
+        app,
+        [
+            *("simulate", "multilateration", "--machine", "three-axis-xfyz", "--grid", "4,4,4"),
+            *("--stations", str(tmp_path / "stations.yaml"), "--seed", "1", "-o", str(lengths)),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    cli = _json(
+        [
+            *("calibrate", "multilateration", lengths, "--machine", "three-axis-xfyz"),
+            *("--mc", "4", "--seed", "3", "--json"),
+        ]
+    )
+    assert cli["provenance"]["map_monte_carlo"]["trials"] == 4
+    library = calibrate_multilateration_file(lengths, Machine.load("three-axis-xfyz"), mc=4, seed=3)
+    return cli, library.to_dict()
+
+
+def case_tracker(tmp_path):
+    from mtmetrology.tracker import calibrate, files, read_measurements
+
+    (tmp_path / "tools.yaml").write_text(
+        "kind: tracker-tools\nversion: 1\n"
+        "tools_mm: [[0, 0, -100], [100, 0, -100], [0, 100, -100]]\n",
+        encoding="utf-8",
+    )
+    meas = tmp_path / "meas.csv"
+    result = runner.invoke(
+        app,
+        [
+            *("simulate", "tracker", "--machine", "three-axis-xfyz", "--tools"),
+            *(str(tmp_path / "tools.yaml"), "--seed", "4", "-o", str(meas)),
+            *("--mesh", "800:1200:100,100:500:200,200:400:100"),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    cli = _json(
+        [
+            "calibrate",
+            "tracker",
+            meas,
+            "--machine",
+            "three-axis-xfyz",
+            "--angle-urad",
+            "15",
+            "--json",
+        ]
+    )
+    library = calibrate(
+        Machine.load("three-axis-xfyz"),
+        read_measurements(meas),
+        noise=files.noise(15.0),
+        conditions=files.load_conditions(None),
+    )
+    return cli, library.to_dict()
+
+
+def case_simulate_length(tmp_path):
+    from mtmetrology.samba import simulate_length_check
+
+    out = tmp_path / "gauge.csv"
+    result = runner.invoke(
+        app,
+        [
+            *("simulate", "length", "--machine", MACHINE.name, "--end-a", "-100,-100,40"),
+            *("--end-b", "100,100,40", "--pairs", "6", "--noise-um", "0.5", "--seed", "5"),
+            *("-o", str(out)),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    rows = list(csv.reader(io.StringIO(out.read_text(encoding="utf-8"))))
+    cli = {"header": rows[0], "lines": rows[1:]}
+    check = simulate_length_check(
+        MACHINE, None, (-100, -100, 40), (100, 100, 40), pairs=6, noise=0.5e-3, seed=5
+    )
+    return cli, {"header": list(check.header), "lines": check.lines()}
+
+
+def case_repeatability_fit(tmp_path):
+    from mtmetrology.omm.repeatability_records import fit_repeatability_file
+
+    rng = np.random.default_rng(6)
+    rows = ["target,phi,theta,B,C,X_T,Y_T,Z_T,i,j,k,X,Y,Z,time"]
+    for t in range(45):
+        phi, theta = np.radians(rng.uniform(0, 90)), np.radians(rng.uniform(0, 360))
+        b, c = rng.uniform(-90, 90), rng.uniform(-180, 180)
+        target = rng.uniform(-200, 200, 3)
+        n = (np.sin(phi) * np.sin(theta), np.sin(phi) * np.cos(theta), np.cos(phi))
+        for s in range(6):
+            p = target + rng.normal(0, 0.001, 3)
+            rows.append(
+                f"T{t},{np.degrees(phi)},{np.degrees(theta)},{b},{c},{target[0]},{target[1]},"
+                f"{target[2]},{-n[0]},{-n[1]},{-n[2]},{p[0]:.6f},{p[1]:.6f},{p[2]:.6f},{s}"
+            )
+    records = tmp_path / "records.csv"
+    records.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    cli = _json(
+        [
+            *("repeatability", "fit", records, "-o", tmp_path / "R.json"),
+            *("--allow-few-targets", "--window", "3", "--seed", "2", "--json"),
+        ]
+    )
+    library = fit_repeatability_file(records, allow_few_targets=True, window=3, seed=2)
+    return cli, library.to_dict()
+
+
+def case_ballplate(tmp_path):
+    import yaml
+
+    from mtmetrology.cmm.requests import calibrate_ballplate_files
+
+    probes = {"P0": [0, 0, -150], "PX1": [50, 0, -150], "PY1": [0, 50, -150]}
+    balls = [
+        {"id": f"{3 * j + i:02d}", "x_mm": 266.0 * i, "y_mm": 266.0 * j, "z_mm": 0.0}
+        for j in range(3)
+        for i in range(3)
+    ]
+    poses = [
+        ("H", [330, 230, 150], [0, 0, 0]),
+        ("VX", [330, 500, 10], [90, 0, 0]),
+        ("VY", [600, 230, 10], [90, 0, 90]),
+        ("T", [330, 230, 120], [30, 0, 0]),
+    ]
+    docs = {
+        "plate": {"kind": "ball-plate", "balls": balls, "u_mm": 0.0005},
+        "probes": {
+            "kind": "probe-set",
+            "probes": [{"id": k, "offset_mm": v} for k, v in probes.items()],
+        },
+        "positions": {
+            "kind": "ballplate-positions",
+            "positions": [
+                {"id": i, "origin_mm": o, "rotation_deg": r, "probes": list(probes)}
+                for i, o, r in poses
+            ],
+        },
+    }
+    path = {}
+    for name, doc in docs.items():
+        path[name] = tmp_path / f"{name}.yaml"
+        path[name].write_text(yaml.safe_dump(doc), encoding="utf-8")
+    records = tmp_path / "records.csv"
+    common = ["--machine", "cmm-moving-bridge", "--plate", path["plate"], "--probes"]
+    result = runner.invoke(
+        app,
+        [
+            str(a)
+            for a in [
+                *("simulate", "ballplate", *common, path["probes"], "--positions"),
+                *(path["positions"], "--seed", "3", "-o", records),
+            ]
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    cli = _json(
+        [
+            *("calibrate", "ballplate", records, *common, path["probes"]),
+            *("-o", tmp_path / "cal.json", "--sigma-um", "0.6", "--seed", "1", "--json"),
+        ]
+    )
+    library = calibrate_ballplate_files(
+        records, "cmm-moving-bridge", path["plate"], path["probes"], sigma=0.6e-3, seed=1
+    )
+    return cli, library.to_dict()
+
+
+CASES = {
+    "calibrate ballplate": case_ballplate,
+    "repeatability fit": case_repeatability_fit,
+    "simulate length": case_simulate_length,
+    "calibrate tracker": case_tracker,
+    "calibrate multilateration": case_multilateration,
+    "repeatability hysteresis": case_hysteresis,
+    "budget iso15530-3": case_budget,
+    "task uncertainty": case_task,
+    "fit": case_fit,
+    "predict": case_predict,
+}
+
+
+@pytest.mark.parametrize("command", sorted(CASES))
+def test_command_output_is_the_library_result(command, tmp_path):
+    cli, library = CASES[command](tmp_path)
+    assert cli == _plain(library)
+
+
+def test_parity_detects_a_field_the_command_would_add(tmp_path):
+    """The comparison is field for field: one extra field makes the documents differ."""
+    cli, library = case_fit(tmp_path)
+    assert cli != {**_plain(library), "added_by_the_command": 1}

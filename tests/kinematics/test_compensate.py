@@ -1,0 +1,72 @@
+"""``kinematics.compensation.compensate``: the chunked compensation of a record (issue 20)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mtmetrology.errors import InputError
+from mtmetrology.kinematics.compensation import Compensation, compensate, compensated_points
+from mtmetrology.kinematics.machine import Machine
+
+MACHINE = Machine.load("five-axis-wcbxfzyst")
+
+
+def _record(n=7, seed=0):
+    rng = np.random.default_rng(seed)
+    customary = {
+        "X": rng.uniform(-100, 100, n),
+        "Y": rng.uniform(-100, 100, n),
+        "Z": rng.uniform(50, 200, n),
+        "B": rng.uniform(-45, 45, n),
+        "C": rng.uniform(0, 360, n),
+    }
+    q = MACHINE.readings_from_customary(customary)
+    theta = rng.normal(size=MACHINE.n_params) * MACHINE.parameter_scales
+    a = MACHINE.parameter_scales[:, None] * rng.normal(size=(MACHINE.n_params,) * 2)
+    return q, theta, a @ a.T
+
+
+def test_chunks_do_not_change_the_result():
+    """One row per chunk, three rows per chunk and one chunk give the same points and u:
+    each row is compensated on its own."""
+    q, theta, cov = _record()
+    whole = compensate(MACHINE, q, theta, cov, with_u=True)
+    for rows in (1, 3):
+        part = compensate(MACHINE, q, theta, cov, with_u=True, chunk_rows=rows)
+        np.testing.assert_array_equal(part.points, whole.points)
+        np.testing.assert_array_equal(part.u, whole.u)
+
+
+def test_points_and_u_are_those_of_the_kinematic_engine():
+    q, theta, cov = _record()
+    points, u = compensated_points(MACHINE, q, theta, cov)
+    result = compensate(MACHINE, q, theta, cov, with_u=True)
+    np.testing.assert_array_equal(result.points, points)
+    np.testing.assert_array_equal(result.u, u)
+    np.testing.assert_array_equal(
+        compensate(MACHINE, q, theta).points, MACHINE.forward(q, theta, tool=MACHINE.tool)
+    )
+
+
+def test_document_round_trip():
+    q, theta, cov = _record()
+    result = compensate(MACHINE, q, theta, cov, with_u=True)
+    back = Compensation.from_dict(result.to_dict())
+    np.testing.assert_array_equal(back.points, result.points)
+    np.testing.assert_array_equal(back.u, result.u)
+    assert Compensation.from_dict(compensate(MACHINE, q, theta).to_dict()).u is None
+
+
+def test_a_non_finite_position_names_the_file_line():
+    q, theta, _ = _record()
+    q[4, 0] = np.nan
+    with pytest.raises(InputError) as err:
+        compensate(MACHINE, q, theta, source="r.csv", lines=list(range(10, 17)))
+    assert str(err.value).startswith("r.csv, line 14: the compensated position is not finite")
+
+
+def test_u_without_a_covariance_is_refused():
+    q, theta, _ = _record()
+    with pytest.raises(InputError, match="needs a parameter covariance"):
+        compensate(MACHINE, q, theta, with_u=True)
