@@ -19,9 +19,6 @@ On-Machine Tool Metrology*. PhD thesis, Polytechnique Montréal, ch. 5–7. JCGM
 
 from __future__ import annotations
 
-import io
-from contextlib import redirect_stderr
-
 import numpy as np
 
 from _five_axis import (
@@ -38,10 +35,9 @@ from _five_axis import (
     SETUP,
     true_errors,
 )
-from mtmetrology.cli import simulate as simulate_cli
-from mtmetrology.cli.predict import add_compensation
 from mtmetrology.formatting import format_uncertainty, format_value
 from mtmetrology.io.tables import format_decimal, write_csv_table
+from mtmetrology.kinematics.compensation import compensate
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.report import figures
@@ -58,6 +54,7 @@ from mtmetrology.samba import (
     read_length_readings,
     read_poses,
     read_records,
+    simulate_length_check,
     simulate_records,
     verify_length,
 )
@@ -222,18 +219,17 @@ def _gauge_block(ctx: DemoContext, preset: str, shown: dict, seed: int) -> None:
     """``mtm simulate length`` and ``mtm verify length``: nominal and compensated errors."""
     gauge = ctx.path("gauge", "gauge.csv")
     with ctx.step(f"a gauge block at {GAUGE_PAIRS} (B, C) indexations, before/after"):
-        with redirect_stderr(io.StringIO()):  # the command's "wrote ..." line
-            simulate_cli.length(
-                machine=preset,
-                end_a=GAUGE_END_A,
-                end_b=GAUGE_END_B,
-                output=gauge,
-                truth=ctx.path("samba", "truth.json"),
-                pairs=GAUGE_PAIRS,
-                noise_um=NOISE_UM,
-                seed=seed,
-            )
         base = Machine.load(preset)
+        truth = ParameterSet.load(ctx.path("samba", "truth.json"), base)
+        simulate_length_check(
+            base,
+            truth.vector_for(base),
+            [float(v) for v in GAUGE_END_A.split(",")],
+            [float(v) for v in GAUGE_END_B.split(",")],
+            pairs=GAUGE_PAIRS,
+            noise=float(to_internal(NOISE_UM, "µm")),
+            seed=seed,
+        ).write(gauge)
         pset = ParameterSet.load(ctx.path("samba", "params.json"), base)
         m = pset.machine_for(base)
         check = verify_length(
@@ -317,7 +313,9 @@ def prediction_section(ctx: DemoContext) -> None:
     write_csv_table(ctx.path("prediction", "gauge.csv"), header, rows)
     nominal, true = (m.forward(q, theta) for theta in (None, true_errors(m)))
     # compensated as `mtm predict` does: the identified parameters and tool vector
-    identified = pset.machine_for(m).forward(q, pset.values)
+    calibrated = pset.machine_for(m)
+    compensation = compensate(calibrated, q, pset.vector_for(calibrated))
+    identified = compensation.points
     # written as `mtm predict -o` writes them, so that its rerun rewrites the same file
     xyz = [format_decimal(identified[:, k], 6).to_pylist() for k in range(3)]
     xyz_rows = [[*r, *(c[i] for c in xyz)] for i, r in enumerate(rows)]
@@ -339,7 +337,7 @@ def prediction_section(ctx: DemoContext) -> None:
             ["on the true machine", f"{lengths[2]:.4f}"],
         ],
     )
-    add_compensation(ctx.report, m, identified, nominal)
+    add_result(ctx.report, compensation, nominal=nominal, machine=m)
     ctx.command(
         "compensated coordinates",
         "predict",

@@ -70,3 +70,28 @@ def test_u_without_a_covariance_is_refused():
     q, theta, _ = _record()
     with pytest.raises(InputError, match="needs a parameter covariance"):
         compensate(MACHINE, q, theta, with_u=True)
+
+
+def _report_rows(html: str) -> dict[str, str]:
+    """quantity -> value of the Compensation section's table."""
+    import re
+
+    return dict(re.findall(r"<tr><td>([^<]*)</td><td[^>]*>([^<]*)</td><td>[^<]*</td></tr>", html))
+
+
+def test_compensation_report_gives_the_corrections_and_the_notebook_its_points():
+    from mtmetrology.report import Report
+    from mtmetrology.report.results import add_result
+
+    # exact: corrections (3, 4, 0) µm and (0, 0, 12) µm have norms 5 and 12 µm,
+    # largest 12 µm, rms √((25 + 144)/2) = 9.192 µm
+    nominal = np.array([[10.0, 20.0, 30.0], [-5.0, 0.0, 40.0]])
+    points = nominal + np.array([[3e-3, 4e-3, 0.0], [0.0, 0.0, 12e-3]])
+    comp = Compensation(points, u=np.full((2, 3), 0.7e-3))
+    rep = add_result(Report("c"), comp, nominal=nominal, machine=MACHINE)
+    rows = _report_rows(rep.html())
+    assert (rows["points"], float(rows["largest correction"])) == ("2", 12.0)
+    assert float(rows["rms correction"]) == pytest.approx(np.sqrt((25 + 144) / 2), abs=1e-3)
+    # without the nominal positions the notebook shows the points and the largest u
+    rows = _report_rows(comp._repr_html_())
+    assert rows == {"points": "2", "largest u of a coordinate": "0.70"}

@@ -23,37 +23,11 @@ from mtmetrology.io import (
     write_columns,
 )
 from mtmetrology.io.documents import load_document
-from mtmetrology.kinematics.compensation import compensate, correction_statistics
+from mtmetrology.kinematics.compensation import compensate
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.readings_table import readings_from_table, senses_from_table
 from mtmetrology.units import from_internal
-
-
-def add_compensation(report, machine: Machine, xyz, nominal) -> None:
-    """The correction each point receives from the error model: statistics and vectors."""
-    from mtmetrology.report import figures
-
-    correction, largest, rms = correction_statistics(xyz, nominal)
-    report.section(
-        "Compensation",
-        f"{machine.name}, model {machine.model_name or 'custom'}: x, y, z are the stylus-centre "
-        "positions in the workpiece frame with the parameter set's errors, the correction is "
-        "their difference from the nominal (error-free) kinematics.",
-    )
-    report.table(
-        ["quantity", "value", "unit"],
-        [
-            ["points", len(correction), ""],
-            ["largest correction", f"{largest:.4g}", "µm"],
-            ["rms correction", f"{rms:.4g}", "µm"],
-        ],
-    )
-    report.figure(
-        figures.residual_vectors(xyz, correction, title="Corrections"),
-        caption="Correction of each point (compensated minus nominal position).",
-    )
-
 
 #: ``kind`` of a Gaussian-process error-model file (``mtm gp fit``): checked before
 #: anything of :mod:`mtmetrology.cmm` (scikit-learn) is imported, so that compensating with a
@@ -178,7 +152,7 @@ def predict(
             command=command_line(ctx),
             provenance={"inputs": inputs},
         )
-        add_compensation(report, m, xyz, nominal)
+        add_result(report, result, nominal=nominal, machine=m)
         if pset is not None:
             add_result(report, pset)
         write_report(report, report_path)

@@ -26,13 +26,9 @@ from mtmetrology.cli._common import (
 )
 from mtmetrology.formatting import format_uncertainty, format_value
 from mtmetrology.io import write_json
-from mtmetrology.omm.repeatability import (
-    COVARIANCE_OUTPUTS,
-    MIN_TARGETS_PER_COEFFICIENT,
-    STD_OUTPUTS,
-)
+from mtmetrology.omm.hysteresis import summary_line
+from mtmetrology.omm.repeatability import MIN_TARGETS_PER_COEFFICIENT
 from mtmetrology.omm.repeatability_records import fit_repeatability_file, hysteresis_from_file
-from mtmetrology.omm.repeatability_windows import WINDOW_OUTPUTS
 
 app = typer.Typer(
     help="Probing repeatability models (on-machine measurement).", no_args_is_help=True
@@ -130,7 +126,7 @@ def fit(
     )
     document = result.to_dict()
     zero = result.resolution_warnings
-    report = None if report_path is None else _report(ctx, records, document)
+    report = None if report_path is None else _report(ctx, records, "Probing repeatability", result)
     _write(document, output, "repeatability model", report, report_path)
     if json_output:
         print_json(document)
@@ -184,93 +180,15 @@ def _write(document: dict, output: Path | None, what: str, report, report_path) 
         write_report(report, report_path)
 
 
-def _report(ctx: typer.Context, records: Path, document: dict):
+def _report(ctx: typer.Context, records: Path, title: str, result):
+    """The report of ``result`` (:mod:`mtmetrology.omm.report`) under ``title``."""
     from mtmetrology.report import Report
+    from mtmetrology.report.results import add_result
 
     rep = Report(
-        f"Probing repeatability: {records.name}",
-        command=command_line(ctx),
-        provenance={"inputs": [records]},
+        f"{title}: {records.name}", command=command_line(ctx), provenance={"inputs": [records]}
     )
-    rep.section(
-        "Models",
-        f"{document['n_fit']} targets fitted, {document['n_validation']} held out. "
-        "Separable polynomials on normalised factors (Sepahi Boroujeni (2021), "
-        "eqs. 4-1 and 4-2).",
-    )
-    rows = []
-    for o in document["outputs"]:
-        rel, rms = o["validation_max_relative_error"], o["validation_rms_relative_error"]
-        rows.append(
-            [
-                o["name"],
-                o["unit"],
-                len(o["coefficients"]),
-                f"{100 * o['r_squared']:.1f} %",
-                "—" if rel is None else f"{100 * rel:.1f} %",
-                "—"
-                if o["validation_max_abs_error"] is None
-                else f"{o['validation_max_abs_error']:.3f}",
-                "—" if rms is None else f"{100 * rms:.1f} %",
-                "flagged" if o["validation_flagged"] else "",
-            ]
-        )
-    rep.table(
-        [
-            "output",
-            "unit",
-            "coefficients",
-            "R²",
-            "max validation error",
-            "max abs. difference",
-            "rms relative error",
-            "check",
-        ],
-        rows,
-        caption="Held-out targets: an output whose RMS error exceeds "
-        f"{100 * document['validation_warning']:g} % of the RMS of its held-out values is "
-        "flagged (the model does not predict held-out poses).",
-    )
-    rep.section("Per-target statistics")
-    names = STD_OUTPUTS + COVARIANCE_OUTPUTS
-    cubic = document["statistics"]["drift"]["model"] == "cubic"
-    caption = "σ in µm, covariances in µm²; first touch discarded."
-    if cubic:
-        caption += (
-            " Cubic drift in time removed from each series (Sepahi Boroujeni (2021), §4): "
-            "σ and covariances of the residuals, n − 4 degrees of freedom; σ_X raw is the "
-            "standard deviation of the X readings themselves."
-        )
-    rep.table(
-        ["target", "touches", *names, *(["sigma_X raw"] if cubic else [])],
-        [
-            [
-                t["target"],
-                t["n_touches"],
-                *(f"{t[n]:.3f}" for n in names),
-                *([f"{t['sigma_X_raw']:.3f}"] if cubic else []),
-            ]
-            for t in document["statistics"]["targets"]
-        ],
-        caption=caption,
-    )
-    if "windows" in document:
-        from mtmetrology.report.figures import window_repeatability
-
-        w = document["windows"]
-        rep.section(
-            "Sliding-window repeatability",
-            f"σ of the readings in a window of {w['window']} touches sliding from iteration "
-            f"{w['first_iteration']} (Sepahi Boroujeni (2021), §4, Fig. 4-20).",
-        )
-        rep.figure(
-            window_repeatability(
-                {n: [(t["start"], t[n]) for t in w["targets"]] for n in WINDOW_OUTPUTS},
-                window=w["window"],
-            ),
-            caption="One thin line per target; the thick line is the median over targets.",
-        )
-    return rep
+    return add_result(rep, result)
 
 
 @app.command("hysteresis")
@@ -310,7 +228,7 @@ def hysteresis(
     document = result.to_dict()
     json.dumps(document, allow_nan=False)  # refuse NaN before anything is written
     kind = result.kind
-    report = None if report_path is None else _hysteresis_report(ctx, records, document)
+    report = None if report_path is None else _report(ctx, records, "Hysteresis", result)
     _write(document, output, "hysteresis result", report, report_path)
     if json_output:
         print_json(document)
@@ -323,52 +241,4 @@ def hysteresis(
             f"{row['psi']:>10g} {value:>8} {format_uncertainty(u):>7} "
             f"{format_uncertainty(big_u):>7} {o['k']:>6.2f}"
         )
-    typer.echo(f"{_summary(document['summary'])}")
-
-
-def _summary(summary: dict) -> str:
-    """Mean H with its u, mean |H| and the RMS of u(H), GUM 7.2.6 digits."""
-    mean_u = summary["mean_u"]
-    return (
-        f"mean H = {format_value(summary['mean'], mean_u)} µm "
-        f"(u = {format_uncertainty(mean_u)} µm), "
-        f"mean |H| = {format_value(summary['mean_abs'], mean_u)} µm, "
-        f"RMS u(H) = {format_uncertainty(summary['rms_u'])} µm"
-    )
-
-
-def _hysteresis_report(ctx: typer.Context, records: Path, document: dict):
-    from mtmetrology.report import Report
-    from mtmetrology.report.figures import hysteresis_bars
-
-    rep = Report(
-        f"Hysteresis: {records.name}",
-        command=command_line(ctx),
-        provenance={"inputs": [records]},
-    )
-    summary = document["summary"]
-    rep.section(
-        f"{document['test'].capitalize()} hysteresis",
-        f"{document['definition']} at each indexation (Sepahi Boroujeni (2021), eq. 4-3), "
-        "u(H) from the standard deviations of the two means (eq. 4-4). Over the "
-        f"indexations: {_summary(summary)}.",
-    )
-    outputs, rows = document["outputs"], document["indexations"]
-    rep.figure(
-        hysteresis_bars(
-            [r["psi"] for r in rows],
-            [o["value"] for o in outputs],
-            [o["u"] for o in outputs],
-            coverage_factor=[o["k"] for o in outputs],
-        ),
-        caption=f"Bars: H ± U, coverage probability {outputs[0]['p']:g}.",
-    )
-    rep.table(
-        ["ψ (deg)", "H (µm)", "u (µm)", "ν_eff", "k", "U (µm)"],
-        [
-            [f"{r['psi']:g}", format_value(o["value"], o["u"]), format_uncertainty(o["u"]),
-             f"{r['dof']:.1f}", f"{o['k']:.2f}", format_uncertainty(o["U"])]
-            for r, o in zip(rows, outputs, strict=True)
-        ],
-    )  # fmt: skip
-    return rep
+    typer.echo(summary_line(document["summary"]))

@@ -11,7 +11,6 @@ volumetric errors (``--unexplained``).
 
 from __future__ import annotations
 
-import math
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
@@ -26,14 +25,10 @@ from mtmetrology.cli._common import (
     write_report,
 )
 from mtmetrology.cli._history import HISTORY_PARAMS, load_parameters
-from mtmetrology.formatting import (
-    SHARE_DEFINITION,
-    format_share,
-    format_uncertainty,
-    format_value,
-)
+from mtmetrology.formatting import format_share, format_uncertainty, format_value
 from mtmetrology.io import write_json
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.omm.simulator import group_label
 from mtmetrology.omm.task import TaskResult
 from mtmetrology.omm.task_request import task_uncertainty_from_files
 from mtmetrology.units import from_internal
@@ -217,76 +212,14 @@ def uncertainty(
         _print(result, {"repeatability": repeatability, "unexplained": unexplained})
 
 
-def _label(group: str) -> str:
-    """A budget group's name in words: ``long_term_variation`` -> ``long-term variation``."""
-    return group.replace("long_term", "long-term").replace("_", " ")
-
-
 def _write_report(path: Path, result: TaskResult, command: str, inputs: list[Path]) -> None:
-    """Values with u and U, the budget by source, the validation and the decision."""
-    target = result.target
-    from mtmetrology.report import Report, figures
+    """The report of the result (:mod:`mtmetrology.omm.report`), titled by its target output."""
+    from mtmetrology.report import Report
     from mtmetrology.report.results import add_result
 
-    r = result.result
-    name = r.names[target]
+    name = result.result.names[result.target]
     rep = Report(f"Task uncertainty: {name}", command=command, provenance={"inputs": inputs})
-    how = {
-        "guf": "GUF",
-        "mcm": "adaptive Monte Carlo (JCGM 101:2008, 7.9)",
-        "both": "adaptive Monte Carlo, with the GUF validated against it (JCGM 101:2008, 8)",
-    }[result.method]
-    rep.section(
-        "Result",
-        f"{how} of the compensated points through the feature (full-covariance method of "
-        "Sepahi Boroujeni (2021), Ch. 6), compensated with the calibration's estimate: "
-        "repeatability, the calibration's parameter covariance, the long-term variation of "
-        f"the parameters ({result.long_term}) and unexplained volumetric errors; "
-        f"{result.inputs.simulator} covariance simulator.",
-    )
-    rows = []
-    for o in r.outputs:
-        u_um, big_u_um = float(from_internal(o.u, "µm")), float(from_internal(o.U, "µm"))
-        low, high = o.interval
-        rows.append(
-            [
-                o.name,
-                f"{format_value(o.value, o.u)} mm",
-                f"{format_uncertainty(u_um)} µm",
-                f"{format_uncertainty(big_u_um)} µm",
-                f"{o.k:.3f}",
-                o.p,
-                f"[{format_value(low, o.u)}, {format_value(high, o.u)}] mm",
-            ]
-        )
-    rep.table(["output", "value", "u", "U", "k", "p", "interval"], rows)
-    sources = list(result.shares)
-    shares = [float(result.shares[k][target]) for k in sources]
-    rep.section("Budget by source (first order)")
-    rep.table(
-        ["source", "share of u_c²"],
-        [[_label(k), format_share(v)] for k, v in zip(sources, shares, strict=True)],
-        caption=f"{SHARE_DEFINITION}; the sources are independent, so their shares add.",
-    )
-    rep.figure(
-        figures.budget_bars(
-            [_label(k) for k in sources],
-            shares,
-            title=f"Uncertainty budget of {name}",
-        ),
-        caption="Share of u_c² of each source, as in the table.",
-    )
-    if result.validation is not None:
-        add_result(rep, result.validation, units=dict(zip(r.names, r.units, strict=True)))
-    if result.decision is not None:
-        d = result.decision.to_dict()
-        tol = result.decision.tolerance
-        value, big_u = float(r.outputs[target].value), float(r.outputs[target].U)
-        lower = tol.lower_limit if math.isfinite(tol.lower_limit) else None
-        upper = tol.upper_limit if math.isfinite(tol.upper_limit) else None
-        rep.section(f"Conformity decision of {name} (ISO 14253-1:2017)", str(d["decision"]))
-        rep.figure(figures.conformity_zones(value, big_u, lower, upper, name=name, unit="mm"))
-    write_report(rep, path)
+    write_report(add_result(rep, result), path)
 
 
 #: What the computation uses for a source whose file was not given (console notes).
@@ -317,7 +250,9 @@ def _print(result: TaskResult, given: dict[str, Path | None]) -> None:
             f"U = {format_uncertainty(big_u_um)} µm (k = {o.k:.2f}, p = {o.p})"
         )
         shares = ", ".join(
-            f"{_label(k)} {format_share(v[j])}" for k, v in result.shares.items() if k not in omit
+            f"{group_label(k)} {format_share(v[j])}"
+            for k, v in result.shares.items()
+            if k not in omit
         )
         typer.echo(f"  first-order budget: {shares}")
     typer.echo(f"  long-term variation of the parameters: {result.long_term}")

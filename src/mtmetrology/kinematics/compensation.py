@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.units import from_internal
@@ -113,7 +114,7 @@ def compensated_points(
 
 
 @dataclass(frozen=True)
-class Compensation:
+class Compensation(NotebookRepr):
     """Compensated stylus-centre coordinates of a record (:func:`compensate`).
 
     Attributes

@@ -25,11 +25,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from mtmetrology.errors import InputError
+from mtmetrology.formatting import format_uncertainty, format_value
+from mtmetrology.omm.notebook import OMMNotebookRepr
 from mtmetrology.uncertainty.guf import welch_satterthwaite
 from mtmetrology.uncertainty.outputs import Output
 from mtmetrology.units import from_internal
 
-__all__ = ["HYSTERESIS_KINDS", "HysteresisResult", "hysteresis_errors", "radial_projection"]
+__all__ = [
+    "HYSTERESIS_KINDS",
+    "HysteresisResult",
+    "hysteresis_errors",
+    "radial_projection",
+    "summary_line",
+]
 
 #: The two tests and the labels of (affected, reference) condition in each.
 HYSTERESIS_KINDS = {"probing": ("hysteresis", "direct"), "axis": ("+", "-")}
@@ -60,7 +68,7 @@ def radial_projection(x, y, psi) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class HysteresisResult:
+class HysteresisResult(OMMNotebookRepr):
     """Hysteresis errors per indexation and their summary (lengths in mm, angles in rad).
 
     Attributes
@@ -316,4 +324,26 @@ def hysteresis_errors(
         mean_u=float(np.sqrt(np.sum(u**2)) / m),
         mean_abs=float(np.abs(h).mean()),
         rms_u=float(np.sqrt(np.mean(u**2))),
+    )
+
+
+def summary_line(summary: dict) -> str:
+    """The document's summary in words: mean H with its u, mean |H|, RMS u(H) (GUM 7.2.6).
+
+    Parameters
+    ----------
+    summary : dict
+        The ``summary`` block of a ``hysteresis-result`` document (µm).
+
+    Returns
+    -------
+    str
+        What the console and the report print.
+    """
+    mean_u = summary["mean_u"]
+    return (
+        f"mean H = {format_value(summary['mean'], mean_u)} µm "
+        f"(u = {format_uncertainty(mean_u)} µm), "
+        f"mean |H| = {format_value(summary['mean_abs'], mean_u)} µm, "
+        f"RMS u(H) = {format_uncertainty(summary['rms_u'])} µm"
     )

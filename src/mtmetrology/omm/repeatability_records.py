@@ -23,6 +23,7 @@ from mtmetrology.omm.hysteresis import (
     hysteresis_errors,
     radial_projection,
 )
+from mtmetrology.omm.notebook import OMMNotebookRepr
 from mtmetrology.omm.repeatability import (
     MIN_TARGETS_PER_COEFFICIENT,
     RepeatabilityModel,
@@ -85,7 +86,7 @@ def read_repeatability_records(path: str | Path) -> dict:
 
 
 @dataclass(frozen=True)
-class RepeatabilityFit:
+class RepeatabilityFit(OMMNotebookRepr):
     """The repeatability models fitted to one records file (:func:`fit_repeatability_file`).
 
     Attributes

@@ -77,12 +77,18 @@ __all__ = [
     "MeasurementModel",
     "TaskInputs",
     "covariance_simulator",
+    "group_label",
     "population_covariance",
 ]
 
 SIMULATORS = ("linear", "sampled")
 #: The independent sources of a task's uncertainty, in budget order.
 GROUPS = ("repeatability", "calibration", "long_term_variation", "unexplained_volumetric_error")
+
+
+def group_label(group: str) -> str:
+    """A source of :data:`GROUPS` in words: ``long_term_variation`` -> ``long-term variation``."""
+    return group.replace("long_term", "long-term").replace("_", " ")
 
 
 @dataclass(frozen=True)

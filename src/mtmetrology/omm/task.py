@@ -57,6 +57,7 @@ import numpy as np
 
 from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.omm.notebook import OMMNotebookRepr
 from mtmetrology.omm.repeatability import RepeatabilityModel
 from mtmetrology.omm.simulator import MeasurementModel, TaskInputs, covariance_simulator
 from mtmetrology.rng import SeedLike, chunk_generators
@@ -148,7 +149,7 @@ def reading_covariance(
 
 
 @dataclass(frozen=True)
-class TaskResult:
+class TaskResult(OMMNotebookRepr):
     """Feature value and uncertainty of one on-machine measurement task.
 
     Attributes

@@ -30,6 +30,7 @@ from mtmetrology.formatting import (
 )
 from mtmetrology.identification.diagnostics import IdentifiabilityReport
 from mtmetrology.identification.solver import IdentificationResult
+from mtmetrology.kinematics.compensation import Compensation, correction_statistics
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
@@ -368,3 +369,47 @@ def _parameter_set(rep: Report, pset, *, coverage_factor: float = 2.0, **_) -> N
             figures.correlation_heatmap(pset.names, corr),
             caption="Correlation of the identified parameters.",
         )
+
+
+# -- compensation ------------------------------------------------------------------------------
+@renders(Compensation, "Compensated coordinates")
+def _compensation(rep: Report, comp, *, nominal=None, machine=None, **_) -> None:
+    """The correction c_s = f(φ_s, δ̂) − f(φ_s, 0) of each point: its size and vectors.
+
+    ``nominal`` (the positions with the nominal, error-free kinematics, mm) gives the
+    corrections; ``machine`` names the kinematics in the text. Without ``nominal`` the
+    section gives the number of points and, when computed, the largest u of a coordinate.
+    """
+    where = "" if machine is None else f"{machine.name}, model {machine.model_name or 'custom'}: "
+    points = np.asarray(comp.points)
+    if nominal is None:
+        rep.section(
+            "Compensation",
+            f"{where}x, y, z are the stylus-centre positions in the workpiece frame with the "
+            "parameter set's errors.",
+        )
+        rows = [["points", len(points), ""]]
+        if comp.u is not None:
+            largest_u = float(from_internal(np.max(comp.u), "µm"))
+            rows.append(["largest u of a coordinate", format_uncertainty(largest_u), "µm"])
+        rep.table(["quantity", "value", "unit"], rows)
+        return
+    correction, largest, rms = correction_statistics(points, nominal)
+    rep.section(
+        "Compensation",
+        f"{where}x, y, z are the stylus-centre positions in the workpiece frame with the "
+        "parameter set's errors, the correction is their difference from the nominal "
+        "(error-free) kinematics.",
+    )
+    rep.table(
+        ["quantity", "value", "unit"],
+        [
+            ["points", len(correction), ""],
+            ["largest correction", f"{largest:.4g}", "µm"],
+            ["rms correction", f"{rms:.4g}", "µm"],
+        ],
+    )
+    rep.figure(
+        figures.residual_vectors(points, correction, title="Corrections"),
+        caption="Correction of each point (compensated minus nominal position).",
+    )
