@@ -68,6 +68,33 @@ def test_chord_trials_are_the_full_gauss_newton_solutions(noisy, noise_inputs):
         assert np.all(np.abs(batched[k] - exact_solution) < 1e-2 * u)
 
 
+def test_trials_start_at_the_linear_prediction_and_need_one_exact_evaluation(noisy, noise_inputs):
+    """The start x̂ + C (z − z₀) only saves chord iterations: the trials reach the same
+    fixed point as from x̂ (within ρ·xtol·u, here 1e-6 u), after one residual evaluation
+    instead of two."""
+    model = uncertainty_model(noisy)
+    z = noise_inputs.sample(np.random.default_rng(5), 200)
+    calls = []
+    original = model.problem.residuals_batch
+
+    def counted(x, inputs=None):
+        calls.append(x.shape[0])
+        return original(x, inputs)
+
+    model.problem.residuals_batch = counted
+    try:
+        predicted = model.solve(z)
+        n_predicted = len(calls)
+        model.z0, z0 = None, model.z0  # the solution as the start of every trial
+        from_solution = model.solve(z)
+    finally:
+        model.z0 = z0
+        del model.problem.residuals_batch
+    assert n_predicted == 1 and len(calls) == 3
+    u = np.sqrt(np.diag(noisy.identification.covariance))
+    assert np.all(np.abs(predicted - from_solution) < 1e-6 * u)
+
+
 def test_adaptive_monte_carlo_validates_the_guf_per_parameter_and_jointly(noisy, noise_inputs):
     """JCGM 101 §7.9 adaptive run (δ from one significant digit of u: 0.05 µrad, 0.05 µm,
     0.5 µm/m — Sepahi Boroujeni (2021) Table 5-2's tolerances) and JCGM 102 §8 validation."""

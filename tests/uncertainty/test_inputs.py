@@ -159,3 +159,16 @@ def _pair(dof=(4, 4), ensembles=()):
          InputQuantity("b", Normal(0.0, 1.0), dof=dof[1])],
         ensembles=ensembles,
     )  # fmt: skip
+
+
+def test_runs_of_normals_draw_the_same_numbers_as_one_draw_per_input():
+    """Consecutive independent normals are drawn in one call: the stream is consumed in
+    the same order as input by input (each input's ``size`` draws in turn), so the
+    samples equal those of each distribution's own ``sample`` on the same generator."""
+    dists = [Normal(1.0, 0.1), Normal(-2.0, 0.3), Rectangular(0.0, 1.0)]
+    dists += [Normal(float(k), 0.2 + k) for k in range(4)] + [StudentT(0.0, 1.0, 5)]
+    inputs = InputSet([InputQuantity(f"q{k}", d) for k, d in enumerate(dists)])
+    got = inputs.sample(np.random.default_rng(9), 257)
+    rng = np.random.default_rng(9)
+    expected = np.column_stack([d.sample(rng, 257) for d in dists])
+    assert np.array_equal(got, expected)

@@ -14,6 +14,8 @@ problem exposes the same four methods):
   its own unknowns and inputs (one vectorised call per chunk of Monte Carlo trials);
 - ``with_inputs(z)``: the same problem with inputs z, whose ``evaluate(x) -> (r, J)`` the
   full Gauss–Newton fallback solves;
+- optionally ``input_estimate() -> (N,)``: its own inputs z₀; with it the Monte Carlo
+  trials start at a linear prediction (below), without it at the solution;
 
 and from the converged *result* (an
 :class:`~mtmetrology.identification.IdentificationResult`) its ``estimate``, ``jacobian``
@@ -38,12 +40,15 @@ the outputs (Sepahi Boroujeni (2021) Ch. 5).  With U_z = σ² I this is ``(JᵀJ
 Monte Carlo (JCGM 101:2008, JCGM 102:2011 §7)
 ---------------------------------------------
 Every trial draws z and re-solves the identification to convergence with the exact
-residuals (not a linearisation): all trials of a chunk start at the converged solution and
-iterate ``x ← x − J₀⁺ r(x; z)`` with the factorised Jacobian J₀ of the solution
-(:func:`mtmetrology.optimize.chord_batch`); a trial the chord does not converge is re-solved
-by full Gauss–Newton.  Fixed M or the adaptive procedure (JCGM 101 §7.9, JCGM 102 §7.8);
-chunks draw independent streams of one SeedSequence, so the result does not depend on the
-executor.
+residuals (not a linearisation): each trial starts at the GUF's linear prediction
+``x̂ + C (z − z₀)`` (C as above; at x̂ for a problem without ``input_estimate``) and
+iterates ``x ← x − J₀⁺ r(x; z)`` with the factorised Jacobian J₀ of the solution
+(:func:`mtmetrology.optimize.chord_batch`); a trial the chord does not converge is
+re-solved by full Gauss–Newton.  The start only saves iterations (the chord's first step
+from x̂ is, to first order in z − z₀, that prediction): at µm-level noise one exact
+evaluation per trial then meets the tolerance.  Fixed M or the adaptive procedure
+(JCGM 101 §7.9, JCGM 102 §7.8); chunks draw independent streams of one SeedSequence, so
+the result does not depend on the executor.
 
 Joint coverage
 --------------
@@ -155,7 +160,8 @@ class IdentificationModel:
         Stop when the scaled chord step is below ``xtol`` (units of the input standard
         uncertainties); that last step is applied too, so each unknown ends within about
         ``ρ·xtol·u`` of its fixed point, ρ ≈ 1e-4 the contraction rate of the chord at
-        µm-level noise: one step and one check per trial.
+        µm-level noise.  Trials start at the linear prediction ``x̂ + C (z − z₀)``, so one
+        exact evaluation (a check and its small step) usually suffices.
     max_iter : int
         Chord steps per trial before the full Gauss–Newton fallback.
 
@@ -196,6 +202,10 @@ class IdentificationModel:
         self.problem = problem
         self.x0 = result.estimate
         self.jacobian0 = result.jacobian
+        # C = ∂x̂/∂z (n_unknowns, N): with z₀ known every trial starts at x̂ + C (z − z₀)
+        self.all_sensitivities = _sensitivities(problem, self.x0, self.jacobian0)
+        estimate = getattr(problem, "input_estimate", None)
+        self.z0 = None if estimate is None else np.asarray(estimate(), dtype=float)
         self.index = np.array([names.index(n) for n in outputs], dtype=int)
         self.scales = np.asarray(scales, dtype=float)
         self.output_names = tuple(outputs)
@@ -206,13 +216,15 @@ class IdentificationModel:
 
     def sensitivities(self) -> np.ndarray:
         """∂y/∂z (m, N) of the outputs (output units per input unit)."""
-        sens = _sensitivities(self.problem, self.x0, self.jacobian0)
-        return sens[self.index] / self.scales[:, None]
+        return self.all_sensitivities[self.index] / self.scales[:, None]
 
     def solve(self, z: np.ndarray) -> np.ndarray:
         """All unknowns (M, n_unknowns), internal units, for inputs z (M, N)."""
         z = np.atleast_2d(np.asarray(z, dtype=float))
-        start = np.broadcast_to(self.x0, (z.shape[0], self.x0.size))
+        if self.z0 is None:
+            start = np.broadcast_to(self.x0, (z.shape[0], self.x0.size))
+        else:
+            start = self.x0 + (z - self.z0) @ self.all_sensitivities.T
         res = chord_batch(
             lambda x, idx: self.problem.residuals_batch(x, z[idx]),
             start,

@@ -75,7 +75,8 @@ class ProcessPoolExecutor:
     -----
     The pool starts on the first ``map`` and is reused until ``close`` (the adaptive
     procedure calls ``map`` once per batch of sequences). The model and the input sampler
-    are pickled with every task, so they must be module-level functions or instances of
+    are pickled with every task (:func:`monte_carlo` sends its chunks in two batches per
+    worker, so once per batch), so they must be module-level functions or instances of
     module-level classes.
     """
 

@@ -306,6 +306,31 @@ class InputSet:
             else None
         )
         self._single_index = np.setdiff1d(np.arange(len(self._quantities)), joint)
+        # Runs of consecutive independent normals draw in one call: filling the rows
+        # a..b of the (N, size) transposed output in order takes the same numbers from
+        # the stream as one call per input, so the draws are bit-identical.
+        self._sampling_steps: list = []
+        for i in self._single_index:
+            dist = self._quantities[i].distribution
+            if type(dist) is not Normal:
+                self._sampling_steps.append(int(i))
+                continue
+            last = self._sampling_steps[-1] if self._sampling_steps else None
+            if isinstance(last, list) and last[1] == i:
+                last[1] += 1
+            else:
+                self._sampling_steps.append([int(i), int(i) + 1])
+        self._sampling_steps = [
+            step
+            if isinstance(step, int)
+            else (
+                step[0],
+                step[1],
+                np.array([[self._quantities[k].distribution.x] for k in range(*step)]),
+                np.array([[self._quantities[k].distribution.u] for k in range(*step)]),
+            )
+            for step in self._sampling_steps
+        ]
 
     # ------------------------------------------------------------------ properties
     @property
@@ -370,8 +395,15 @@ class InputSet:
         rng = as_generator(rng)
         # Column-major, so each input's draws are written to contiguous memory.
         out = np.empty((len(self._quantities), size)).T
-        for i in self._single_index:
-            self._quantities[i].distribution.sample_into(rng, out[:, i])
+        for step in self._sampling_steps:
+            if isinstance(step, int):
+                self._quantities[step].distribution.sample_into(rng, out[:, step])
+                continue
+            first, stop, x, u = step
+            block = out.T[first:stop]  # (stop - first, size), C-contiguous
+            rng.standard_normal(out=block)
+            block *= u
+            block += x
         if self._joint is not None:
             # Whole contiguous columns of ``out``: see MultivariateNormal.sample_transposed.
             out.T[self._joint_index] = self._joint.sample_transposed(rng, size)

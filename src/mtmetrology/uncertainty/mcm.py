@@ -407,6 +407,38 @@ def _evaluate_chunk(task: _ChunkTask) -> _ChunkOutput:
     return _ChunkOutput(values, scalar, bad_trials, first_bad)
 
 
+@dataclass(frozen=True)
+class _ChunkBatch:
+    """Consecutive chunks of one model and input set: shipped to a worker as one task, so
+    the model and inputs are pickled once per batch instead of once per chunk."""
+
+    model: Callable
+    inputs: Any
+    generators: tuple[np.random.Generator, ...]
+    sizes: tuple[int, ...]
+
+
+def _evaluate_batch(batch: _ChunkBatch) -> list[_ChunkOutput]:
+    return [
+        _evaluate_chunk(_ChunkTask(batch.model, batch.inputs, g, s))
+        for g, s in zip(batch.generators, batch.sizes, strict=True)
+    ]
+
+
+def _batches(tasks: list[_ChunkTask], n_batches: int) -> list[_ChunkBatch]:
+    """``tasks`` (one model and input set) in at most ``n_batches`` consecutive runs."""
+    per = math.ceil(len(tasks) / max(1, min(n_batches, len(tasks))))
+    return [
+        _ChunkBatch(
+            tasks[0].model,
+            tasks[0].inputs,
+            tuple(t.generator for t in tasks[i : i + per]),
+            tuple(t.size for t in tasks[i : i + per]),
+        )
+        for i in range(0, len(tasks), per)
+    ]
+
+
 def _root_sequence(seed: SeedLike) -> np.random.SeedSequence:
     """The SeedSequence all sequences and chunks derive from (same rules as mtmetrology.rng)."""
     if isinstance(seed, np.random.Generator):
@@ -436,7 +468,9 @@ def _run_sequences(executor, model, inputs, root, first: int, count: int, size, 
         sequence = _sequence_tasks(model, inputs, root, index, size, chunk_size)
         tasks += sequence
         owner += [index - first] * len(sequence)
-    outputs = executor.map(_evaluate_chunk, tasks)
+    # two batches per worker: few pickles of the model and inputs, and some load balance
+    batches = executor.map(_evaluate_batch, _batches(tasks, 2 * executor.workers))
+    outputs = [out for batch in batches for out in batch]
     widths = {out.values.shape[1] for out in outputs}
     if len(widths) != 1 or len({out.scalar for out in outputs}) != 1:
         raise ModelEvaluationError(f"model returned different numbers of outputs: {widths}")
