@@ -13,7 +13,7 @@ import numpy as np
 
 from mtmetrology.display import NotebookRepr
 from mtmetrology.fitting.elements import Circle, Cylinder, Line, Plane, Sphere
-from mtmetrology.fitting.least_squares import FitError
+from mtmetrology.fitting.validation import FitError
 
 Kind = Literal["zone", "outer", "inner"]
 
@@ -76,31 +76,11 @@ class ZoneResult(NotebookRepr):
 # input checks
 
 
-def _check_points(points, dims: tuple[int, ...], min_points: int, what: str) -> np.ndarray:
-    """Points as a float (n, dim) array, refused with a clear message when unusable."""
-    p = np.asarray(points, dtype=float)
-    if p.ndim != 2 or p.shape[1] not in dims:
-        shapes = " or ".join(f"(n, {d})" for d in dims)
-        raise FitError(f"points for {what} must be an array of shape {shapes}, got {p.shape}")
-    if not np.all(np.isfinite(p)):
-        bad = int(np.flatnonzero(~np.all(np.isfinite(p), axis=1))[0])
-        raise FitError(f"points for {what}: point {bad} is not finite (NaN or infinite)")
-    if len(p) < min_points:
-        raise FitError(f"{what} needs at least {min_points} points, got {len(p)}")
-    return p
-
-
 def _principal_axes(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Centroid, singular values and principal directions (rows) of a point set."""
     centroid = p.mean(axis=0)
     _, s, vt = np.linalg.svd(p - centroid, full_matrices=False)
     return centroid, s, vt
-
-
-def _require_spread(s: np.ndarray, rank: int, what: str, degenerate: str) -> None:
-    """Refuse a point set whose centred coordinates have rank below ``rank``."""
-    if s[0] == 0.0 or s[rank - 1] <= 1e-10 * s[0]:
-        raise FitError(f"{what} is undefined: the points are {degenerate}")
 
 
 def _check_normal(normal) -> np.ndarray:

@@ -21,15 +21,14 @@ from mtmetrology.fitting._zones import (
     Kind,
     ZoneResult,
     _check_normal,
-    _check_points,
     _contacts,
     _plane_basis,
     _principal_axes,
-    _require_spread,
     _size,
 )
 from mtmetrology.fitting.elements import Circle, Cylinder, Plane, Sphere
 from mtmetrology.fitting.least_squares import FitError, fit_circle, fit_cylinder, fit_sphere
+from mtmetrology.fitting.validation import check_points, require_spread
 
 __all__ = [
     "circumscribed_circle",
@@ -274,11 +273,11 @@ def _radial_result(
 
 
 def _circle(points, normal, kind: Kind, what: str) -> ZoneResult:
-    p = _check_points(points, (2, 3), 3, what)
+    p = check_points(points, what, (2, 3), 3)
     if p.shape[1] == 2 and normal is not None:
         raise FitError("normal applies to points in 3-D; 2-D points lie in their plane")
     centroid, s, _ = _principal_axes(p)
-    _require_spread(s, 2, what, "collinear")
+    require_spread(what, s, len(p), 2, "collinear")
     if p.shape[1] == 2:
         least_squares = fit_circle(p).element
         basis = np.eye(2)
@@ -288,7 +287,7 @@ def _circle(points, normal, kind: Kind, what: str) -> ZoneResult:
         least_squares = fit_circle(p, plane=plane).element
         basis = _plane_basis(least_squares.normal)[:2]  # rows u, v spanning the plane
     uv = (p - centroid) @ basis.T  # (n, 2) in-plane coordinates
-    _require_spread(np.linalg.svd(uv, compute_uv=False), 2, what, "collinear in the plane")
+    require_spread(what, np.linalg.svd(uv, compute_uv=False), len(uv), 2, "collinear in the plane")
     model = _CentreModel(uv, (least_squares.centre - centroid) @ basis.T)
     d0, _ = model.evaluate()
     size = _size(p)
@@ -302,9 +301,9 @@ def _circle(points, normal, kind: Kind, what: str) -> ZoneResult:
 
 
 def _sphere(points, kind: Kind, what: str) -> ZoneResult:
-    p = _check_points(points, (3,), 4, what)
+    p = check_points(points, what, (3,), 4)
     centroid, s, _ = _principal_axes(p)
-    _require_spread(s, 3, what, "coplanar")
+    require_spread(what, s, len(p), 3, "coplanar")
     start = fit_sphere(p).element.centre
     size = _size(p)
     model = _CentreModel(p - centroid, start - centroid)
@@ -318,9 +317,9 @@ def _sphere(points, kind: Kind, what: str) -> ZoneResult:
 
 
 def _cylinder(points, kind: Kind, what: str) -> ZoneResult:
-    p = _check_points(points, (3,), 5, what)
+    p = check_points(points, what, (3,), 5)
     centroid, s, _ = _principal_axes(p)
-    _require_spread(s, 2, what, "collinear")
+    require_spread(what, s, len(p), 2, "collinear")
     start = fit_cylinder(p).element
     size = _size(p)
     model = _AxisModel(p - centroid, start.point - centroid, start.direction)

@@ -50,11 +50,9 @@ from mtmetrology.fitting._zones import (
     _CONTACT_RTOL,
     ZoneResult,
     _check_normal,
-    _check_points,
     _contacts,
     _plane_basis,
     _principal_axes,
-    _require_spread,
     _size,
 )
 from mtmetrology.fitting.elements import Line, Plane
@@ -72,6 +70,7 @@ from mtmetrology.fitting.minimax import (
     roundness,
     sphericity,
 )
+from mtmetrology.fitting.validation import check_points, require_spread
 
 __all__ = [
     "ZoneResult",
@@ -269,9 +268,9 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
     >>> round(straightness([[0, 0], [1, 0.002], [2, 0], [3, 0.002]]).form_error, 12)
     0.002
     """
-    p = _check_points(points, (2, 3), 2, "straightness")
+    p = check_points(points, "straightness", (2, 3), 2)
     centroid, s, _ = _principal_axes(p)
-    _require_spread(s, 1, "straightness", "coincident")
+    require_spread("straightness", s, len(p), 1, "coincident")
     if p.shape[1] == 3 and plane_normal is None:
         start = fit_line(p).element
         size = _size(p)
@@ -299,7 +298,7 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
     else:
         basis = _plane_basis(_check_normal(plane_normal))[:2]
     uv = (p - centroid) @ basis.T  # (n, 2)
-    _require_spread(np.linalg.svd(uv, compute_uv=False), 1, "straightness", "coincident")
+    require_spread("straightness", np.linalg.svd(uv, compute_uv=False), len(uv), 1, "coincident")
     least_squares = fit_line(uv).element
     n, low, high = _min_width_2d(uv)
     if n @ least_squares.normal < 0.0:  # same orientation as the least-squares line
@@ -349,9 +348,9 @@ def flatness(points) -> ZoneResult:
     >>> round(flatness(pts).form_error, 12)
     0.003
     """
-    p = _check_points(points, (3,), 3, "flatness")
+    p = check_points(points, "flatness", (3,), 3)
     centroid, s, _ = _principal_axes(p)
-    _require_spread(s, 2, "flatness", "collinear")
+    require_spread("flatness", s, len(p), 2, "collinear")
     least_squares = fit_plane(p).element
     q = p - centroid  # (n, 3)
     n, low, high = _min_width_3d(q)
