@@ -340,7 +340,7 @@ def _result(low, high, nit, failed, solve, points, plane: bool, what: str) -> Ba
     """Fill the failed sets from the per-set solver ``solve`` and build the result."""
     for kk in np.flatnonzero(failed):
         zone = solve(points[kk])
-        if not zone.converged:
+        if not zone.success:
             raise ConvergenceError(f"{what}: set {kk}: {zone.message}")
         low[kk], high[kk] = zone.bounds
     width = high - low

@@ -20,6 +20,7 @@ from mtmetrology.fitting._zones import (
     _MAX_ITERATIONS,
     Kind,
     ZoneResult,
+    ZoneStatus,
     _check_normal,
     _contacts,
     _plane_basis,
@@ -162,12 +163,7 @@ class _Solution:
     model: _CentreModel | _AxisModel
     distances: np.ndarray
     iterations: int
-    converged: bool
-    message: str
-
-
-def _count(iterations: int) -> str:
-    return f"{iterations} linear programme{'' if iterations == 1 else 's'}"
+    status: ZoneStatus
 
 
 def _sequential_lp(model, kind: Kind, size: float, what: str) -> _Solution:
@@ -197,11 +193,11 @@ def _sequential_lp(model, kind: Kind, size: float, what: str) -> _Solution:
     for iteration in range(1, _MAX_ITERATIONS + 1):
         lp = _lp_step(d, jac, model.scales, radius, kind, floor)
         if lp is None:
-            return _Solution(model, d, iteration, False, "the linear programme failed (HiGHS)")
+            return _Solution(model, d, iteration, ZoneStatus.LP_FAILED)
         step, predicted = lp
         decrease = f - predicted
         if decrease <= tol:
-            return _Solution(model, d, iteration, True, f"converged: {_count(iteration)}")
+            return _Solution(model, d, iteration, ZoneStatus.OPTIMAL)
         trial = model.moved(step)
         d_trial, jac_trial = trial.evaluate()
         f_trial = _objective(d_trial, kind)
@@ -219,17 +215,10 @@ def _sequential_lp(model, kind: Kind, size: float, what: str) -> _Solution:
         else:
             radius = 0.25 * reach
             if radius <= 1e-15 * size:
-                return _Solution(
-                    model,
-                    d,
-                    iteration,
-                    decrease <= 1e-9 * max(float(d.max() - d.min()), floor),
-                    f"stopped after {_count(iteration)}: the trust region fell "
-                    f"below the rounding level with {decrease:.3g} mm of predicted decrease",
-                )
-    return _Solution(
-        model, d, _MAX_ITERATIONS, False, f"no convergence in {_count(_MAX_ITERATIONS)}"
-    )
+                small = decrease <= 1e-9 * max(float(d.max() - d.min()), floor)
+                status = ZoneStatus.ROUNDING_LEVEL if small else ZoneStatus.TRUST_REGION_LIMIT
+                return _Solution(model, d, iteration, status)
+    return _Solution(model, d, _MAX_ITERATIONS, ZoneStatus.ITERATION_LIMIT)
 
 
 def _radial_result(
@@ -267,8 +256,7 @@ def _radial_result(
         contacts=contacts,
         least_squares_form_error=least_squares_form_error,
         iterations=solution.iterations,
-        converged=solution.converged,
-        message=solution.message,
+        status=solution.status,
     )
 
 

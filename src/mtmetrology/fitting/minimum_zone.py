@@ -48,7 +48,9 @@ from scipy.spatial import ConvexHull, QhullError
 
 from mtmetrology.fitting._zones import (
     _CONTACT_RTOL,
+    ZONE_STATUS_MESSAGES,
     ZoneResult,
+    ZoneStatus,
     _check_normal,
     _contacts,
     _plane_basis,
@@ -73,7 +75,9 @@ from mtmetrology.fitting.minimax import (
 from mtmetrology.fitting.validation import check_points, require_spread
 
 __all__ = [
+    "ZONE_STATUS_MESSAGES",
     "ZoneResult",
+    "ZoneStatus",
     "circumscribed_circle",
     "circumscribed_cylinder",
     "circumscribed_sphere",
@@ -213,7 +217,7 @@ def _min_width_3d(p: np.ndarray) -> tuple[np.ndarray, float, float]:
     return best_n, float(h.min()), float(h.max())
 
 
-def _parallel_zone(element, residuals, width, size, least_squares_pv, message) -> ZoneResult:
+def _parallel_zone(element, residuals, width, size, least_squares_pv) -> ZoneResult:
     """Result of an exact zone between two parallel lines or planes."""
     half = 0.5 * width
     tol = _CONTACT_RTOL * size
@@ -226,8 +230,7 @@ def _parallel_zone(element, residuals, width, size, least_squares_pv, message) -
         contacts=np.union1d(_contacts(residuals, -half, tol), _contacts(residuals, half, tol)),
         least_squares_form_error=least_squares_pv,
         iterations=0,
-        converged=True,
-        message=message,
+        status=ZoneStatus.EXACT,
     )
 
 
@@ -288,8 +291,7 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
             contacts=_contacts(d, radius, _CONTACT_RTOL * size),
             least_squares_form_error=2.0 * float(d0.max()),
             iterations=solution.iterations,
-            converged=solution.converged,
-            message=solution.message,
+            status=solution.status,
         )
     if p.shape[1] == 2:
         if plane_normal is not None:
@@ -310,7 +312,6 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
         high - low,
         _size(p),
         float(np.ptp(least_squares.distances(uv))),
-        "exact: minimum width of the convex hull (rotating calipers)",
     )
 
 
@@ -363,5 +364,4 @@ def flatness(points) -> ZoneResult:
         high - low,
         _size(p),
         float(np.ptp(least_squares.distances(p))),
-        "exact: minimum width of the convex hull (faces and antipodal edge pairs)",
     )
