@@ -25,6 +25,7 @@ from mtmetrology.fitting import (
     minimum_zone,
 )
 from mtmetrology.fitting import zone_features as zf
+from mtmetrology.fitting.minimum_zone import ZoneStatus
 
 NOISE = 2e-3  # mm: form deviations of a few µm, a generic contact set
 
@@ -171,7 +172,7 @@ def test_a_set_that_does_not_converge_raises():
     def stalls_on_the_second_set(points):
         zone = minimum_zone.sphericity(points)
         if np.array_equal(points, second):
-            return dataclasses.replace(zone, converged=False, message="stalled")
+            return dataclasses.replace(zone, status=ZoneStatus.ITERATION_LIMIT)
         return zone
 
     sets = np.stack([sphere_task(1), second])

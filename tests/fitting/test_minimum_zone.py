@@ -31,7 +31,9 @@ from mtmetrology.fitting.least_squares import (
     fit_sphere,
 )
 from mtmetrology.fitting.minimum_zone import (
+    ZONE_STATUS_MESSAGES,
     ZoneResult,
+    ZoneStatus,
     circumscribed_circle,
     circumscribed_cylinder,
     circumscribed_sphere,
@@ -44,6 +46,7 @@ from mtmetrology.fitting.minimum_zone import (
     sphericity,
     straightness,
 )
+from mtmetrology.optimize import Status
 
 # --------------------------------------------------------------------------------------
 # data
@@ -481,8 +484,26 @@ def test_a_zone_stopped_by_the_iteration_limit_is_flagged_not_converged(monkeypa
     to reach the circumscribed circle from the least-squares start."""
     monkeypatch.setattr(minimax, "_MAX_ITERATIONS", 1)
     result = circumscribed_circle(_ring(np.random.default_rng(10), 10, 5.0, 0.01))
-    assert (result.converged, result.iterations) == (False, 1)
+    assert (result.status, result.success, result.converged) == (0, False, False)
+    assert result.iterations == 1
     assert result.message == "no convergence in 1 linear programme"
+
+
+def test_zone_status_follows_the_least_squares_convention():
+    """Shared codes mean the same as :class:`mtmetrology.optimize.Status` (0 iteration limit,
+    2 rounding level, 3 exact), success is ``status > 0``, and every code has a message."""
+    assert {ZoneStatus.ITERATION_LIMIT, ZoneStatus.ROUNDING_LEVEL, ZoneStatus.EXACT} == {
+        Status.ITERATION_LIMIT,
+        Status.ROUNDING_LEVEL,
+        Status.EXACT,
+    }
+    assert set(ZONE_STATUS_MESSAGES) == set(ZoneStatus)
+    exact = flatness([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0.5, 0.5, 0.003]])
+    assert (exact.status, exact.success, exact.iterations) == (ZoneStatus.EXACT, True, 0)
+    assert exact.message == ZONE_STATUS_MESSAGES[ZoneStatus.EXACT]
+    for status in ZoneStatus:
+        failed = dataclasses.replace(exact, status=int(status))
+        assert failed.success is failed.converged is (status > 0)
 
 
 def test_inscribed_circle_of_a_partial_arc_is_refused_as_unbounded():
@@ -504,10 +525,10 @@ def test_inscribed_circle_of_a_partial_arc_is_refused_as_unbounded():
         (roundness, [[0, 0], [1, 1], [2, 2], [3, 3]], "collinear"),
         (inscribed_circle, [[0, 0, 0], [1, 1, 1], [2, 2, 2]], "collinear"),
         (sphericity, [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [2, 3, 0]], "coplanar"),
-        (circumscribed_sphere, [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "at least 4 points"),
-        (flatness, [[0, 0, 0], [1, 0, 0]], "at least 3 points"),
+        (circumscribed_sphere, [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "fewer than the 4 needed"),
+        (flatness, [[0, 0, 0], [1, 0, 0]], "fewer than the 3 needed"),
         (flatness, [[0, 0, 0], [1, 1, 1], [2, 2, 2], [5, 5, 5]], "collinear"),
-        (cylindricity, [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], "at least 5 points"),
+        (cylindricity, [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], "fewer than the 5 needed"),
         (straightness, [[1, 2], [1, 2], [1, 2]], "coincident"),
         (roundness, [[0, 0], [1, np.nan], [2, 1], [0, 3]], "point 1 is not finite"),
         (flatness, [[0, 0], [1, 0], [0, 1]], r"shape \(n, 3\)"),

@@ -1,9 +1,12 @@
 """Machine-definition files: schema refusals that name the field, and what a valid file
 builds (axis directions, signs, travels in internal units, bases, error models)."""
 
+import re
+
 import numpy as np
 import pytest
 
+from mtmetrology.errors import ConvergenceError, InputError
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics.config import MachineFileError, load_machine_spec, parse_machine_spec
 from mtmetrology.kinematics.conventions import describe_parameter, machine_description
@@ -336,6 +339,27 @@ def test_readings_with_the_wrong_number_of_columns():
 def test_inverse_that_runs_out_of_iterations_raises():
     m = Machine.load("five-axis-wcbxfzyst")
     q0 = np.zeros(m.n_axes)
-    with pytest.raises(ValueError) as err:
+    with pytest.raises(ConvergenceError) as err:
         m.inverse([[10.0, 20.0, 30.0]], q0, max_iter=1)
-    assert str(err.value).startswith("inverse kinematics did not converge (residual ")
+    assert re.fullmatch(
+        r"inverse kinematics did not converge \(residual \S+ mm at point 0 after 1 Newton "
+        r"steps, tol 1e-12 mm\)",
+        str(err.value),
+    )
+    # the same point, given alone (shape (3,)), has no index to name; more steps converge
+    with pytest.raises(ConvergenceError, match=r"\(residual \S+ mm after 1 Newton steps"):
+        m.inverse([10.0, 20.0, 30.0], q0, max_iter=1)
+    back = m.inverse([10.0, 20.0, 30.0], q0)
+    np.testing.assert_allclose(m.forward(back), [10.0, 20.0, 30.0], rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("points", "what"),
+    [([[1.0, 2.0]], r"shape \(1, 2\)$"), ([[1.0, np.nan, np.inf]], r"NaN or inf in 2 coordinate")],
+)
+def test_inverse_refuses_unusable_points(points, what):
+    m = Machine.load("five-axis-wcbxfzyst")
+    with pytest.raises(
+        InputError, match=rf"^points must be a finite \(\.\.\., 3\) array, mm; got {what}"
+    ):
+        m.inverse(points, np.zeros(m.n_axes))

@@ -197,15 +197,35 @@ def test_held_out_sigma_within_10_percent_of_truth(fitted):
     assert all(f.validation_max_abs_error is not None for f in model.fits)
 
 
-def test_predicted_covariance_is_psd_and_5x5_has_zero_rotary_rows(fitted):
+def test_predicted_covariance_is_psd_and_five_axis_readings_have_zero_rotary_rows(fitted):
     _, model = fitted
     z = np.random.default_rng(5).uniform(-1, 1, (50, 7))
     factors = LOW + (z + 1) / 2 * (HIGH - LOW)
     c3 = model.covariance(factors)
     assert np.all(np.linalg.eigvalsh(c3) >= -1e-18)
     assert np.allclose(c3, np.swapaxes(c3, -1, -2))
-    c5 = model.covariance5(factors[0])
+    c5 = model.reading_covariance(factors[0], ("X", "Y", "Z", "B", "C"))
     assert c5.shape == (5, 5) and np.all(c5[3:] == 0) and np.all(c5[:, 3:] == 0)
+    np.testing.assert_allclose(c5[:3, :3], c3[0], rtol=1e-12, atol=1e-20)  # batched eigh
+
+
+def test_reading_covariance_places_the_block_by_axis_name_for_any_axis_count(fitted):
+    """Topology-generic: 3, 5 or 6 axes in any order get the same X, Y, Z block, placed by
+    name, and zero rows for the others; a machine without Z is refused naming the axis."""
+    _, model = fitted
+    pose = (LOW + HIGH) / 2
+    c3 = model.covariance(pose)
+    for names in [("X", "Y", "Z"), ("C", "Z", "A", "X", "Y"), ("W", "X", "B", "Y", "C", "Z")]:
+        v = model.reading_covariance(pose, names)
+        idx = [names.index(a) for a in "XYZ"]
+        np.testing.assert_array_equal(v[np.ix_(idx, idx)], c3)
+        others = [i for i in range(len(names)) if i not in idx]
+        assert v.shape == (len(names),) * 2
+        assert np.all(v[others] == 0) and np.all(v[:, others] == 0)
+    stacked = model.reading_covariance(np.stack([pose, pose]), ("X", "Y", "Z", "B"))
+    assert stacked.shape == (2, 4, 4)
+    with pytest.raises(InputError, match=r"^axis_names: .*; Z missing from \['X', 'Y', 'C'\]$"):
+        model.reading_covariance(pose, ("X", "Y", "C"))
 
 
 def test_pose_outside_range_is_refused_or_warned_naming_the_factor(fitted):

@@ -16,12 +16,10 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from mtmetrology.display import NotebookRepr
-from mtmetrology.errors import InputError
 from mtmetrology.fitting.elements import Element
+from mtmetrology.fitting.validation import FitError
 from mtmetrology.optimize import LeastSquaresResult, Status, least_squares
 
-# A singular value below this fraction of the largest marks a degenerate point set.
-_DEGENERATE = 1e-10
 # Gauss–Newton stops when the step is below this fraction of the data size.
 _STEP_TOL = 1e-13
 # Steps whose predicted relative cost decrease is below this are accepted whatever the
@@ -29,10 +27,6 @@ _STEP_TOL = 1e-13
 _NEAR_REL = 1e-10
 _EPS = float(np.finfo(float).eps)
 _MAX_ITER = 200
-
-
-class FitError(InputError):
-    """A point set from which the requested element cannot be fitted."""
 
 
 class Sensitivities(NamedTuple):
@@ -142,42 +136,8 @@ class FitResult(NotebookRepr):
         return out
 
 
-def _check_points(points: object, kind: str, dims: tuple[int, ...], min_points: int) -> np.ndarray:
-    """Validate a point array at the public boundary; return a float (n, d) copy."""
-    try:
-        arr = np.array(points, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise FitError(f"{kind}: points must be a numeric (n, d) array ({exc})") from exc
-    if arr.ndim != 2 or arr.shape[1] not in dims:
-        want = " or ".join(f"(n, {d})" for d in dims)
-        raise FitError(f"{kind}: points must have shape {want}, got {arr.shape}")
-    bad = ~np.all(np.isfinite(arr), axis=1)
-    if bad.any():
-        rows = np.flatnonzero(bad)
-        raise FitError(
-            f"{kind}: {rows.size} point(s) contain NaN or inf (first at row {int(rows[0])})"
-        )
-    if arr.shape[0] < min_points:
-        raise FitError(
-            f"{kind}: {arr.shape[0]} points are fewer than the {min_points} needed "
-            f"to determine the element"
-        )
-    return arr
-
-
 def _singular_values(x: np.ndarray) -> np.ndarray:
     return np.linalg.svd(x, compute_uv=False)
-
-
-def _require_spread(kind: str, centred: np.ndarray, rank: int, what: str, hint: str = "") -> None:
-    """Raise unless the centred points span at least ``rank`` dimensions."""
-    s = _singular_values(centred)
-    if s[0] == 0.0 or s[rank - 1] <= _DEGENERATE * s[0]:
-        rel = 0.0 if s[0] == 0.0 else s[rank - 1] / s[0]
-        raise FitError(
-            f"{kind}: the {centred.shape[0]} points are {what} (relative singular value "
-            f"{rel:.1e} of the centred points){hint}"
-        )
 
 
 def _canonical(v: np.ndarray) -> np.ndarray:

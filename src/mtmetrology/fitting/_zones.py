@@ -1,4 +1,4 @@
-"""Shared pieces of the minimax (Chebyshev-norm) fits: the result object and input checks.
+"""Shared pieces of the minimax (Chebyshev-norm) fits: the result object and its status.
 
 Used by :mod:`.minimum_zone` (exact hull methods) and :mod:`.minimax` (sequential
 linear programming); see :mod:`mtmetrology.fitting.minimum_zone` for the definitions.
@@ -7,15 +7,55 @@ linear programming); see :mod:`mtmetrology.fitting.minimum_zone` for the definit
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import IntEnum
 from typing import Literal
 
 import numpy as np
 
 from mtmetrology.display import NotebookRepr
 from mtmetrology.fitting.elements import Circle, Cylinder, Line, Plane, Sphere
-from mtmetrology.fitting.least_squares import FitError
+from mtmetrology.fitting.validation import FitError
 
 Kind = Literal["zone", "outer", "inner"]
+
+
+class ZoneStatus(IntEnum):
+    """Why a Chebyshev fit stopped (> 0: converged).
+
+    The codes follow :class:`mtmetrology.optimize.Status`: ``0`` is the iteration limit,
+    ``2`` a stop at the rounding level, ``3`` an exact closed-form solution, negative codes
+    a failure; ``1`` is the first-order optimality of the sequential LP (the linear
+    programme predicts no decrease of the zone width above ``1e-13`` of the point-set
+    size), its counterpart of the least-squares step tolerance.
+    """
+
+    LP_FAILED = -2
+    TRUST_REGION_LIMIT = -1
+    ITERATION_LIMIT = 0
+    OPTIMAL = 1
+    ROUNDING_LEVEL = 2
+    EXACT = 3
+
+
+#: One message per :class:`ZoneStatus`; ``{count}`` is the number of linear programmes.
+ZONE_STATUS_MESSAGES = {
+    ZoneStatus.LP_FAILED: "the linear programme failed (HiGHS) after {count}",
+    ZoneStatus.TRUST_REGION_LIMIT: (
+        "stopped after {count}: the trust region fell below the rounding level "
+        "while the linear programme still predicted a decrease"
+    ),
+    ZoneStatus.ITERATION_LIMIT: "no convergence in {count}",
+    ZoneStatus.OPTIMAL: "converged: {count}",
+    ZoneStatus.ROUNDING_LEVEL: (
+        "converged: {count}, the trust region fell below the rounding level"
+    ),
+    ZoneStatus.EXACT: "exact: minimum width of the convex hull (no linear programme)",
+}
+
+
+def _count(iterations: int) -> str:
+    return f"{iterations} linear programme{'' if iterations == 1 else 's'}"
+
 
 # Contacts are the points within this fraction of the point-set size of a zone boundary:
 # far below any form error a CMM resolves, far above the rounding of the distances.
@@ -54,10 +94,8 @@ class ZoneResult(NotebookRepr):
         started from, mm (same definition as ``form_error``), for comparison.
     iterations : int
         Linear programmes solved (0 for the exact hull methods).
-    converged : bool
-        Whether the stopping test was met.
-    message : str
-        What happened, in words.
+    status : int
+        A :class:`ZoneStatus` code; ``success`` and ``message`` derive from it.
     """
 
     element: Line | Plane | Circle | Sphere | Cylinder
@@ -68,26 +106,26 @@ class ZoneResult(NotebookRepr):
     contacts: np.ndarray
     least_squares_form_error: float
     iterations: int
-    converged: bool
-    message: str
+    status: int
+
+    @property
+    def success(self) -> bool:
+        """Whether the fit converged (``status > 0``)."""
+        return self.status > 0
+
+    @property
+    def converged(self) -> bool:
+        """Alias of :attr:`success`, kept for the zone fits' callers."""
+        return self.success
+
+    @property
+    def message(self) -> str:
+        """What happened, in words, from :data:`ZONE_STATUS_MESSAGES`."""
+        return ZONE_STATUS_MESSAGES[ZoneStatus(self.status)].format(count=_count(self.iterations))
 
 
 # --------------------------------------------------------------------------------------
-# input checks
-
-
-def _check_points(points, dims: tuple[int, ...], min_points: int, what: str) -> np.ndarray:
-    """Points as a float (n, dim) array, refused with a clear message when unusable."""
-    p = np.asarray(points, dtype=float)
-    if p.ndim != 2 or p.shape[1] not in dims:
-        shapes = " or ".join(f"(n, {d})" for d in dims)
-        raise FitError(f"points for {what} must be an array of shape {shapes}, got {p.shape}")
-    if not np.all(np.isfinite(p)):
-        bad = int(np.flatnonzero(~np.all(np.isfinite(p), axis=1))[0])
-        raise FitError(f"points for {what}: point {bad} is not finite (NaN or infinite)")
-    if len(p) < min_points:
-        raise FitError(f"{what} needs at least {min_points} points, got {len(p)}")
-    return p
+# geometry helpers
 
 
 def _principal_axes(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -95,12 +133,6 @@ def _principal_axes(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     centroid = p.mean(axis=0)
     _, s, vt = np.linalg.svd(p - centroid, full_matrices=False)
     return centroid, s, vt
-
-
-def _require_spread(s: np.ndarray, rank: int, what: str, degenerate: str) -> None:
-    """Refuse a point set whose centred coordinates have rank below ``rank``."""
-    if s[0] == 0.0 or s[rank - 1] <= 1e-10 * s[0]:
-        raise FitError(f"{what} is undefined: the points are {degenerate}")
 
 
 def _check_normal(normal) -> np.ndarray:

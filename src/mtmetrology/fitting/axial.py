@@ -11,23 +11,22 @@ from __future__ import annotations
 import numpy as np
 
 from mtmetrology.fitting._odr import (
-    FitError,
     FitResult,
     Sensitivities,
     _better,
     _canonical,
     _centred,
     _check_conditioning,
-    _check_points,
     _gauss_newton,
     _hyper_fit,
     _local_to_points,
     _message,
     _perp_basis,
-    _require_spread,
     _result,
+    _singular_values,
 )
 from mtmetrology.fitting.elements import Cone, Cylinder
+from mtmetrology.fitting.validation import FitError, check_points, require_spread
 from mtmetrology.optimize import LeastSquaresResult
 
 __all__ = ["fit_cone", "fit_cylinder"]
@@ -135,9 +134,11 @@ def fit_cylinder(points: object, direction: object = None) -> FitResult:
     by Gauss–Newton in the local frame of the current axis.
     """
     kind = "cylinder"
-    p = _check_points(points, kind, (3,), 5)
+    p = check_points(points, kind, (3,), 5)
     x, centroid, scale = _centred(p)
-    _require_spread(kind, x, 3, "coplanar", "; a cylinder needs points off one plane")
+    require_spread(
+        kind, _singular_values(x), len(x), 3, "coplanar", "; a cylinder needs points off one plane"
+    )
 
     def evaluate(state):
         x0, a, r = state
@@ -159,7 +160,7 @@ def fit_cylinder(points: object, direction: object = None) -> FitResult:
         e1, e2 = _perp_basis(a)
         uv = np.column_stack([x @ e1, x @ e2])
         try:
-            _require_spread(kind, uv - uv.mean(axis=0), 2, "collinear")
+            require_spread(kind, _singular_values(uv - uv.mean(axis=0)), len(uv), 2, "collinear")
             c2, r0 = _hyper_fit(uv)
         except FitError:
             continue
@@ -246,7 +247,7 @@ def _cone_starts(x: np.ndarray, a: np.ndarray) -> list[tuple]:
             return [(x0, axis, psi, float(rho0 * np.cos(psi)))]
     uv = np.column_stack([lu, lv])
     try:
-        _require_spread("cone", uv - uv.mean(axis=0), 2, "collinear")
+        require_spread("cone", _singular_values(uv - uv.mean(axis=0)), len(uv), 2, "collinear")
         c2, rho0 = _hyper_fit(uv)
     except FitError:
         return []
@@ -287,9 +288,11 @@ def fit_cone(points: object, direction: object = None) -> FitResult:
     candidate axes.
     """
     kind = "cone"
-    p = _check_points(points, kind, (3,), 6)
+    p = check_points(points, kind, (3,), 6)
     x, centroid, scale = _centred(p)
-    _require_spread(kind, x, 3, "coplanar", "; a cone needs points off one plane")
+    require_spread(
+        kind, _singular_values(x), len(x), 3, "coplanar", "; a cone needs points off one plane"
+    )
 
     def evaluate(state):
         x0, a, psi, s = state

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mtmetrology._backend import compiled_module, from_environment
-from mtmetrology.fitting.least_squares import FitError
+from mtmetrology.fitting.validation import DEGENERATE, FitError
 from mtmetrology.optimize import _cholesky_solve, least_squares_batch
 
 __all__ = [
@@ -193,14 +193,15 @@ def _centred(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return x, centroid, scale
 
 
-def _require_spread(kind: str, x: np.ndarray, rank: int, what: str) -> np.ndarray:
-    """Raise naming the first set whose centred points span fewer than ``rank`` dims.
+def _require_spread_sets(kind: str, x: np.ndarray, rank: int, what: str) -> np.ndarray:
+    """Stacked form of :func:`.validation.require_spread`: raise naming the first set whose
+    centred points span fewer than ``rank`` dims (same threshold, ``DEGENERATE``).
 
     Returns the stacked right singular vectors (K, d, d) for reuse.
     """
     _, s, vt = np.linalg.svd(x, full_matrices=False)
     rel = s[:, rank - 1] / np.maximum(s[:, 0], 1e-300)
-    bad = (s[:, 0] == 0) | (rel <= 1e-10)
+    bad = (s[:, 0] == 0) | (rel <= DEGENERATE)
     if bad.any():
         k = int(np.argmax(bad))
         raise FitError(
@@ -426,7 +427,7 @@ def fit_circles(points: object) -> BatchRoundFit:
     kind = "circles"
     p = _check_sets(points, kind, (2, 3), 3)
     x, centroid, scale = _centred(p)
-    vt = _require_spread(kind, x, 2, "collinear")
+    vt = _require_spread_sets(kind, x, 2, "collinear")
     if p.shape[2] == 2:
         xt = np.ascontiguousarray(x.transpose(0, 2, 1))
         c, r, status, nit = _round_gauss_newton(xt, scale, None, _compiled_kernels(len(p)))
@@ -467,7 +468,7 @@ def fit_planes(points: object) -> BatchPlaneFit:
     kind = "planes"
     p = _check_sets(points, kind, (3,), 3)
     x, centroid, _ = _centred(p)
-    vt = _require_spread(kind, x, 2, "collinear")
+    vt = _require_spread_sets(kind, x, 2, "collinear")
     normals = _canonical(vt[:, 2])
     res = np.einsum("knd,kd->kn", x, normals)
     return BatchPlaneFit(

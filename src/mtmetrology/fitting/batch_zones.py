@@ -60,7 +60,7 @@ from mtmetrology.fitting.batch import (
     _centred,
     _check_sets,
     _kasa,
-    _require_spread,
+    _require_spread_sets,
     fit_cylinders,
     fit_spheres,
 )
@@ -340,7 +340,7 @@ def _result(low, high, nit, failed, solve, points, plane: bool, what: str) -> Ba
     """Fill the failed sets from the per-set solver ``solve`` and build the result."""
     for kk in np.flatnonzero(failed):
         zone = solve(points[kk])
-        if not zone.converged:
+        if not zone.success:
             raise ConvergenceError(f"{what}: set {kk}: {zone.message}")
         low[kk], high[kk] = zone.bounds
     width = high - low
@@ -448,7 +448,7 @@ def minimum_zone_roundness(points: object, *, max_iterations: int = MAX_ITERATIO
 
     p = _check_sets(points, "roundness", (2, 3), 4)
     x, _, _ = _centred(p)
-    vt = _require_spread("roundness", x, 2, "collinear")
+    vt = _require_spread_sets("roundness", x, 2, "collinear")
     # In-plane coordinates: the least-squares plane's principal axes for 3-D profiles.
     uv = np.einsum("knd,kjd->knj", x, vt[:, :2]) if p.shape[2] == 3 else x
     # Start: the algebraic (Kåsa) circle, within O(form²/radius) of the least-squares one.
@@ -499,7 +499,7 @@ def minimum_zone_flatness(points: object, *, max_iterations: int = MAX_ITERATION
 
     p = _check_sets(points, "flatness", (3,), 4)
     x, _, _ = _centred(p)
-    vt = _require_spread("flatness", x, 2, "collinear")
+    vt = _require_spread_sets("flatness", x, 2, "collinear")
     d, nit, failed = _run(_Normal, x, vt[:, 2].copy(), _size(x), max_iterations)
     low, high = d.min(axis=1), d.max(axis=1)
     return _result(low, high, nit, failed, flatness, p, True, "flatness")

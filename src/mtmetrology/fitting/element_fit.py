@@ -226,8 +226,9 @@ def fit_points_file(
                 },
                 zone={"low": zone.bounds[0], "high": zone.bounds[1], "unit": "mm"},
                 contact_lines=[int(line) for line in lines[zone.contacts]],
+                status=zone.status,
                 nit=zone.iterations,
-                success=zone.converged,
+                success=zone.success,
                 message=zone.message,
             )
         if tip_radius is not None:

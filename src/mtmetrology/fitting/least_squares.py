@@ -49,24 +49,22 @@ from __future__ import annotations
 import numpy as np
 
 from mtmetrology.fitting._odr import (
-    _DEGENERATE,
-    FitError,
     FitResult,
     Sensitivities,
     _canonical,
     _centred,
     _check_conditioning,
-    _check_points,
     _gauss_newton,
     _hyper_fit,
     _local_to_points,
     _message,
     _perp_basis,
-    _require_spread,
     _result,
+    _singular_values,
 )
 from mtmetrology.fitting.axial import fit_cone, fit_cylinder
 from mtmetrology.fitting.elements import Circle, Line, Plane, Sphere
+from mtmetrology.fitting.validation import DEGENERATE, FitError, check_points, require_spread
 from mtmetrology.optimize import LeastSquaresResult
 
 __all__ = [
@@ -109,11 +107,11 @@ def fit_line(points: object) -> FitResult:
     centred points: it minimises ``Σ ‖(p_i − c̄) − ((p_i − c̄)·a) a‖²`` exactly
     (Forbes, NPL DITC 140/89, §4.2; Shakarji 1998, §3.1).
     """
-    p = _check_points(points, "line", (2, 3), 2)
+    p = check_points(points, "line", (2, 3), 2)
     x, centroid, _ = _centred(p)
     n, dim = p.shape
     s, vt = np.linalg.svd(x, full_matrices=False)[1:]
-    if s[0] <= _DEGENERATE * max(float(np.abs(p).max()), 1.0):
+    if s[0] <= DEGENERATE * max(float(np.abs(p).max()), 1.0):
         raise FitError(f"line: the {n} points coincide; a line needs two distinct points")
     a = _canonical(vt[0])
     line = Line(centroid, a)
@@ -211,10 +209,10 @@ def fit_plane(points: object) -> FitResult:
     al. (2019) is singular for planes through the origin; this orthogonal fit has no such
     restriction.
     """
-    p = _check_points(points, "plane", (3,), 3)
+    p = check_points(points, "plane", (3,), 3)
     x, centroid, _ = _centred(p)
     n = p.shape[0]
-    _require_spread("plane", x, 2, "collinear")
+    require_spread("plane", _singular_values(x), len(x), 2, "collinear")
     e1, e2, nrm = _plane_core(x)
 
     def plane() -> Sensitivities:
@@ -329,7 +327,7 @@ def fit_sphere(points: object, radius: float | None = None) -> FitResult:
     """
     fixed = radius is not None
     kind = "sphere (known radius)" if fixed else "sphere"
-    p = _check_points(points, kind, (3,), 4)
+    p = check_points(points, kind, (3,), 4)
     r_known = None
     if fixed:
         r_known = float(radius)  # type: ignore[arg-type]
@@ -342,7 +340,7 @@ def fit_sphere(points: object, radius: float | None = None) -> FitResult:
         if fixed
         else "; a sphere needs points off one plane (give the radius only if they are not)"
     )
-    _require_spread(kind, x, 3, "coplanar", hint)
+    require_spread(kind, _singular_values(x), len(x), 3, "coplanar", hint)
     c, r, solve = _fit_round(x, scale, r_known, kind)
     n = x.shape[0]
     del x  # the sensitivities need only the solver's Jacobian
@@ -398,11 +396,11 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
     >>> round(2 * fit.element.radius, 12), fit.form_error < 1e-12
     (63.5, True)
     """
-    p = _check_points(points, "circle", (2, 3), 3)
+    p = check_points(points, "circle", (2, 3), 3)
     x, centroid, scale = _centred(p)
     n, dim = p.shape
     if dim == 2:
-        _require_spread("circle", x, 2, "collinear")
+        require_spread("circle", _singular_values(x), len(x), 2, "collinear")
         c, r, solve = _fit_round(x, scale, None, "circle")
         j = solve.jacobian[:, None, :]
         _check_conditioning("circle", j[:, 0, :], "centre and radius")
@@ -424,11 +422,17 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
         origin = centroid - ((centroid - plane.point) @ nrm) * nrm
         x = p - origin
     else:
-        _require_spread("circle", x, 2, "collinear")
+        require_spread("circle", _singular_values(x), len(x), 2, "collinear")
         e1, e2, nrm = _plane_core(x)
         origin = centroid
     uv = np.column_stack([x @ e1, x @ e2])  # (n, 2) in-plane coordinates
-    _require_spread("circle", uv - uv.mean(axis=0), 2, "collinear in the circle's plane")
+    require_spread(
+        "circle",
+        _singular_values(uv - uv.mean(axis=0)),
+        len(uv),
+        2,
+        "collinear in the circle's plane",
+    )
     uv_mean = uv.mean(axis=0)
     c2, r, solve = _fit_round(uv - uv_mean, scale, None, "circle")
     c2 = c2 + uv_mean

@@ -20,16 +20,16 @@ from mtmetrology.fitting._zones import (
     _MAX_ITERATIONS,
     Kind,
     ZoneResult,
+    ZoneStatus,
     _check_normal,
-    _check_points,
     _contacts,
     _plane_basis,
     _principal_axes,
-    _require_spread,
     _size,
 )
 from mtmetrology.fitting.elements import Circle, Cylinder, Plane, Sphere
 from mtmetrology.fitting.least_squares import FitError, fit_circle, fit_cylinder, fit_sphere
+from mtmetrology.fitting.validation import check_points, require_spread
 
 __all__ = [
     "circumscribed_circle",
@@ -163,12 +163,7 @@ class _Solution:
     model: _CentreModel | _AxisModel
     distances: np.ndarray
     iterations: int
-    converged: bool
-    message: str
-
-
-def _count(iterations: int) -> str:
-    return f"{iterations} linear programme{'' if iterations == 1 else 's'}"
+    status: ZoneStatus
 
 
 def _sequential_lp(model, kind: Kind, size: float, what: str) -> _Solution:
@@ -198,11 +193,11 @@ def _sequential_lp(model, kind: Kind, size: float, what: str) -> _Solution:
     for iteration in range(1, _MAX_ITERATIONS + 1):
         lp = _lp_step(d, jac, model.scales, radius, kind, floor)
         if lp is None:
-            return _Solution(model, d, iteration, False, "the linear programme failed (HiGHS)")
+            return _Solution(model, d, iteration, ZoneStatus.LP_FAILED)
         step, predicted = lp
         decrease = f - predicted
         if decrease <= tol:
-            return _Solution(model, d, iteration, True, f"converged: {_count(iteration)}")
+            return _Solution(model, d, iteration, ZoneStatus.OPTIMAL)
         trial = model.moved(step)
         d_trial, jac_trial = trial.evaluate()
         f_trial = _objective(d_trial, kind)
@@ -220,17 +215,10 @@ def _sequential_lp(model, kind: Kind, size: float, what: str) -> _Solution:
         else:
             radius = 0.25 * reach
             if radius <= 1e-15 * size:
-                return _Solution(
-                    model,
-                    d,
-                    iteration,
-                    decrease <= 1e-9 * max(float(d.max() - d.min()), floor),
-                    f"stopped after {_count(iteration)}: the trust region fell "
-                    f"below the rounding level with {decrease:.3g} mm of predicted decrease",
-                )
-    return _Solution(
-        model, d, _MAX_ITERATIONS, False, f"no convergence in {_count(_MAX_ITERATIONS)}"
-    )
+                small = decrease <= 1e-9 * max(float(d.max() - d.min()), floor)
+                status = ZoneStatus.ROUNDING_LEVEL if small else ZoneStatus.TRUST_REGION_LIMIT
+                return _Solution(model, d, iteration, status)
+    return _Solution(model, d, _MAX_ITERATIONS, ZoneStatus.ITERATION_LIMIT)
 
 
 def _radial_result(
@@ -268,17 +256,16 @@ def _radial_result(
         contacts=contacts,
         least_squares_form_error=least_squares_form_error,
         iterations=solution.iterations,
-        converged=solution.converged,
-        message=solution.message,
+        status=solution.status,
     )
 
 
 def _circle(points, normal, kind: Kind, what: str) -> ZoneResult:
-    p = _check_points(points, (2, 3), 3, what)
+    p = check_points(points, what, (2, 3), 3)
     if p.shape[1] == 2 and normal is not None:
         raise FitError("normal applies to points in 3-D; 2-D points lie in their plane")
     centroid, s, _ = _principal_axes(p)
-    _require_spread(s, 2, what, "collinear")
+    require_spread(what, s, len(p), 2, "collinear")
     if p.shape[1] == 2:
         least_squares = fit_circle(p).element
         basis = np.eye(2)
@@ -288,7 +275,7 @@ def _circle(points, normal, kind: Kind, what: str) -> ZoneResult:
         least_squares = fit_circle(p, plane=plane).element
         basis = _plane_basis(least_squares.normal)[:2]  # rows u, v spanning the plane
     uv = (p - centroid) @ basis.T  # (n, 2) in-plane coordinates
-    _require_spread(np.linalg.svd(uv, compute_uv=False), 2, what, "collinear in the plane")
+    require_spread(what, np.linalg.svd(uv, compute_uv=False), len(uv), 2, "collinear in the plane")
     model = _CentreModel(uv, (least_squares.centre - centroid) @ basis.T)
     d0, _ = model.evaluate()
     size = _size(p)
@@ -302,9 +289,9 @@ def _circle(points, normal, kind: Kind, what: str) -> ZoneResult:
 
 
 def _sphere(points, kind: Kind, what: str) -> ZoneResult:
-    p = _check_points(points, (3,), 4, what)
+    p = check_points(points, what, (3,), 4)
     centroid, s, _ = _principal_axes(p)
-    _require_spread(s, 3, what, "coplanar")
+    require_spread(what, s, len(p), 3, "coplanar")
     start = fit_sphere(p).element.centre
     size = _size(p)
     model = _CentreModel(p - centroid, start - centroid)
@@ -318,9 +305,9 @@ def _sphere(points, kind: Kind, what: str) -> ZoneResult:
 
 
 def _cylinder(points, kind: Kind, what: str) -> ZoneResult:
-    p = _check_points(points, (3,), 5, what)
+    p = check_points(points, what, (3,), 5)
     centroid, s, _ = _principal_axes(p)
-    _require_spread(s, 2, what, "collinear")
+    require_spread(what, s, len(p), 2, "collinear")
     start = fit_cylinder(p).element
     size = _size(p)
     model = _AxisModel(p - centroid, start.point - centroid, start.direction)

@@ -48,13 +48,13 @@ from scipy.spatial import ConvexHull, QhullError
 
 from mtmetrology.fitting._zones import (
     _CONTACT_RTOL,
+    ZONE_STATUS_MESSAGES,
     ZoneResult,
+    ZoneStatus,
     _check_normal,
-    _check_points,
     _contacts,
     _plane_basis,
     _principal_axes,
-    _require_spread,
     _size,
 )
 from mtmetrology.fitting.elements import Line, Plane
@@ -72,9 +72,12 @@ from mtmetrology.fitting.minimax import (
     roundness,
     sphericity,
 )
+from mtmetrology.fitting.validation import check_points, require_spread
 
 __all__ = [
+    "ZONE_STATUS_MESSAGES",
     "ZoneResult",
+    "ZoneStatus",
     "circumscribed_circle",
     "circumscribed_cylinder",
     "circumscribed_sphere",
@@ -214,7 +217,7 @@ def _min_width_3d(p: np.ndarray) -> tuple[np.ndarray, float, float]:
     return best_n, float(h.min()), float(h.max())
 
 
-def _parallel_zone(element, residuals, width, size, least_squares_pv, message) -> ZoneResult:
+def _parallel_zone(element, residuals, width, size, least_squares_pv) -> ZoneResult:
     """Result of an exact zone between two parallel lines or planes."""
     half = 0.5 * width
     tol = _CONTACT_RTOL * size
@@ -227,8 +230,7 @@ def _parallel_zone(element, residuals, width, size, least_squares_pv, message) -
         contacts=np.union1d(_contacts(residuals, -half, tol), _contacts(residuals, half, tol)),
         least_squares_form_error=least_squares_pv,
         iterations=0,
-        converged=True,
-        message=message,
+        status=ZoneStatus.EXACT,
     )
 
 
@@ -269,9 +271,9 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
     >>> round(straightness([[0, 0], [1, 0.002], [2, 0], [3, 0.002]]).form_error, 12)
     0.002
     """
-    p = _check_points(points, (2, 3), 2, "straightness")
+    p = check_points(points, "straightness", (2, 3), 2)
     centroid, s, _ = _principal_axes(p)
-    _require_spread(s, 1, "straightness", "coincident")
+    require_spread("straightness", s, len(p), 1, "coincident")
     if p.shape[1] == 3 and plane_normal is None:
         start = fit_line(p).element
         size = _size(p)
@@ -289,8 +291,7 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
             contacts=_contacts(d, radius, _CONTACT_RTOL * size),
             least_squares_form_error=2.0 * float(d0.max()),
             iterations=solution.iterations,
-            converged=solution.converged,
-            message=solution.message,
+            status=solution.status,
         )
     if p.shape[1] == 2:
         if plane_normal is not None:
@@ -299,7 +300,7 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
     else:
         basis = _plane_basis(_check_normal(plane_normal))[:2]
     uv = (p - centroid) @ basis.T  # (n, 2)
-    _require_spread(np.linalg.svd(uv, compute_uv=False), 1, "straightness", "coincident")
+    require_spread("straightness", np.linalg.svd(uv, compute_uv=False), len(uv), 1, "coincident")
     least_squares = fit_line(uv).element
     n, low, high = _min_width_2d(uv)
     if n @ least_squares.normal < 0.0:  # same orientation as the least-squares line
@@ -311,7 +312,6 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
         high - low,
         _size(p),
         float(np.ptp(least_squares.distances(uv))),
-        "exact: minimum width of the convex hull (rotating calipers)",
     )
 
 
@@ -349,9 +349,9 @@ def flatness(points) -> ZoneResult:
     >>> round(flatness(pts).form_error, 12)
     0.003
     """
-    p = _check_points(points, (3,), 3, "flatness")
+    p = check_points(points, "flatness", (3,), 3)
     centroid, s, _ = _principal_axes(p)
-    _require_spread(s, 2, "flatness", "collinear")
+    require_spread("flatness", s, len(p), 2, "collinear")
     least_squares = fit_plane(p).element
     q = p - centroid  # (n, 3)
     n, low, high = _min_width_3d(q)
@@ -364,5 +364,4 @@ def flatness(points) -> ZoneResult:
         high - low,
         _size(p),
         float(np.ptp(least_squares.distances(p))),
-        "exact: minimum width of the convex hull (faces and antipodal edge pairs)",
     )

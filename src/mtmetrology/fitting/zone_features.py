@@ -171,7 +171,7 @@ def _zones(stack: np.ndarray, solve: Callable, name: str) -> list[ZoneResult]:
     zones = []
     for k, points in enumerate(stack):
         zone = solve(points)
-        if not zone.converged:
+        if not zone.success:
             raise ConvergenceError(f"{name}: set {k}: {zone.message}")
         zones.append(zone)
     return zones

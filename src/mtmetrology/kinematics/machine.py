@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mtmetrology.errors import ConvergenceError, InputError
 from mtmetrology.io.documents import parse_document
 from mtmetrology.kinematics.basis import Basis
 from mtmetrology.kinematics.chain import AxisGeometry, ChainEvaluation, KinematicChain
@@ -570,29 +571,55 @@ class Machine:
 
         Raises
         ------
-        ValueError
-            If the machine does not have exactly three linear axes, or Newton fails.
+        InputError
+            If the machine does not have exactly three linear axes, or ``points`` is not a
+            finite (..., 3) array.
+        ConvergenceError
+            If Newton's iteration leaves a position residual above ``tol`` after
+            ``max_iter`` steps (the message gives the largest residual and its point), or
+            the position does not depend on the linear readings (singular Jacobian).
         """
         lin = [i for i, a in enumerate(self.axis_names) if a in LINEAR_AXES]
         if len(lin) != 3:
-            raise ValueError(
+            raise InputError(
                 f"inverse kinematics needs three linear axes; {self.name} has "
                 f"{''.join(self.linear_axes) or 'none'}"
             )
-        target = np.asarray(points, dtype=float)
+        try:
+            target = np.asarray(points, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"points must be a numeric (..., 3) array, mm ({exc})") from None
+        if target.ndim == 0 or target.shape[-1] != 3 or not np.all(np.isfinite(target)):
+            what = (
+                f"shape {target.shape}"
+                if target.ndim == 0 or target.shape[-1] != 3
+                else f"NaN or inf in {int(np.sum(~np.isfinite(target)))} coordinate(s)"
+            )
+            raise InputError(f"points must be a finite (..., 3) array, mm; got {what}")
         q, theta = self._check(readings, params)
         shape = np.broadcast_shapes(target.shape[:-1], q.shape[:-1], theta.shape[:-1])
         q = np.broadcast_to(q, (*shape, self.n_axes)).copy()
         for it in range(max_iter):
             ev = self.evaluate(q, theta, senses=senses, tool=tool, d_axes=True)
             resid = target - ev.position
-            step = np.linalg.solve(ev.d_axes[..., :, lin], resid[..., None])[..., 0]
+            try:
+                step = np.linalg.solve(ev.d_axes[..., :, lin], resid[..., None])[..., 0]
+            except np.linalg.LinAlgError:
+                raise ConvergenceError(
+                    "inverse kinematics: the position does not depend on the linear readings "
+                    "(singular Jacobian): check the machine's axis directions"
+                ) from None
             q[..., lin] += step
             if np.max(np.abs(resid), initial=0.0) <= tol and it > 0:
                 break
         else:
-            worst = float(np.max(np.abs(resid)))
-            raise ValueError(f"inverse kinematics did not converge (residual {worst:.3g} mm)")
+            error = np.nan_to_num(np.max(np.abs(resid), axis=-1), nan=np.inf)
+            at = np.unravel_index(int(np.argmax(error)), error.shape)
+            where = f" at point {at[0] if len(at) == 1 else tuple(map(int, at))}" if at else ""
+            raise ConvergenceError(
+                f"inverse kinematics did not converge (residual {float(error[at]):.3g} mm"
+                f"{where} after {max_iter} Newton steps, tol {tol:g} mm)"
+            )
         if snap:
             for i in lin:
                 res = self.axes[self.axis_names[i]].resolution

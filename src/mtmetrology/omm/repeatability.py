@@ -556,11 +556,44 @@ class RepeatabilityModel:
         w, v = np.linalg.eigh(c)
         return (v * np.maximum(w, 0.0)[..., None, :]) @ np.swapaxes(v, -1, -2)
 
-    def covariance5(self, factors: np.ndarray, *, strict: bool = True) -> np.ndarray:
-        """(..., 5, 5) covariance v of the readings X, Y, Z, B, C: zero rotary rows, mm²."""
+    def reading_covariance(
+        self, factors: np.ndarray, axis_names: tuple[str, ...], *, strict: bool = True
+    ) -> np.ndarray:
+        """Covariance v of the readings of a machine with any axes, mm² and rad².
+
+        Parameters
+        ----------
+        factors : (..., 7) array
+            Pose factors, as for :meth:`covariance`.
+        axis_names : sequence of str
+            The machine's axes in reading order (``Machine.axis_names``); must contain
+            ``"X"``, ``"Y"`` and ``"Z"``.
+        strict : bool
+            Refuse (True) or warn about (False) poses outside the model's range.
+
+        Returns
+        -------
+        (..., n_axes, n_axes) ndarray
+            The PSD 3×3 block of :meth:`covariance` on the rows and columns of X, Y and Z,
+            zero for every other axis (Sepahi Boroujeni (2021), §6.2: v_i with zero rotary
+            rows).
+
+        Raises
+        ------
+        InputError
+            When ``axis_names`` lacks one of X, Y, Z.
+        """
+        names = list(axis_names)
+        missing = [a for a in "XYZ" if a not in names]
+        if missing:
+            raise InputError(
+                f"axis_names: the repeatability model needs linear axes X, Y, Z; "
+                f"{', '.join(missing)} missing from {names}"
+            )
+        idx = np.array([names.index(a) for a in "XYZ"])
         c3 = self.covariance(factors, strict=strict)
-        out = np.zeros((*c3.shape[:-2], 5, 5))
-        out[..., :3, :3] = c3
+        out = np.zeros((*c3.shape[:-2], len(names), len(names)))
+        out[..., idx[:, None], idx[None, :]] = c3
         return out
 
     def to_dict(self) -> dict:

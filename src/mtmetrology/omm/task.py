@@ -139,13 +139,10 @@ def reading_covariance(
     -------
     (n, n_axes, n_axes) ndarray, mm²
         The model's PSD 3×3 block on the X, Y, Z readings, zero rows for every other
-        axis (Sepahi Boroujeni (2021), §6.2: v_i with zero rotary rows).
+        axis (:meth:`RepeatabilityModel.reading_covariance`).
     """
-    c3 = model.covariance(pose_factors(machine, readings, approach), strict=strict)
-    idx = [machine.axis_names.index(a) for a in "XYZ"]
-    v = np.zeros((len(readings), machine.n_axes, machine.n_axes))
-    v[:, np.array(idx)[:, None], np.array(idx)[None, :]] = c3
-    return v
+    factors = pose_factors(machine, readings, approach)
+    return model.reading_covariance(factors, machine.axis_names, strict=strict)
 
 
 @dataclass(frozen=True)
