@@ -104,6 +104,21 @@ class ModelComparison(CMMNotebookRepr):
         }
 
 
+def length_error_row(model: str, errors: np.ndarray, u: np.ndarray) -> dict:
+    """One row of a model comparison: RMS and largest length error, mean u (µm), and the
+    fraction of lengths with |error| ≤ k·u (k = :data:`COVERAGE_FACTOR`); errors and u in mm."""
+    e_um, u_um = from_internal(errors, "µm"), from_internal(u, "µm")
+    return {
+        "model": model,
+        "n_lengths": int(errors.size),
+        "rms_error_um": float(np.sqrt(np.mean(e_um**2))),
+        "max_error_um": float(np.max(np.abs(e_um))),
+        "mean_u_um": float(np.mean(u_um)),
+        "coverage": float(np.mean(np.abs(errors) <= COVERAGE_FACTOR * u)),
+        "coverage_factor": COVERAGE_FACTOR,
+    }
+
+
 def compare_models(
     base: Machine,
     campaign: SimulatedCampaign,
@@ -168,16 +183,6 @@ def compare_models(
             us.append(u)
         L, e, u = (np.concatenate(v) for v in (lengths, errs, us))
         e_um, u_um = from_internal(e, "µm"), from_internal(u, "µm")
-        out_rows.append(
-            {
-                "model": name,
-                "n_lengths": int(e.size),
-                "rms_error_um": float(np.sqrt(np.mean(e_um**2))),
-                "max_error_um": float(np.max(np.abs(e_um))),
-                "mean_u_um": float(np.mean(u_um)),
-                "coverage": float(np.mean(np.abs(e) <= COVERAGE_FACTOR * u)),
-                "coverage_factor": COVERAGE_FACTOR,
-            }
-        )
+        out_rows.append(length_error_row(name, e, u))
         plot[name] = {"length_mm": L.tolist(), "error_um": e_um.tolist(), "u_um": u_um.tolist()}
     return ModelComparison(out_rows, plot, [f.to_dict() for f in gp.at_bounds])

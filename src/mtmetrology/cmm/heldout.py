@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mtmetrology.cmm.calibrate import calibrate_ballplate
-from mtmetrology.cmm.compare import length_errors
+from mtmetrology.cmm.compare import length_error_row, length_errors
 from mtmetrology.cmm.files import BallPlate, BallPlateRecords, ProbeSet
 from mtmetrology.cmm.gp import fit_gp
 from mtmetrology.cmm.notebook import CMMNotebookRepr
@@ -200,17 +200,7 @@ def compare_held_out(
             parts.append((length, err, u))
         length, err, u = (np.concatenate(v) for v in zip(*parts, strict=True))
         e_um, u_um = from_internal(err, "µm"), from_internal(u, "µm")
-        rows.append(
-            {
-                "model": name,
-                "n_lengths": int(err.size),
-                "rms_error_um": float(np.sqrt(np.mean(e_um**2))),
-                "max_error_um": float(np.max(np.abs(e_um))),
-                "mean_u_um": float(np.mean(u_um)),
-                "coverage": float(np.mean(np.abs(err) <= COVERAGE_FACTOR * u)),
-                "coverage_factor": COVERAGE_FACTOR,
-            }
-        )
+        rows.append(length_error_row(name, err, u))
         plot[name] = {
             "length_mm": length.tolist(),
             "error_um": e_um.tolist(),
