@@ -254,6 +254,24 @@ def command_line(ctx: typer.Context) -> str:
     return shlex.join(words)
 
 
+def emit_result(
+    document: dict, summary: str, *, output: Path | None, report, report_path, as_json: bool
+) -> None:
+    """The end of every command that computes a result: write its JSON (``-o``) and its
+    report (``--report``, built before anything is written), then print the JSON or the
+    one-paragraph summary."""
+    from mtmetrology.io.files import write_json
+
+    if output is not None:
+        write_json(output, document)
+    if report is not None:
+        write_report(report, report_path)
+    if as_json:
+        print_json(document)
+    else:
+        typer.echo(summary)
+
+
 def write_report(report, path: Path) -> None:
     """Write ``report`` atomically to ``path`` and say so on stderr (stdout stays data)."""
     try:

@@ -16,12 +16,10 @@ import typer
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
-    print_json,
+    emit_result,
     user_errors,
-    write_report,
 )
 from mtmetrology.errors import InputError
-from mtmetrology.io.files import write_json
 
 simulate_app = typer.Typer()
 calibrate_app = typer.Typer()
@@ -115,14 +113,9 @@ def calibrate_tracker(
         from mtmetrology.tracker.report import calibration_report
 
         report = calibration_report(cal, command_line(ctx), [measurements])
-    if output is not None:
-        write_json(output, doc)
-    if report is not None:
-        write_report(report, report_path)
-    if json:
-        print_json(doc)
-    else:
-        typer.echo(cal.summary())
+    emit_result(
+        doc, cal.summary(), output=output, report=report, report_path=report_path, as_json=json
+    )
 
 
 @verify_app.command("tracker")
@@ -171,14 +164,9 @@ def verify_tracker(
         from mtmetrology.tracker.report import verification_report
 
         report = verification_report(result, command_line(ctx))
-    if output is not None:
-        write_json(output, doc)
-    if report is not None:
-        write_report(report, report_path)
-    if json:
-        print_json(doc)
-    else:
-        typer.echo(result.summary())
+    emit_result(
+        doc, result.summary(), output=output, report=report, report_path=report_path, as_json=json
+    )
 
 
 def _region(text: str):
@@ -239,11 +227,6 @@ def tracker_placement(
         from mtmetrology.tracker.report import placement_report
 
         report = placement_report(study, command_line(ctx))
-    if output is not None:
-        write_json(output, doc)
-    if report is not None:
-        write_report(report, report_path)
-    if json:
-        print_json(doc)
-    else:
-        typer.echo(study.summary())
+    emit_result(
+        doc, study.summary(), output=output, report=report, report_path=report_path, as_json=json
+    )

@@ -88,29 +88,19 @@ def compensated_points(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Compensated points f(φ, δ̂) and the standard uncertainty of each coordinate.
 
-    Parameters
-    ----------
-    machine : Machine
-    readings : (n, n_axes) array
-        Internal readings (mm, rad).
-    parameters : (P,) array
-        δ̂ (internal units, ``machine.parameter_names`` order).
-    covariance : (P, P) array
-        U_θ of δ̂, internal units.
-    senses : (n, n_axes) array, optional
-    tool : (3,) or (n, 3) array, optional
-        Tool vector, mm (the machine's when omitted).
+    Parameters are those of :func:`compensation_covariance`.
 
     Returns
     -------
     points : (n, 3) ndarray, mm
     u : (n, 3) ndarray, mm
-        √diag(G_s U_θ G_sᵀ) of each point s.
+        √diag(G_s U_θ G_sᵀ) of each point s: only the diagonal is formed (a third of the
+        products of the full 3 × 3 covariance; this runs on every row of ``mtm predict --u``).
     """
-    points, cov = compensation_covariance(
-        machine, readings, parameters, covariance, senses=senses, tool=tool
-    )
-    return points, np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
+    ev = machine.evaluate(readings, parameters, senses=senses, tool=tool, d_params=True)
+    g = np.asarray(ev.d_params).reshape(-1, 3, machine.n_params)
+    variance = np.einsum("sip,sip->si", g @ np.asarray(covariance, float), g)
+    return np.asarray(ev.position).reshape(-1, 3), np.sqrt(np.maximum(variance, 0.0))
 
 
 @dataclass(frozen=True)
