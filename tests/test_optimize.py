@@ -8,6 +8,7 @@ from hypothesis import strategies as st
 from mtmetrology.optimize import (
     STATUS_MESSAGES,
     Status,
+    cholesky_solve,
     chord_batch,
     least_squares,
     least_squares_batch,
@@ -140,6 +141,20 @@ def test_batch_iteration_limit_and_singular_systems_are_per_problem():
     res = least_squares_batch(circle_normal_equations(points), x0, max_iter=1)
     assert res.status[0] == Status.ITERATION_LIMIT and not res.success[0]
     assert res.status[2] == Status.NOT_FINITE
+
+
+@pytest.mark.parametrize("order", [1, 4, 6, 7, 12])  # written-out recurrences up to 6, LAPACK above
+def test_cholesky_solve_agrees_with_a_dense_solve_and_flags_indefinite_systems(order):
+    rng = np.random.default_rng(order)
+    factors = rng.normal(size=(5, order, order))
+    a = factors @ np.swapaxes(factors, 1, 2) + order * np.eye(order)
+    a[3] = -np.eye(order)  # negative definite: refused, not solved
+    b = rng.normal(size=(5, order))
+    x, ok = cholesky_solve(a, b)
+    assert ok.tolist() == [True, True, True, False, True]
+    assert np.isnan(x[3]).all()
+    good = [0, 1, 2, 4]
+    np.testing.assert_allclose(x[good], np.linalg.solve(a[good], b[good][..., None])[..., 0])
 
 
 @settings(max_examples=20, deadline=None)

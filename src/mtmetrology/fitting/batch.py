@@ -17,7 +17,7 @@ import numpy as np
 
 from mtmetrology._backend import compiled_module, from_environment
 from mtmetrology.fitting.validation import DEGENERATE, FitError
-from mtmetrology.optimize import _cholesky_solve, least_squares_batch
+from mtmetrology.optimize import cholesky_solve, least_squares_batch
 
 __all__ = [
     "BatchCylinderFit",
@@ -266,7 +266,7 @@ def _kasa(xt: np.ndarray, scale: np.ndarray, kernels=None) -> tuple[np.ndarray, 
         design[:, d] = 1.0
         design[:, d + 1] = 0.25 * _squared_norms(design[:, :d])
         m = np.matmul(design, design.transpose(0, 2, 1))  # (k, d + 2, d + 2)
-    sol, _ = _cholesky_solve(m[:, : d + 1, : d + 1], m[:, : d + 1, d + 1])
+    sol, _ = cholesky_solve(m[:, : d + 1, : d + 1], m[:, : d + 1, d + 1])
     centres = sol[:, :d]
     radii = np.sqrt(np.maximum(sol[:, d] + np.sum(centres * centres, axis=1), 0.0))
     return centres * scale[:, None], radii * scale
