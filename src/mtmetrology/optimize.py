@@ -6,7 +6,7 @@ runs here, so they stop for the same reasons and report them the same way: an in
 ``status`` from one table, :data:`STATUS_MESSAGES`, from which ``success`` and ``message``
 are derived (as in :func:`scipy.optimize.least_squares`).
 
-Three entry points:
+Four entry points:
 
 :func:`least_squares`
     One problem ``fun(x) -> (r, J)``.  Column scaling ``J_s = J D⁻¹``, ``D = diag‖J_:,j‖``
@@ -16,6 +16,10 @@ Three entry points:
     problems (many more residuals than unknowns: element fits to millions of points) the
     SVD is taken of the R factor of a QR accumulated over row blocks, which has the same
     ``S`` and ``V`` and needs no (m, n) factor in memory.
+:func:`solve_equations`
+    A square system ``r(x) = 0`` (implicit measurement models): Newton's method, which is
+    the Gauss–Newton step of :func:`least_squares` when ``J`` is square, with a relative
+    step tolerance.
 :func:`least_squares_batch`
     K independent problems of a few unknowns (batched element fits): the problem supplies
     the stacked normal equations ``JᵀJ, Jᵀr, rᵀr``; damping, acceptance and convergence are
@@ -95,6 +99,7 @@ __all__ = [
     "chord_batch",
     "least_squares",
     "least_squares_batch",
+    "solve_equations",
 ]
 
 
@@ -399,6 +404,70 @@ def least_squares(
         nfev += 1
         njev += 1
     return _result(x, r, jac, svd, status, nfev, njev, nit, rank_rtol)
+
+
+def solve_equations(
+    fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    x0: np.ndarray,
+    *,
+    rtol: float = 1e-12,
+    max_iter: int = 50,
+) -> LeastSquaresResult:
+    """Solve a square system of equations ``r(x) = 0`` by Newton's method on the core.
+
+    Parameters
+    ----------
+    fun : callable
+        ``fun(x) -> (r (n,), J (n, n))``: the equations and their Jacobian.
+    x0 : (n,) ndarray
+        Starting point.
+    rtol : float
+        Relative tolerance of the step: stop (status 1) when the scaled step ``‖D Δx‖`` is
+        below ``rtol·s``, with ``s = max_i Σ_j |J_ij(x0)|·max(|x0_j|, 1)`` the size of the
+        terms of the linearised equations at ``x0`` (units of ``r``).
+    max_iter : int
+        Iteration limit (status 0).
+
+    Returns
+    -------
+    LeastSquaresResult
+        Never raises for a failed iteration: read ``status``/``success``; ``residuals``
+        are ``r`` at ``x``.
+
+    Notes
+    -----
+    For a square non-singular ``J`` the Gauss–Newton step of :func:`least_squares`,
+    ``−J⁺ r``, is Newton's step ``−J⁻¹ r``; the Levenberg–Marquardt safeguard damps only
+    a step that would increase ``‖r‖`` (a globalised Newton method, Dennis and Schnabel
+    1996, §6.4).  The rounding unit of one equation is taken as ``ε·s`` (ε the machine
+    epsilon), so that near the root the iteration also stops when its steps stop
+    contracting (status 2).  A Jacobian singular at ``x0`` stops at once (status -3).
+
+    References
+    ----------
+    J. E. Dennis and R. B. Schnabel, *Numerical Methods for Unconstrained Optimization
+    and Nonlinear Equations*, SIAM, 1996, ch. 5 and §6.4.
+
+    Examples
+    --------
+    The root of ``x² − 2`` from ``x0 = 1``:
+
+    >>> res = solve_equations(lambda x: (x**2 - 2.0, np.diag(2.0 * x)), np.array([1.0]))
+    >>> res.success, float(res.x[0]) == float(np.sqrt(2.0))
+    (True, True)
+    """
+    x0 = np.asarray(x0, dtype=float)
+    _, jac0 = fun(x0)
+    scale = float(np.max(np.abs(jac0) @ np.maximum(np.abs(x0), 1.0), initial=0.0))
+    scale = scale if np.isfinite(scale) and scale > 0 else 1.0
+    return least_squares(
+        fun,
+        x0,
+        xtol=rtol * scale,
+        max_iter=max_iter,
+        residual_rounding=np.finfo(float).eps * scale,
+        require_full_rank=True,
+    )
 
 
 def _rank(s: np.ndarray, rtol: float, n: int) -> int:

@@ -20,6 +20,7 @@ import numpy as np
 
 from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import ConvergenceError, InputError
+from mtmetrology.optimize import solve_equations
 from mtmetrology.uncertainty.outputs import Output, json_dof, output_labels, output_records
 from mtmetrology.uncertainty.regions import (
     normal_ellipsoidal_coverage_factor,
@@ -366,14 +367,20 @@ def _central_differences(f: Callable, x: np.ndarray, step: np.ndarray, m: int) -
 
 
 def _solve_implicit(h, x, y0, jacobian, tol, max_iter):
-    """Newton iteration for h(y, x) = 0.
+    """Solve h(y, x) = 0 for y by Newton's method on the least-squares core.
 
     Returns y (m,), C_y (m, m), C_x (m, N) or None when no Jacobian was given, and
     the number of iterations.
+
+    Raises
+    ------
+    ConvergenceError
+        If :func:`mtmetrology.optimize.solve_equations` stops without converging (its
+        status message, the residual ‖h‖ and the number of steps are named).
     """
-    y = np.atleast_1d(np.asarray(y0, dtype=float)).copy()
-    m = y.size
-    if not np.all(np.isfinite(y)):
+    y_start = np.atleast_1d(np.asarray(y0, dtype=float)).copy()
+    m = y_start.size
+    if not np.all(np.isfinite(y_start)):
         raise InputError("y0 contains NaN or inf")
 
     def c_y(yy):
@@ -383,25 +390,25 @@ def _solve_implicit(h, x, y0, jacobian, tol, max_iter):
             lambda yp: h(yp, np.broadcast_to(x, (*yp.shape[:-1], x.size))), yy, step, m
         )
 
-    iterations = 0
-    converged = False
-    while not converged:
-        if iterations == max_iter:
-            raise ConvergenceError(
-                f"implicit model: Newton did not converge in {max_iter} iterations; "
-                "give a better y0"
-            )
-        hv = np.asarray(h(y, x), dtype=float).reshape(m)
-        cy = jacobian(y, x)[0] if jacobian is not None else c_y(y)
-        dy = np.linalg.solve(np.asarray(cy, dtype=float).reshape(m, m), hv)
-        y = y - dy
-        iterations += 1
-        converged = bool(np.all(np.abs(dy) <= tol * np.maximum(np.abs(y), 1.0)))
+    def equations(yy):
+        hv = np.asarray(h(yy, x), dtype=float).reshape(m)
+        cy = jacobian(yy, x)[0] if jacobian is not None else c_y(yy)
+        return hv, np.asarray(cy, dtype=float).reshape(m, m)
+
+    solved = solve_equations(equations, y_start, rtol=tol, max_iter=max_iter)
+    if not solved.success:
+        raise ConvergenceError(
+            f"implicit model: Newton's method did not solve h(y, x) = 0 ({solved.message}): "
+            f"residual |h| = {np.linalg.norm(solved.residuals):.3g} at y = "
+            f"{np.array2string(np.asarray(solved.x), precision=6)} after {solved.nit} steps; "
+            "give a better y0"
+        )
+    y = np.asarray(solved.x, dtype=float)
     if jacobian is None:
-        return y, c_y(y), None, iterations
+        return y, c_y(y), None, solved.nit
     cy, cx = jacobian(y, x)
     cy = np.asarray(cy, dtype=float).reshape(m, m)
-    return y, cy, np.asarray(cx, dtype=float).reshape(m, x.size), iterations
+    return y, cy, np.asarray(cx, dtype=float).reshape(m, x.size), solved.nit
 
 
 def guf(
@@ -444,7 +451,9 @@ def guf(
         Round ν_eff down to an integer before taking the t quantile, as
         JCGM 100:2008 G.4.1 and H.1.6 do (ν_eff itself is reported unrounded).
     tol, max_iter :
-        Newton stopping rule (relative step) and iteration limit.
+        Newton stopping rule and iteration limit of an implicit model: the ``rtol`` and
+        ``max_iter`` of :func:`mtmetrology.optimize.solve_equations` (the step relative
+        to the size of the terms of h).
 
     Returns
     -------
@@ -457,7 +466,8 @@ def guf(
         returns NaN, an implicit model without y0, or correlated inputs with finite
         degrees of freedom outside a common ensemble (Welch–Satterthwaite does not apply).
     ConvergenceError
-        Newton's method did not solve an implicit model in ``max_iter`` iterations.
+        Newton's method did not solve an implicit model (iteration limit, no descent, or
+        C_y singular at y0); the message names the residual ‖h‖ and the steps taken.
 
     Notes
     -----
