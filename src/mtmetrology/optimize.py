@@ -457,11 +457,11 @@ def solve_equations(
     (True, True)
     """
     x0 = np.asarray(x0, dtype=float)
-    _, jac0 = fun(x0)
-    scale = float(np.max(np.abs(jac0) @ np.maximum(np.abs(x0), 1.0), initial=0.0))
+    first = [fun(x0)]  # serves the scale and the first iteration of the core
+    scale = float(np.max(np.abs(first[0][1]) @ np.maximum(np.abs(x0), 1.0), initial=0.0))
     scale = scale if np.isfinite(scale) and scale > 0 else 1.0
     return least_squares(
-        fun,
+        lambda x: first.pop() if first else fun(x),
         x0,
         xtol=rtol * scale,
         max_iter=max_iter,
