@@ -104,7 +104,8 @@ def monte_carlo(
         Significant digits n_dig from which the tolerances are derived when ``tolerance``
         does not give them (JCGM 101, 7.9.2).
     tolerance : float, (m,) array or NumericalTolerance, optional
-        Explicit δ (output units) per output, or a :class:`Tolerance` with ρ and κ_p too.
+        Explicit δ (output units) per output, or a :class:`.NumericalTolerance` with ρ
+        and κ_p too.
     criterion : {"jcgm", "strict"}
         "jcgm": 2·s/√h ≤ δ, s the standard deviation of the h sequence values (JCGM 101,
         7.9.4; JCGM 102, 7.8). "strict": s ≤ δ (Sepahi Boroujeni 2021, Ch. 5, eq. 5-12), which needs
