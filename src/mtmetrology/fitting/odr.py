@@ -1,7 +1,8 @@
-"""Machinery shared by the orthogonal-distance least-squares fits.
+"""Orthogonal-distance regression: what the least-squares fits share.
 
-The result object, input checks, Gauss–Newton with a Levenberg–Marquardt safeguard,
-local frames and the algebraic starting values used by :mod:`.least_squares` (line,
+The result object and its sensitivities, the conditioning check, the call of the
+project's least-squares core on a fit's local parameters, the comparison of fits from
+several starts and the algebraic starting values used by :mod:`.least_squares` (line,
 plane, circle, sphere) and :mod:`.axial` (cylinder, cone).  See
 :mod:`mtmetrology.fitting.least_squares` for the definitions and references.
 """
@@ -17,14 +18,24 @@ import numpy as np
 
 from mtmetrology.display import NotebookRepr
 from mtmetrology.fitting.elements import Element
+from mtmetrology.fitting.geometry import singular_values
 from mtmetrology.fitting.validation import FitError
 from mtmetrology.optimize import LeastSquaresResult, Status, least_squares
 
+__all__ = [
+    "FitResult",
+    "Sensitivities",
+    "better_fit",
+    "check_conditioning",
+    "fit_message",
+    "fit_result",
+    "hyper_fit",
+    "local_to_points",
+    "solve_distances",
+]
+
 # Gauss–Newton stops when the step is below this fraction of the data size.
 _STEP_TOL = 1e-13
-# Steps whose predicted relative cost decrease is below this are accepted whatever the
-# (rounding-level) change of the cost; the iteration ends when they stop contracting.
-_NEAR_REL = 1e-10
 _EPS = float(np.finfo(float).eps)
 _MAX_ITER = 200
 
@@ -136,27 +147,7 @@ class FitResult(NotebookRepr):
         return out
 
 
-def _singular_values(x: np.ndarray) -> np.ndarray:
-    return np.linalg.svd(x, compute_uv=False)
-
-
-def _canonical(v: np.ndarray) -> np.ndarray:
-    """Sign convention for undirected axes and normals: largest component positive."""
-    return v if v[np.argmax(np.abs(v))] > 0 else -v
-
-
-def _perp_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors completing ``a`` to a right-handed orthonormal frame.
-
-    A deterministic function of ``a``: evaluation and update use the same frame.
-    """
-    helper = np.eye(3)[int(np.argmin(np.abs(a)))]
-    e1 = np.cross(a, helper)
-    e1 /= np.linalg.norm(e1)
-    return e1, np.cross(a, e1)
-
-
-def _local_to_points(j: np.ndarray, g: np.ndarray) -> np.ndarray:
+def local_to_points(j: np.ndarray, g: np.ndarray) -> np.ndarray:
     """dβ/dP = −J⁺ ∂d/∂P for residuals grouped per point.
 
     j : (n, q, p) Jacobian of the q residuals of each point w.r.t. local parameters β.
@@ -174,8 +165,24 @@ def _local_to_points(j: np.ndarray, g: np.ndarray) -> np.ndarray:
     return np.einsum("pnq,nqd->pnd", a, g)
 
 
-def _check_conditioning(kind: str, j: np.ndarray, names: str) -> None:
-    s = _singular_values(j)
+def check_conditioning(kind: str, j: np.ndarray, names: str) -> None:
+    """Refuse a fit whose Jacobian is rank-deficient at the solution.
+
+    Parameters
+    ----------
+    kind : str
+        What is fitted; leads the message.
+    j : (m, p) ndarray
+        Jacobian of the distances with respect to the local parameters.
+    names : str
+        The parameters, for the message.
+
+    Raises
+    ------
+    FitError
+        When ``σ_min(j) ≤ 1e-12 σ_max(j)``: the points do not determine the parameters.
+    """
+    s = singular_values(j)
     if s[-1] <= 1e-12 * s[0]:
         raise FitError(
             f"{kind}: the parameters ({names}) are not determined by these points "
@@ -183,7 +190,7 @@ def _check_conditioning(kind: str, j: np.ndarray, names: str) -> None:
         )
 
 
-def _gauss_newton(
+def solve_distances(
     evaluate: Callable[[Any], tuple[np.ndarray, np.ndarray]],
     retract: Callable[[Any, np.ndarray], Any],
     state: Any,
@@ -207,7 +214,7 @@ def _gauss_newton(
     )
 
 
-def _better(solve: LeastSquaresResult, best: LeastSquaresResult | None) -> bool:
+def better_fit(solve: LeastSquaresResult, best: LeastSquaresResult | None) -> bool:
     """Whether a fit from another starting value beats the best so far: converged first,
     then a cost lower beyond rounding (ties keep the earlier, preferred candidate)."""
     if best is None or (solve.success and not best.success):
@@ -215,7 +222,7 @@ def _better(solve: LeastSquaresResult, best: LeastSquaresResult | None) -> bool:
     return solve.success == best.success and solve.cost < best.cost * (1.0 - 1e-9)
 
 
-def _message(kind: str, solve: LeastSquaresResult | None, rms: float) -> str:
+def fit_message(kind: str, solve: LeastSquaresResult | None, rms: float) -> str:
     """One line from the status: what stopped the fit, and the rms residual."""
     if solve is None:
         return f"{kind}: closed-form SVD fit (rms {rms:.3g} mm)"
@@ -223,7 +230,7 @@ def _message(kind: str, solve: LeastSquaresResult | None, rms: float) -> str:
     return text if solve.success else f"{text}; the result is the best point reached"
 
 
-def _result(
+def fit_result(
     element: Element,
     residuals: np.ndarray,
     solve: LeastSquaresResult | None,
@@ -231,6 +238,9 @@ def _result(
     sensitivities: Callable[[], Sensitivities],
     form_error: float | None = None,
 ) -> FitResult:
+    """Assemble a :class:`FitResult`: rms, peak-to-valley (unless ``form_error`` is given)
+    and the solver's status, iterations and evaluations (``EXACT`` and 0 for a closed-form
+    fit, ``solve is None``)."""
     rms = float(np.sqrt(np.mean(residuals**2)))
     pv = float(residuals.max() - residuals.min()) if form_error is None else form_error
     return FitResult(
@@ -246,14 +256,7 @@ def _result(
     )
 
 
-def _centred(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    centroid = points.mean(axis=0)
-    x = points - centroid
-    scale = float(np.sqrt(np.einsum("ij,ij->", x, x) / x.shape[0]))
-    return x, centroid, scale
-
-
-def _hyper_fit(x: np.ndarray) -> tuple[np.ndarray, float]:
+def hyper_fit(x: np.ndarray) -> tuple[np.ndarray, float]:
     """Algebraic "hyper" circle/sphere fit of centred points x (n, d).
 
     Minimises ``AᵀMA`` subject to ``AᵀNA = 1`` for ``A0‖x‖² + b·x + c = 0`` with the
