@@ -74,6 +74,15 @@ class AxisModel:
     order, ``d_i = rho_i - (x_i a + y_i b + z_i (x_i alpha + y_i beta)) / rho_i``
     (Forbes, NPL DITC 140/89, section 5). Tilts are scaled by the half-length of the point
     set so that every step component is a displacement in mm.
+
+    Parameters
+    ----------
+    p : (n, 3) ndarray, mm
+        The points.
+    point : (3,) ndarray, mm
+        A point of the axis.
+    direction : (3,) ndarray
+        The axis direction (any length).
     """
 
     def __init__(self, p: np.ndarray, point: np.ndarray, direction: np.ndarray):
@@ -92,6 +101,8 @@ class AxisModel:
         self.scales = np.array([1.0, 1.0, 1.0 / half_length, 1.0 / half_length])
 
     def evaluate(self) -> tuple[np.ndarray, np.ndarray]:
+        """Distances ρ (n,) of the points from the axis, mm, and their Jacobian (n, 4) with
+        respect to the scaled step (a, b, α, β)."""
         x, y, z = self.local.T
         rho = np.hypot(x, y)
         inv = 1.0 / np.maximum(rho, np.finfo(float).tiny)
@@ -99,6 +110,7 @@ class AxisModel:
         return rho, jac
 
     def moved(self, step: np.ndarray) -> AxisModel:
+        """The axis after the step (a, b, α, β): shifted by (a, b) and tilted by (α, β)."""
         e1, e2, axis = self.frame
         point = self.point + step[0] * e1 + step[1] * e2
         return AxisModel(self.p, point, axis + step[2] * e1 + step[3] * e2)

@@ -148,12 +148,23 @@ class FitResult(NotebookRepr):
 
 
 def local_to_points(j: np.ndarray, g: np.ndarray) -> np.ndarray:
-    """dβ/dP = −J⁺ ∂d/∂P for residuals grouped per point.
+    """Sensitivities of the local parameters to the points, ``dβ/dP = −J⁺ ∂d/∂P``
+    (first-order implicit-function form at the solution), for residuals grouped per point.
 
-    j : (n, q, p) Jacobian of the q residuals of each point w.r.t. local parameters β.
-    g : (n, q, dim) derivative of each residual w.r.t. its own point.
-    Returns (p, n, dim).
+    Parameters
+    ----------
+    j : (n, q, p) ndarray
+        Jacobian of the q residuals of each point with respect to the local parameters β.
+    g : (n, q, dim) ndarray
+        Derivative of each residual with respect to its own point.
 
+    Returns
+    -------
+    (p, n, dim) ndarray
+        ``dβ/dP``.
+
+    Notes
+    -----
     ``J⁺ = R⁺R⁺ᵀJᵀ`` with R the triangular factor of ``J = QR`` (so ``R⁺R⁺ᵀ = (JᵀJ)⁺``):
     the pseudo-inverse of the small R instead of a thin SVD of J, whose (n·q, p) factor
     would double the memory of a fit to millions of points.
@@ -196,13 +207,28 @@ def solve_distances(
     state: Any,
     scale: float,
 ) -> LeastSquaresResult:
-    """The project's least-squares core on a fit's local parameters.
+    """The project's least-squares core (:func:`mtmetrology.optimize.least_squares`) on a
+    fit's local parameters: minimise ``Σ d_i²`` over the orthogonal distances d.
 
-    ``evaluate(state) -> (d (m,), J (m, p))``; ``retract(state, δ)`` applies a step in the
-    local parameters and returns the new state (None if it leaves the domain).  Distances
-    are differences of coordinates of size ``scale``, so their rounding unit is
-    ``eps·scale``: below it the cost cannot judge steps and the iteration stops when they
-    stop contracting (status 2).
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(state) -> (d (m,), J (m, p))``: distances, mm, and their Jacobian with
+        respect to the local parameters.
+    retract : callable
+        ``retract(state, δ)`` applies a step δ (p,) in the local parameters and returns the
+        new state (None if it leaves the domain).
+    state : object
+        The starting element.
+    scale : float
+        Size of the point set, mm.  Distances are differences of coordinates of this size,
+        so their rounding unit is ``eps·scale``: below it the cost cannot judge steps and
+        the iteration stops when they stop contracting (status 2); the step tolerance is
+        ``1e-13·scale``.
+
+    Returns
+    -------
+    mtmetrology.optimize.LeastSquaresResult
     """
     return least_squares(
         evaluate,
@@ -262,6 +288,22 @@ def hyper_fit(x: np.ndarray) -> tuple[np.ndarray, float]:
     Minimises ``AᵀMA`` subject to ``AᵀNA = 1`` for ``A0‖x‖² + b·x + c = 0`` with the
     hyper constraint ``N = 2 N_Taubin − N_Pratt`` (Al-Sharadqah & Chernov, Electron. J.
     Stat. 3 (2009) 886), which has no essential bias; used only as a starting value.
+
+    Parameters
+    ----------
+    x : (n, d) ndarray, mm
+        Centred points, d = 2 (circle) or 3 (sphere).
+
+    Returns
+    -------
+    centre : (d,) ndarray, mm
+        In the centred coordinates.
+    radius : float, mm
+
+    Raises
+    ------
+    FitError
+        When no admissible algebraic solution exists, or the points lie on a line or plane.
     """
     import scipy.linalg  # here, not at the top: importing it takes 0.5 s
 
