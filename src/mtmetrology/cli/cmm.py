@@ -74,13 +74,15 @@ SigmaOpt = Annotated[
 OutOpt = Annotated[Path, typer.Option("-o", "--output", help="Output file.")]
 
 
-def _positive(value: float, name: str) -> float:
+def positive_option(value: float, name: str) -> float:
+    """``value`` if it is a positive finite number, else an input error naming the option
+    ``name`` (exit 2)."""
     if not (math.isfinite(value) and value > 0):
         raise InputFileError(f"{name}: must be a positive number, got {value}")
     return value
 
 
-def _report(ctx: typer.Context, title: str, inputs: list[Path], machine: str | None = None):
+def cmm_report(ctx: typer.Context, title: str, inputs: list[Path], machine: str | None = None):
     """A report with the command line and the input files (and the machine) as provenance.
 
     Built before the JSON result is written, so that a failing renderer leaves nothing.
@@ -93,7 +95,7 @@ def _report(ctx: typer.Context, title: str, inputs: list[Path], machine: str | N
     return Report(title, command=command_line(ctx), provenance=provenance)
 
 
-def _add_result(report, result, **context) -> None:
+def add_cmm_result(report, result, **context) -> None:
     """Append ``result`` to ``report`` with the CMM renderers registered."""
     import mtmetrology.cmm.report  # noqa: F401  (registers the CMM renderers)
     from mtmetrology.report.results import add_result as add
@@ -101,7 +103,9 @@ def _add_result(report, result, **context) -> None:
     add(report, result, **context)
 
 
-def _inputs(records: Path, plate: Path, probes: Path):
+def read_ballplate_inputs(records: Path, plate: Path, probes: Path):
+    """The ball-plate records read against their plate and probe-set files: (records,
+    plate, probes)."""
     pl, pr = load_plate(plate), load_probes(probes)
     return read_records(records, pl, pr), pl, pr
 
@@ -145,7 +149,7 @@ def calibrate_ballplate_cmd(
     unobservable combinations named. Writes a ballplate-calibration result (a parameter set
     for `mtm predict --params`) with U1/U2/U3 from the full covariance.
     """
-    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    sigma = to_internal(positive_option(sigma_um, "--sigma-um"), "µm")
     m = Machine.load(machine)
     request = calibrate_ballplate_files(
         records,
@@ -162,10 +166,10 @@ def calibrate_ballplate_cmd(
     doc = request.to_dict()
     report = None
     if report_path is not None:
-        report = _report(
+        report = cmm_report(
             ctx, f"Ball-plate calibration: {records.name}", [records, plate, probes], machine
         )
-        _add_result(report, cal, model_selection=selection)
+        add_cmm_result(report, cal, model_selection=selection)
     if history:
         record_in_history(doc, m, "mtm calibrate ballplate", [records, plate, probes])
     write_json(output, doc)
@@ -244,8 +248,8 @@ def budget_cmd(
         doc["statement"] = cmm_statement(spec).to_dict()
     report = None
     if report_path is not None:
-        report = _report(ctx, f"Ball-plate length budget: {budget.name}", [budget])
-        _add_result(report, res)
+        report = cmm_report(ctx, f"Ball-plate length budget: {budget.name}", [budget])
+        add_cmm_result(report, res)
     write_json(output, doc)
     if report is not None:
         write_report(report, report_path)
@@ -323,9 +327,9 @@ def gp_fit(
     report_path: ReportOption = None,
 ) -> None:
     """Fit a GP per error component (ML hyper-parameters), alternating with plate poses."""
-    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    sigma = to_internal(positive_option(sigma_um, "--sigma-um"), "µm")
     m = Machine.load(machine)
-    rec, pl, pr = _inputs(records, plate, probes)
+    rec, pl, pr = read_ballplate_inputs(records, plate, probes)
     if mean != "none":
         parse_model(mean)
     if kernel not in ("rbf", "matern"):
@@ -343,8 +347,10 @@ def gp_fit(
     doc = gp.to_document()
     report = None
     if report_path is not None:
-        report = _report(ctx, f"GP error model: {records.name}", [records, plate, probes], machine)
-        _add_result(report, gp)
+        report = cmm_report(
+            ctx, f"GP error model: {records.name}", [records, plate, probes], machine
+        )
+        add_cmm_result(report, gp)
     write_json(output, doc)
     if report is not None:
         write_report(report, report_path)

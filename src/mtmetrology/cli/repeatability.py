@@ -27,7 +27,7 @@ from mtmetrology.cli._common import (
 from mtmetrology.formatting import format_uncertainty, format_value
 from mtmetrology.io import write_json
 from mtmetrology.omm.hysteresis import summary_line
-from mtmetrology.omm.repeatability import MIN_TARGETS_PER_COEFFICIENT
+from mtmetrology.omm.repeatability_model import MIN_TARGETS_PER_COEFFICIENT
 from mtmetrology.omm.repeatability_records import fit_repeatability_file, hysteresis_from_file
 
 app = typer.Typer(

@@ -3,16 +3,15 @@ compensation and the features (least-squares and minimum-zone) of the uncertaint
 engine."""
 
 from mtmetrology.fitting.batch import (
-    BatchCylinderFit,
     BatchLineFit,
     BatchPlaneFit,
     BatchRoundFit,
     fit_circles,
-    fit_cylinders,
     fit_lines,
     fit_planes,
     fit_spheres,
 )
+from mtmetrology.fitting.batch_cylinders import BatchCylinderFit, fit_cylinders
 from mtmetrology.fitting.composite import CombinedFeature, PointCoordinates
 from mtmetrology.fitting.elements import Circle, Cone, Cylinder, Element, Line, Plane, Sphere
 from mtmetrology.fitting.features import (
