@@ -40,12 +40,18 @@ BALLS.yaml: true ball centres in the workpiece frame:
 ARTEFACT.yaml: as for 'mtm calibrate samba' (ball and stylus tip diameters).
 
 POSES.csv: the probing programme, one probing per row in probing order:
-ball,B,C[,S] (degrees).
+ball,B,C[,S][,tool] (degrees).
+
+Several styli: --tool ID=x,y,z (mm, the true vector from the spindle nose to the stylus
+centre) once per stylus, ids as in the artefact's tools; each probing uses the tool of
+its POSES.csv tool column, or, without one, the whole programme is repeated with each
+tool in turn.  A POSES.csv tool column without --tool uses the artefact's vectors.
 
 RECORDS.csv is written in the format 'mtm calibrate samba' reads: ball,X,Y,Z,B,C,S
 (ball-centre indications), or measurement,ball,X,Y,Z,B,C,S,i,j,k with --raw-points
 (i,j,k: approach direction in machine axes), with a leading campaign column when
---campaigns K > 1 and sense_<axis> columns when the model has reversal terms.
+--campaigns K > 1, sense_<axis> columns when the model has reversal terms and a tool
+column with several styli.
 """
 
 LENGTH_HELP = """Readings of a gauge-block length check on a virtual machine.
@@ -97,6 +103,10 @@ def samba(
         str | None,
         typer.Option("--tool-offset-um", help="True tool-vector correction dx,dy,dz (µm)."),
     ] = None,
+    tool: Annotated[
+        list[str] | None,
+        typer.Option("--tool", help="A stylus ID=x,y,z (mm); repeat for each stylus."),
+    ] = None,
     seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
 ) -> None:
     if noise_um < 0 or drift_um < 0:
@@ -119,6 +129,7 @@ def samba(
         campaigns=campaigns,
         drift=float(to_internal(drift_um, "µm")),
         tool_offset=offset,
+        tools=_tools(tool),
         seed=seed,
     )
     rec.write(output)
@@ -135,6 +146,21 @@ def _vector(text: str, option: str, unit: str = "mm") -> tuple[float, float, flo
     if len(values) != 3 or not all(math.isfinite(v) for v in values):
         raise InputError(f"{option} needs three numbers x,y,z in {unit}, got {text!r}")
     return values
+
+
+def _tools(options: list[str] | None) -> dict[str, tuple[float, float, float]] | None:
+    """``{id: vector}`` of the ``--tool ID=x,y,z`` options (None without one)."""
+    if not options:
+        return None
+    out: dict[str, tuple[float, float, float]] = {}
+    for text in options:
+        name, sep, vector = text.partition("=")
+        if not sep or not name.strip():
+            raise InputError(f"--tool needs ID=x,y,z (mm), got {text!r}")
+        if name.strip() in out:
+            raise InputError(f"--tool {name.strip()!r} is given twice")
+        out[name.strip()] = _vector(vector, f"--tool {name.strip()}")
+    return out
 
 
 @app.command("length", help=LENGTH_HELP)
