@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from mtmetrology.cli._common import user_errors
+from mtmetrology.cli._common import parse_tools, parse_vector, user_errors
 from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -114,9 +113,8 @@ def samba(
     m, theta = _truth(Machine.load(machine, model), truth)
     offset = (0.0, 0.0, 0.0)
     if tool_offset_um:
-        offset = tuple(
-            float(to_internal(v, "µm")) for v in _vector(tool_offset_um, "--tool-offset-um", "µm")
-        )
+        given = parse_vector(tool_offset_um, "--tool-offset-um", "µm")
+        offset = tuple(float(to_internal(v, "µm")) for v in given)
     rec = simulate_records(
         m,
         theta,
@@ -129,38 +127,11 @@ def samba(
         campaigns=campaigns,
         drift=float(to_internal(drift_um, "µm")),
         tool_offset=offset,
-        tools=_tools(tool),
+        tools=parse_tools(tool),
         seed=seed,
     )
     rec.write(output)
     typer.echo(f"wrote {len(rec)} rows to {output}", err=True)
-
-
-def _vector(text: str, option: str, unit: str = "mm") -> tuple[float, float, float]:
-    """Three comma-separated numbers of an option."""
-    parts = [p for p in text.split(",") if p.strip()]
-    try:
-        values = tuple(float(p) for p in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise InputError(f"{option} needs three numbers x,y,z in {unit}, got {text!r}")
-    return values
-
-
-def _tools(options: list[str] | None) -> dict[str, tuple[float, float, float]] | None:
-    """``{id: vector}`` of the ``--tool ID=x,y,z`` options (None without one)."""
-    if not options:
-        return None
-    out: dict[str, tuple[float, float, float]] = {}
-    for text in options:
-        name, sep, vector = text.partition("=")
-        if not sep or not name.strip():
-            raise InputError(f"--tool needs ID=x,y,z (mm), got {text!r}")
-        if name.strip() in out:
-            raise InputError(f"--tool {name.strip()!r} is given twice")
-        out[name.strip()] = _vector(vector, f"--tool {name.strip()}")
-    return out
 
 
 @app.command("length", help=LENGTH_HELP)
@@ -183,8 +154,8 @@ def length(
     check = simulate_length_check(
         m,
         theta,
-        _vector(end_a, "--end-a"),
-        _vector(end_b, "--end-b"),
+        parse_vector(end_a, "--end-a"),
+        parse_vector(end_b, "--end-b"),
         pairs=pairs,
         b_max_deg=b_max_deg,
         noise=float(to_internal(noise_um, "µm")),
