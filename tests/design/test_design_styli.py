@@ -109,3 +109,39 @@ def test_cli_writes_the_tool_column_and_the_artefact_tools(tmp_path):
     assert {r.split(",")[-1] for r in lines[1:]} == {"long", "short"}
     assert "tools:" in art.read_text().splitlines()
     assert "What the second stylus buys" in (tmp_path / "plan.html").read_text()
+
+
+def test_planned_u_is_the_calibrations_for_the_two_stylus_programme(tmp_path):
+    """design → simulate → calibrate with two styli: the programme's tool column and the
+    artefact's tools carry through, and the calibration's u of every parameter (σ = 1 µm,
+    the bar's u = 1 µm, as planned) is the plan's predicted u to 1 % (the calibration's
+    Jacobian is taken at the estimate, the plan's at the nominal)."""
+    balls = tmp_path / "balls.yaml"
+    balls.write_text(
+        "kind: samba-balls\nballs:\n  - {id: '1', centre_mm: [-50, -50, 50]}\n"
+        "  - {id: '2', centre_mm: [50, 50, 60]}\n"
+    )
+    names = "E_A0B,E_C0B,E_X0C,E_A0C,E_B0C,E_B0Z,E_A0Y,E_C0Y,E_XX1,E_YY1,E_ZZ1,E_Y0S,E_X0S,E_AY1"
+    machine = ["--machine", "five-axis-wcbxfzyst", "--params-only", names]
+    plan, art, placed = tmp_path / "plan.csv", tmp_path / "art.yaml", tmp_path / "b.yaml"
+    runner = CliRunner()
+    args = ["design", "samba", *machine, "--balls", str(balls), "--b-grid", "-90:90:30"]
+    args += ["--c-grid", "0:315:45", "--tool", "long=0,0,-150", "--tool", "short=0,0,-200"]
+    args += ["--starts", "1", "--seed", "0", "-o", str(plan), "--artefact-out", str(art)]
+    args += ["--balls-out", str(placed), "--json"]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    planned = {p["name"]: p["u"] for p in json.loads(result.stdout)["parameters"]}
+    records = tmp_path / "rec.csv"
+    args = ["simulate", "samba", "--machine", "five-axis-wcbxfzyst", "--artefact", str(art)]
+    args += ["--balls", str(placed), "--poses", str(plan), "--noise-um", "0", "-o", str(records)]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    args = ["calibrate", "samba", str(records), *machine, "--artefact", str(art)]
+    args += ["--estimate-tool", "--noise-um", "1", "--json"]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert [t["id"] for t in doc["tools"]] == ["long", "short"]
+    for p in doc["propagation_factors"]:
+        assert p["u"] == pytest.approx(planned[p["name"]], rel=0.01), p["name"]
