@@ -128,18 +128,17 @@ def _check_same_test(first: SambaRecords, other: SambaRecords, machine: Machine)
         )
     tools_a = first.tools or ("",) * len(first)
     tools_b = other.tools or ("",) * len(other)
-    for k in range(len(first)):
-        same = first.balls[k] == other.balls[k] and tools_a[k] == tools_b[k]
-        same = same and np.allclose(
-            first.readings[k, pose], other.readings[k, pose], rtol=0, atol=1e-9
+    moved = np.any(np.abs(first.readings[:, pose] - other.readings[:, pose]) > 1e-9, axis=1)
+    differ = [a != b for a, b in zip(first.balls, other.balls, strict=True)]
+    differ = np.array(differ) | moved | [a != b for a, b in zip(tools_a, tools_b, strict=True)]
+    if differ.any():
+        k = int(np.flatnonzero(differ)[0])
+        raise InputError(
+            f"{other.source}, line {other.lines[k]}: indication {k + 1} (ball "
+            f"{other.balls[k]!r}) is not the position of {first.source}, line "
+            f"{first.lines[k]} (ball {first.balls[k]!r}): every campaign must probe "
+            "the same balls at the same indexations in the same order"
         )
-        if not same:
-            raise InputError(
-                f"{other.source}, line {other.lines[k]}: indication {k + 1} (ball "
-                f"{other.balls[k]!r}) is not the position of {first.source}, line "
-                f"{first.lines[k]} (ball {first.balls[k]!r}): every campaign must probe "
-                "the same balls at the same indexations in the same order"
-            )
 
 
 def unexplained_from_campaigns(
