@@ -112,8 +112,9 @@ def test_cli_writes_the_tool_column_and_the_artefact_tools(tmp_path):
 
 
 def test_planned_u_is_the_calibrations_for_the_two_stylus_programme(tmp_path):
-    """design → simulate → calibrate with two styli: the programme's tool column and the
-    artefact's tools carry through, and the calibration's u of every parameter (σ = 1 µm,
+    """design → identifiability, simulate → calibrate with two styli: the programme's tool
+    column and the artefact's tools carry through (``mtm machine identifiability`` gives
+    the plan's rank and condition), and the calibration's u of every parameter (σ = 1 µm,
     the bar's u = 1 µm, as planned) is the plan's predicted u to 1 % (the calibration's
     Jacobian is taken at the estimate, the plan's at the nominal)."""
     balls = tmp_path / "balls.yaml"
@@ -131,7 +132,16 @@ def test_planned_u_is_the_calibrations_for_the_two_stylus_programme(tmp_path):
     args += ["--balls-out", str(placed), "--json"]
     result = runner.invoke(app, args)
     assert result.exit_code == 0, result.output
-    planned = {p["name"]: p["u"] for p in json.loads(result.stdout)["parameters"]}
+    plan_doc = json.loads(result.stdout)
+    planned = {p["name"]: p["u"] for p in plan_doc["parameters"]}
+    # mtm machine identifiability reads the tool column: the plan's own diagnostics
+    args = ["machine", "identifiability", "five-axis-wcbxfzyst", str(plan), "--model", "13"]
+    args += ["--add", "E_AY1", "--artefact", str(art), "--json"]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    ident = json.loads(result.stdout)
+    assert ident["n_unknowns"] == plan_doc["n_unknowns"] == ident["rank"]
+    assert ident["condition_scaled"] == pytest.approx(plan_doc["condition_scaled"], rel=1e-6)
     records = tmp_path / "rec.csv"
     args = ["simulate", "samba", "--machine", "five-axis-wcbxfzyst", "--artefact", str(art)]
     args += ["--balls", str(placed), "--poses", str(plan), "--noise-um", "0", "-o", str(records)]
