@@ -111,6 +111,9 @@ def test_a_tool_missing_from_the_artefact_is_refused(files, machine13, balls, ar
     prog = ProbingProgramme(("1", "1"), np.zeros(2), np.array([0.0, 90.0]), np.zeros(2))
     with pytest.raises(InputFileError, match="tool 'long' is not in the artefact's tools"):
         simulate_records(machine13, None, balls, prog, artefact, tools={"long": TOOLS["long"]})
+    named = ProbingProgramme(prog.balls, prog.b_deg, prog.c_deg, prog.s_deg, ("a", "a"))
+    with pytest.raises(InputFileError, match="a tool column needs the styli"):
+        simulate_records(machine13, None, balls, named, artefact)
     result = mtm(
         "simulate", "samba", "--machine", MACHINE, "--artefact", files / "artefact.yaml",
         "--balls", EXAMPLES / "balls.yaml", "--poses", EXAMPLES / "poses.csv",

@@ -130,6 +130,11 @@ def _with_tools(
     if tools is None and programme.tools is None:
         return programme, None
     vectors = listed if tools is None else {k: np.asarray(v, dtype=float) for k, v in tools.items()}
+    if not vectors:
+        raise InputFileError(
+            "poses: a tool column needs the styli: list them under tools in the artefact "
+            "file (or give --tool ID=x,y,z)"
+        )
     unknown = [t for t in vectors if t not in listed]
     if unknown:
         raise InputFileError(
