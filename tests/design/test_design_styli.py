@@ -35,8 +35,9 @@ def design(m14):
 
 
 def test_one_stylus_plan_is_refused_two_resolve_the_pair(m14, design):
-    with pytest.raises(RankDeficientError, match="second stylus"):
+    with pytest.raises(RankDeficientError, match="second stylus") as err:
         plan_samba(m14, PAIRS, balls=BALLS, k=3, starts=1, seed=0, rule=FREE)
+    assert [set(g) for g in err.value.confounded] == [{"E_AY1", "E_YY1"}]
     gain = design.to_dict()["stylus_gain"]
     one, every = gain["one_stylus"], gain["all_styli"]
     assert [set(g) for g in one["confounded"]] == [{"E_AY1", "E_YY1"}]

@@ -561,13 +561,23 @@ def choose_indexations(
     space = BlockInformation(fixed_rows, blocks[usable], criterion, n_fixed, counts[usable])
     search = detmax(space, size, starts=starts, seed=seed, executor=executor)
     chosen_rows = blocks[usable[search.best.members]].reshape(-1, blocks.shape[2])
+    chosen = usable[search.best.members]
     if not _full_rank(np.vstack([fixed_rows, chosen_rows])):
+        styli = None if tools is None else [(str(i), v) for i, v in enumerate(tools)]
+        senses = approach_senses(len(pairs))[chosen]
+        report = evaluate_programme(
+            machine, ball_ids, c, pairs[chosen], bar=bar, rule=rule, sigma_mm=sigma_mm,
+            senses=senses, tools=styli,
+        ).report  # fmt: skip
+        groups = report.confounded()
+        listed = "; ".join(" ~ ".join(g) for g in groups) or "a combination of set-up unknowns"
         raise RankDeficientError(
             f"the best {size}-indexation design found is rank deficient for the "
-            f"{machine.n_params}-parameter model: raise --k, add balls or candidate "
-            "indexations, add a second stylus (--tool) or use a smaller error model"
+            f"{machine.n_params}-parameter model, confounding {listed}: raise --k, add balls "
+            "or candidate indexations, add a second stylus (--tool) or use a smaller error "
+            "model",
+            confounded=tuple(tuple(g) for g in groups),
         )
-    chosen = usable[search.best.members]
     return pairs[chosen], approach_senses(len(pairs))[chosen], search
 
 
