@@ -569,8 +569,11 @@ def choose_indexations(
             machine, ball_ids, c, pairs[chosen], bar=bar, rule=rule, sigma_mm=sigma_mm,
             senses=senses, tools=styli,
         ).report  # fmt: skip
-        groups = report.confounded()
-        listed = "; ".join(" ~ ".join(g) for g in groups) or "a combination of set-up unknowns"
+        params = set(machine.parameter_names)
+        groups = [g for g in report.confounded() if params & set(g)]
+        listed = "; ".join(_short(g) for g in groups[:3]) or "set-up unknowns only"
+        if len(groups) > 3:
+            listed += f" and {len(groups) - 3} more combinations"
         raise RankDeficientError(
             f"the best {size}-indexation design found is rank deficient for the "
             f"{machine.n_params}-parameter model, confounding {listed}: raise --k, add balls "
@@ -579,6 +582,13 @@ def choose_indexations(
             confounded=tuple(tuple(g) for g in groups),
         )
     return pairs[chosen], approach_senses(len(pairs))[chosen], search
+
+
+def _short(group, most: int = 4) -> str:
+    """``A ~ B ~ C`` of a confounded group, the first ``most`` names and a count."""
+    names = list(group)
+    more = f" ~ … ({len(names)} unknowns)" if len(names) > most else ""
+    return " ~ ".join(names[:most]) + more
 
 
 def _full_rank(rows: np.ndarray, rtol: float = 1e-8) -> bool:
