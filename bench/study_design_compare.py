@@ -8,7 +8,8 @@ median over the sweep).
 Measured (2 cores shared, seed 1, k = 2 and 5): end 560 / 424 (3 balls) and 518 / 379
 (4 balls) against the table's 505 / 386 and 469 / 369; improvement 57.3 / 61.3 / 65.5 /
 55.0 % against 45.9 / 40.0 / 55.7 / 46.2 %; Cond_N 991 (3 balls) and 809 (4 balls) against
-588 and 482; 18–52 s per strategy.
+588 and 482 (the laboratory balls; at the balls step 1 chooses, Cond_N is 525 and 471:
+tests/design/test_table_a1_condition.py); 18–52 s per strategy.
 
 Not run by ``make bench`` (a study, not a speed benchmark): ``python
 bench/study_design_compare.py [k ...]`` (about 20 s per strategy on one core).

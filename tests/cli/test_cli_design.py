@@ -114,7 +114,10 @@ def test_too_small_k_is_refused_naming_k(tmp_path):
     result = runner.invoke(app, args)
     assert result.exit_code == 2
     assert result.output.startswith("error: the best ")
-    assert "design found is rank deficient for the 84-parameter model: raise --k" in result.output
+    assert (
+        "design found is rank deficient for the 84-parameter model, confounding " in result.output
+    )
+    assert "raise --k" in result.output and len(result.output.splitlines()) == 1
     assert not out.exists()
 
 

@@ -380,3 +380,36 @@ def test_parity_detects_a_field_the_command_would_add(tmp_path):
     """The comparison is field for field: one extra field makes the documents differ."""
     cli, library = case_fit(tmp_path)
     assert cli != {**_plain(library), "added_by_the_command": 1}
+
+
+def test_calibrate_unexplained_output_is_the_library_result(tmp_path):
+    """``mtm calibrate unexplained`` equals :func:`mtmetrology.samba.unexplained_from_campaigns`
+    on three simulated campaigns of the example SAMBA test."""
+    from pathlib import Path
+
+    from mtmetrology.samba import load_artefact, read_records, unexplained_from_campaigns
+
+    examples = Path(__file__).resolve().parents[2] / "examples" / "samba"
+    common = ["--machine", "five-axis-wcbxfzyst", "--model", "13"]
+    common += ["--artefact", examples / "artefact.yaml"]
+    files = []
+    for k in range(3):
+        files.append(tmp_path / f"c{k}.csv")
+        result = runner.invoke(
+            app,
+            [
+                str(a)
+                for a in [
+                    *("simulate", "samba", *common, "--truth", examples / "truth.json"),
+                    *("--balls", examples / "balls.yaml", "--poses", examples / "poses.csv"),
+                    *("--seed", k, "-o", files[-1]),
+                ]
+            ],
+        )
+        assert result.exit_code == 0, result.output
+    cli = _json(["calibrate", "unexplained", *files, *common, "--noise-um", "0.5", "--json"])
+    m = Machine.load("five-axis-wcbxfzyst", "13")
+    art = load_artefact(examples / "artefact.yaml")
+    recs = [read_records(f, m, art) for f in files]
+    library = unexplained_from_campaigns(m, recs, art, sigma=0.5e-3)
+    assert cli == _plain(library.to_dict())

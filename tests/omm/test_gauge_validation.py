@@ -249,7 +249,7 @@ def test_cov_e_estimated_from_samba_residuals_restores_the_coverage(tmp_path):
     for N_eff = 12·36/11 ≈ 39 intervals; without it, below the region."""
     from test_unexplained_estimate import TRUE_E, _perturbed_calibrations
 
-    from mtmetrology.omm.unexplained_estimate import estimate_unexplained_covariance
+    from mtmetrology.uncertainty.unexplained_estimate import estimate_unexplained_covariance
 
     _, cal = next(_perturbed_calibrations(tmp_path, 1))
     est = estimate_unexplained_covariance(

@@ -1,4 +1,4 @@
-"""cov(e) from data (issue 25): the estimator of :mod:`mtmetrology.omm.unexplained_estimate`
+"""cov(e) from data (issue 25): the estimator of :mod:`mtmetrology.uncertainty.unexplained_estimate`
 on hand values and on a virtual SAMBA test with a known unmodelled error."""
 
 from __future__ import annotations
@@ -16,10 +16,6 @@ from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.omm.unexplained import load_unexplained_covariance
-from mtmetrology.omm.unexplained_estimate import (
-    UnexplainedCovariance,
-    estimate_unexplained_covariance,
-)
 from mtmetrology.samba import (
     calibrate,
     load_artefact,
@@ -27,6 +23,10 @@ from mtmetrology.samba import (
     read_poses,
     read_records,
     simulate_records,
+)
+from mtmetrology.uncertainty.unexplained_estimate import (
+    UnexplainedCovariance,
+    estimate_unexplained_covariance,
 )
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "samba"

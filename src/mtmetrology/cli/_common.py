@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import inspect
 import json
+import math
 import os
 import shlex
 import sys
@@ -297,3 +298,30 @@ def machine_with_parameters(machine: str, params: Path | None):
     pset = ParameterSet.load(params, m)
     m = pset.machine_for(m)
     return m, pset.vector_for(m)
+
+
+def parse_vector(text: str, option: str, unit: str = "mm") -> tuple[float, float, float]:
+    """Three comma-separated numbers of an option."""
+    parts = [p for p in text.split(",") if p.strip()]
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise InputError(f"{option} needs three numbers x,y,z in {unit}, got {text!r}")
+    return values
+
+
+def parse_tools(options: list[str] | None) -> dict[str, tuple[float, float, float]] | None:
+    """``{id: vector}`` of the ``--tool ID=x,y,z`` options (None without one)."""
+    if not options:
+        return None
+    out: dict[str, tuple[float, float, float]] = {}
+    for text in options:
+        name, sep, vector = text.partition("=")
+        if not sep or not name.strip():
+            raise InputError(f"--tool needs ID=x,y,z (mm), got {text!r}")
+        if name.strip() in out:
+            raise InputError(f"--tool {name.strip()!r} is given twice")
+        out[name.strip()] = parse_vector(vector, f"--tool {name.strip()}")
+    return out

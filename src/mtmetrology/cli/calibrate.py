@@ -23,7 +23,6 @@ from mtmetrology.io.files import InputFileError, write_json
 from mtmetrology.io.schema import describe_validation_error
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameters import parse_parameter
-from mtmetrology.omm.unexplained_estimate import estimate_unexplained_covariance
 from mtmetrology.samba import (
     calibrate,
     evaluate_uncertainty,
@@ -32,6 +31,7 @@ from mtmetrology.samba import (
     read_records,
 )
 from mtmetrology.samba.uncertainty import pooled_sigma
+from mtmetrology.uncertainty.unexplained_estimate import estimate_unexplained_covariance
 from mtmetrology.units import from_internal, to_internal
 
 app = typer.Typer(help="Calibrate a machine from artefact measurements.", no_args_is_help=True)
@@ -330,7 +330,7 @@ def samba(
 def unexplained_from_calibration(cal, sigma: float):
     """cov(e) of a SAMBA calibration's residual vectors: p = all unknowns fitted (machine
     parameters, ball centres, tool), Σ_v = σ² I the indication noise it was weighted with
-    (:mod:`mtmetrology.omm.unexplained_estimate`)."""
+    (:mod:`mtmetrology.uncertainty.unexplained_estimate`)."""
     return estimate_unexplained_covariance(
         cal.residual_vectors,
         fitted_parameters=len(cal.identification.estimate),
@@ -390,5 +390,75 @@ def _summary(doc: dict, output: Path | None) -> None:
     )
     if "uncertainty" in doc and "validation" in doc["uncertainty"]:
         typer.echo(doc["uncertainty"]["validation"]["message"])
+    if output is not None:
+        typer.echo(f"wrote {output}", err=True)
+
+
+UNEXPLAINED_HELP = """cov(e) of the unexplained volumetric error from repeated SAMBA campaigns.
+
+CAMPAIGN.csv ...: two or more records files of the same SAMBA test (same balls,
+indexations and styli in the same order; any form 'mtm calibrate samba' reads), each
+calibrated on its own. The estimate is the scatter of the residual field between the
+campaigns at the common positions, less the probing noise σ² (--noise-um), with
+ν = (K − 1)(n − p/3), made positive semidefinite by eigenvalue clipping; the pooled
+within-campaign estimate is given beside it. E.json is the unexplained-volumetric-error
+document (µm²) that 'mtm task uncertainty --unexplained' reads, the same form as
+'mtm calibrate samba --unexplained-out'.
+"""
+
+
+@app.command("unexplained", help=UNEXPLAINED_HELP)
+@user_errors
+def unexplained(
+    ctx: typer.Context,
+    campaigns: Annotated[
+        list[Path], typer.Argument(help="CAMPAIGN.csv files (two or more, the same test).")
+    ],
+    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    artefact: Annotated[Path, typer.Option("--artefact", help="ARTEFACT.yaml.")],
+    model: Annotated[
+        str | None, typer.Option("--model", help="Error model: 13, 84 or a model name.")
+    ] = None,
+    params_only: Annotated[
+        str | None,
+        typer.Option("--params-only", help="Identify only these parameters (E_X0C,E_A0C,...)."),
+    ] = None,
+    noise_um: Annotated[
+        float, typer.Option("--noise-um", help="Standard uncertainty of every reading, µm.")
+    ] = 0.5,
+    estimate_tool: Annotated[
+        bool, typer.Option("--estimate-tool", help="Identify the tool vector too (needs S).")
+    ] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="E.json to write.")] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print E.json.")] = False,
+    report_path: ReportOption = None,
+) -> None:
+    from mtmetrology.samba import unexplained_from_campaigns
+
+    if not noise_um > 0:
+        raise InputError(f"--noise-um must be positive, got {noise_um}")
+    m = _machine(machine, model, params_only)
+    art = load_artefact(artefact)
+    records = [read_records(path, m, art) for path in campaigns]
+    sigma = float(to_internal(noise_um, "µm"))
+    result = unexplained_from_campaigns(m, records, art, sigma=sigma, estimate_tool=estimate_tool)
+    doc = result.to_dict()
+    report = None
+    if report_path is not None:
+        inputs = [*campaigns, artefact, machine if not Path(machine).is_file() else Path(machine)]
+        report = samba_report(ctx, "cov(e) from SAMBA campaigns", inputs, result)
+    if output is not None:
+        write_json(output, doc)
+    if report is not None:
+        write_report(report, report_path)
+    if json:
+        print_json(doc)
+        return
+    for name, est in (("between campaigns", result.between), ("within campaigns", result.within)):
+        u = from_internal(est.u, "µm")
+        typer.echo(
+            f"u(e) {name}: {u[0]:.2g}, {u[1]:.2g}, {u[2]:.2g} µm "
+            f"(ν = {est.degrees_of_freedom:.1f}{', clipped' if est.clipped else ''})"
+        )
     if output is not None:
         typer.echo(f"wrote {output}", err=True)

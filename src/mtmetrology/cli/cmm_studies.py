@@ -30,7 +30,7 @@ from mtmetrology.cmm.gpml import source_gp_demo
 from mtmetrology.cmm.heldout import compare_held_out
 from mtmetrology.cmm.models import parse_model
 from mtmetrology.cmm.probecal import CalibratedLength, calibrate_with_probes
-from mtmetrology.cmm.selfcal import THESIS_TABLES, selfcal_design
+from mtmetrology.cmm.selfcal import TABLE_4_3, THESIS_TABLES, selfcal_design
 from mtmetrology.io.files import InputFileError, check_output, write_json
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.units import to_internal
@@ -171,6 +171,10 @@ def selfcal_design_cmd(
     ] = None,
     json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
     report_path: ReportOption = None,
+    balls_per_side: Annotated[
+        int, typer.Option("--balls-per-side", help="n of the n x n plate (Table 4.3: 3 or 5).")
+    ] = 3,
+    pitch_mm: Annotated[float, typer.Option("--pitch-mm", help="Ball pitch, mm.")] = 100.0,
 ) -> None:
     """U1, U2, U3 of the source's self-calibration design (3 x 3 plate at 100 mm pitch, six
     styli at +-50 mm, reference sphere; ball centres, stylus offsets and poses unknown; the
@@ -181,7 +185,15 @@ def selfcal_design_cmd(
         check_output(output)
     m = Machine.load(machine)
     locs = [s.strip() for s in locations.split(",") if s.strip()]
-    res = selfcal_design(m, locs, sigma=sigma, truncation=truncation, seed=seed)
+    res = selfcal_design(
+        m,
+        locs,
+        sigma=sigma,
+        truncation=truncation,
+        seed=seed,
+        balls_per_side=balls_per_side,
+        pitch_mm=pitch_mm,
+    )
     doc = res.to_dict()
     _write(ctx, res, doc, output, report_path, "Self-calibration design", [], machine)
     if json_out:
@@ -199,10 +211,12 @@ def selfcal_design_cmd(
             continue
         parts = "; ".join(f"{u} {'/'.join(f'{v:.2g}' for v in table[u])}" for u in table)
         typer.echo(f"{label}: {parts} µm (x/y/z)", err=True)
-    if key in THESIS_TABLES:
-        pub = THESIS_TABLES[key]
+    pub, table = THESIS_TABLES.get(key), "Tables 4.1-4.2"
+    if balls_per_side != 3 or pitch_mm != 100.0:
+        pub, table = TABLE_4_3.get(balls_per_side) if key == "L1" else None, "Table 4.3"
+    if pub is not None:
         parts = "; ".join(f"{u} {'/'.join(f'{v:.2g}' for v in pub[u])}" for u in pub)
-        typer.echo(f"source (Tables 4.1-4.2): {parts} µm", err=True)
+        typer.echo(f"source ({table}): {parts} µm", err=True)
 
 
 def _length(text: str) -> CalibratedLength:

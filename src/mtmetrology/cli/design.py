@@ -14,6 +14,7 @@ from rich.table import Table as RichTable
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
+    parse_tools,
     print_json,
     user_errors,
     write_report,
@@ -67,6 +68,10 @@ def _artefact_yaml(design, ball_diameter_mm: float) -> str:
     lines.append(
         f"scale_bar: {{ends: [{ends}], length_mm: {p.bar.length:.6f}, u_mm: {p.bar.u_mm:g}}}"
     )
+    if p.tools is not None:
+        lines.append("tools:")
+        for t, (x, y, z) in p.tools:
+            lines.append(f'  - {{id: "{t}", vector_mm: [{x:g}, {y:g}, {z:g}]}}')
     return "\n".join(lines) + "\n"
 
 
@@ -88,6 +93,18 @@ def samba(
     machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML file.")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Programme CSV to write.")],
     model: Annotated[str | None, typer.Option("--model", help="Error model (e.g. 13, 84).")] = None,
+    params_only: Annotated[
+        str | None,
+        typer.Option("--params-only", help="Plan for these parameters only (E_X0C,E_AY1,...)."),
+    ] = None,
+    tool: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--tool",
+            help="A stylus ID=x,y,z (mm); two or more: the programme is probed with each "
+            "(needs --balls).",
+        ),
+    ] = None,
     balls_from: Annotated[
         Path | None,
         typer.Option("--balls-from", help="Candidate ball grid YAML (step 1 chooses --n-balls)."),
@@ -165,6 +182,10 @@ def samba(
     identifiability MACHINE PROGRAMME.csv --artefact ARTEFACT.yaml` reads it as is, and
     `mtm simulate samba --poses PROGRAMME.csv --balls BALLS.yaml --artefact ARTEFACT.yaml`
     (with the files of --balls-out and --artefact-out) simulates the planned test.
+
+    With two or more --tool styli every row is probed with each (a tool column), and the
+    plan reports what the styli after the first buy: the parameters the first alone
+    confounds, the condition number and the predicted u with one stylus and with all.
     """
     _positive(sigma_um, "--sigma-um")
     _positive(k, "--k")
@@ -175,6 +196,9 @@ def samba(
     if balls is not None and balls_from is not None:
         raise InputError("give --balls (placed balls) or --balls-from (candidate grid), not both")
     m = Machine.load(machine, model)
+    if params_only:
+        m = m.with_parameters([n.strip() for n in params_only.split(",") if n.strip()])
+    styli = parse_tools(tool)
     rule = load_accessibility_rule(accessibility) if accessibility else AccessibilityRule()
     if indexations is not None and (b_grid or c_grid):
         raise InputError("give --indexations or --b-grid/--c-grid, not both")
@@ -209,6 +233,7 @@ def samba(
         starts=starts,
         seed=seed,
         executor=executor,
+        tools=None if styli is None else list(styli.items()),
     )
     header, rows = design.programme.table()
     if artefact_out is not None:
@@ -265,6 +290,15 @@ def _print(doc: dict, output: Path) -> None:
         f"rank {doc['rank']} of {doc['n_unknowns']}, condition {doc['condition_scaled']:.4g} "
         "(columns scaled); " + ", ".join(f"{k} {v:.4g}" for k, v in doc["observability"].items())
     )
+    gain = doc["stylus_gain"]
+    if gain is not None:
+        one, every = gain["one_stylus"], gain["all_styli"]
+        console.print(
+            f"first stylus alone: rank {one['rank']} of {one['n_unknowns']}, confounded "
+            f"{'; '.join(' ~ '.join(g) for g in one['confounded']) or 'none'}; all styli: "
+            f"rank {every['rank']} of {every['n_unknowns']}; resolved: "
+            f"{', '.join(gain['resolved']) or 'none'}"
+        )
     for step in ("step1", "step2"):
         s = doc[step]
         if s:

@@ -170,12 +170,36 @@ def _identifiability_report(diagnosis, setup, command, inputs, path) -> None:
     write_report(add_result(report, diagnosis), path)
 
 
+def _styli(table, art, path) -> dict:
+    """``tools``/``tool_index`` of a programme with a ``tool`` column (several styli, their
+    vectors from the artefact's ``tools``), ``{}`` without one."""
+    if not table.has("tool"):
+        return {}
+    import numpy as np
+
+    listed = {t.id: t.vector_mm for t in (art.tools or [])} if art else {}
+    names = table.strings("tool")
+    bad = next((i for i, t in enumerate(names) if t not in listed), None)
+    if bad is not None:
+        raise InputError(
+            f"{path}, line {table.lines[bad]}: tool {names[bad]!r} is not in the artefact's "
+            f"tools ({', '.join(listed) or 'give --artefact with tools'})"
+        )
+    used = [t for t in listed if t in set(names)]
+    return {
+        "tools": np.array([listed[t] for t in used], dtype=float),
+        "tool_index": np.array([used.index(t) for t in names]),
+    }
+
+
 @app.command("identifiability")
 @user_errors
 def identifiability(
     ctx: typer.Context,
     machine: MachineArg,
-    poses: Annotated[Path, typer.Argument(help="Ball-centre indications CSV: ball,X,Y,Z,B,C[,S].")],
+    poses: Annotated[
+        Path, typer.Argument(help="Ball-centre indications CSV: ball,X,Y,Z,B,C[,S][,tool].")
+    ],
     model: ModelOpt = None,
     artefact: Annotated[Path | None, typer.Option(help="SAMBA artefact YAML (scale bar).")] = None,
     add: Annotated[
@@ -205,7 +229,8 @@ def identifiability(
     """Rank, conditioning and unidentifiable combinations of a probing set-up.
 
     The Jacobian is evaluated at the nominal point (zero errors); ball centres are
-    nuisance unknowns, and so is the tool offset unless --no-estimate-tool. A
+    nuisance unknowns, and so is the tool offset unless --no-estimate-tool (one per stylus
+    of a tool column, their vectors from the artefact's tools). A
     rank-deficient set-up exits with code 2 after naming the confounded parameters
     (exit 0 with --allow-deficient).
     """
@@ -230,7 +255,8 @@ def identifiability(
     senses = senses_from_table(m, table)
     if senses is None and m.chain.has_reversal:
         senses = senses_from_sequence(q)
-    bars: list[ScaleBar] = load_artefact(artefact).scale_bars() if artefact else []
+    art = load_artefact(artefact) if artefact else None
+    bars: list[ScaleBar] = art.scale_bars() if art else []
     problem = BallCentreProblem(
         m,
         q,
@@ -239,6 +265,7 @@ def identifiability(
         scale_bars=bars,
         estimate_tool=estimate_tool,
         sigma=float(to_internal(sigma_um, "µm")),
+        **_styli(table, art, poses),
     )
     _, jac = problem.evaluate(problem.initial())
     rep = analyse_identifiability(

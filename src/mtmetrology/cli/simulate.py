@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from mtmetrology.cli._common import user_errors
+from mtmetrology.cli._common import parse_tools, parse_vector, user_errors
 from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -40,12 +39,18 @@ BALLS.yaml: true ball centres in the workpiece frame:
 ARTEFACT.yaml: as for 'mtm calibrate samba' (ball and stylus tip diameters).
 
 POSES.csv: the probing programme, one probing per row in probing order:
-ball,B,C[,S] (degrees).
+ball,B,C[,S][,tool] (degrees).
+
+Several styli: --tool ID=x,y,z (mm, the true vector from the spindle nose to the stylus
+centre) once per stylus, ids as in the artefact's tools; each probing uses the tool of
+its POSES.csv tool column, or, without one, the whole programme is repeated with each
+tool in turn.  A POSES.csv tool column without --tool uses the artefact's vectors.
 
 RECORDS.csv is written in the format 'mtm calibrate samba' reads: ball,X,Y,Z,B,C,S
 (ball-centre indications), or measurement,ball,X,Y,Z,B,C,S,i,j,k with --raw-points
 (i,j,k: approach direction in machine axes), with a leading campaign column when
---campaigns K > 1 and sense_<axis> columns when the model has reversal terms.
+--campaigns K > 1, sense_<axis> columns when the model has reversal terms and a tool
+column with several styli.
 """
 
 LENGTH_HELP = """Readings of a gauge-block length check on a virtual machine.
@@ -97,6 +102,10 @@ def samba(
         str | None,
         typer.Option("--tool-offset-um", help="True tool-vector correction dx,dy,dz (µm)."),
     ] = None,
+    tool: Annotated[
+        list[str] | None,
+        typer.Option("--tool", help="A stylus ID=x,y,z (mm); repeat for each stylus."),
+    ] = None,
     seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
 ) -> None:
     if noise_um < 0 or drift_um < 0:
@@ -104,9 +113,8 @@ def samba(
     m, theta = _truth(Machine.load(machine, model), truth)
     offset = (0.0, 0.0, 0.0)
     if tool_offset_um:
-        offset = tuple(
-            float(to_internal(v, "µm")) for v in _vector(tool_offset_um, "--tool-offset-um", "µm")
-        )
+        given = parse_vector(tool_offset_um, "--tool-offset-um", "µm")
+        offset = tuple(float(to_internal(v, "µm")) for v in given)
     rec = simulate_records(
         m,
         theta,
@@ -119,22 +127,11 @@ def samba(
         campaigns=campaigns,
         drift=float(to_internal(drift_um, "µm")),
         tool_offset=offset,
+        tools=parse_tools(tool),
         seed=seed,
     )
     rec.write(output)
     typer.echo(f"wrote {len(rec)} rows to {output}", err=True)
-
-
-def _vector(text: str, option: str, unit: str = "mm") -> tuple[float, float, float]:
-    """Three comma-separated numbers of an option."""
-    parts = [p for p in text.split(",") if p.strip()]
-    try:
-        values = tuple(float(p) for p in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise InputError(f"{option} needs three numbers x,y,z in {unit}, got {text!r}")
-    return values
 
 
 @app.command("length", help=LENGTH_HELP)
@@ -157,8 +154,8 @@ def length(
     check = simulate_length_check(
         m,
         theta,
-        _vector(end_a, "--end-a"),
-        _vector(end_b, "--end-b"),
+        parse_vector(end_a, "--end-a"),
+        parse_vector(end_b, "--end-b"),
         pairs=pairs,
         b_max_deg=b_max_deg,
         noise=float(to_internal(noise_um, "µm")),

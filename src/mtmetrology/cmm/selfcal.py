@@ -49,6 +49,7 @@ from mtmetrology.rng import as_generator
 from mtmetrology.units import from_internal
 
 __all__ = [
+    "TABLE_4_3",
     "THESIS_PROBES",
     "THESIS_TABLES",
     "SelfCalibrationDesign",
@@ -83,12 +84,26 @@ THESIS_TABLES = {
     "L0+L1+L2": {"U1": (0.1932, 0.1283, 0.1448), "U2": (0.1306, 0.0872, 0.1162),
                  "U3": (0.2133, 0.1202, 0.1003)},
 }  # fmt: skip
+#: Table 4.3, µm, location 1: ``{balls per side: {U: (x, y, z)}}``.  Its prose ("as the size
+#: of the ball plate reduces, [U2, U3] generally increase, but [U1] become somewhat
+#: smaller") contradicts its numbers, whose 5 × 5 column is larger on every row; the pitch
+#: is not stated.  Implemented reading: the labels, an n × n plate at the simulation's
+#: 100 mm pitch (the 5 × 5 a 400 mm plate), at L1 with the truncated SVD of Tables 4.1–4.2
+#: (tests/cmm/test_selfcal_plate_sizes.py records what that gives).
+TABLE_4_3 = {
+    3: {"U1": (0.2868, 0.2597, 0.2436), "U2": (0.4268, 0.2023, 0.0685),
+        "U3": (0.5467, 0.5113, 0.5938)},
+    5: {"U1": (0.3138, 0.3233, 0.3642), "U2": (0.4664, 0.4223, 0.1184),
+        "U3": (0.7112, 0.6013, 0.6693)},
+}  # fmt: skip
 
 
-def thesis_plate() -> np.ndarray:
-    """The 3 × 3 plate at 100 mm pitch, x fastest, in plate coordinates (mm), (9, 3)."""
-    g = np.array([400.0, 500.0, 600.0])
-    return np.column_stack([np.tile(g, 3), np.repeat(g, 3), np.zeros(9)])
+def thesis_plate(balls_per_side: int = 3, pitch_mm: float = 100.0) -> np.ndarray:
+    """The plate's ball centres, x fastest, in plate coordinates (mm), (n², 3): an n × n
+    grid at ``pitch_mm`` centred on (500, 500) (the source's 3 × 3 at 100 mm by default)."""
+    g = 500.0 + pitch_mm * (np.arange(balls_per_side) - 0.5 * (balls_per_side - 1))
+    n = balls_per_side
+    return np.column_stack([np.tile(g, n), np.repeat(g, n), np.zeros(n * n)])
 
 
 def thesis_locations() -> dict:
@@ -274,9 +289,11 @@ def selfcal_design(
     *,
     sigma: float,
     truncation: int = 36,
-    scale_balls: tuple[int, int] = (0, 8),
+    scale_balls: tuple[int, int] | None = None,
     n_points: int = 200,
     seed=0,
+    balls_per_side: int = 3,
+    pitch_mm: float = 100.0,
 ) -> SelfCalibrationDesign:
     """U1, U2, U3 of the source's self-calibration for a set of plate locations.
 
@@ -290,12 +307,15 @@ def selfcal_design(
         Standard uncertainty of one indication coordinate, mm (the source: 0.5 µm).
     truncation : int
         K of the truncated covariance (the source: 36).
-    scale_balls : (int, int)
-        Indices of the two balls whose (calibrated) distance is the only scale (the source:
-        balls 1 and 9).
+    scale_balls : (int, int), optional
+        Indices of the two balls whose (calibrated) distance is the only scale; by
+        default the first and last ball (the diagonal: balls 1 and 9 in the source).
     n_points : int
         Random points for U2 and U3.
     seed : int or Generator
+    balls_per_side, pitch_mm : int, float
+        The plate (:func:`thesis_plate`): 3 and 100 mm in Tables 4.1–4.2; Table 4.3
+        compares 3 × 3 with 5 × 5 without stating the pitch (see ``TABLE_4_3``).
 
     Returns
     -------
@@ -304,13 +324,21 @@ def selfcal_design(
     Raises
     ------
     InputError
-        Unknown location id, or a truncation beyond the free directions.
+        Unknown location id, a plate of fewer than 2 × 2 balls or a pitch that is not
+        positive, or a truncation beyond the free directions.
     """
+    if balls_per_side < 2 or not pitch_mm > 0:
+        raise InputError(
+            f"plate {balls_per_side} x {balls_per_side} at {pitch_mm} mm: needs at least "
+            "2 balls per side and a positive pitch"
+        )
     known = thesis_locations()
     for loc in locations:
         if loc not in known:
             raise InputError(f"location {loc!r}: use {', '.join(known)}")
-    plate = thesis_plate()
+    plate = thesis_plate(balls_per_side, pitch_mm)
+    if scale_balls is None:
+        scale_balls = (0, len(plate) - 1)
     locs = [known[loc] for loc in locations]
     jac, names, cols = _design_jacobian(machine, plate, locs, THESIS_PROBES, THESIS_SPHERE, sigma)
     n = jac.shape[1]
@@ -348,6 +376,7 @@ def selfcal_design(
         "machine": machine.name,
         "sigma_um": float(from_internal(sigma, "µm")),
         "scale_balls": [int(scale_balls[0]) + 1, int(scale_balls[1]) + 1],
+        "plate": {"balls_per_side": int(balls_per_side), "pitch_mm": float(pitch_mm)},
         "points": n_points,
         "seed": seed if isinstance(seed, int) else None,
     }

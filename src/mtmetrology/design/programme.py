@@ -13,11 +13,17 @@ Models with reversal terms (E_BBb, E_CCb) need both senses of approach: each can
 indexation carries a sense of approach of B and of C, alternating over the candidate
 list so that the four combinations are equally represented, and the programme states
 them in ``sense_B, sense_C`` columns (the indexation is approached from that side).
+
+Several styli (Alami Mchichi (2018) Table 4.4: a second stylus length separates E_AY1 from
+E_YY1, and the like): the whole programme, fixed rows included, is probed with each
+stylus in turn (each stylus needs its own spindle indexing and scale-bar probings to
+have its own three tool unknowns), a ball at an indexation only where every stylus
+reaches it, and the programme states the stylus of each row in a ``tool`` column.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -61,7 +67,8 @@ def approach_senses(n: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class ProgrammeRows:
-    """Indications of a (partial) programme: ball id, B, C, S (degrees), senses."""
+    """Indications of a (partial) programme: ball id, B, C, S (degrees), senses and the
+    stylus of each (index into the programme's tools; None: the machine's one tool)."""
 
     balls: list
     b: np.ndarray
@@ -69,16 +76,44 @@ class ProgrammeRows:
     s: np.ndarray
     sense_b: np.ndarray
     sense_c: np.ndarray
+    tool: np.ndarray | None = None
 
     @staticmethod
     def concat(parts):
+        tool = None
+        if any(p.tool is not None for p in parts):
+            tool = np.concatenate(
+                [p.tool if p.tool is not None else np.zeros(len(p.balls), int) for p in parts]
+            )
         return ProgrammeRows(
             [b for p in parts for b in p.balls],
             *(
                 np.concatenate([getattr(p, f) for p in parts])
                 for f in ("b", "c", "s", "sense_b", "sense_c")
             ),
+            tool,
         )
+
+    def with_tool(self, index: int) -> ProgrammeRows:
+        """The same rows probed with stylus ``index``."""
+        return replace(self, tool=np.full(len(self.balls), int(index)))
+
+
+def per_tool(rows: ProgrammeRows, n_tools: int) -> ProgrammeRows:
+    """The rows probed with each of ``n_tools`` styli in turn (unchanged for 0: the
+    machine's one tool, no tool column)."""
+    if n_tools == 0:
+        return rows
+    return ProgrammeRows.concat([rows.with_tool(t) for t in range(n_tools)])
+
+
+def accessible_all(machine, rule, centres, pairs, tools=None, **kw) -> np.ndarray:
+    """Accessibility mask (N, n_balls) for every stylus at once: a ball is probed at an
+    indexation only where each stylus reaches it."""
+    if tools is None:
+        return accessible(machine, rule, centres, pairs, **kw)[0]
+    masks = [accessible(machine.with_tool(t), rule, centres, pairs, **kw)[0] for t in tools]
+    return np.logical_and.reduce(masks)
 
 
 def fixed_programme_rows(bar: ScaleBarPlacement, ball_ids) -> ProgrammeRows:
@@ -95,16 +130,22 @@ def fixed_programme_rows(bar: ScaleBarPlacement, ball_ids) -> ProgrammeRows:
 
 
 def programme_problem(
-    machine, rows: ProgrammeRows, centres: dict, bar: ScaleBarPlacement | None, sigma
+    machine, rows: ProgrammeRows, centres: dict, bar: ScaleBarPlacement | None, sigma, tools=None
 ):
-    """The identification problem of a programme (readings by inverse kinematics)."""
+    """The identification problem of a programme (readings by inverse kinematics);
+    ``tools`` (n_tools, 3), mm, the styli ``rows.tool`` indexes (each with its own
+    three tool unknowns)."""
     cols = {a: np.zeros(len(rows.balls)) for a in machine.axis_names}
     cols["B"], cols["C"] = rows.b, rows.c
     if "S" in cols:
         cols["S"] = rows.s
     guess = machine.readings_from_customary(cols)
     targets = np.array([centres[b] for b in rows.balls], dtype=float)
-    q = machine.inverse(targets, guess)
+    multi = {}
+    if tools is not None:
+        multi = {"tools": np.asarray(tools, dtype=float), "tool_index": rows.tool}
+    tool = None if tools is None else multi["tools"][rows.tool]
+    q = machine.inverse(targets, guess, tool=tool)
     senses = None
     if machine.chain.has_reversal:
         senses = np.ones((len(rows.balls), machine.n_axes))
@@ -112,7 +153,14 @@ def programme_problem(
         senses[:, machine.axis_names.index("C")] = rows.sense_c
     bars = [ScaleBar(tuple(bar.ends), bar.length, bar.u_mm)] if bar is not None else []
     return BallCentreProblem(
-        machine, q, rows.balls, senses=senses, scale_bars=bars, estimate_tool=True, sigma=sigma
+        machine,
+        q,
+        rows.balls,
+        senses=senses,
+        scale_bars=bars,
+        estimate_tool=True,
+        sigma=sigma,
+        **multi,
     )
 
 
@@ -144,6 +192,8 @@ class SambaProgramme:
         Predicted standard uncertainty of each machine parameter for the probing noise
         ``sigma_mm`` (internal units); None when rank deficient.
     sigma_mm : float
+    tools : tuple of (id, (3,) ndarray) or None
+        The styli of a programme with several (ids and nominal vectors, mm).
     """
 
     machine: Machine
@@ -156,6 +206,7 @@ class SambaProgramme:
     report: IdentifiabilityReport = field(repr=False)
     standard_uncertainty: np.ndarray | None
     sigma_mm: float
+    tools: tuple | None = None
 
     @property
     def n_measurements(self) -> int:
@@ -184,6 +235,8 @@ class SambaProgramme:
         reversal = m.chain.has_reversal
         if reversal:
             header += ["sense_B", "sense_C"]
+        if self.tools is not None:
+            header.append("tool")
         out = []
         r = self.rows
         for i, bid in enumerate(r.balls):
@@ -191,6 +244,8 @@ class SambaProgramme:
             row += [f"{lin[a][i]:.6f}" for a in ("X", "Y", "Z")]
             if reversal:
                 row += [f"{int(r.sense_b[i]):+d}", f"{int(r.sense_c[i]):+d}"]
+            if self.tools is not None:
+                row.append(self.tools[int(r.tool[i])][0])
             out.append(row)
         return header, out
 
@@ -246,6 +301,7 @@ def evaluate_programme(
     sigma_mm: float = 0.001,
     senses: np.ndarray | None = None,
     order: bool = True,
+    tools=None,
 ) -> SambaProgramme:
     """The programme of balls × indexations, with its diagnostics and predicted u.
 
@@ -263,6 +319,9 @@ def evaluate_programme(
         :func:`choose_indexations`); alternating combinations by default.
     order : bool
         Put the indexations in probing order (:func:`order_indexations`).
+    tools : sequence of (id, (3,) array_like), optional
+        Several styli: ids and nominal vectors (mm); the programme is probed with each
+        in turn (module notes).
 
     Returns
     -------
@@ -293,8 +352,11 @@ def evaluate_programme(
         ordered = order_indexations(pairs)
         idx = [int(np.flatnonzero(np.all(pairs == row, axis=1))[0]) for row in ordered]
         pairs, senses = pairs[idx], senses[idx]
-    mask, _ = (
-        accessible(machine, rule, c, pairs) if len(pairs) else (np.zeros((0, len(ids)), bool), None)
+    vectors = None if tools is None else np.array([t[1] for t in tools], dtype=float)
+    mask = (
+        accessible_all(machine, rule, c, pairs, vectors)
+        if len(pairs)
+        else np.zeros((0, len(ids)), bool)
     )
     parts = [fixed_programme_rows(bar, ids)]
     for i in range(len(pairs)):
@@ -309,9 +371,9 @@ def evaluate_programme(
                 np.full(js.size, senses[i, 1]),
             )
         )
-    rows = ProgrammeRows.concat(parts)
+    rows = per_tool(ProgrammeRows.concat(parts), 0 if tools is None else len(tools))
     centre_of = dict(zip(ids, c, strict=True)) | dict(zip(bar.ends, bar.centres_mm, strict=True))
-    problem = programme_problem(machine, rows, centre_of, bar, sigma_mm)
+    problem = programme_problem(machine, rows, centre_of, bar, sigma_mm, vectors)
     jac = nominal_jacobian(problem)
     report = analyse_identifiability(
         jac, problem.names, n_measurements=len(rows.balls), report_names=machine.parameter_names
@@ -330,4 +392,5 @@ def evaluate_programme(
         report=report,
         standard_uncertainty=u,
         sigma_mm=sigma_mm,
+        tools=None if tools is None else tuple((str(i), np.asarray(v, float)) for i, v in tools),
     )

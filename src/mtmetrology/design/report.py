@@ -101,6 +101,10 @@ def _samba_design(
         "file keeps full precision.",
     )
 
+    gain = doc["stylus_gain"]
+    if gain is not None:
+        _stylus_gain(rep, doc, gain)
+
     rep.section("DETMAX convergence", "The criterion never decreases along a run.")
     for name, search in (
         ("step 1: balls", design.balls_search),
@@ -108,6 +112,54 @@ def _samba_design(
     ):
         if search is not None:
             add_convergence(rep, name, search)
+
+
+def _stylus_gain(rep: Report, doc: dict, gain: dict) -> None:
+    """What the styli after the first buy: rank, condition and u, one stylus against all."""
+    first = doc["tools"][0]["id"]
+    one, every = gain["one_stylus"], gain["all_styli"]
+    rep.section(
+        "What the second stylus buys",
+        f"The same balls and indexations probed with stylus {first} alone, against every "
+        f"stylus ({', '.join(t['id'] for t in doc['tools'])}); each stylus has its own "
+        "three tool unknowns (Alami Mchichi (2018) Table 4.4). Resolved: "
+        f"{', '.join(gain['resolved']) or 'none'}.",
+    )
+
+    def cond(d):
+        return (
+            "∞ (rank deficient)"
+            if d["condition_scaled"] is None
+            else f"{d['condition_scaled']:.4g}"
+        )
+
+    rep.table(
+        ["quantity", f"{first} alone", "all styli"],
+        [
+            ["unknowns", one["n_unknowns"], every["n_unknowns"]],
+            ["rank", one["rank"], every["rank"]],
+            ["condition number (columns scaled)", cond(one), cond(every)],
+            [
+                "confounded",
+                "; ".join(" ~ ".join(g) for g in one["confounded"]) or "none",
+                "; ".join(" ~ ".join(g) for g in every["confounded"]) or "none",
+            ],
+        ],
+    )
+    rep.table(
+        ["parameter", f"u, {first} alone", "u, all styli", "unit"],
+        [
+            [
+                q["name"],
+                "not identifiable" if q["u_one"] is None else format_uncertainty(q["u_one"]),
+                "not identifiable" if q["u_all"] is None else format_uncertainty(q["u_all"]),
+                q["unit"],
+            ]
+            for q in gain["parameters"]
+        ],
+        caption="Predicted standard uncertainties for the planned probing noise; with one "
+        "stylus a rank-deficient problem has no u for any parameter.",
+    )
 
 
 _WORDS = "no one two three four five six seven eight nine ten eleven twelve".split()

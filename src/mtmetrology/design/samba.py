@@ -11,6 +11,12 @@ Two DETMAX steps (Alami Mchichi 2018, §5.5, Fig. 5.3; digest 004 §3.9):
 
 The rows of a design and its predictions are those of
 :mod:`mtmetrology.design.programme`.
+
+With several styli (``tools``) step 2 chooses indexations for the programme probed with
+every stylus, and the design also evaluates the same indexations with the first stylus
+alone (:attr:`SambaDesign.one_stylus`): the parameters only the second stylus makes
+identifiable, and the condition number and predicted u before and after (Alami Mchichi
+(2018) Table 4.4).  Step 1 (ball choice) runs with one stylus only.
 """
 
 from __future__ import annotations
@@ -37,11 +43,13 @@ from mtmetrology.design.inputs import ScaleBarPlacement
 from mtmetrology.design.programme import (
     ProgrammeRows,
     SambaProgramme,
+    accessible_all,
     approach_senses,
     check_sigma,
     evaluate_programme,
     fixed_programme_rows,
     nominal_jacobian,
+    per_tool,
     programme_problem,
 )
 from mtmetrology.display import NotebookRepr
@@ -168,6 +176,9 @@ class SambaDesign(NotebookRepr):
         Candidate indexations at which at least one ball is accessible.
     count_rule_reason : str or None
         Why that reading (asked for, or the source's for the model).
+    one_stylus : SambaProgramme or None
+        With several styli: the same balls and indexations probed with the first stylus
+        alone (what the others buy: :meth:`stylus_gain`).
     """
 
     programme: SambaProgramme
@@ -179,6 +190,7 @@ class SambaDesign(NotebookRepr):
     n_candidate_indexations: int
     n_accessible: int
     count_rule_reason: str | None = None
+    one_stylus: SambaProgramme | None = None
 
     _renderer_module = "mtmetrology.design.report"
 
@@ -239,7 +251,53 @@ class SambaDesign(NotebookRepr):
             "parameters": p.parameters(),
             "step1": runs(self.balls_search),
             "step2": runs(self.indexations_search),
+            "tools": None
+            if p.tools is None
+            else [{"id": t, "vector_mm": v.tolist()} for t, v in p.tools],
+            "stylus_gain": self.stylus_gain(),
             "programme": {"columns": header, "rows": rows},
+        }
+
+    def stylus_gain(self) -> dict | None:
+        """What the second stylus buys, None with one stylus.
+
+        Returns
+        -------
+        dict
+            ``one_stylus`` and ``all_styli``: rank, unknowns, scaled condition number and
+            the confounded groups of the machine parameters (``confounded``); ``resolved``:
+            the parameters in a confounded group with one stylus and identifiable with all
+            (the pairs of Alami Mchichi (2018) Table 4.4); ``parameters``: u of each with
+            one stylus (None where not identifiable) and with all, customary units.
+        """
+        one = self.one_stylus
+        if one is None:
+            return None
+        both = self.programme
+
+        def diag(prog):
+            rep = prog.report
+            return {
+                "rank": rep.rank,
+                "n_unknowns": rep.n_unknowns,
+                "condition_scaled": _num(rep.condition_scaled),
+                "confounded": [list(g) for g in rep.confounded()],
+            }
+
+        before = diag(one)
+        after = diag(both)
+        params = set(self.programme.machine.parameter_names)
+        lost = {n for g in before["confounded"] for n in g if n in params}
+        still = {n for g in after["confounded"] for n in g}
+        u_one = {q["name"]: q["u"] for q in one.parameters()}
+        return {
+            "one_stylus": before,
+            "all_styli": after,
+            "resolved": sorted(lost - still),
+            "parameters": [
+                {"name": q["name"], "unit": q["unit"], "u_one": u_one[q["name"]], "u_all": q["u"]}
+                for q in both.parameters()
+            ],
         }
 
 
@@ -376,9 +434,10 @@ def choose_balls(
     return [ids[i] for i in chosen], cent[chosen], search
 
 
-def candidate_blocks(machine, ball_ids, centres, pairs, bar, rule, sigma_mm):
-    """Fixed rows, candidate blocks and accessibility of step 2."""
-    mask, _ = accessible(machine, rule, centres, pairs)
+def candidate_blocks(machine, ball_ids, centres, pairs, bar, rule, sigma_mm, tools=None):
+    """Fixed rows, candidate blocks and accessibility of step 2 (``tools`` (n_tools, 3):
+    every row probed with each stylus, a candidate's block holding all of them)."""
+    mask = accessible_all(machine, rule, centres, pairs, tools)
     usable = np.flatnonzero(mask.any(axis=1))
     if usable.size == 0:
         raise InputError(
@@ -388,14 +447,16 @@ def candidate_blocks(machine, ball_ids, centres, pairs, bar, rule, sigma_mm):
         )
     senses = approach_senses(len(pairs))
     nb = len(ball_ids)
-    fixed = fixed_programme_rows(bar, ball_ids)
+    n_tools = 0 if tools is None else len(tools)
+    fixed = per_tool(fixed_programme_rows(bar, ball_ids), n_tools)
     cand_balls, cand_b, cand_c, cand_sb, cand_sc, owner = [], [], [], [], [], []
-    for i in usable:
-        for j in np.flatnonzero(mask[i]):
-            cand_balls.append(ball_ids[j])
-            cand_b.append(pairs[i, 0]), cand_c.append(pairs[i, 1])
-            cand_sb.append(senses[i, 0]), cand_sc.append(senses[i, 1])
-            owner.append((i, j))
+    for t in range(max(n_tools, 1)):
+        for i in usable:
+            for j in np.flatnonzero(mask[i]):
+                cand_balls.append(ball_ids[j])
+                cand_b.append(pairs[i, 0]), cand_c.append(pairs[i, 1])
+                cand_sb.append(senses[i, 0]), cand_sc.append(senses[i, 1])
+                owner.append((i, t * nb + j))
     cand = ProgrammeRows(
         cand_balls,
         np.array(cand_b),
@@ -403,18 +464,19 @@ def candidate_blocks(machine, ball_ids, centres, pairs, bar, rule, sigma_mm):
         np.zeros(len(cand_b)),
         np.array(cand_sb),
         np.array(cand_sc),
+        None if tools is None else np.array([k // nb for _, k in owner]),
     )
     centre_of = dict(zip(ball_ids, centres, strict=True)) | dict(
         zip(bar.ends, bar.centres_mm, strict=True)
     )
     problem = programme_problem(
-        machine, ProgrammeRows.concat([fixed, cand]), centre_of, bar, sigma_mm
+        machine, ProgrammeRows.concat([fixed, cand]), centre_of, bar, sigma_mm, tools
     )
     jac = nominal_jacobian(problem)
     nf = len(fixed.balls)
     fixed_rows = np.vstack([jac[: 3 * nf], jac[3 * (nf + len(cand.balls)) :]])  # + bar row
-    blocks = np.zeros((len(pairs), 3 * nb, jac.shape[1]))
-    counts = mask.sum(axis=1)
+    blocks = np.zeros((len(pairs), 3 * nb * max(n_tools, 1), jac.shape[1]))
+    counts = mask.sum(axis=1) * max(n_tools, 1)
     for k, (i, j) in enumerate(owner):
         blocks[i, 3 * j : 3 * j + 3] = jac[3 * (nf + k) : 3 * (nf + k) + 3]
     return fixed_rows, blocks, counts, mask, usable, len(fixed.balls)
@@ -434,6 +496,7 @@ def choose_indexations(
     starts: int = 8,
     seed: SeedLike = None,
     executor=None,
+    tools=None,
 ) -> tuple[np.ndarray, np.ndarray, DetmaxResult]:
     """Step 2: the best ``size`` (B, C) indexations for balls in place.
 
@@ -450,6 +513,9 @@ def choose_indexations(
         Indexations in the design (see :func:`indexation_count`).
     criterion, bar, rule, sigma_mm, starts, seed, executor
         As in :func:`choose_balls` (all four accessibility rules apply here).
+    tools : ndarray, shape (n_tools, 3), optional
+        Vectors of several styli (mm): the programme is probed with each, a ball at an
+        indexation only where every stylus reaches it.
 
     Returns
     -------
@@ -485,7 +551,7 @@ def choose_indexations(
     pairs = np.asarray(indexations_deg, dtype=float)
     c = np.asarray(centres, dtype=float)
     fixed_rows, blocks, counts, _, usable, n_fixed = candidate_blocks(
-        machine, list(ball_ids), c, pairs, bar, rule, sigma_mm
+        machine, list(ball_ids), c, pairs, bar, rule, sigma_mm, tools
     )
     if size > usable.size:
         raise InputError(
@@ -495,14 +561,34 @@ def choose_indexations(
     space = BlockInformation(fixed_rows, blocks[usable], criterion, n_fixed, counts[usable])
     search = detmax(space, size, starts=starts, seed=seed, executor=executor)
     chosen_rows = blocks[usable[search.best.members]].reshape(-1, blocks.shape[2])
+    chosen = usable[search.best.members]
     if not _full_rank(np.vstack([fixed_rows, chosen_rows])):
+        styli = None if tools is None else [(str(i), v) for i, v in enumerate(tools)]
+        senses = approach_senses(len(pairs))[chosen]
+        report = evaluate_programme(
+            machine, ball_ids, c, pairs[chosen], bar=bar, rule=rule, sigma_mm=sigma_mm,
+            senses=senses, tools=styli,
+        ).report  # fmt: skip
+        params = set(machine.parameter_names)
+        groups = [g for g in report.confounded() if params & set(g)]
+        listed = "; ".join(_short(g) for g in groups[:3]) or "set-up unknowns only"
+        if len(groups) > 3:
+            listed += f" and {len(groups) - 3} more combinations"
         raise RankDeficientError(
             f"the best {size}-indexation design found is rank deficient for the "
-            f"{machine.n_params}-parameter model: raise --k, add balls or candidate "
-            "indexations, or use a smaller error model"
+            f"{machine.n_params}-parameter model, confounding {listed}: raise --k, add balls "
+            "or candidate indexations, add a second stylus (--tool) or use a smaller error "
+            "model",
+            confounded=tuple(tuple(g) for g in groups),
         )
-    chosen = usable[search.best.members]
     return pairs[chosen], approach_senses(len(pairs))[chosen], search
+
+
+def _short(group, most: int = 4) -> str:
+    """``A ~ B ~ C`` of a confounded group, the first ``most`` names and a count."""
+    names = list(group)
+    more = f" ~ … ({len(names)} unknowns)" if len(names) > most else ""
+    return " ~ ".join(names[:most]) + more
 
 
 def _full_rank(rows: np.ndarray, rtol: float = 1e-8) -> bool:
@@ -528,6 +614,7 @@ def plan_samba(
     starts: int = 8,
     seed: SeedLike = None,
     executor=None,
+    tools=None,
 ) -> SambaDesign:
     """Plan a SAMBA test: step 1 (balls) when candidates are given, then step 2.
 
@@ -550,6 +637,10 @@ def plan_samba(
     bar, rule, sigma_mm, starts, seed, executor
         As in :func:`choose_indexations`; step 1 and step 2 draw independent streams
         from ``seed``.
+    tools : sequence of (id, (3,) array_like), optional
+        Two or more styli (ids and nominal vectors, mm; the first is the reference):
+        the programme is probed with each, and the design reports what the others buy
+        against the first alone (:meth:`SambaDesign.stylus_gain`).  Needs placed balls.
 
     Returns
     -------
@@ -584,6 +675,17 @@ def plan_samba(
         )
     bar = bar or ScaleBarPlacement()
     rule = rule or AccessibilityRule()
+    vectors = None
+    if tools is not None:
+        tools = [(str(i), np.asarray(v, dtype=float)) for i, v in tools]
+        if len(tools) < 2:
+            raise InputError("--tool: give two or more styli, or none (the machine's tool)")
+        if candidates is not None:
+            raise InputError(
+                "several styli need placed balls (--balls): the ball choice (step 1) runs "
+                "with one stylus"
+            )
+        vectors = np.array([v for _, v in tools])
     step_seeds = [np.random.SeedSequence(int(g.integers(2**63))) for g in chunk_generators(seed, 2)]
     balls_search = None
     if candidates is not None:
@@ -620,11 +722,14 @@ def plan_samba(
         starts=starts,
         seed=step_seeds[1],
         executor=executor,
+        tools=vectors,
     )
-    programme = evaluate_programme(
-        machine, ids, centres, pairs, bar=bar, rule=rule, sigma_mm=sigma_mm, senses=senses
-    )
-    mask, _ = accessible(machine, rule, centres, indexations_deg)
+    common = {"bar": bar, "rule": rule, "sigma_mm": sigma_mm, "senses": senses}
+    programme = evaluate_programme(machine, ids, centres, pairs, tools=tools, **common)
+    one = None
+    if tools is not None:
+        one = evaluate_programme(machine, ids, centres, pairs, tools=tools[:1], **common)
+    mask = accessible_all(machine, rule, centres, indexations_deg, vectors)
     return SambaDesign(
         programme=programme,
         criterion=criterion,
@@ -635,4 +740,5 @@ def plan_samba(
         n_candidate_indexations=len(indexations_deg),
         n_accessible=int(mask.any(axis=1).sum()),
         count_rule_reason=reason,
+        one_stylus=one,
     )

@@ -9,7 +9,7 @@ compensated point independently. The file holds it in µm²::
     unit: µm²
     covariance: [[45, -17, 5], [-17, 66, 7], [5, 7, 58]]
 
-An estimate from data (:mod:`mtmetrology.omm.unexplained_estimate`, ``mtm calibrate samba
+An estimate from data (:mod:`mtmetrology.uncertainty.unexplained_estimate`, ``mtm calibrate samba
 --unexplained-out``) adds ``source`` and ``estimate`` (the estimator and its terms).
 """
 
@@ -36,7 +36,7 @@ class _Document(BaseModel):
     unit: Literal["µm²"]
     covariance: list[list[float]]
     source: str | None = None
-    estimate: dict | None = None  # how it was estimated (omm.unexplained_estimate)
+    estimate: dict | None = None  # how it was estimated (uncertainty.unexplained_estimate)
 
 
 def load_unexplained_covariance(path: str | Path) -> np.ndarray:

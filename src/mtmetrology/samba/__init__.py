@@ -7,7 +7,8 @@ uncertainty through the identification (GUF and Monte Carlo), and the length che
 - :mod:`~mtmetrology.samba.simulate` — records of a virtual machine;
 - :mod:`~mtmetrology.samba.calibrate` — the identification and its RESULT document;
 - :mod:`~mtmetrology.samba.uncertainty` — GUF, Monte Carlo and their JCGM 102 validation;
-- :mod:`~mtmetrology.samba.verify` — the gauge-block length check.
+- :mod:`~mtmetrology.samba.verify` — the gauge-block length check;
+- :mod:`~mtmetrology.samba.campaign_unexplained` — cov(e) from repeated campaigns.
 """
 
 from mtmetrology._lazy import lazy_exports
@@ -16,6 +17,8 @@ _EXPORTS = {
     "SambaArtefact": "mtmetrology.samba.artefact",
     "load_artefact": "mtmetrology.samba.artefact",
     "SambaCalibration": "mtmetrology.samba.calibrate",
+    "CampaignUnexplained": "mtmetrology.samba.campaign_unexplained",
+    "unexplained_from_campaigns": "mtmetrology.samba.campaign_unexplained",
     "calibrate": "mtmetrology.samba.calibrate",
     "SambaRecords": "mtmetrology.samba.records",
     "read_records": "mtmetrology.samba.records",
@@ -39,6 +42,7 @@ _EXPORTS = {
 
 __all__ = [
     "BallLayout",
+    "CampaignUnexplained",
     "LengthCheck",
     "ProbingProgramme",
     "SambaArtefact",
@@ -59,6 +63,7 @@ __all__ = [
     "simulate_length_readings",
     "simulate_records",
     "uncertainty_model",
+    "unexplained_from_campaigns",
     "verify_length",
 ]
 

@@ -10,7 +10,9 @@
   outputs, the Monte Carlo histograms against the GUF normals and the JCGM 102
   validation table (Sepahi Boroujeni (2021), Tables 5-2 and 5-3 layout);
 - :class:`~mtmetrology.samba.verify.LengthCheck`: the gauge-length errors of each pair
-  before and after compensation and their statistics.
+  before and after compensation and their statistics;
+- :class:`~mtmetrology.samba.campaign_unexplained.CampaignUnexplained`: cov(e) between
+  campaigns against the pooled within-campaign estimate, with the estimator's terms.
 
 Values are in customary units (µm, µrad, µm/m, mm); U = k u in the parameter table with
 the document's one coverage factor (``coverage.k``: 1.96 for p = 0.95, the k of the GUF
@@ -37,6 +39,7 @@ from mtmetrology.report import figures
 from mtmetrology.report.document import Report
 from mtmetrology.report.results import add_result, renders
 from mtmetrology.samba.calibrate import SambaCalibration
+from mtmetrology.samba.campaign_unexplained import ESTIMATOR, CampaignUnexplained
 from mtmetrology.samba.uncertainty import SambaUncertainty
 from mtmetrology.samba.verify import LengthCheck
 from mtmetrology.units import from_internal
@@ -342,4 +345,37 @@ def _length(rep: Report, check, **_) -> None:
             [p["error_compensated_um"] for p in doc["pairs"]],
         ),
         caption="Error of each pair with the nominal model and after compensation.",
+    )
+
+
+@renders(CampaignUnexplained, "cov(e) from SAMBA campaigns")
+def _campaign_unexplained(rep: Report, result, **_) -> None:
+    k, n = result.residuals.shape[:2]
+    b, w = result.between, result.within
+    rep.section(
+        "Unexplained volumetric error from repeated campaigns",
+        f"{k} campaigns of {n} common positions, each calibrated on its own with "
+        f"{result.fitted_parameters} unknowns and σ = "
+        f"{format_uncertainty(float(from_internal(result.sigma, 'µm')))} µm per coordinate. "
+        f"Estimator {ESTIMATOR}. The within-campaign estimate (ν = K(n − p/3)) also holds "
+        "an error field that repeats identically in every campaign; the between-campaign "
+        "one (written to E.json) only what changes from one campaign to the next.",
+    )
+    rows = []
+    for name, est in (("between campaigns", b), ("within campaigns", w)):
+        u = from_internal(est.u, "µm")
+        rows.append(
+            [
+                name,
+                f"{est.degrees_of_freedom:.1f}",
+                *(format_uncertainty(float(v)) for v in u),
+                "yes" if est.clipped else "no",
+            ]
+        )
+    rep.table(["estimate", "ν", "u(e_x) µm", "u(e_y) µm", "u(e_z) µm", "clipped"], rows)
+    cov = result.to_dict()["covariance"]  # µm²
+    rep.table(
+        ["", "x", "y", "z"],
+        [[a, *(f"{v:.3g}" for v in row)] for a, row in zip("xyz", cov, strict=True)],
+        caption="cov(e) between campaigns, µm² (positive semidefinite).",
     )

@@ -26,7 +26,13 @@ Files
       - {id: "1", centre_mm: [-80.0, -40.0, 100.0]}
       - {id: SB1, centre_mm: [-152.785, 0.0, 30.0]}
 
-``POSES.csv``: ``ball,B,C[,S]`` (degrees), one probing per row, in probing order.
+``POSES.csv``: ``ball,B,C[,S][,tool]`` (degrees), one probing per row, in probing order.
+
+Several styli (Alami Mchichi (2018) Table 4.4: a second stylus length separates the pairs
+one length confounds, e.g. E_AY1 ~ E_YY1): each probing is made with the tool its
+``tool`` column names; without that column the whole programme is repeated with every
+tool in turn.  The records then carry the ``tool`` column :func:`read_records
+<mtmetrology.samba.read_records>` reads, and the tool ids must be the artefact's ``tools``.
 """
 
 from __future__ import annotations
@@ -92,22 +98,66 @@ def load_balls(path: str | Path) -> BallLayout:
 
 @dataclass(frozen=True, eq=False)
 class ProbingProgramme:
-    """Probings in order: ball ids and their rotary readings (degrees)."""
+    """Probings in order: ball ids, their rotary readings (degrees) and, optionally, the
+    tool (stylus) id of each probing."""
 
     balls: tuple[str, ...]
     b_deg: np.ndarray
     c_deg: np.ndarray
     s_deg: np.ndarray
+    tools: tuple[str, ...] | None = None
 
     def __len__(self) -> int:
         return len(self.balls)
 
 
 def read_poses(path: str | Path) -> ProbingProgramme:
-    """Read a probing programme CSV ``ball,B,C[,S]`` (degrees)."""
+    """Read a probing programme CSV ``ball,B,C[,S][,tool]`` (degrees)."""
     table = read_csv_table(path, required=["ball", "B", "C"])
     s = table.floats("S") if table.has("S") else np.zeros(len(table))
-    return ProbingProgramme(tuple(table.strings("ball")), table.floats("B"), table.floats("C"), s)
+    tools = tuple(table.strings("tool")) if table.has("tool") else None
+    return ProbingProgramme(
+        tuple(table.strings("ball")), table.floats("B"), table.floats("C"), s, tools
+    )
+
+
+def _with_tools(
+    programme: ProbingProgramme, artefact: SambaArtefact, tools
+) -> tuple[ProbingProgramme, np.ndarray | None]:
+    """The programme with a tool id per probing and the (n, 3) true tool vectors (None for
+    one unnamed tool): the programme repeated per tool when it names none."""
+    listed = {t.id: np.asarray(t.vector_mm, dtype=float) for t in artefact.tools or []}
+    if tools is None and programme.tools is None:
+        return programme, None
+    vectors = listed if tools is None else {k: np.asarray(v, dtype=float) for k, v in tools.items()}
+    if not vectors:
+        raise InputFileError(
+            "poses: a tool column needs the styli: list them under tools in the artefact "
+            "file (or give --tool ID=x,y,z)"
+        )
+    unknown = [t for t in vectors if t not in listed]
+    if unknown:
+        raise InputFileError(
+            f"tool {unknown[0]!r} is not in the artefact's tools "
+            f"({', '.join(listed) or 'none listed'}); mtm calibrate samba reads its nominal "
+            "vector there"
+        )
+    if programme.tools is None:
+        k = len(vectors)
+        programme = ProbingProgramme(
+            programme.balls * k,
+            np.tile(programme.b_deg, k),
+            np.tile(programme.c_deg, k),
+            np.tile(programme.s_deg, k),
+            tuple(t for t in vectors for _ in programme.balls),
+        )
+    missing = next((i for i, t in enumerate(programme.tools) if t not in vectors), None)
+    if missing is not None:
+        raise InputFileError(
+            f"{_probing(missing)}: tool {programme.tools[missing]!r} is not among the tools "
+            f"({', '.join(vectors)})"
+        )
+    return programme, np.array([vectors[t] for t in programme.tools])
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,6 +196,7 @@ def simulate_records(
     campaigns: int = 1,
     drift: float = 0.0,
     tool_offset=(0.0, 0.0, 0.0),
+    tools: dict | None = None,
     seed: SeedLike = None,
 ) -> SimulatedRecords:
     """Records of a SAMBA test on a virtual machine.
@@ -173,7 +224,13 @@ def simulate_records(
     drift : float
         Amplitude of the linear drift over each campaign, mm.
     tool_offset : (3,) array_like
-        True tool-vector correction (mm) of the virtual probe.
+        True tool-vector correction (mm) of the virtual probe (of every tool).
+    tools : dict of str to (3,) array_like, optional
+        True vector (mm, spindle nose to stylus centre, as the machine's ``tool``) of each
+        stylus of a test with several; ids must be the artefact's ``tools``.  When omitted
+        and the programme names tools, the artefact's nominal vectors are used.  A
+        programme without a ``tool`` column is repeated with each tool in turn; the
+        records get a ``tool`` column.
     seed : int, SeedSequence or Generator
 
     Returns
@@ -210,6 +267,7 @@ def simulate_records(
             raise InputFileError(f"poses: ball {b!r} is not in the artefact file")
     if raw_points and artefact.stylus_tip_diameter_mm is None:
         raise InputFileError("raw points need stylus_tip_diameter_mm in the artefact file")
+    programme, tool_rows = _with_tools(programme, artefact, tools)
     rng = as_generator(seed)
     has_s = "S" in machine.axis_names
     values = {"B": programme.b_deg, "C": programme.c_deg}
@@ -220,7 +278,8 @@ def simulate_records(
     check_travel(machine, start, _probing)
     senses = senses_from_sequence(start)
     reversal = any(p.kind == "reversal" for p in machine.parameters)
-    tool = machine.tool + np.asarray(tool_offset, dtype=float)
+    offset = np.asarray(tool_offset, dtype=float)
+    tool = machine.tool + offset if tool_rows is None else tool_rows + offset
     centres = np.array([balls[b] for b in programme.balls])
     linear = [i for i, a in enumerate(machine.axis_names) if a in machine.linear_axes]
     n = len(programme)
@@ -232,6 +291,7 @@ def simulate_records(
         per = normals.shape[0]
         # workpiece direction of each machine direction at the probing: A n / ‖A n‖
         a = machine.axis_jacobian(q, truth, senses=senses, tool=tool)[:, :, linear]  # (n,3,3)
+        tool = tool if tool_rows is None else tool[:, None, :]
         dirs = np.einsum("kij,pj->kpi", a, normals)
         dirs /= np.linalg.norm(dirs, axis=2, keepdims=True)
         rho = np.array(
@@ -253,6 +313,7 @@ def simulate_records(
     header += ["ball", *machine.axis_names]
     header += ["i", "j", "k"] if raw_points else []
     header += [f"sense_{a}" for a in machine.axis_names] if reversal else []
+    header += ["tool"] if tool_rows is not None else []
     rows = []
     ramp = np.linspace(0.0, 1.0, n) if n > 1 else np.zeros(1)
     for c in range(campaigns):
@@ -271,6 +332,7 @@ def simulate_records(
                 row += [_fmt(v) for v in custom[k, j]]
                 row += [_fmt(-v) for v in normals[j]] if raw_points else []
                 row += [f"{int(s):+d}" for s in senses[k]] if reversal else []
+                row += [programme.tools[k]] if tool_rows is not None else []
                 rows.append(tuple(row))
     return SimulatedRecords(tuple(header), tuple(rows))
 

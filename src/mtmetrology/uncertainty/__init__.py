@@ -20,7 +20,9 @@
 - :mod:`~mtmetrology.uncertainty.executors` — in-process, process pool, Dask;
 - :mod:`~mtmetrology.uncertainty.modelfile` — measurement models in YAML;
 - :mod:`~mtmetrology.uncertainty.conformity` — ISO 14253-1 decision rules (JCGM 106): a
-  specification ``Tolerance`` and ``decide``.
+  specification ``Tolerance`` and ``decide``;
+- :mod:`~mtmetrology.uncertainty.unexplained_estimate` — a 3×3 error covariance (cov(e))
+  estimated from residual vectors, PSD by eigenvalue clipping (import it by its path).
 """
 
 from mtmetrology.uncertainty.conformity import ConformityDecision, Decision, Tolerance, decide
