@@ -1,8 +1,8 @@
 """Start-up of the command line, in fresh interpreters: what each command line loads.
 
 ``mtm --help`` lists the commands from their summaries and imports no command module
-and no engine; ``mtm machine list`` loads the kinematics and nothing of the
-identification, the applications, scipy or pyarrow; no command's ``--help`` loads the
+and no engine; ``mtm machine list`` reads the preset registry and builds no machine (no
+numpy, no kinematics config); no command's ``--help`` loads the
 report layer (matplotlib, Jinja2) or scikit-learn.  Times are in bench/bench_startup.py
 (never asserted here).
 """
@@ -68,9 +68,16 @@ def test_listing_loads_no_command_and_no_engine(loaded):
     assert not _top(loaded["--help"]) & {"scipy", "pyarrow", "pydantic", "yaml"}
 
 
-def test_machine_list_loads_the_kinematics_only(loaded):
+def test_machine_list_reads_the_preset_registry_only(loaded):
+    """The listing reads the preset files: no machine is built (no chain, no numpy, no
+    kinematics config), nothing of the other engines or the applications."""
     modules = loaded["machine list"]
-    assert "mtmetrology.kinematics.machine" in modules
+    assert "mtmetrology.kinematics.preset_registry" in modules
+    assert not modules & {
+        "mtmetrology.kinematics.machine",
+        "mtmetrology.kinematics.chain",
+        "mtmetrology.kinematics.config",
+    }
     layers = {".".join(m.split(".")[:2]) for m in modules if m.startswith("mtmetrology.")}
     assert not layers & {
         "mtmetrology.identification",
@@ -79,7 +86,7 @@ def test_machine_list_loads_the_kinematics_only(loaded):
         "mtmetrology.samba",
         "mtmetrology.report",
     }
-    assert not _top(modules) & {"scipy", "pyarrow", "sklearn", "matplotlib"}
+    assert not _top(modules) & {"numpy", "scipy", "pyarrow", "sklearn", "matplotlib"}
 
 
 @pytest.mark.parametrize("line", [" ".join(a) for a in LINES])
