@@ -255,11 +255,21 @@ def command_line(ctx: typer.Context) -> str:
 
 
 def emit_result(
-    document: dict, summary: str, *, output: Path | None, report, report_path, as_json: bool
+    document: dict,
+    summary: str | Callable[[], object],
+    *,
+    output: Path | None,
+    report,
+    report_path: Path | None,
+    as_json: bool,
 ) -> None:
     """The end of every command that computes a result: write its JSON (``-o``) and its
     report (``--report``, built before anything is written), then print the JSON or the
-    one-paragraph summary."""
+    console summary.
+
+    ``summary`` is the summary text, or a function that prints it (called only when the
+    JSON is not printed).
+    """
     from mtmetrology.io.files import write_json
 
     if output is not None:
@@ -268,6 +278,8 @@ def emit_result(
         write_report(report, report_path)
     if as_json:
         print_json(document)
+    elif callable(summary):
+        summary()
     else:
         typer.echo(summary)
 

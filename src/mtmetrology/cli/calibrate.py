@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import typer
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -18,21 +18,10 @@ from mtmetrology.cli._common import (
 )
 from mtmetrology.cli._history import HistoryOption, record_in_history
 from mtmetrology.errors import ConvergenceError, InputError
-from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError, write_json
-from mtmetrology.io.schema import describe_validation_error
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameters import parse_parameter
-from mtmetrology.omm.unexplained_estimate import estimate_unexplained_covariance
-from mtmetrology.samba import (
-    calibrate,
-    evaluate_uncertainty,
-    indication_inputs,
-    load_artefact,
-    read_records,
-)
-from mtmetrology.samba.uncertainty import pooled_sigma
-from mtmetrology.units import from_internal, to_internal
+
+if TYPE_CHECKING:
+    from mtmetrology.kinematics.machine import Machine
 
 app = typer.Typer(help="Calibrate a machine from artefact measurements.", no_args_is_help=True)
 
@@ -71,6 +60,10 @@ class Repeatability(BaseModel):
 
 def load_repeatability(path: Path) -> tuple[float, float, float]:
     """(u_X, u_Y, u_Z) in mm from a repeatability JSON/YAML file."""
+    from mtmetrology.io.documents import load_document
+    from mtmetrology.io.schema import describe_validation_error
+    from mtmetrology.units import to_internal
+
     data = load_document(path, "repeatability model")
     try:
         model = Repeatability.model_validate(data)
@@ -92,6 +85,8 @@ def parse_tool_prior(text: str | None, estimate_tool: bool) -> tuple[float, ...]
     >>> parse_tool_prior(None, False) is None
     True
     """
+    from mtmetrology.units import to_internal
+
     if text is None:
         return None
     if not estimate_tool:
@@ -109,6 +104,9 @@ def parse_tool_prior(text: str | None, estimate_tool: bool) -> tuple[float, ...]
 
 
 def _machine(machine: str, model: str | None, params_only: str | None) -> Machine:
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.parameters import parse_parameter
+
     m = Machine.load(machine, model)
     if params_only:
         names = [parse_parameter(n.strip()).name for n in params_only.split(",") if n.strip()]
@@ -220,6 +218,16 @@ def samba(
     ] = None,
     history: HistoryOption = False,
 ) -> None:
+    from mtmetrology.samba import (
+        calibrate,
+        evaluate_uncertainty,
+        indication_inputs,
+        load_artefact,
+        read_records,
+    )
+    from mtmetrology.samba.uncertainty import pooled_sigma
+    from mtmetrology.units import from_internal, to_internal
+
     if uncertainty not in ("none", "guf", "mcm", "both"):
         raise InputError(f"--uncertainty must be none, guf, mcm or both, got {uncertainty!r}")
     if noise_um is not None and repeatability is not None:
@@ -331,6 +339,8 @@ def unexplained_from_calibration(cal, sigma: float):
     """cov(e) of a SAMBA calibration's residual vectors: p = all unknowns fitted (machine
     parameters, ball centres, tool), Σ_v = σ² I the indication noise it was weighted with
     (:mod:`mtmetrology.omm.unexplained_estimate`)."""
+    from mtmetrology.omm.unexplained_estimate import estimate_unexplained_covariance
+
     return estimate_unexplained_covariance(
         cal.residual_vectors,
         fitted_parameters=len(cal.identification.estimate),

@@ -18,24 +18,11 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
-from mtmetrology.design.accessibility import AccessibilityRule, load_accessibility_rule
-from mtmetrology.design.counts import COUNT_RULES, MINUTES_PER_MEASUREMENT
+from mtmetrology.design.counts import MINUTES_PER_MEASUREMENT
 from mtmetrology.design.criteria import CRITERIA
-from mtmetrology.design.inputs import (
-    BallGridFile,
-    axis_grid,
-    default_indexations,
-    grid_indexations,
-    load_ball_grid,
-    load_balls,
-    read_indexations,
-)
-from mtmetrology.design.samba import plan_samba
+from mtmetrology.design.inputs import BallGridFile
 from mtmetrology.errors import InputError
 from mtmetrology.io.files import atomic_write
-from mtmetrology.io.tables import write_csv_table
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.units import to_internal
 
 app = typer.Typer(
     help="Plan calibrations: artefact layout and probing programme.", no_args_is_help=True
@@ -166,6 +153,21 @@ def samba(
     `mtm simulate samba --poses PROGRAMME.csv --balls BALLS.yaml --artefact ARTEFACT.yaml`
     (with the files of --balls-out and --artefact-out) simulates the planned test.
     """
+    from mtmetrology.design.accessibility import AccessibilityRule, load_accessibility_rule
+    from mtmetrology.design.counts import COUNT_RULES
+    from mtmetrology.design.inputs import (
+        axis_grid,
+        default_indexations,
+        grid_indexations,
+        load_ball_grid,
+        load_balls,
+        read_indexations,
+    )
+    from mtmetrology.design.samba import plan_samba
+    from mtmetrology.io.tables import write_csv_table
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.units import to_internal
+
     _positive(sigma_um, "--sigma-um")
     _positive(k, "--k")
     _positive(minutes_per_measurement, "--minutes-per-measurement")
@@ -331,6 +333,9 @@ def compare(
     check (nominal and compensated model). Alami Mchichi (2018) Tables 5.2, 5.3, 5.5.
     """
     from mtmetrology.design.compare import compare_strategies
+    from mtmetrology.design.inputs import default_indexations, load_balls, read_indexations
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.units import to_internal
 
     _positive(sigma_um, "--sigma-um")
     _positive(gauge_mm, "--gauge-mm")

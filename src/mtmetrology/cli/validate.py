@@ -12,7 +12,7 @@ draws 25 points (:func:`mtmetrology.omm.pooling.pooling_experiment`).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -25,18 +25,10 @@ from mtmetrology.cli._common import (
     write_report,
 )
 from mtmetrology.errors import InputError
-from mtmetrology.fitting.features import SphereDiameter, Sphericity
-from mtmetrology.io import read_csv_table, write_json
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
-from mtmetrology.omm.pooling import pooling_experiment
-from mtmetrology.omm.reference import thermal_reference_value
-from mtmetrology.omm.repeatability_file import load_repeatability_model
-from mtmetrology.omm.task import reading_covariance
-from mtmetrology.omm.task_request import ordered_covariance as _ordered_covariance
-from mtmetrology.omm.unexplained import load_unexplained_covariance
-from mtmetrology.omm.validation import GaugeValidation, validate_gauge
-from mtmetrology.units import to_internal
+
+if TYPE_CHECKING:
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.omm.validation import GaugeValidation
 
 app = typer.Typer(help="Validate uncertainty statements against calibrated artefacts.")
 
@@ -47,6 +39,9 @@ def _group() -> None:
 
 
 def _side(path: Path, machine: Machine, repeatability):
+    from mtmetrology.io import read_csv_table
+    from mtmetrology.omm.task import reading_covariance
+
     table = read_csv_table(path, required=("point",))
     readings = readings_from_table(machine, table)
     if repeatability is None:
@@ -100,6 +95,16 @@ def task(
     report_path: ReportOption = None,
 ) -> None:
     """Coverage of gauge-length intervals over every side-A × side-B bipoint (eq. 6-16)."""
+    from mtmetrology.io import write_json
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+    from mtmetrology.omm.reference import thermal_reference_value
+    from mtmetrology.omm.repeatability_file import load_repeatability_model
+    from mtmetrology.omm.task_request import ordered_covariance as _ordered_covariance
+    from mtmetrology.omm.unexplained import load_unexplained_covariance
+    from mtmetrology.omm.validation import validate_gauge
+    from mtmetrology.units import to_internal
+
     if recalibrated == (long_term is not None):
         raise InputError("give one of --long-term FILE and --recalibrated")
     base = Machine.load(machine_name)
@@ -245,6 +250,17 @@ def pooling(
     report_path: ReportOption = None,
 ) -> None:
     """Coverage of sphere diameter (and sphericity) intervals on draws pooled from k sets."""
+    from mtmetrology.fitting.features import SphereDiameter, Sphericity
+    from mtmetrology.io import write_json
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+    from mtmetrology.omm.pooling import pooling_experiment
+    from mtmetrology.omm.reference import thermal_reference_value
+    from mtmetrology.omm.repeatability_file import load_repeatability_model
+    from mtmetrology.omm.task_request import ordered_covariance as _ordered_covariance
+    from mtmetrology.omm.unexplained import load_unexplained_covariance
+    from mtmetrology.units import to_internal
+
     base = Machine.load(machine_name)
     pset = ParameterSet.load(params, base)
     machine = pset.machine_for(base)
@@ -310,6 +326,7 @@ def pooling(
 
 def _pooling_report(path: Path, doc: dict, command: str, inputs: list[Path]) -> None:
     from mtmetrology.report import Report
+    from mtmetrology.units import to_internal
 
     um = float(to_internal(1.0, "µm"))
     rep = Report("Task validation: pooling test", command=command, provenance={"inputs": inputs})
