@@ -95,6 +95,30 @@ def test_no_help_loads_the_report_layer_or_scikit_learn(loaded, line):
     assert "mtmetrology.report" not in loaded[line]
 
 
+#: The ``--help`` lines that load numpy, and why: constants of their help text live in
+#: modules of numpy code (design: the criteria and the seed 004 ball grid, a file schema;
+#: repeatability: the fewest targets per coefficient).
+NUMPY_FOR_HELP = {"design --help", "repeatability --help"}
+
+
+@pytest.mark.parametrize("line", [" ".join(a) for a in LINES])
+def test_no_help_loads_an_engine_it_does_not_run(loaded, line):
+    """No command line loads scipy, pyarrow, scikit-learn or SQLAlchemy to show its help;
+    numpy only for the lines of :data:`NUMPY_FOR_HELP`; pydantic comes with Typer (its
+    parameter adapters), never with a file schema except design's."""
+    modules = loaded[line]
+    assert not _top(modules) & {"scipy", "pyarrow", "sklearn", "sqlalchemy", "alembic"}
+    if line not in NUMPY_FOR_HELP:
+        assert "numpy" not in _top(modules)
+        assert not modules & {"mtmetrology.kinematics.config", "mtmetrology.io.schema"}
+
+
+def test_numpy_exceptions_are_still_needed(loaded):
+    """Each exception of :data:`NUMPY_FOR_HELP` still loads numpy (drop it when fixed)."""
+    needed = {line for line in NUMPY_FOR_HELP if "numpy" in _top(loaded[line])}
+    assert needed == NUMPY_FOR_HELP
+
+
 def test_predict_loads_neither_the_fitting_nor_the_uncertainty_engine(loaded):
     layers = {".".join(m.split(".")[:2]) for m in loaded["predict --help"]}
     assert not layers & {"mtmetrology.fitting", "mtmetrology.uncertainty"}
