@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import inspect
 import json
+import math
 import os
 import shlex
 import sys
@@ -57,6 +58,7 @@ __all__ = [
     "readings_from_table",
     "senses_from_table",
     "user_errors",
+    "vector_option",
 ]
 
 INTERRUPTED = "interrupted; nothing written"
@@ -217,6 +219,19 @@ def senses_from_table(machine: Machine, table: Table) -> np.ndarray | None:
     from mtmetrology.kinematics import readings_table
 
     return readings_table.senses_from_table(machine, table)
+
+
+def vector_option(text: str, option: str, unit: str = "mm") -> tuple[float, float, float]:
+    """Three comma-separated numbers of an option (``--end-a 10,0,5``), refused with one
+    line naming the option unless there are three finite numbers."""
+    parts = [p for p in text.split(",") if p.strip()]
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise InputError(f"{option} needs three numbers x,y,z in {unit}, got {text!r}")
+    return values
 
 
 ReportOption = Annotated[

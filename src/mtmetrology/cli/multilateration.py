@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Annotated
 
@@ -13,6 +12,7 @@ from mtmetrology.cli._common import (
     command_line,
     emit_result,
     user_errors,
+    vector_option,
 )
 from mtmetrology.errors import InputError
 
@@ -42,17 +42,6 @@ the yaws of the axes that carry the tool: measure with laterally offset tools).
 --params of other commands.  --mc N checks the map uncertainty at 27 points of the
 measured volume by N Monte Carlo re-solves.
 """
-
-
-def _vector(text: str, option: str) -> tuple[float, float, float]:
-    parts = [p for p in text.split(",") if p.strip()]
-    try:
-        values = tuple(float(p) for p in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise InputError(f"{option} needs three numbers x,y,z in mm, got {text!r}")
-    return values
 
 
 def _grid(text: str) -> list[int]:
@@ -96,7 +85,7 @@ def simulate_multilateration(
         pset = ParameterSet.load(truth, m)
         m = pset.machine_for(m)
         theta = pset.vector_for(m)
-    tools = [_vector(t, "--tool") for t in tool or ()]
+    tools = [vector_option(t, "--tool") for t in tool or ()]
     record = simulate_lengths(
         m,
         theta,

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from mtmetrology.cli._common import user_errors
+from mtmetrology.cli._common import user_errors, vector_option
 from mtmetrology.errors import InputError
 
 if TYPE_CHECKING:
@@ -103,9 +102,8 @@ def samba(
     m, theta = _truth(Machine.load(machine, model), truth)
     offset = (0.0, 0.0, 0.0)
     if tool_offset_um:
-        offset = tuple(
-            float(to_internal(v, "µm")) for v in _vector(tool_offset_um, "--tool-offset-um", "µm")
-        )
+        um = vector_option(tool_offset_um, "--tool-offset-um", "µm")
+        offset = tuple(float(to_internal(v, "µm")) for v in um)
     rec = simulate_records(
         m,
         theta,
@@ -122,18 +120,6 @@ def samba(
     )
     rec.write(output)
     typer.echo(f"wrote {len(rec)} rows to {output}", err=True)
-
-
-def _vector(text: str, option: str, unit: str = "mm") -> tuple[float, float, float]:
-    """Three comma-separated numbers of an option."""
-    parts = [p for p in text.split(",") if p.strip()]
-    try:
-        values = tuple(float(p) for p in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise InputError(f"{option} needs three numbers x,y,z in {unit}, got {text!r}")
-    return values
 
 
 @app.command("length", help=LENGTH_HELP)
@@ -160,8 +146,8 @@ def length(
     check = simulate_length_check(
         m,
         theta,
-        _vector(end_a, "--end-a"),
-        _vector(end_b, "--end-b"),
+        vector_option(end_a, "--end-a"),
+        vector_option(end_b, "--end-b"),
         pairs=pairs,
         b_max_deg=b_max_deg,
         noise=float(to_internal(noise_um, "µm")),

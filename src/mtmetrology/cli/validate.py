@@ -32,6 +32,19 @@ if TYPE_CHECKING:
 
 app = typer.Typer(help="Validate uncertainty statements against calibrated artefacts.")
 
+CteOpt = Annotated[float, typer.Option("--cte", help="Expansion coefficient α, 1/°C.")]
+CteUOpt = Annotated[float, typer.Option("--cte-u", help="u(α), 1/°C.")]
+DeltaTUOpt = Annotated[float, typer.Option("--delta-t-u", help="u(ΔT), °C.")]
+RepeatabilityOpt = Annotated[
+    Path | None, typer.Option(help="repeatability-model JSON (needs i,j,k columns).")
+]
+UnexplainedOpt = Annotated[
+    Path | None, typer.Option(help="unexplained-volumetric-error document (µm²).")
+]
+TipDiameterOpt = Annotated[
+    float | None, typer.Option(help="Effective tip diameter, mm (default: the machine's).")
+]
+
 
 @app.callback()
 def _group() -> None:
@@ -67,12 +80,12 @@ def task(
         float,
         typer.Option("--reference-u-um", help="Its standard uncertainty at 20 °C, µm (U/k)."),
     ],
-    cte: Annotated[float, typer.Option("--cte", help="Expansion coefficient α, 1/°C.")] = 0.0,
-    cte_u: Annotated[float, typer.Option("--cte-u", help="u(α), 1/°C.")] = 0.0,
+    cte: CteOpt = 0.0,
+    cte_u: CteUOpt = 0.0,
     delta_t: Annotated[
         float, typer.Option("--delta-t", help="Gauge temperature − 20 °C during probing.")
     ] = 0.0,
-    delta_t_u: Annotated[float, typer.Option("--delta-t-u", help="u(ΔT), °C.")] = 0.0,
+    delta_t_u: DeltaTUOpt = 0.0,
     long_term: Annotated[
         Path | None,
         typer.Option("--long-term", help="Parameter set whose covariance is Σ_lt."),
@@ -80,15 +93,9 @@ def task(
     recalibrated: Annotated[
         bool, typer.Option("--recalibrated", help="Recalibrated for the campaign: no Σ_lt.")
     ] = False,
-    repeatability: Annotated[
-        Path | None, typer.Option(help="repeatability-model JSON (needs i,j,k columns).")
-    ] = None,
-    unexplained: Annotated[
-        Path | None, typer.Option(help="unexplained-volumetric-error document (µm²).")
-    ] = None,
-    tip_diameter: Annotated[
-        float | None, typer.Option(help="Effective tip diameter, mm (default: the machine's).")
-    ] = None,
+    repeatability: RepeatabilityOpt = None,
+    unexplained: UnexplainedOpt = None,
+    tip_diameter: TipDiameterOpt = None,
     p: Annotated[float, typer.Option("--p", help="Coverage probability.")] = 0.95,
     json_output: Annotated[bool, typer.Option("--json", help="Print the result document.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="Write it here.")] = None,
@@ -225,19 +232,13 @@ def pooling(
     sphericity_u_um: Annotated[
         float, typer.Option("--sphericity-u-um", help="Its standard uncertainty, µm.")
     ] = 0.0,
-    cte: Annotated[float, typer.Option("--cte", help="Expansion coefficient α, 1/°C.")] = 0.0,
-    cte_u: Annotated[float, typer.Option("--cte-u", help="u(α), 1/°C.")] = 0.0,
+    cte: CteOpt = 0.0,
+    cte_u: CteUOpt = 0.0,
     delta_t: Annotated[float, typer.Option("--delta-t", help="Sphere temperature − 20 °C.")] = 0.0,
-    delta_t_u: Annotated[float, typer.Option("--delta-t-u", help="u(ΔT), °C.")] = 0.0,
-    repeatability: Annotated[
-        Path | None, typer.Option(help="repeatability-model JSON (needs i,j,k columns).")
-    ] = None,
-    unexplained: Annotated[
-        Path | None, typer.Option(help="unexplained-volumetric-error document (µm²).")
-    ] = None,
-    tip_diameter: Annotated[
-        float | None, typer.Option(help="Effective tip diameter, mm (default: the machine's).")
-    ] = None,
+    delta_t_u: DeltaTUOpt = 0.0,
+    repeatability: RepeatabilityOpt = None,
+    unexplained: UnexplainedOpt = None,
+    tip_diameter: TipDiameterOpt = None,
     k: Annotated[
         str | None, typer.Option("--k", help="Numbers of pooled sets, e.g. 1,2,3 (default all).")
     ] = None,
