@@ -529,11 +529,43 @@ def case_validate_task(tmp_path):
     return cli, library.to_dict()
 
 
+def case_verify_length(tmp_path):
+    from mtmetrology.samba import read_length_readings, verify_length
+
+    gauge = tmp_path / "gauge.csv"
+    result = runner.invoke(
+        app,
+        [
+            *("simulate", "length", "--machine", MACHINE.name, "--end-a", "-100,-100,40"),
+            *("--end-b", "100,100,40", "--pairs", "5", "--noise-um", "0.5", "--seed", "8"),
+            *("-o", str(gauge)),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    length = float(np.hypot(200.0, 200.0))
+    cli = _json(
+        [
+            *("verify", "length", gauge, "--machine", MACHINE.name, "--length", repr(length)),
+            *("--u-length", "0.0002", "--json"),
+        ]
+    )
+    library = verify_length(
+        MACHINE,
+        None,
+        read_length_readings(gauge, MACHINE),
+        length,
+        tip_radius=MACHINE.tip_radius,
+        u_length=0.0002,
+    )
+    return cli, library.to_dict()
+
+
 CASES = {
     "budget volumetric-map": case_volumetric_map,
     "cmm compare": case_cmm_compare,
     "design compare": case_design_compare,
     "validate task": case_validate_task,
+    "verify length": case_verify_length,
     "calibrate ballplate": case_ballplate,
     "repeatability fit": case_repeatability_fit,
     "simulate length": case_simulate_length,
