@@ -6,7 +6,7 @@
    Ø 5.925 mm tip), 24 mm deep, tilted, 1 µm of probing noise.  Contenders, each checked
    against ours before it is timed:
 
-   - ours: :func:`mtmetrology.fitting.batch.fit_cylinders` (per-set starting axes, and
+   - ours: :func:`mtmetrology.fitting.batch_cylinders.fit_cylinders` (per-set starting axes, and
      given the nominal axis) and :class:`mtmetrology.fitting.CylinderDiameter`
      ``.value`` (the feature call);
    - baseline: a vectorised numpy Gauss–Newton written here, given the nominal axis of

@@ -64,7 +64,7 @@ def test_lookup_follows_the_mro_and_the_nearest_registration_wins():
 
 def test_registration_is_by_class_not_by_name():
     with pytest.raises(TypeError, match="by class"):
-        display.register("mtmetrology.fitting._odr.FitResult")
+        display.register("mtmetrology.fitting.odr.FitResult")
 
 
 def test_unregistered_class_is_a_type_error_naming_it():

@@ -8,9 +8,11 @@ from hypothesis import strategies as st
 from mtmetrology.optimize import (
     STATUS_MESSAGES,
     Status,
+    cholesky_solve,
     chord_batch,
     least_squares,
     least_squares_batch,
+    solve_equations,
 )
 
 T = np.linspace(0.0, 2.0, 15)
@@ -140,6 +142,45 @@ def test_batch_iteration_limit_and_singular_systems_are_per_problem():
     res = least_squares_batch(circle_normal_equations(points), x0, max_iter=1)
     assert res.status[0] == Status.ITERATION_LIMIT and not res.success[0]
     assert res.status[2] == Status.NOT_FINITE
+
+
+def _circle_and_line(scale):
+    def fun(v):
+        x, y = v
+        r = np.array([x * x + y * y - 25.0, x - y - 1.0])
+        return scale * r, scale * np.array([[2 * x, 2 * y], [1.0, -1.0]])
+
+    return fun
+
+
+@pytest.mark.parametrize("scale", [1e-6, 1e6])
+def test_solve_equations_finds_an_exact_root_whatever_the_units_of_the_equations(scale):
+    """x² + y² = 25 and x − y = 1 meet at (4, 3).  From (5, 1) Newton's first step raises
+    ‖r‖ and is damped.  The tolerance is relative to the size of the equations' terms, so
+    multiplying the equations by 10⁶ or 10⁻⁶ changes neither the root nor the path."""
+    reference = solve_equations(_circle_and_line(1.0), np.array([5.0, 1.0]))
+    res = solve_equations(_circle_and_line(scale), np.array([5.0, 1.0]))
+    assert reference.status == res.status == Status.STEP_TOLERANCE
+    assert res.nit == reference.nit <= 15
+    np.testing.assert_allclose(
+        res.x, [4.0, 3.0], atol=1e-11
+    )  # the last step (< rtol·s) is not applied
+    singular = solve_equations(lambda v: (v - 1.0, np.zeros((2, 2))), np.zeros(2))
+    assert singular.status == Status.RANK_DEFICIENT
+
+
+@pytest.mark.parametrize("order", [1, 4, 6, 7, 12])  # written-out recurrences up to 6, LAPACK above
+def test_cholesky_solve_agrees_with_a_dense_solve_and_flags_indefinite_systems(order):
+    rng = np.random.default_rng(order)
+    factors = rng.normal(size=(5, order, order))
+    a = factors @ np.swapaxes(factors, 1, 2) + order * np.eye(order)
+    a[3] = -np.eye(order)  # negative definite: refused, not solved
+    b = rng.normal(size=(5, order))
+    x, ok = cholesky_solve(a, b)
+    assert ok.tolist() == [True, True, True, False, True]
+    assert np.isnan(x[3]).all()
+    good = [0, 1, 2, 4]
+    np.testing.assert_allclose(x[good], np.linalg.solve(a[good], b[good][..., None])[..., 0])
 
 
 @settings(max_examples=20, deadline=None)

@@ -38,7 +38,7 @@ _API = {
     "validate_guf": "mtmetrology.uncertainty.validation",
     "load_model": "mtmetrology.uncertainty.modelfile",
     # identification
-    "gauss_newton": "mtmetrology.identification.solver",
+    "levenberg_marquardt": "mtmetrology.identification.solver",
     "IdentificationModel": "mtmetrology.identification.uncertainty",
     "identification_guf": "mtmetrology.identification.uncertainty",
     "identification_mcm": "mtmetrology.identification.uncertainty",
@@ -75,10 +75,10 @@ __all__ = [
     "fit_plane",
     "fit_sphere",
     "from_internal",
-    "gauss_newton",
     "guf",
     "identification_guf",
     "identification_mcm",
+    "levenberg_marquardt",
     "list_presets",
     "load_model",
     "monte_carlo",
@@ -95,7 +95,7 @@ if TYPE_CHECKING:
         fit_plane,
         fit_sphere,
     )
-    from mtmetrology.identification.solver import gauss_newton
+    from mtmetrology.identification.solver import levenberg_marquardt
     from mtmetrology.identification.uncertainty import (
         IdentificationModel,
         identification_guf,

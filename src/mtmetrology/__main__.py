@@ -42,7 +42,7 @@ def main(args: list[str] | None = None) -> None:
         import typer
 
         argv = sys.argv[1:] if args is None else list(args)
-        from mtmetrology.cli import _common, build_app, command_of
+        from mtmetrology.cli import CLICK_EXCEPTION, build_app, command_of, interrupt_reported
 
         named = command_of(argv)
         app = build_app(named, listing=named is None)
@@ -55,10 +55,10 @@ def main(args: list[str] | None = None) -> None:
                 signal.signal(signal.SIGINT, signal.SIG_IGN)
         except typer.Abort:
             raise KeyboardInterrupt from None
-        except _common.CLICK_EXCEPTION as err:
+        except CLICK_EXCEPTION as err:
             err.show()
             raise SystemExit(err.exit_code) from None
-        if code == EXIT_INTERRUPTED and not _common.interrupt_reported():
+        if code == EXIT_INTERRUPTED and not interrupt_reported():
             raise KeyboardInterrupt  # typer turned a Ctrl-C outside the command into 130
     except KeyboardInterrupt:
         _interrupted()

@@ -6,7 +6,7 @@ runs here, so they stop for the same reasons and report them the same way: an in
 ``status`` from one table, :data:`STATUS_MESSAGES`, from which ``success`` and ``message``
 are derived (as in :func:`scipy.optimize.least_squares`).
 
-Three entry points:
+Four entry points:
 
 :func:`least_squares`
     One problem ``fun(x) -> (r, J)``.  Column scaling ``J_s = J D⁻¹``, ``D = diag‖J_:,j‖``
@@ -16,6 +16,10 @@ Three entry points:
     problems (many more residuals than unknowns: element fits to millions of points) the
     SVD is taken of the R factor of a QR accumulated over row blocks, which has the same
     ``S`` and ``V`` and needs no (m, n) factor in memory.
+:func:`solve_equations`
+    A square system ``r(x) = 0`` (implicit measurement models): Newton's method, which is
+    the Gauss–Newton step of :func:`least_squares` when ``J`` is square, with a relative
+    step tolerance.
 :func:`least_squares_batch`
     K independent problems of a few unknowns (batched element fits): the problem supplies
     the stacked normal equations ``JᵀJ, Jᵀr, rᵀr``; damping, acceptance and convergence are
@@ -91,9 +95,11 @@ __all__ = [
     "BatchLeastSquaresResult",
     "LeastSquaresResult",
     "Status",
+    "cholesky_solve",
     "chord_batch",
     "least_squares",
     "least_squares_batch",
+    "solve_equations",
 ]
 
 
@@ -400,6 +406,70 @@ def least_squares(
     return _result(x, r, jac, svd, status, nfev, njev, nit, rank_rtol)
 
 
+def solve_equations(
+    fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    x0: np.ndarray,
+    *,
+    rtol: float = 1e-12,
+    max_iter: int = 50,
+) -> LeastSquaresResult:
+    """Solve a square system of equations ``r(x) = 0`` by Newton's method on the core.
+
+    Parameters
+    ----------
+    fun : callable
+        ``fun(x) -> (r (n,), J (n, n))``: the equations and their Jacobian.
+    x0 : (n,) ndarray
+        Starting point.
+    rtol : float
+        Relative tolerance of the step: stop (status 1) when the scaled step ``‖D Δx‖`` is
+        below ``rtol·s``, with ``s = max_i Σ_j |J_ij(x0)|·max(|x0_j|, 1)`` the size of the
+        terms of the linearised equations at ``x0`` (units of ``r``).
+    max_iter : int
+        Iteration limit (status 0).
+
+    Returns
+    -------
+    LeastSquaresResult
+        Never raises for a failed iteration: read ``status``/``success``; ``residuals``
+        are ``r`` at ``x``.
+
+    Notes
+    -----
+    For a square non-singular ``J`` the Gauss–Newton step of :func:`least_squares`,
+    ``−J⁺ r``, is Newton's step ``−J⁻¹ r``; the Levenberg–Marquardt safeguard damps only
+    a step that would increase ``‖r‖`` (a globalised Newton method, Dennis and Schnabel
+    1996, §6.4).  The rounding unit of one equation is taken as ``ε·s`` (ε the machine
+    epsilon), so that near the root the iteration also stops when its steps stop
+    contracting (status 2).  A Jacobian singular at ``x0`` stops at once (status -3).
+
+    References
+    ----------
+    J. E. Dennis and R. B. Schnabel, *Numerical Methods for Unconstrained Optimization
+    and Nonlinear Equations*, SIAM, 1996, ch. 5 and §6.4.
+
+    Examples
+    --------
+    The root of ``x² − 2`` from ``x0 = 1``:
+
+    >>> res = solve_equations(lambda x: (x**2 - 2.0, np.diag(2.0 * x)), np.array([1.0]))
+    >>> res.success, float(res.x[0]) == float(np.sqrt(2.0))
+    (True, True)
+    """
+    x0 = np.asarray(x0, dtype=float)
+    first = [fun(x0)]  # serves the scale and the first iteration of the core
+    scale = float(np.max(np.abs(first[0][1]) @ np.maximum(np.abs(x0), 1.0), initial=0.0))
+    scale = scale if np.isfinite(scale) and scale > 0 else 1.0
+    return least_squares(
+        lambda x: first.pop() if first else fun(x),
+        x0,
+        xtol=rtol * scale,
+        max_iter=max_iter,
+        residual_rounding=np.finfo(float).eps * scale,
+        require_full_rank=True,
+    )
+
+
 def _rank(s: np.ndarray, rtol: float, n: int) -> int:
     if s.size == 0 or s[0] <= 0:
         return 0
@@ -483,9 +553,44 @@ class BatchLeastSquaresResult:
 _SMALL_ORDER = 6
 
 
-def _cholesky_solve(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Solve stacked SPD systems a x = b, a (k, n, n), b (k, n); rows whose factorisation
-    fails (not positive definite) get NaN and ``ok`` False."""
+def cholesky_solve(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Solve a stack of symmetric positive-definite systems ``a[k] x[k] = b[k]``.
+
+    Parameters
+    ----------
+    a : (K, n, n) ndarray
+        Symmetric positive-definite matrices (only the lower triangle is read).
+    b : (K, n) ndarray
+        Right-hand sides.
+
+    Returns
+    -------
+    x : (K, n) ndarray
+        The solutions ``x = L⁻ᵀ L⁻¹ b`` with ``a = L Lᵀ``; NaN for a system whose
+        factorisation fails (not positive definite).
+    ok : (K,) ndarray of bool
+        Whether each system was solved (a finite solution).
+
+    Notes
+    -----
+    The Cholesky factorisation ``a = L Lᵀ`` and the two triangular solves ``L y = b``,
+    ``Lᵀ x = y`` (Björck 1996, §2.2).  Up to order :data:`_SMALL_ORDER` the recurrences
+    are written out over the indices with vector operations over the stack (faster than
+    LAPACK's per-matrix overhead for tiny systems); larger orders go to LAPACK.  This is
+    the solver of the damped normal equations of :func:`least_squares_batch`; batched
+    element fits use it for their linear starting points.
+
+    References
+    ----------
+    Å. Björck, *Numerical Methods for Least Squares Problems*, SIAM, 1996, §2.2.
+
+    Examples
+    --------
+    >>> a = np.array([[[4.0, 2.0], [2.0, 3.0]], [[1.0, 2.0], [2.0, 1.0]]])
+    >>> x, ok = cholesky_solve(a, np.array([[6.0, 5.0], [1.0, 1.0]]))
+    >>> np.round(x[0], 12).tolist(), ok.tolist()
+    ([1.0, 1.0], [True, False])
+    """
     k, n = b.shape
     if n <= _SMALL_ORDER:
         chol = np.zeros((n, n, k))
@@ -584,7 +689,7 @@ def least_squares_batch(
         scaled = aa / (d[:, :, None] * d[:, None, :])
         damped = scaled + lama[:, None, None] * eye
         gs = ga / d
-        step_s, ok = _cholesky_solve(damped, -gs)
+        step_s, ok = cholesky_solve(damped, -gs)
         step_s[~ok] = 0.0
         size = np.linalg.norm(step_s, axis=1)
         # decrease of an undamped step, −δᵀg_s = ‖P_J r‖²; damped steps are judged by the

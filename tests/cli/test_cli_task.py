@@ -16,10 +16,9 @@ from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.omm.repeatability import (
     COVARIANCE_OUTPUTS,
     STD_OUTPUTS,
-    OutputFit,
-    RepeatabilityModel,
     factors_from_file_units,
 )
+from mtmetrology.omm.repeatability_model import OutputFit, RepeatabilityModel
 from mtmetrology.units import to_internal
 
 runner = CliRunner()

@@ -16,7 +16,7 @@ from mtmetrology.design.inputs import ScaleBarPlacement, default_indexations
 from mtmetrology.design.programme import evaluate_programme
 from mtmetrology.design.samba import choose_balls, choose_indexations, plan_samba
 from mtmetrology.errors import InputError, RankDeficientError
-from mtmetrology.identification import BallCentreProblem, ScaleBar, gauss_newton
+from mtmetrology.identification import BallCentreProblem, ScaleBar, levenberg_marquardt
 
 PAIRS = default_indexations()
 #: Nothing refused (no travel limit, no cone, point-sized probe, stems and balls), so every
@@ -160,7 +160,10 @@ def test_planned_uncertainties_are_achieved_by_simulated_calibrations(m13):
     rng = np.random.default_rng(2024)
     theta = 50.0 * rng.uniform(-1, 1, m13.n_params) * m13.parameter_scales
     estimates = np.array(
-        [gauss_newton(_simulate(m13, prog, theta, rng, sigma)).estimate[:13] for _ in range(200)]
+        [
+            levenberg_marquardt(_simulate(m13, prog, theta, rng, sigma)).estimate[:13]
+            for _ in range(200)
+        ]
     )
     ratio = estimates.std(axis=0, ddof=1) / prog.standard_uncertainty
     assert np.all(np.abs(ratio - 1.0) < 0.2), ratio

@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from mtmetrology.fitting._odr import FitError
 from mtmetrology.fitting.elements import Cone, Line, Plane, Sphere
 from mtmetrology.fitting.least_squares import fit_cone, fit_line, fit_plane, fit_sphere
+from mtmetrology.fitting.validation import FitError
 from mtmetrology.optimize import Status
 
 # the six points (±R, 0, 0), (0, ±R, 0), (0, 0, ±R) on a sphere of radius 10 about (1, 2, 3)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mtmetrology.fitting import _odr, axial, least_squares
+from mtmetrology.fitting import axial, least_squares, odr
 from mtmetrology.fitting.axial import fit_cylinder
 from mtmetrology.fitting.least_squares import fit_circle, fit_plane, fit_sphere
 
@@ -64,10 +64,10 @@ def test_fit_defers_the_jacobian_until_asked_and_computes_it_once(name, monkeypa
 
     def counted(j, g):  # dβ/dP = −J⁺ ∂d/∂P: the costly step of every sensitivity
         calls.append(j.shape)
-        return _odr._local_to_points(j, g)
+        return odr.local_to_points(j, g)
 
-    monkeypatch.setattr(least_squares, "_local_to_points", counted)
-    monkeypatch.setattr(axial, "_local_to_points", counted)
+    monkeypatch.setattr(least_squares, "local_to_points", counted)
+    monkeypatch.setattr(axial, "local_to_points", counted)
     fit = FITS[name](_points(name, 21))
     assert calls == []  # the element, residuals and form error need no Jacobian
     first = fit.parameter_jacobian

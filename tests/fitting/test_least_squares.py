@@ -668,7 +668,7 @@ def test_fit_error_is_a_value_error_and_names_the_point_count():
 def test_an_iteration_limit_is_reported_by_status_not_hidden():
     """Issue 8 §3: the fits share the core's status table; a fit stopped by the iteration
     limit says so and is not marked successful."""
-    import mtmetrology.fitting._odr as odr
+    import mtmetrology.fitting.odr as odr
 
     rng = np.random.default_rng(9)
     pts = _sphere_points(rng, 25, 10.0) * (1 + 1e-3 * rng.standard_normal(25))[:, None]

@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from mtmetrology.fitting._odr import FitError
 from mtmetrology.fitting.elements import Circle, Cone, Cylinder, Line, Sphere
 from mtmetrology.fitting.probe import compensate_points, effective_tip_diameter, surface_normals
+from mtmetrology.fitting.validation import FitError
 
 
 def test_sphere_normals_point_away_from_the_centre():

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from mtmetrology.fitting import minimax
-from mtmetrology.fitting._odr import FitError
 from mtmetrology.fitting.elements import Sphere
 from mtmetrology.fitting.minimum_zone import straightness
 from mtmetrology.fitting.probe import compensate
+from mtmetrology.fitting.validation import FitError
 
 
 def test_a_parallel_zone_is_centred_on_the_mid_line():

@@ -12,10 +12,10 @@ from scipy import stats
 from mtmetrology.errors import InputError
 from mtmetrology.identification import (
     IdentificationModel,
-    gauss_newton,
     identification_guf,
     identification_mcm,
     joint_coverage,
+    levenberg_marquardt,
     unknowns_covariance,
     validate_identification,
 )
@@ -53,7 +53,7 @@ def test_guf_with_probing_noise_is_the_inverse_normal_matrix(noisy, noise_inputs
     assert g.units[2] == "µm" and g.units[0] == "µrad" and g.units[8] == "µm/m"
 
 
-def test_chord_trials_are_the_full_gauss_newton_solutions(noisy, noise_inputs):
+def test_chord_trials_are_the_full_levenberg_marquardt_solutions(noisy, noise_inputs):
     """Every Monte Carlo trial re-solves to convergence: the batched chord solution equals
     full Gauss–Newton with the exact Jacobian of the perturbed problem.  The chord's fixed
     point solves J₀ᵀr = 0 instead of J(x)ᵀr = 0; the difference is second order in the
@@ -209,7 +209,7 @@ def line():
     inputs = InputSet(
         [InputQuantity(f"y{i}", Normal(v, 0.01), "mm") for i, v in enumerate(problem.y)]
     )
-    return problem, gauss_newton(problem), inputs
+    return problem, levenberg_marquardt(problem), inputs
 
 
 def test_any_observation_model_gets_the_exact_linear_covariance(line):

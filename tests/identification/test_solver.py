@@ -7,7 +7,7 @@ from mtmetrology.identification import (
     BallCentreProblem,
     IdentificationError,
     ScaleBar,
-    gauss_newton,
+    levenberg_marquardt,
     senses_from_sequence,
 )
 from mtmetrology.kinematics import Machine
@@ -45,7 +45,7 @@ def test_noise_free_13_parameter_round_trip(samba_setup):
     rng = np.random.default_rng(3)
     theta = true_errors(m, rng)
     tool_error = np.array([0.02, -0.03, 0.05])
-    result = gauss_newton(simulate(m, samba_setup, GRID_PAIRS, theta, tool_error=tool_error))
+    result = levenberg_marquardt(simulate(m, samba_setup, GRID_PAIRS, theta, tool_error=tool_error))
     assert result.success and result.nit <= 6
     est = result.estimate[: m.n_params]
     np.testing.assert_allclose(est, theta, rtol=1e-9, atol=1e-12 * np.abs(theta).max())
@@ -67,7 +67,7 @@ def test_noise_free_84_coefficient_round_trip(samba_setup):
     pairs = sorted([(0, 0)] + [cands[i] for i in rng.choice(len(cands), 30, replace=False)])
     theta = true_errors(m, rng, magnitude=5.0)
     problem = simulate(m, samba_setup, pairs, theta, backlash=True)
-    result = gauss_newton(problem)
+    result = levenberg_marquardt(problem)
     assert result.success
     # predictions, not coefficients, are the meaningful scale for 84 polynomial terms
     pred_true = m.forward(problem.readings, theta, senses=problem.senses)
@@ -87,9 +87,9 @@ def test_parameter_scatter_matches_the_propagated_covariance(samba_setup):
     estimates = []
     for _ in range(200):
         problem = simulate(m, samba_setup, GRID_PAIRS, theta, noise=sigma, rng=rng)
-        estimates.append(gauss_newton(problem).estimate[: m.n_params])
+        estimates.append(levenberg_marquardt(problem).estimate[: m.n_params])
     problem = simulate(m, samba_setup, GRID_PAIRS, theta)
-    predicted = gauss_newton(problem).standard_uncertainty[: m.n_params]
+    predicted = levenberg_marquardt(problem).standard_uncertainty[: m.n_params]
     ratio = np.std(estimates, axis=0, ddof=1) / predicted
     assert np.all(np.abs(ratio - 1.0) < 0.2), ratio
     # the unbiasedness of the estimator: mean within 4 standard errors
@@ -102,4 +102,4 @@ def test_rank_deficient_identification_names_the_confounded_parameters(samba_set
     m = m.with_parameters([*m.parameter_names, "E_Y0C"])
     problem = simulate(m, samba_setup, GRID_PAIRS, np.zeros(m.n_params))
     with pytest.raises(IdentificationError, match="E_Y0S ~ E_Y0C"):
-        gauss_newton(problem)
+        levenberg_marquardt(problem)

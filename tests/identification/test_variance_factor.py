@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mtmetrology.identification import gauss_newton
+from mtmetrology.identification import levenberg_marquardt
 
 
 class Polynomial:
@@ -34,7 +34,7 @@ def test_variance_factor_is_the_weighted_residual_sum_over_the_redundancy():
     t = np.linspace(-1.0, 1.0, 9)
     y = 0.3 - 1.2 * t + 0.5 * t**2 + 0.01 * rng.standard_normal(9)
     problem = Polynomial(t, y, 2, sigma=0.01)
-    res = gauss_newton(problem)
+    res = levenberg_marquardt(problem)
     _, rss, rank, _ = np.linalg.lstsq(problem.design / 0.01, y / 0.01, rcond=None)
     assert rank == 3 and res.dof == 6
     assert res.variance_factor == pytest.approx(rss[0] / 6, rel=1e-9)
@@ -46,8 +46,8 @@ def test_variance_factor_scales_with_the_inverse_square_of_the_weights():
     rng = np.random.default_rng(4)
     t = np.linspace(0.0, 2.0, 12)
     y = 1.0 + 2.0 * t + 0.02 * rng.standard_normal(12)
-    honest = gauss_newton(Polynomial(t, y, 1, sigma=0.02)).variance_factor
-    optimistic = gauss_newton(Polynomial(t, y, 1, sigma=0.01)).variance_factor
+    honest = levenberg_marquardt(Polynomial(t, y, 1, sigma=0.02)).variance_factor
+    optimistic = levenberg_marquardt(Polynomial(t, y, 1, sigma=0.01)).variance_factor
     assert optimistic == pytest.approx(4.0 * honest, rel=1e-9)
 
 
@@ -62,7 +62,7 @@ def test_variance_factor_follows_chi_squared_over_its_degrees_of_freedom():
     s2 = []
     for _ in range(400):
         y = np.vander(t, 3, increasing=True) @ truth + sigma * rng.standard_normal(t.size)
-        s2.append(gauss_newton(Polynomial(t, y, 2, sigma)).variance_factor)
+        s2.append(levenberg_marquardt(Polynomial(t, y, 2, sigma)).variance_factor)
     s2 = np.array(s2)
     assert abs(s2.mean() - 1.0) < 4.0 * np.sqrt(2.0 / 10.0 / 400.0)
     assert s2.var(ddof=1) == pytest.approx(2.0 / 10.0, rel=0.35)
@@ -71,7 +71,7 @@ def test_variance_factor_follows_chi_squared_over_its_degrees_of_freedom():
 def test_no_redundancy_no_variance_factor():
     """m = n: the fit passes through the data, s² is undefined (None), never NaN or 0."""
     t = np.array([0.0, 1.0, 2.0])
-    res = gauss_newton(Polynomial(t, [1.0, 0.0, 5.0], 2, sigma=1.0))
+    res = levenberg_marquardt(Polynomial(t, [1.0, 0.0, 5.0], 2, sigma=1.0))
     assert res.success and res.dof == 0 and res.variance_factor is None
     np.testing.assert_allclose(res.residuals, 0.0, atol=1e-12)
 
@@ -91,7 +91,7 @@ def test_minimum_norm_solution_counts_redundancy_against_the_rank():
             y = np.array([1.0, 1.1, 0.9, 1.05, 0.95])
             return design @ x - y, design
 
-    res = gauss_newton(Twin(), minimum_norm=True)
+    res = levenberg_marquardt(Twin(), minimum_norm=True)
     assert res.minimum_norm and res.dof == 4
     y = np.array([1.0, 1.1, 0.9, 1.05, 0.95])
     assert res.variance_factor == pytest.approx(np.sum((y - y.mean()) ** 2) / 4, rel=1e-9)

@@ -343,7 +343,7 @@ def test_inverse_that_runs_out_of_iterations_raises():
         m.inverse([[10.0, 20.0, 30.0]], q0, max_iter=1)
     assert re.fullmatch(
         r"inverse kinematics did not converge \(residual \S+ mm at point 0 after 1 Newton "
-        r"steps, tol 1e-12 mm\)",
+        r"steps, tol 1e-12 mm; the iteration limit was reached\)",
         str(err.value),
     )
     # the same point, given alone (shape (3,)), has no index to name; more steps converge
@@ -363,3 +363,27 @@ def test_inverse_refuses_unusable_points(points, what):
         InputError, match=rf"^points must be a finite \(\.\.\., 3\) array, mm; got {what}"
     ):
         m.inverse(points, np.zeros(m.n_axes))
+
+
+def test_inverse_with_a_linear_axis_that_does_not_move_the_tool_raises():
+    # E_XX1 = −1 mm/mm cancels the X motion (scale error: X reads x, moves x(1 + E_XX1)),
+    # so ∂p/∂q has a zero column and the core's Cholesky factorisation fails
+    m = Machine.load("five-axis-wcbxfzyst")
+    theta = np.zeros(m.n_params)
+    theta[m.parameter_names.index("E_XX1")] = -1.0
+    with pytest.raises(ConvergenceError, match=r"^inverse kinematics: the position does not "):
+        m.inverse([[10.0, 20.0, 30.0]], np.zeros(m.n_axes), theta)
+    theta[m.parameter_names.index("E_XX1")] = -0.5
+    back = m.inverse([[10.0, 20.0, 30.0]], np.zeros(m.n_axes), theta)
+    np.testing.assert_allclose(m.forward(back, theta), [[10.0, 20.0, 30.0]], atol=1e-12)
+
+
+def test_inverse_solves_each_point_with_its_own_parameters():
+    # params of shape (T, 1, n) broadcast against (P, 3) points: T × P problems on the core
+    m = Machine.load("five-axis-wcbxfzyst")
+    rng = np.random.default_rng(3)
+    theta = rng.normal(0.0, 1e-4, (4, 1, m.n_params))
+    points = rng.uniform(-100.0, 100.0, (5, 3))
+    q = m.inverse(points, np.zeros(m.n_axes), theta)
+    assert q.shape == (4, 5, m.n_axes)
+    np.testing.assert_allclose(m.forward(q, theta), np.broadcast_to(points, (4, 5, 3)), atol=1e-11)

@@ -10,7 +10,7 @@ import pytest
 
 from mtmetrology.fitting.least_squares import fit_sphere
 from mtmetrology.fitting.minimum_zone import sphericity
-from mtmetrology.identification import BallCentreProblem, ScaleBar, gauss_newton
+from mtmetrology.identification import BallCentreProblem, ScaleBar, levenberg_marquardt
 from mtmetrology.kinematics import Machine
 from mtmetrology.report import Report
 from mtmetrology.report.results import add_result, renders, result_report
@@ -89,7 +89,7 @@ def test_identification_and_parameter_set_render():
     pairs = [(b, c) for b in (-90, -45, 0, 45, 90) for c in range(0, 360, 60)]
     ids, q = probing_sequence(m, setup, pairs)
     bar = ScaleBar(("SB1", "SB2"), setup.scale_bar_length, u=0.001)
-    result = gauss_newton(
+    result = levenberg_marquardt(
         BallCentreProblem(m, q, ids, scale_bars=[bar], estimate_tool=True, sigma=0.001)
     )
     html = result._repr_html_()

@@ -137,17 +137,3 @@ def test_dask_scheduler_address_and_client_are_accepted_and_left_open():
                 reference, monte_carlo(product_and_ratio, INPUTS, executor=client, **options)
             )
             assert client.status == "running"
-
-
-@pytest.mark.parametrize("n_chunks, n_batches", [(1, 4), (7, 2), (50, 4), (3, 3), (5, 1)])
-def test_chunks_ship_in_at_most_n_batches_each_in_order_once(n_chunks, n_batches):
-    """Batching (one pickle of the model per batch) keeps every chunk's own stream and
-    the chunk order, so the results cannot depend on the batch count."""
-    from mtmetrology.uncertainty.mcm import _batches, _ChunkTask
-
-    tasks = [_ChunkTask(abs, None, np.random.default_rng(k), 10 + k) for k in range(n_chunks)]
-    batches = _batches(tasks, n_batches)
-    assert 1 <= len(batches) <= n_batches
-    assert [s for b in batches for s in b.sizes] == [t.size for t in tasks]
-    shipped = [g for b in batches for g in b.generators]
-    assert all(g is t.generator for g, t in zip(shipped, tasks, strict=True))

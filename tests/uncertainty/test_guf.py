@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mtmetrology.errors import InputError
+from mtmetrology.errors import ConvergenceError, InputError
 from mtmetrology.uncertainty.distributions import Normal, Rectangular, StudentT
 from mtmetrology.uncertainty.guf import guf, variance_shares, welch_satterthwaite
 from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
@@ -231,6 +232,26 @@ def test_implicit_linear_system_with_analytic_jacobian():
     np.testing.assert_allclose(r.estimate, ainv @ [1.0, -2.0])
     np.testing.assert_allclose(r.sensitivities, ainv)
     np.testing.assert_allclose(r.covariance, ainv @ np.diag([0.01, 0.09]) @ ainv.T)
+
+
+def test_implicit_model_without_a_root_raises_convergence_error_naming_the_residual():
+    """h(Y, X) = Y² + X² has no real root: ‖h‖ cannot go below X² = 4 (reached at Y = 0)."""
+    s = normals([2.0], [0.1])
+    with pytest.raises(ConvergenceError) as raised:
+        guf(lambda y, x: y**2 + x**2, s, implicit=True, y0=[1.0], max_iter=30)
+    message = str(raised.value)
+    residual = float(re.search(r"residual \|h\| = (\S+) ", message).group(1))
+    steps = int(re.search(r"after (\d+) steps", message).group(1))
+    assert residual == pytest.approx(4.0, rel=1e-3) and 1 <= steps <= 30
+
+
+def test_implicit_newton_iteration_limit_is_a_convergence_error():
+    """One step from far away cannot solve Y³ = X: the limit is reported, not a wrong y."""
+    s = normals([8.0], [0.1])
+    with pytest.raises(ConvergenceError, match=r"iteration limit .* after 1 steps"):
+        guf(lambda y, x: y**3 - x, s, implicit=True, y0=[10.0], max_iter=1)
+    solved = guf(lambda y, x: y**3 - x, s, implicit=True, y0=[10.0])
+    assert solved.estimate[0] == pytest.approx(2.0, rel=1e-12)
 
 
 # ------------------------------------------------- Sepahi Boroujeni (2021) numbers

@@ -280,11 +280,11 @@ def test_guf_names_the_non_finite_estimate():
 
 
 def test_sequence_statistics_largest_eigenvalue_of_three_outputs():
-    from mtmetrology.uncertainty.mcm import _sequence_statistics
+    from mtmetrology.uncertainty.stability import sequence_statistics
 
     values = np.random.default_rng(1).normal(size=(1000, 3))
     values[:, 1] += values[:, 0]
-    stats = _sequence_statistics(values, 0.95)
+    stats = sequence_statistics(values, 0.95)
     assert stats.shape == (14,)
     assert stats[12] == pytest.approx(np.linalg.eigvalsh(np.corrcoef(values.T))[-1])
 
@@ -301,7 +301,7 @@ def test_derivative_drops_multiplication_by_one():
 
 
 def test_evaluate_chunk_counts_are_integers_when_all_finite():
-    from mtmetrology.uncertainty.mcm import _ChunkTask, _evaluate_chunk
+    from mtmetrology.uncertainty.chunks import _ChunkTask, _evaluate_chunk
 
     task = _ChunkTask(lambda x: x[:, 0], _sum_inputs(), np.random.default_rng(0), 8)
     out = _evaluate_chunk(task)

@@ -19,9 +19,23 @@ from typing import Annotated
 
 import typer
 
-from mtmetrology.cli._common import MtmGroup, reflow_commands
+from mtmetrology.cli._common import (
+    CLICK_EXCEPTION,
+    MtmGroup,
+    interrupt_reported,
+    reflow_commands,
+)
 
-__all__ = ["COMMANDS", "SHARED_GROUPS", "SUMMARIES", "app", "build_app", "command_of"]
+__all__ = [
+    "CLICK_EXCEPTION",
+    "COMMANDS",
+    "SHARED_GROUPS",
+    "SUMMARIES",
+    "app",
+    "build_app",
+    "command_of",
+    "interrupt_reported",
+]
 
 _HELP = (
     "mtmetrology: machine-tool and CMM metrology from the command line.\n\n"

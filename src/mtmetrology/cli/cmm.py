@@ -58,13 +58,15 @@ SigmaOpt = Annotated[
 OutOpt = Annotated[Path, typer.Option("-o", "--output", help="Output file.")]
 
 
-def _positive(value: float, name: str) -> float:
+def positive_option(value: float, name: str) -> float:
+    """``value`` if it is a positive finite number, else an input error naming the option
+    ``name`` (exit 2)."""
     if not (math.isfinite(value) and value > 0):
         raise InputFileError(f"{name}: must be a positive number, got {value}")
     return value
 
 
-def _report(ctx: typer.Context, title: str, inputs: list[Path], machine: str | None = None):
+def cmm_report(ctx: typer.Context, title: str, inputs: list[Path], machine: str | None = None):
     """A report with the command line and the input files (and the machine) as provenance.
 
     Built before the JSON result is written, so that a failing renderer leaves nothing.
@@ -77,7 +79,7 @@ def _report(ctx: typer.Context, title: str, inputs: list[Path], machine: str | N
     return Report(title, command=command_line(ctx), provenance=provenance)
 
 
-def _add_result(report, result, **context) -> None:
+def add_cmm_result(report, result, **context) -> None:
     """Append ``result`` to ``report`` with the CMM renderers registered."""
     import mtmetrology.cmm.report  # noqa: F401  (registers the CMM renderers)
     from mtmetrology.report.results import add_result as add
@@ -85,7 +87,9 @@ def _add_result(report, result, **context) -> None:
     add(report, result, **context)
 
 
-def _inputs(records: Path, plate: Path, probes: Path):
+def read_ballplate_inputs(records: Path, plate: Path, probes: Path):
+    """The ball-plate records read against their plate and probe-set files: (records,
+    plate, probes)."""
     from mtmetrology.cmm.files import load_plate, load_probes, read_records
 
     pl, pr = load_plate(plate), load_probes(probes)
@@ -135,7 +139,7 @@ def calibrate_ballplate_cmd(
     from mtmetrology.kinematics.machine import Machine
     from mtmetrology.units import to_internal
 
-    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    sigma = to_internal(positive_option(sigma_um, "--sigma-um"), "µm")
     m = Machine.load(machine)
     request = calibrate_ballplate_files(
         records,
@@ -152,10 +156,10 @@ def calibrate_ballplate_cmd(
     doc = request.to_dict()
     report = None
     if report_path is not None:
-        report = _report(
+        report = cmm_report(
             ctx, f"Ball-plate calibration: {records.name}", [records, plate, probes], machine
         )
-        _add_result(report, cal, model_selection=selection)
+        add_cmm_result(report, cal, model_selection=selection)
     if history:
         record_in_history(doc, m, "mtm calibrate ballplate", [records, plate, probes])
     write_json(output, doc)
@@ -237,8 +241,8 @@ def budget_cmd(
         doc["statement"] = cmm_statement(spec).to_dict()
     report = None
     if report_path is not None:
-        report = _report(ctx, f"Ball-plate length budget: {budget.name}", [budget])
-        _add_result(report, res)
+        report = cmm_report(ctx, f"Ball-plate length budget: {budget.name}", [budget])
+        add_cmm_result(report, res)
     write_json(output, doc)
     if report is not None:
         write_report(report, report_path)
@@ -325,9 +329,9 @@ def gp_fit(
     from mtmetrology.kinematics.machine import Machine
     from mtmetrology.units import to_internal
 
-    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    sigma = to_internal(positive_option(sigma_um, "--sigma-um"), "µm")
     m = Machine.load(machine)
-    rec, pl, pr = _inputs(records, plate, probes)
+    rec, pl, pr = read_ballplate_inputs(records, plate, probes)
     if mean != "none":
         parse_model(mean)
     if kernel not in ("rbf", "matern"):
@@ -345,8 +349,10 @@ def gp_fit(
     doc = gp.to_document()
     report = None
     if report_path is not None:
-        report = _report(ctx, f"GP error model: {records.name}", [records, plate, probes], machine)
-        _add_result(report, gp)
+        report = cmm_report(
+            ctx, f"GP error model: {records.name}", [records, plate, probes], machine
+        )
+        add_cmm_result(report, gp)
     write_json(output, doc)
     if report is not None:
         write_report(report, report_path)

@@ -20,10 +20,10 @@ from mtmetrology.cli.cmm import (
     PlateOpt,
     ProbesOpt,
     SigmaOpt,
-    _add_result,
-    _inputs,
-    _positive,
-    _report,
+    add_cmm_result,
+    cmm_report,
+    positive_option,
+    read_ballplate_inputs,
 )
 from mtmetrology.io.files import InputFileError, check_output, write_json
 
@@ -39,8 +39,8 @@ def _write(ctx, result, doc, output, report_path, title, inputs, machine=None) -
     """Write the JSON result and, if asked, the report (command line and inputs as provenance)."""
     report = None
     if report_path is not None:
-        report = _report(ctx, title, inputs, machine)
-        _add_result(report, result)
+        report = cmm_report(ctx, title, inputs, machine)
+        add_cmm_result(report, result)
     if output is not None:
         write_json(output, doc)
     if report is not None:
@@ -80,11 +80,11 @@ def compare(
     from mtmetrology.kinematics.machine import Machine
     from mtmetrology.units import to_internal
 
-    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    sigma = to_internal(positive_option(sigma_um, "--sigma-um"), "µm")
     if output is not None:
         check_output(output, [records, plate, probes])
     m = Machine.load(machine)
-    rec, pl, pr = _inputs(records, plate, probes)
+    rec, pl, pr = read_ballplate_inputs(records, plate, probes)
     choice = parse_model(model)
     if gp_mean != "none":
         parse_model(gp_mean)
@@ -104,10 +104,10 @@ def compare(
     doc = res.to_dict()
     report = None
     if report_path is not None:
-        report = _report(
+        report = cmm_report(
             ctx, f"Kinematic versus GP: {records.name}", [records, plate, probes], machine
         )
-        _add_result(report, res)
+        add_cmm_result(report, res)
     if output is not None:
         write_json(output, doc)
     if report is not None:
@@ -182,7 +182,7 @@ def selfcal_design_cmd(
     from mtmetrology.kinematics.machine import Machine
     from mtmetrology.units import to_internal
 
-    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    sigma = to_internal(positive_option(sigma_um, "--sigma-um"), "µm")
     if output is not None:
         check_output(output)
     m = Machine.load(machine)
@@ -269,10 +269,10 @@ def calibrate_cmd(
     from mtmetrology.kinematics.machine import Machine
     from mtmetrology.units import to_internal
 
-    sigma = to_internal(_positive(sigma_um, "--sigma-um"), "µm")
+    sigma = to_internal(positive_option(sigma_um, "--sigma-um"), "µm")
     check_output(output, [records, plate, probes, qualification])
     m = Machine.load(machine)
-    rec, pl, pr = _inputs(records, plate, probes)
+    rec, pl, pr = read_ballplate_inputs(records, plate, probes)
     qual = read_records(qualification)
     for i, pid in enumerate(qual.probes):
         if pid not in pr.ids:

@@ -107,7 +107,7 @@ def task(
     from mtmetrology.kinematics.parameter_set import ParameterSet
     from mtmetrology.omm.reference import thermal_reference_value
     from mtmetrology.omm.repeatability_file import load_repeatability_model
-    from mtmetrology.omm.task_request import ordered_covariance as _ordered_covariance
+    from mtmetrology.omm.task_request import ordered_covariance
     from mtmetrology.omm.unexplained import load_unexplained_covariance
     from mtmetrology.omm.validation import validate_gauge
     from mtmetrology.units import to_internal
@@ -124,7 +124,7 @@ def task(
         lt = ParameterSet.load(long_term, base)
         if lt.covariance is None or set(lt.names) != set(pset.names):
             raise InputError(f"{long_term}: needs a covariance over the parameters of {params}")
-        sigma_lt = _ordered_covariance(lt, machine)
+        sigma_lt = ordered_covariance(lt, machine)
     model = load_repeatability_model(repeatability) if repeatability is not None else None
     a, va = _side(side_a, machine, model)
     b, vb = _side(side_b, machine, model)
@@ -143,7 +143,7 @@ def task(
         a,
         b,
         pset.vector_for(machine),
-        _ordered_covariance(pset, machine),
+        ordered_covariance(pset, machine),
         ref.value,
         ref.standard_uncertainty,
         tip_diameter=2.0 * machine.tip_radius if tip_diameter is None else tip_diameter,
@@ -258,7 +258,7 @@ def pooling(
     from mtmetrology.omm.pooling import pooling_experiment
     from mtmetrology.omm.reference import thermal_reference_value
     from mtmetrology.omm.repeatability_file import load_repeatability_model
-    from mtmetrology.omm.task_request import ordered_covariance as _ordered_covariance
+    from mtmetrology.omm.task_request import ordered_covariance
     from mtmetrology.omm.unexplained import load_unexplained_covariance
     from mtmetrology.units import to_internal
 
@@ -294,7 +294,7 @@ def pooling(
         machine,
         [r for r, _ in read],
         pset.vector_for(machine),
-        _ordered_covariance(pset, machine),
+        ordered_covariance(pset, machine),
         features,
         references,
         reading_covariance=v,

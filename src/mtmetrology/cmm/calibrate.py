@@ -3,7 +3,7 @@
 :func:`calibrate_ballplate` builds the candidate model (:mod:`mtmetrology.cmm.models`),
 fixes its datum by rank, and solves the ball-plate problem
 (:class:`~mtmetrology.cmm.problem.BallPlateProblem`) with the identification engine
-(:func:`mtmetrology.identification.gauss_newton`).  A set-up that cannot see some errors
+(:func:`mtmetrology.identification.levenberg_marquardt`).  A set-up that cannot see some errors
 (a plate only ever horizontal cannot see the errors that need a Z lever) is refused with a
 :class:`~mtmetrology.errors.RankDeficientError` naming the unobservable combinations.
 
@@ -74,7 +74,7 @@ from mtmetrology.cmm.notebook import CMMNotebookRepr
 from mtmetrology.cmm.problem import BallPlateProblem, kabsch
 from mtmetrology.errors import RankDeficientError
 from mtmetrology.identification.diagnostics import analyse_identifiability
-from mtmetrology.identification.solver import IdentificationResult, gauss_newton
+from mtmetrology.identification.solver import IdentificationResult, levenberg_marquardt
 from mtmetrology.kinematics.compensation import compensation_covariance
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -289,7 +289,7 @@ def calibrate_ballplate(
     check_design(problem, plate, probes)
     # ~10³ x 10² matrices: one BLAS thread is fastest and does not oversubscribe shared cores
     with threadpool_limits(1):
-        res = gauss_newton(problem, report_names=machine.parameter_names)
+        res = levenberg_marquardt(problem, report_names=machine.parameter_names)
     pset = res.parameter_set(machine, {"method": "ball-plate calibration", "model": choice.name})
     summary = _summary(
         machine, pset.values, pset.covariance, res, problem, probes, as_generator(seed)

@@ -37,7 +37,7 @@ from mtmetrology.cmm.notebook import CMMNotebookRepr
 from mtmetrology.cmm.problem import BallPlateProblem
 from mtmetrology.errors import InputError, RankDeficientError
 from mtmetrology.identification.diagnostics import analyse_identifiability
-from mtmetrology.identification.solver import gauss_newton
+from mtmetrology.identification.solver import levenberg_marquardt
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.units import from_internal
 
@@ -323,7 +323,7 @@ def calibrate_with_probes(
     )
     with threadpool_limits(1):
         check_design(prob, plate, probes)
-        res = gauss_newton(prob, report_names=prob.names[: machine.n_params])
+        res = levenberg_marquardt(prob, report_names=prob.names[: machine.n_params])
     x, u = res.estimate, np.sqrt(np.clip(np.diag(res.covariance), 0.0, None))
     p = machine.n_params
     params = {n: [float(x[i]), float(u[i])] for i, n in enumerate(machine.parameter_names)}

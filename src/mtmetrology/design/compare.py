@@ -39,7 +39,7 @@ from mtmetrology.design.inputs import ScaleBarPlacement
 from mtmetrology.design.programme import SambaProgramme, approach_senses, evaluate_programme
 from mtmetrology.design.samba import plan_samba
 from mtmetrology.errors import InputError
-from mtmetrology.identification import BallCentreProblem, ScaleBar, gauss_newton
+from mtmetrology.identification import BallCentreProblem, ScaleBar, levenberg_marquardt
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.rng import SeedLike, chunk_generators
 from mtmetrology.units import from_internal
@@ -207,7 +207,7 @@ def _identify(machine: Machine, prog: SambaProgramme, theta, rng) -> np.ndarray:
         estimate_tool=True,
         sigma=prog.sigma_mm,
     )
-    result = gauss_newton(problem)
+    result = levenberg_marquardt(problem)
     return result.estimate[: machine.n_params]
 
 

@@ -12,15 +12,15 @@ from mtmetrology._lazy import lazy_exports
 
 #: Public name -> module that defines it (loaded on first use, PEP 562).
 _EXPORTS = {
-    "BatchCylinderFit": "mtmetrology.fitting.batch",
     "BatchLineFit": "mtmetrology.fitting.batch",
     "BatchPlaneFit": "mtmetrology.fitting.batch",
     "BatchRoundFit": "mtmetrology.fitting.batch",
     "fit_circles": "mtmetrology.fitting.batch",
-    "fit_cylinders": "mtmetrology.fitting.batch",
     "fit_lines": "mtmetrology.fitting.batch",
     "fit_planes": "mtmetrology.fitting.batch",
     "fit_spheres": "mtmetrology.fitting.batch",
+    "BatchCylinderFit": "mtmetrology.fitting.batch_cylinders",
+    "fit_cylinders": "mtmetrology.fitting.batch_cylinders",
     "CombinedFeature": "mtmetrology.fitting.composite",
     "PointCoordinates": "mtmetrology.fitting.composite",
     "Circle": "mtmetrology.fitting.elements",
@@ -64,16 +64,15 @@ _EXPORTS = {
 
 if TYPE_CHECKING:
     from mtmetrology.fitting.batch import (
-        BatchCylinderFit,
         BatchLineFit,
         BatchPlaneFit,
         BatchRoundFit,
         fit_circles,
-        fit_cylinders,
         fit_lines,
         fit_planes,
         fit_spheres,
     )
+    from mtmetrology.fitting.batch_cylinders import BatchCylinderFit, fit_cylinders
     from mtmetrology.fitting.composite import CombinedFeature, PointCoordinates
     from mtmetrology.fitting.elements import Circle, Cone, Cylinder, Element, Line, Plane, Sphere
     from mtmetrology.fitting.features import (

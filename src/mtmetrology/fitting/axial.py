@@ -10,22 +10,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from mtmetrology.fitting._odr import (
+from mtmetrology.fitting.elements import Cone, Cylinder
+from mtmetrology.fitting.geometry import canonical, centred, perpendicular_basis, singular_values
+from mtmetrology.fitting.odr import (
     FitResult,
     Sensitivities,
-    _better,
-    _canonical,
-    _centred,
-    _check_conditioning,
-    _gauss_newton,
-    _hyper_fit,
-    _local_to_points,
-    _message,
-    _perp_basis,
-    _result,
-    _singular_values,
+    better_fit,
+    check_conditioning,
+    fit_message,
+    fit_result,
+    hyper_fit,
+    local_to_points,
+    solve_distances,
 )
-from mtmetrology.fitting.elements import Cone, Cylinder
 from mtmetrology.fitting.validation import FitError, check_points, require_spread
 from mtmetrology.optimize import LeastSquaresResult
 
@@ -94,7 +91,7 @@ def _cylinder_local(x: np.ndarray, x0: np.ndarray, a: np.ndarray):
     β = (δx, δy, δa, δb, δr): axis point += δx e1 + δy e2, a += δa e1 + δb e2, r += δr.
     ∂d/∂β = (−x/ρ, −y/ρ, −xz/ρ, −yz/ρ, −1) (Forbes, NPL DITC 140/89, §4.8).
     """
-    e1, e2 = _perp_basis(a)
+    e1, e2 = perpendicular_basis(a)
     v = x - x0
     lx, ly, lz = v @ e1, v @ e2, v @ a
     rho = np.hypot(lx, ly)
@@ -135,9 +132,9 @@ def fit_cylinder(points: object, direction: object = None) -> FitResult:
     """
     kind = "cylinder"
     p = check_points(points, kind, (3,), 5)
-    x, centroid, scale = _centred(p)
+    x, centroid, scale = centred(p)
     require_spread(
-        kind, _singular_values(x), len(x), 3, "coplanar", "; a cylinder needs points off one plane"
+        kind, singular_values(x), len(x), 3, "coplanar", "; a cylinder needs points off one plane"
     )
 
     def evaluate(state):
@@ -147,7 +144,7 @@ def fit_cylinder(points: object, direction: object = None) -> FitResult:
 
     def retract(state, step):
         x0, a, r = state
-        e1, e2 = _perp_basis(a)
+        e1, e2 = perpendicular_basis(a)
         a_new = a + step[2] * e1 + step[3] * e2
         a_new /= np.linalg.norm(a_new)
         x0_new = x0 + step[0] * e1 + step[1] * e2
@@ -157,26 +154,26 @@ def fit_cylinder(points: object, direction: object = None) -> FitResult:
 
     best: LeastSquaresResult | None = None
     for a in _candidate_axes(x, direction, kind):
-        e1, e2 = _perp_basis(a)
+        e1, e2 = perpendicular_basis(a)
         uv = np.column_stack([x @ e1, x @ e2])
         try:
-            require_spread(kind, _singular_values(uv - uv.mean(axis=0)), len(uv), 2, "collinear")
-            c2, r0 = _hyper_fit(uv)
+            require_spread(kind, singular_values(uv - uv.mean(axis=0)), len(uv), 2, "collinear")
+            c2, r0 = hyper_fit(uv)
         except FitError:
             continue
-        solve = _gauss_newton(evaluate, retract, (c2[0] * e1 + c2[1] * e2, a, r0), scale)
-        if _better(solve, best):
+        solve = solve_distances(evaluate, retract, (c2[0] * e1 + c2[1] * e2, a, r0), scale)
+        if better_fit(solve, best):
             best = solve
     if best is None:
         raise FitError(f"{kind}: no starting axis gave a circular cross-section")
     x0, a, r = best.x
-    a_canon = _canonical(a)
+    a_canon = canonical(a)
     rho, j, g, e1, e2 = _cylinder_local(x, x0, a_canon)
-    _check_conditioning(kind, j, "axis and radius")
+    check_conditioning(kind, j, "axis and radius")
     n = p.shape[0]
 
     def cylinder() -> Sensitivities:
-        dbeta = _local_to_points(j[:, None, :], g[:, None, :])  # (5, n, 3)
+        dbeta = local_to_points(j[:, None, :], g[:, None, :])  # (5, n, 3)
         t = np.zeros((7, 5))
         t[0:3, 0], t[0:3, 1], t[3:6, 2], t[3:6, 3], t[6, 4] = e1, e2, e1, e2, 1.0
         # Reported point = foot of the centroid c̄: d x0 = dq + a (da·(c̄ − x0)) + a aᵀ dc̄.
@@ -191,7 +188,7 @@ def fit_cylinder(points: object, direction: object = None) -> FitResult:
     residuals = rho - r
     rms = float(np.sqrt(np.mean(residuals**2)))
     element = Cylinder(x0 + centroid, a_canon, r)
-    return _result(element, residuals, best, _message(kind, best, rms), cylinder)
+    return fit_result(element, residuals, best, fit_message(kind, best, rms), cylinder)
 
 
 def _cone_local(x: np.ndarray, x0: np.ndarray, a: np.ndarray, psi: float, s: float):
@@ -200,7 +197,7 @@ def _cone_local(x: np.ndarray, x0: np.ndarray, a: np.ndarray, psi: float, s: flo
     d = ρ cos ψ − z sin ψ − s, with s the orthogonal distance from x0 to the surface;
     β = (δx, δy, δa, δb, δψ, δs) (Forbes, NPL DITC 140/89, §4.9).
     """
-    e1, e2 = _perp_basis(a)
+    e1, e2 = perpendicular_basis(a)
     v = x - x0
     lx, ly, lz = v @ e1, v @ e2, v @ a
     rho = np.hypot(lx, ly)
@@ -231,7 +228,7 @@ def _cone_starts(x: np.ndarray, a: np.ndarray) -> list[tuple]:
     rad) opening either way about the circle through the projected points, from which
     Gauss–Newton can still reach the cone.
     """
-    e1, e2 = _perp_basis(a)
+    e1, e2 = perpendicular_basis(a)
     lu, lv, lz = x @ e1, x @ e2, x @ a
     m = np.column_stack([lu, lv, np.ones(len(x)), lz, lz * lz])
     coef = np.linalg.lstsq(m, lu * lu + lv * lv, rcond=None)[0]
@@ -247,8 +244,8 @@ def _cone_starts(x: np.ndarray, a: np.ndarray) -> list[tuple]:
             return [(x0, axis, psi, float(rho0 * np.cos(psi)))]
     uv = np.column_stack([lu, lv])
     try:
-        require_spread("cone", _singular_values(uv - uv.mean(axis=0)), len(uv), 2, "collinear")
-        c2, rho0 = _hyper_fit(uv)
+        require_spread("cone", singular_values(uv - uv.mean(axis=0)), len(uv), 2, "collinear")
+        c2, rho0 = hyper_fit(uv)
     except FitError:
         return []
     x0 = c2[0] * e1 + c2[1] * e2
@@ -289,9 +286,9 @@ def fit_cone(points: object, direction: object = None) -> FitResult:
     """
     kind = "cone"
     p = check_points(points, kind, (3,), 6)
-    x, centroid, scale = _centred(p)
+    x, centroid, scale = centred(p)
     require_spread(
-        kind, _singular_values(x), len(x), 3, "coplanar", "; a cone needs points off one plane"
+        kind, singular_values(x), len(x), 3, "coplanar", "; a cone needs points off one plane"
     )
 
     def evaluate(state):
@@ -301,7 +298,7 @@ def fit_cone(points: object, direction: object = None) -> FitResult:
 
     def retract(state, step):
         x0, a, psi, s = state
-        e1, e2 = _perp_basis(a)
+        e1, e2 = perpendicular_basis(a)
         a_new = a + step[2] * e1 + step[3] * e2
         a_new /= np.linalg.norm(a_new)
         psi_new = psi + step[4]
@@ -314,18 +311,18 @@ def fit_cone(points: object, direction: object = None) -> FitResult:
     best: LeastSquaresResult | None = None
     for a in _candidate_axes(x, direction, kind):
         for start in _cone_starts(x, a):
-            solve = _gauss_newton(evaluate, retract, start, scale)
-            if _better(solve, best):
+            solve = solve_distances(evaluate, retract, start, scale)
+            if better_fit(solve, best):
                 best = solve
     if best is None:
         raise FitError(f"{kind}: no starting axis gave a conical surface")
     x0, a, psi, s = best.x
     d, j, g, e1, e2 = _cone_local(x, x0, a, psi, s)
-    _check_conditioning(kind, j, "axis, half-angle and size")
+    check_conditioning(kind, j, "axis, half-angle and size")
     sp, cp = np.sin(psi), np.cos(psi)
 
     def cone() -> Sensitivities:
-        dbeta = _local_to_points(j[:, None, :], g[:, None, :])  # (6, n, 3)
+        dbeta = local_to_points(j[:, None, :], g[:, None, :])  # (6, n, 3)
         t = np.zeros((7, 6))
         # apex = q − (s / sin ψ) a
         t[0:3, 0], t[0:3, 1] = e1, e2
@@ -337,4 +334,4 @@ def fit_cone(points: object, direction: object = None) -> FitResult:
 
     apex = x0 - (s / sp) * a + centroid
     rms = float(np.sqrt(np.mean(d**2)))
-    return _result(Cone(apex, a, psi), d, best, _message(kind, best, rms), cone)
+    return fit_result(Cone(apex, a, psi), d, best, fit_message(kind, best, rms), cone)

@@ -56,14 +56,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from mtmetrology.errors import ConvergenceError
-from mtmetrology.fitting.batch import (
-    _centred,
-    _check_sets,
-    _kasa,
-    _require_spread_sets,
-    fit_cylinders,
-    fit_spheres,
-)
+from mtmetrology.fitting.batch import fit_spheres, kasa
+from mtmetrology.fitting.batch_cylinders import fit_cylinders
+from mtmetrology.fitting.geometry import centred_sets
+from mtmetrology.fitting.validation import check_point_sets, require_spread_sets
 
 __all__ = [
     "BatchZoneFit",
@@ -403,8 +399,8 @@ def minimum_zone_sphericity(
     """
     from mtmetrology.fitting.minimax import sphericity
 
-    p = _check_sets(points, "sphericity", (3,), 5)
-    x, centroid, _ = _centred(p)
+    p = check_point_sets(points, "sphericity", (3,), 5)
+    x, centroid, _ = centred_sets(p)
     start = fit_spheres(p).centres - centroid
     d, nit, failed = _run(_Centre, x, start, _size(x), max_iterations)
     low, high = d.min(axis=1), d.max(axis=1)
@@ -446,14 +442,14 @@ def minimum_zone_roundness(points: object, *, max_iterations: int = MAX_ITERATIO
     """
     from mtmetrology.fitting.minimax import roundness
 
-    p = _check_sets(points, "roundness", (2, 3), 4)
-    x, _, _ = _centred(p)
-    vt = _require_spread_sets("roundness", x, 2, "collinear")
+    p = check_point_sets(points, "roundness", (2, 3), 4)
+    x, _, _ = centred_sets(p)
+    vt = require_spread_sets("roundness", x, 2, "collinear")
     # In-plane coordinates: the least-squares plane's principal axes for 3-D profiles.
     uv = np.einsum("knd,kjd->knj", x, vt[:, :2]) if p.shape[2] == 3 else x
     # Start: the algebraic (Kåsa) circle, within O(form²/radius) of the least-squares one.
     uvt = np.ascontiguousarray(uv.transpose(0, 2, 1))
-    start, _ = _kasa(uvt, np.sqrt(np.einsum("kdn,kdn->k", uvt, uvt) / uv.shape[1]))
+    start, _ = kasa(uvt, np.sqrt(np.einsum("kdn,kdn->k", uvt, uvt) / uv.shape[1]))
     d, nit, failed = _run(_Centre, uv, start, _size(x), max_iterations)
     low, high = d.min(axis=1), d.max(axis=1)
     return _result(low, high, nit, failed, roundness, p, False, "roundness")
@@ -497,9 +493,9 @@ def minimum_zone_flatness(points: object, *, max_iterations: int = MAX_ITERATION
     """
     from mtmetrology.fitting.minimum_zone import flatness
 
-    p = _check_sets(points, "flatness", (3,), 4)
-    x, _, _ = _centred(p)
-    vt = _require_spread_sets("flatness", x, 2, "collinear")
+    p = check_point_sets(points, "flatness", (3,), 4)
+    x, _, _ = centred_sets(p)
+    vt = require_spread_sets("flatness", x, 2, "collinear")
     d, nit, failed = _run(_Normal, x, vt[:, 2].copy(), _size(x), max_iterations)
     low, high = d.min(axis=1), d.max(axis=1)
     return _result(low, high, nit, failed, flatness, p, True, "flatness")
@@ -547,8 +543,8 @@ def minimum_zone_cylindricity(
     """
     from mtmetrology.fitting.minimax import cylindricity
 
-    p = _check_sets(points, "cylindricity", (3,), 6)
-    x, centroid, _ = _centred(p)
+    p = check_point_sets(points, "cylindricity", (3,), 6)
+    x, centroid, _ = centred_sets(p)
     start = fit_cylinders(p)
     theta = np.concatenate([start.points - centroid, start.directions], axis=1)
     d, nit, failed = _run(_Axis, x, theta, _size(x), max_iterations)

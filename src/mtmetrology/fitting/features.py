@@ -28,7 +28,7 @@ from typing import ClassVar, Protocol, runtime_checkable
 import numpy as np
 
 from mtmetrology.errors import ConvergenceError
-from mtmetrology.fitting import batch
+from mtmetrology.fitting import batch, batch_cylinders
 from mtmetrology.fitting.least_squares import (
     FitResult,
     fit_circle,
@@ -68,8 +68,11 @@ class Feature(Protocol):
     def jacobian(self, points: object) -> np.ndarray: ...
 
 
-def _stack(points: object, name: str, min_points: int) -> tuple[np.ndarray, tuple[int, ...]]:
-    """Points (..., n, 3) -> stacked (K, n, 3) and the leading shape."""
+def stacked_point_sets(
+    points: object, name: str, min_points: int
+) -> tuple[np.ndarray, tuple[int, ...]]:
+    """Points (..., n, 3) -> stacked (K, n, 3) and the leading shape, for a feature's
+    ``value``; a ``ValueError`` naming the feature on a wrong shape or too few points."""
     arr = np.asarray(points, dtype=float)
     if arr.ndim < 2 or arr.shape[-1] != 3:
         raise ValueError(f"{name}: points must have shape (..., n, 3), got {arr.shape}")
@@ -79,7 +82,9 @@ def _stack(points: object, name: str, min_points: int) -> tuple[np.ndarray, tupl
     return arr.reshape((-1, *arr.shape[-2:])), lead
 
 
-def _single(points: object, name: str, min_points: int) -> np.ndarray:
+def single_point_set(points: object, name: str, min_points: int) -> np.ndarray:
+    """One point set (n, 3), n ≥ ``min_points``, for a feature's ``jacobian``; a
+    ``ValueError`` naming the feature otherwise."""
     arr = np.asarray(points, dtype=float)
     if arr.ndim != 2 or arr.shape[1] != 3 or arr.shape[0] < min_points:
         raise ValueError(
@@ -102,7 +107,7 @@ def _peak_to_valley_jacobian(fit: FitResult) -> np.ndarray:
     return (rj[i_max] - rj[i_min]).reshape(1, -1)
 
 
-class _Scalar:
+class ScalarFeature:
     """One output, named after the feature."""
 
     name: str
@@ -122,7 +127,7 @@ class _Position:
         return (f"{self.name}_x", f"{self.name}_y", f"{self.name}_z")
 
 
-class _TipCompensated(_Scalar):
+class TipCompensatedSize(ScalarFeature):
     """A size with a validated ``tip_diameter``, added inside (``inner``: bore, cavity)
     and subtracted outside (shaft, ball); GaugeLength has no ``inner``."""
 
@@ -137,7 +142,7 @@ class _TipCompensated(_Scalar):
 
 
 @dataclass(frozen=True)
-class GaugeLength(_TipCompensated):
+class GaugeLength(TipCompensatedSize):
     """Bipoint length ``l = ‖q2 − q1‖ − d_tip`` (Sepahi Boroujeni (2021), eq. 6-20).
 
     Points ``(..., 2, 3)``: the stylus-centre points probed on the two faces.  Sepahi
@@ -172,7 +177,7 @@ class GaugeLength(_TipCompensated):
 
 
 @dataclass(frozen=True)
-class SphereDiameter(_TipCompensated):
+class SphereDiameter(TipCompensatedSize):
     """Least-squares sphere diameter with tip compensation: ``2R ∓ d_tip``.
 
     ``inner=False`` (a ball probed from outside): ``D = 2 R_fit − d_tip``;
@@ -187,16 +192,16 @@ class SphereDiameter(_TipCompensated):
     min_points: ClassVar[int] = 4
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, self.min_points)
+        stack, lead = stacked_point_sets(points, self.name, self.min_points)
         return (2.0 * batch.fit_spheres(stack).radii + self._offset()).reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        fit = fit_sphere(_single(points, self.name, self.min_points))
+        fit = fit_sphere(single_point_set(points, self.name, self.min_points))
         return 2.0 * fit.parameter_jacobian[3].reshape(1, -1)
 
 
 @dataclass(frozen=True)
-class Sphericity(_Scalar):
+class Sphericity(ScalarFeature):
     """Least-squares sphericity: max − min residual of the LS sphere (Sepahi Boroujeni
     (2021), Ch. 6)."""
 
@@ -205,15 +210,16 @@ class Sphericity(_Scalar):
     min_points: ClassVar[int] = 4
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, self.min_points)
+        stack, lead = stacked_point_sets(points, self.name, self.min_points)
         return batch.fit_spheres(stack).form_error.reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        return _peak_to_valley_jacobian(fit_sphere(_single(points, self.name, self.min_points)))
+        fit = fit_sphere(single_point_set(points, self.name, self.min_points))
+        return _peak_to_valley_jacobian(fit)
 
 
 @dataclass(frozen=True)
-class CircleDiameter(_TipCompensated):
+class CircleDiameter(TipCompensatedSize):
     """Least-squares circle diameter (in the LS plane) with tip compensation.
 
     ``inner=True`` (bore, ring gauge probed from inside): ``D = 2 R_fit + d_tip``;
@@ -227,16 +233,16 @@ class CircleDiameter(_TipCompensated):
     min_points: ClassVar[int] = 3
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, self.min_points)
+        stack, lead = stacked_point_sets(points, self.name, self.min_points)
         return (2.0 * batch.fit_circles(stack).radii + self._offset()).reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        fit = fit_circle(_single(points, self.name, self.min_points))
+        fit = fit_circle(single_point_set(points, self.name, self.min_points))
         return 2.0 * fit.parameter_jacobian[6].reshape(1, -1)
 
 
 @dataclass(frozen=True)
-class Roundness(_Scalar):
+class Roundness(ScalarFeature):
     """Least-squares roundness: max − min radial residual in the LS plane."""
 
     name: str = "roundness"
@@ -244,15 +250,16 @@ class Roundness(_Scalar):
     min_points: ClassVar[int] = 3
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, self.min_points)
+        stack, lead = stacked_point_sets(points, self.name, self.min_points)
         return batch.fit_circles(stack).form_error.reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        return _peak_to_valley_jacobian(fit_circle(_single(points, self.name, self.min_points)))
+        fit = fit_circle(single_point_set(points, self.name, self.min_points))
+        return _peak_to_valley_jacobian(fit)
 
 
 @dataclass(frozen=True)
-class Flatness(_Scalar):
+class Flatness(ScalarFeature):
     """Least-squares flatness: max − min signed distance to the LS plane."""
 
     name: str = "flatness"
@@ -260,11 +267,12 @@ class Flatness(_Scalar):
     min_points: ClassVar[int] = 3
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, self.min_points)
+        stack, lead = stacked_point_sets(points, self.name, self.min_points)
         return batch.fit_planes(stack).form_error.reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        return _peak_to_valley_jacobian(fit_plane(_single(points, self.name, self.min_points)))
+        fit = fit_plane(single_point_set(points, self.name, self.min_points))
+        return _peak_to_valley_jacobian(fit)
 
 
 @dataclass(frozen=True)
@@ -285,11 +293,11 @@ class BallCentre(_Position):
             object.__setattr__(self, "radius", r)
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, self.min_points)
+        stack, lead = stacked_point_sets(points, self.name, self.min_points)
         return batch.fit_spheres(stack, radius=self.radius).centres.reshape((*lead, 3))
 
     def jacobian(self, points: object) -> np.ndarray:
-        fit = fit_sphere(_single(points, self.name, self.min_points), radius=self.radius)
+        fit = fit_sphere(single_point_set(points, self.name, self.min_points), radius=self.radius)
         return fit.parameter_jacobian[:3].reshape(3, -1)
 
 
@@ -314,17 +322,17 @@ class CircleCentre(_Position):
     min_points: ClassVar[int] = 3
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, self.min_points)
+        stack, lead = stacked_point_sets(points, self.name, self.min_points)
         return batch.fit_circles(stack).centres.reshape((*lead, 3))
 
     def jacobian(self, points: object) -> np.ndarray:
         """Rows 0–2 of :func:`fit_circle`'s parameter Jacobian, shape (3, 3n)."""
-        fit = fit_circle(_single(points, self.name, self.min_points))
+        fit = fit_circle(single_point_set(points, self.name, self.min_points))
         return fit.parameter_jacobian[:3].reshape(3, -1)
 
 
 @dataclass(frozen=True)
-class CylinderDiameter(_TipCompensated):
+class CylinderDiameter(TipCompensatedSize):
     """Least-squares cylinder diameter with tip compensation.
 
     ``inner=True`` (a bore probed from inside): ``D = 2 R_fit + d_tip``;
@@ -343,7 +351,7 @@ class CylinderDiameter(_TipCompensated):
     ``R_fit`` minimises ``Σ (ρ_i − R)²`` over the axis and R, ``ρ_i`` the distance of the
     stylus-centre point i from the axis (ISO 14405-1:2016 (GG) least-squares size;
     Forbes, NPL DITC 140/89, §4.8).  ``value`` fits all stacked sets at once with
-    :func:`mtmetrology.fitting.batch.fit_cylinders` (about 2.5 s for 10⁵ sets of 25
+    :func:`mtmetrology.fitting.batch_cylinders.fit_cylinders` (about 2.5 s for 10⁵ sets of 25
     points on one core; a loop of :func:`fit_cylinder` takes about 1000 times longer)
     and raises :class:`mtmetrology.errors.ConvergenceError` if a set does not converge;
     ``jacobian`` is ``2 ∂R/∂q`` from :func:`fit_cylinder`'s first-order parameter
@@ -372,16 +380,16 @@ class CylinderDiameter(_TipCompensated):
     min_points: ClassVar[int] = 5
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, self.min_points)
+        stack, lead = stacked_point_sets(points, self.name, self.min_points)
         return (2.0 * _cylinders(stack, self.name).radii + self._offset()).reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        fit = fit_cylinder(_single(points, self.name, self.min_points))
+        fit = fit_cylinder(single_point_set(points, self.name, self.min_points))
         return 2.0 * fit.parameter_jacobian[6].reshape(1, -1)
 
 
 @dataclass(frozen=True)
-class Cylindricity(_Scalar):
+class Cylindricity(ScalarFeature):
     """Least-squares cylindricity: max − min radial residual of the LS cylinder.
 
     An upper bound of the ISO 12180-1 minimum-zone cylindricity
@@ -403,16 +411,17 @@ class Cylindricity(_Scalar):
     min_points: ClassVar[int] = 5
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, self.min_points)
+        stack, lead = stacked_point_sets(points, self.name, self.min_points)
         return _cylinders(stack, self.name).form_error.reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        return _peak_to_valley_jacobian(fit_cylinder(_single(points, self.name, self.min_points)))
+        fit = fit_cylinder(single_point_set(points, self.name, self.min_points))
+        return _peak_to_valley_jacobian(fit)
 
 
-def _cylinders(stack: np.ndarray, name: str) -> batch.BatchCylinderFit:
+def _cylinders(stack: np.ndarray, name: str) -> batch_cylinders.BatchCylinderFit:
     """Batched cylinder fits; a set that did not converge raises rather than give a number."""
-    fit = batch.fit_cylinders(stack)
+    fit = batch_cylinders.fit_cylinders(stack)
     if not fit.success.all():
         first = int(np.argmin(fit.success))
         raise ConvergenceError(f"{name}: {fit.message}; first: set {first}")

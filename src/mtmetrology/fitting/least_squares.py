@@ -48,22 +48,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from mtmetrology.fitting._odr import (
-    FitResult,
-    Sensitivities,
-    _canonical,
-    _centred,
-    _check_conditioning,
-    _gauss_newton,
-    _hyper_fit,
-    _local_to_points,
-    _message,
-    _perp_basis,
-    _result,
-    _singular_values,
-)
 from mtmetrology.fitting.axial import fit_cone, fit_cylinder
 from mtmetrology.fitting.elements import Circle, Line, Plane, Sphere
+from mtmetrology.fitting.geometry import canonical, centred, perpendicular_basis, singular_values
+from mtmetrology.fitting.odr import (
+    FitResult,
+    Sensitivities,
+    check_conditioning,
+    fit_message,
+    fit_result,
+    hyper_fit,
+    local_to_points,
+    solve_distances,
+)
 from mtmetrology.fitting.validation import DEGENERATE, FitError, check_points, require_spread
 from mtmetrology.optimize import LeastSquaresResult
 
@@ -108,12 +105,12 @@ def fit_line(points: object) -> FitResult:
     (Forbes, NPL DITC 140/89, §4.2; Shakarji 1998, §3.1).
     """
     p = check_points(points, "line", (2, 3), 2)
-    x, centroid, _ = _centred(p)
+    x, centroid, _ = centred(p)
     n, dim = p.shape
     s, vt = np.linalg.svd(x, full_matrices=False)[1:]
     if s[0] <= DEGENERATE * max(float(np.abs(p).max()), 1.0):
         raise FitError(f"line: the {n} points coincide; a line needs two distinct points")
-    a = _canonical(vt[0])
+    a = canonical(vt[0])
     line = Line(centroid, a)
     along = x @ a  # (n,) axial coordinates
     if dim == 2:
@@ -124,7 +121,7 @@ def fit_line(points: object) -> FitResult:
         g = np.broadcast_to(nrm, (n, 1, 2))
 
         def line_2d() -> Sensitivities:
-            dbeta = _local_to_points(j, g)  # (2, n, 2)
+            dbeta = local_to_points(j, g)  # (2, n, 2)
             t = np.zeros((4, 2))
             t[0:2, 0] = nrm
             t[2:4, 1] = nrm
@@ -133,7 +130,7 @@ def fit_line(points: object) -> FitResult:
             jac = np.einsum("tb,bnd->tnd", t, dbeta) + direct
             return Sensitivities(jac, g[:, 0, :], j[:, 0, :], dbeta)
 
-        return _result(line, y, None, "line: closed-form SVD fit", line_2d)
+        return fit_result(line, y, None, "line: closed-form SVD fit", line_2d)
     e1, e2 = vt[1], vt[2]
     u, v = x @ e1, x @ e2  # (n,) components of the perpendicular offsets
     rho = np.hypot(u, v)
@@ -149,7 +146,7 @@ def fit_line(points: object) -> FitResult:
     g = np.broadcast_to(np.stack([e1, e2]), (n, 2, 3))
 
     def line_3d() -> Sensitivities:
-        dbeta = _local_to_points(j, g)  # (4, n, 3)
+        dbeta = local_to_points(j, g)  # (4, n, 3)
         t = np.zeros((6, 4))
         t[0:3, 0], t[0:3, 1], t[3:6, 2], t[3:6, 3] = e1, e2, e1, e2
         direct = np.zeros((6, n, 3))
@@ -162,7 +159,7 @@ def fit_line(points: object) -> FitResult:
             jac, np.einsum("nq,nqd->nd", w, g), np.einsum("nq,nqp->np", w, j), dbeta
         )
 
-    return _result(
+    return fit_result(
         line, rho, None, "line: closed-form SVD fit", line_3d, form_error=float(2.0 * rho.max())
     )
 
@@ -170,7 +167,7 @@ def fit_line(points: object) -> FitResult:
 def _plane_core(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """SVD frame (e1, e2, n) of centred points; n canonical, (e1, e2, n) right-handed."""
     vt = np.linalg.svd(x, full_matrices=False)[2]
-    nrm = _canonical(vt[2])
+    nrm = canonical(vt[2])
     e1 = vt[0]
     return e1, np.cross(nrm, e1), nrm
 
@@ -180,7 +177,7 @@ def _plane_local(x: np.ndarray, e1: np.ndarray, e2: np.ndarray, nrm: np.ndarray)
     n = x.shape[0]
     j = np.stack([-np.ones(n), -(x @ e1), -(x @ e2)], axis=1)[:, None, :]  # (n, 1, 3)
     g = np.broadcast_to(nrm, (n, 1, 3))
-    return j, g, _local_to_points(j, g)  # dβ/dP (3, n, 3)
+    return j, g, local_to_points(j, g)  # dβ/dP (3, n, 3)
 
 
 def fit_plane(points: object) -> FitResult:
@@ -210,9 +207,9 @@ def fit_plane(points: object) -> FitResult:
     restriction.
     """
     p = check_points(points, "plane", (3,), 3)
-    x, centroid, _ = _centred(p)
+    x, centroid, _ = centred(p)
     n = p.shape[0]
-    require_spread("plane", _singular_values(x), len(x), 2, "collinear")
+    require_spread("plane", singular_values(x), len(x), 2, "collinear")
     e1, e2, nrm = _plane_core(x)
 
     def plane() -> Sensitivities:
@@ -225,7 +222,7 @@ def fit_plane(points: object) -> FitResult:
         jac = np.einsum("tb,bnd->tnd", t, dbeta) + direct
         return Sensitivities(jac, g[:, 0, :], j[:, 0, :], dbeta)
 
-    return _result(Plane(centroid, nrm), x @ nrm, None, "plane: closed-form SVD fit", plane)
+    return fit_result(Plane(centroid, nrm), x @ nrm, None, "plane: closed-form SVD fit", plane)
 
 
 # ---------------------------------------------------------------- circle and sphere
@@ -236,7 +233,7 @@ def _fit_round(
 ) -> tuple[np.ndarray, float, LeastSquaresResult]:
     """Geometric circle/sphere fit of centred points (n, d); radius fixed if given."""
     try:
-        c0, r0 = _hyper_fit(x)
+        c0, r0 = hyper_fit(x)
     except FitError as exc:
         raise FitError(f"{kind}: {exc}") from exc
     d = x.shape[1]
@@ -252,7 +249,7 @@ def _fit_round(
             return (c + step[:d], r + step[d]) if r + step[d] > 0 else None
         return (c + step, r)
 
-    solve = _gauss_newton(evaluate, retract, (c0, r0), scale)
+    solve = solve_distances(evaluate, retract, (c0, r0), scale)
     c, r = solve.x
     return c, r, solve
 
@@ -286,7 +283,7 @@ def _round_local(j: np.ndarray, d: int) -> tuple[np.ndarray, np.ndarray]:
     dβ/dP (p, n, d).
     """
     g = -j[:, :, :d]
-    return g, _local_to_points(j, g)
+    return g, local_to_points(j, g)
 
 
 def fit_sphere(points: object, radius: float | None = None) -> FitResult:
@@ -333,19 +330,19 @@ def fit_sphere(points: object, radius: float | None = None) -> FitResult:
         r_known = float(radius)  # type: ignore[arg-type]
         if not np.isfinite(r_known) or r_known <= 0:
             raise FitError(f"{kind}: radius must be a positive finite number, got {radius!r}")
-    x, centroid, scale = _centred(p)
+    x, centroid, scale = centred(p)
     del p  # only the centred copy is needed from here (one (n, 3) array less at the peak)
     hint = (
         "; the mirror-image centres cannot be told apart"
         if fixed
         else "; a sphere needs points off one plane (give the radius only if they are not)"
     )
-    require_spread(kind, _singular_values(x), len(x), 3, "coplanar", hint)
+    require_spread(kind, singular_values(x), len(x), 3, "coplanar", hint)
     c, r, solve = _fit_round(x, scale, r_known, kind)
     n = x.shape[0]
     del x  # the sensitivities need only the solver's Jacobian
     j = solve.jacobian[:, None, :]
-    _check_conditioning(kind, j[:, 0, :], "centre" if fixed else "centre and radius")
+    check_conditioning(kind, j[:, 0, :], "centre" if fixed else "centre and radius")
     residuals = solve.residuals  # ‖x_i − c‖ − r at the solution
 
     def sphere() -> Sensitivities:
@@ -358,7 +355,8 @@ def fit_sphere(points: object, radius: float | None = None) -> FitResult:
         return Sensitivities(jac, g[:, 0, :], j[:, 0, :], dbeta)
 
     rms = float(np.sqrt(np.mean(residuals**2)))
-    return _result(Sphere(c + centroid, r), residuals, solve, _message(kind, solve, rms), sphere)
+    message = fit_message(kind, solve, rms)
+    return fit_result(Sphere(c + centroid, r), residuals, solve, message, sphere)
 
 
 def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
@@ -397,13 +395,13 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
     (63.5, True)
     """
     p = check_points(points, "circle", (2, 3), 3)
-    x, centroid, scale = _centred(p)
+    x, centroid, scale = centred(p)
     n, dim = p.shape
     if dim == 2:
-        require_spread("circle", _singular_values(x), len(x), 2, "collinear")
+        require_spread("circle", singular_values(x), len(x), 2, "collinear")
         c, r, solve = _fit_round(x, scale, None, "circle")
         j = solve.jacobian[:, None, :]
-        _check_conditioning("circle", j[:, 0, :], "centre and radius")
+        check_conditioning("circle", j[:, 0, :], "centre and radius")
 
         def circle_2d() -> Sensitivities:
             g, dbeta = _round_local(j, 2)
@@ -411,24 +409,24 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
 
         residuals = solve.residuals
         rms = float(np.sqrt(np.mean(residuals**2)))
-        message = _message("circle", solve, rms)
-        return _result(Circle(c + centroid, r), residuals, solve, message, circle_2d)
+        message = fit_message("circle", solve, rms)
+        return fit_result(Circle(c + centroid, r), residuals, solve, message, circle_2d)
     if plane is not None:
         if not isinstance(plane, Plane):
             raise FitError(f"circle: plane must be a Plane, got {type(plane).__name__}")
         nrm = plane.normal
-        e1, e2 = _perp_basis(nrm)
+        e1, e2 = perpendicular_basis(nrm)
         # Origin: the centroid's foot on the given plane.
         origin = centroid - ((centroid - plane.point) @ nrm) * nrm
         x = p - origin
     else:
-        require_spread("circle", _singular_values(x), len(x), 2, "collinear")
+        require_spread("circle", singular_values(x), len(x), 2, "collinear")
         e1, e2, nrm = _plane_core(x)
         origin = centroid
     uv = np.column_stack([x @ e1, x @ e2])  # (n, 2) in-plane coordinates
     require_spread(
         "circle",
-        _singular_values(uv - uv.mean(axis=0)),
+        singular_values(uv - uv.mean(axis=0)),
         len(uv),
         2,
         "collinear in the circle's plane",
@@ -437,7 +435,7 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
     c2, r, solve = _fit_round(uv - uv_mean, scale, None, "circle")
     c2 = c2 + uv_mean
     jc = solve.jacobian[:, None, :]  # local β_c = (δuc, δvc, δr)
-    _check_conditioning("circle", jc[:, 0, :], "centre and radius")
+    check_conditioning("circle", jc[:, 0, :], "centre and radius")
     centre = origin + c2[0] * e1 + c2[1] * e2
     residuals = np.linalg.norm(uv - c2, axis=1) - r
     rms = float(np.sqrt(np.mean(residuals**2)))
@@ -447,7 +445,7 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
         g3 = cu[:, 0:1] * e1 + cu[:, 1:2] * e2  # (n, 3) direct derivative of ρ_i − r
         jc_flat = jc[:, 0, :]
         if plane is not None:
-            dbeta = _local_to_points(jc, g3[:, None, :])  # (3, n, 3)
+            dbeta = local_to_points(jc, g3[:, None, :])  # (3, n, 3)
             t = np.zeros((7, 3))
             t[0:3, 0], t[0:3, 1], t[6, 2] = e1, e2, 1.0
             jac = np.einsum("tb,bnd->tnd", t, dbeta)
@@ -470,5 +468,5 @@ def fit_circle(points: object, plane: Plane | None = None) -> FitResult:
         jac = np.einsum("tb,bnd->tnd", t, dbeta)
         return Sensitivities(jac, g3, np.column_stack([s_plane, jc_flat]), dbeta)
 
-    message = _message("circle", solve, rms)
-    return _result(Circle(centre, r, nrm), residuals, solve, message, circle_3d)
+    message = fit_message("circle", solve, rms)
+    return fit_result(Circle(centre, r, nrm), residuals, solve, message, circle_3d)

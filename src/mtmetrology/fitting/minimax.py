@@ -15,21 +15,20 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
-from mtmetrology.fitting._zones import (
-    _CONTACT_RTOL,
-    _MAX_ITERATIONS,
+from mtmetrology.fitting.elements import Circle, Cylinder, Plane, Sphere
+from mtmetrology.fitting.geometry import plane_basis, point_set_size, principal_axes
+from mtmetrology.fitting.least_squares import FitError, fit_circle, fit_cylinder, fit_sphere
+from mtmetrology.fitting.validation import check_normal, check_points, require_spread
+from mtmetrology.fitting.zones import (
+    CONTACT_RTOL,
     Kind,
     ZoneResult,
     ZoneStatus,
-    _check_normal,
-    _contacts,
-    _plane_basis,
-    _principal_axes,
-    _size,
+    contact_indices,
 )
-from mtmetrology.fitting.elements import Circle, Cylinder, Plane, Sphere
-from mtmetrology.fitting.least_squares import FitError, fit_circle, fit_cylinder, fit_sphere
-from mtmetrology.fitting.validation import check_points, require_spread
+
+# Linear programmes a sequential-LP zone fit may solve before it stops (status 0).
+_MAX_ITERATIONS = 200
 
 __all__ = [
     "circumscribed_circle",
@@ -67,7 +66,7 @@ class _CentreModel:
         return _CentreModel(self.p, self.centre + step)
 
 
-class _AxisModel:
+class AxisModel:
     """Distances of the points from an axis: cylinders and 3-D straightness.
 
     In a frame whose z-axis is the current axis, through the axial mean of the points, the
@@ -75,13 +74,22 @@ class _AxisModel:
     order, ``d_i = rho_i - (x_i a + y_i b + z_i (x_i alpha + y_i beta)) / rho_i``
     (Forbes, NPL DITC 140/89, section 5). Tilts are scaled by the half-length of the point
     set so that every step component is a displacement in mm.
+
+    Parameters
+    ----------
+    p : (n, 3) ndarray, mm
+        The points.
+    point : (3,) ndarray, mm
+        A point of the axis.
+    direction : (3,) ndarray
+        The axis direction (any length).
     """
 
     def __init__(self, p: np.ndarray, point: np.ndarray, direction: np.ndarray):
         direction = np.asarray(direction, dtype=float)
         direction = direction / np.linalg.norm(direction)
         self.p = p
-        self.frame = _plane_basis(direction)  # rows e1, e2, axis
+        self.frame = plane_basis(direction)  # rows e1, e2, axis
         local = (p - point) @ self.frame.T  # (n, 3)
         z_mean = local[:, 2].mean()
         self.point = np.asarray(point, dtype=float) + z_mean * direction
@@ -93,16 +101,19 @@ class _AxisModel:
         self.scales = np.array([1.0, 1.0, 1.0 / half_length, 1.0 / half_length])
 
     def evaluate(self) -> tuple[np.ndarray, np.ndarray]:
+        """Distances ρ (n,) of the points from the axis, mm, and their Jacobian (n, 4) with
+        respect to the scaled step (a, b, α, β)."""
         x, y, z = self.local.T
         rho = np.hypot(x, y)
         inv = 1.0 / np.maximum(rho, np.finfo(float).tiny)
         jac = -np.stack([x, y, x * z, y * z], axis=1) * inv[:, None]  # (n, 4)
         return rho, jac
 
-    def moved(self, step: np.ndarray) -> _AxisModel:
+    def moved(self, step: np.ndarray) -> AxisModel:
+        """The axis after the step (a, b, α, β): shifted by (a, b) and tilted by (α, β)."""
         e1, e2, axis = self.frame
         point = self.point + step[0] * e1 + step[1] * e2
-        return _AxisModel(self.p, point, axis + step[2] * e1 + step[3] * e2)
+        return AxisModel(self.p, point, axis + step[2] * e1 + step[3] * e2)
 
 
 def _objective(d: np.ndarray, kind: Kind) -> float:
@@ -159,14 +170,17 @@ def _lp_step(
 
 
 @dataclass(frozen=True)
-class _Solution:
-    model: _CentreModel | _AxisModel
+class LPSolution:
+    """Where :func:`sequential_lp` stopped: the model (centre or axis) reached, its
+    distances (n,) mm, the linear programmes solved and the :class:`ZoneStatus`."""
+
+    model: _CentreModel | AxisModel
     distances: np.ndarray
     iterations: int
     status: ZoneStatus
 
 
-def _sequential_lp(model, kind: Kind, size: float, what: str) -> _Solution:
+def sequential_lp(model, kind: Kind, size: float, what: str) -> LPSolution:
     """Trust-region sequential LP for a Chebyshev problem on radial distances.
 
     A step is accepted when the true objective falls by at least 0.1 % of the decrease the
@@ -174,6 +188,24 @@ def _sequential_lp(model, kind: Kind, size: float, what: str) -> _Solution:
     shrinks to a quarter of the step after a poor one. The iteration stops when the LP
     predicts no decrease above ``1e-13 * size`` (first-order Chebyshev optimality), or when
     the region has shrunk below the rounding level of the coordinates.
+
+    Parameters
+    ----------
+    model : AxisModel or the centre model of this module
+        The starting element (the least-squares one): ``evaluate()`` gives the distances
+        and their Jacobian, ``moved(step)`` the element after a step, ``scales`` the step
+        scales.
+    kind : {"zone", "outer", "inner"}
+        Minimise the zone width ``max d − min d``, ``max d`` (circumscribed) or
+        ``−min d`` (inscribed).
+    size : float
+        The point-set size, mm (:func:`mtmetrology.fitting.geometry.point_set_size`).
+    what : str
+        The element in words, for the messages.
+
+    Returns
+    -------
+    LPSolution
 
     Raises
     ------
@@ -193,11 +225,11 @@ def _sequential_lp(model, kind: Kind, size: float, what: str) -> _Solution:
     for iteration in range(1, _MAX_ITERATIONS + 1):
         lp = _lp_step(d, jac, model.scales, radius, kind, floor)
         if lp is None:
-            return _Solution(model, d, iteration, ZoneStatus.LP_FAILED)
+            return LPSolution(model, d, iteration, ZoneStatus.LP_FAILED)
         step, predicted = lp
         decrease = f - predicted
         if decrease <= tol:
-            return _Solution(model, d, iteration, ZoneStatus.OPTIMAL)
+            return LPSolution(model, d, iteration, ZoneStatus.OPTIMAL)
         trial = model.moved(step)
         d_trial, jac_trial = trial.evaluate()
         f_trial = _objective(d_trial, kind)
@@ -217,12 +249,12 @@ def _sequential_lp(model, kind: Kind, size: float, what: str) -> _Solution:
             if radius <= 1e-15 * size:
                 small = decrease <= 1e-9 * max(float(d.max() - d.min()), floor)
                 status = ZoneStatus.ROUNDING_LEVEL if small else ZoneStatus.TRUST_REGION_LIMIT
-                return _Solution(model, d, iteration, status)
-    return _Solution(model, d, _MAX_ITERATIONS, ZoneStatus.ITERATION_LIMIT)
+                return LPSolution(model, d, iteration, status)
+    return LPSolution(model, d, _MAX_ITERATIONS, ZoneStatus.ITERATION_LIMIT)
 
 
 def _radial_result(
-    solution: _Solution,
+    solution: LPSolution,
     kind: Kind,
     size: float,
     least_squares_form_error: float,
@@ -232,18 +264,18 @@ def _radial_result(
     """Zone result for circles, spheres and cylinders from the radial distances."""
     d = solution.distances
     low, high = float(d.min()), float(d.max())
-    tol = _CONTACT_RTOL * size
+    tol = CONTACT_RTOL * size
     if kind == "zone":
         radius = 0.5 * (low + high)
-        contacts = np.union1d(_contacts(d, low, tol), _contacts(d, high, tol))
+        contacts = np.union1d(contact_indices(d, low, tol), contact_indices(d, high, tol))
         method = "minimum-zone"
     elif kind == "outer":
         radius = high
-        contacts = _contacts(d, high, tol)
+        contacts = contact_indices(d, high, tol)
         method = "circumscribed"
     else:
         radius = low
-        contacts = _contacts(d, low, tol)
+        contacts = contact_indices(d, low, tol)
         method = "inscribed"
         if radius <= tol:
             raise FitError(f"the {what} is degenerate: a point lies on its centre or axis")
@@ -264,22 +296,22 @@ def _circle(points, normal, kind: Kind, what: str) -> ZoneResult:
     p = check_points(points, what, (2, 3), 3)
     if p.shape[1] == 2 and normal is not None:
         raise FitError("normal applies to points in 3-D; 2-D points lie in their plane")
-    centroid, s, _ = _principal_axes(p)
+    centroid, s, _ = principal_axes(p)
     require_spread(what, s, len(p), 2, "collinear")
     if p.shape[1] == 2:
         least_squares = fit_circle(p).element
         basis = np.eye(2)
     else:
         # The least-squares circle in the given plane, or in its own least-squares plane.
-        plane = None if normal is None else Plane(centroid, _check_normal(normal))
+        plane = None if normal is None else Plane(centroid, check_normal(normal))
         least_squares = fit_circle(p, plane=plane).element
-        basis = _plane_basis(least_squares.normal)[:2]  # rows u, v spanning the plane
+        basis = plane_basis(least_squares.normal)[:2]  # rows u, v spanning the plane
     uv = (p - centroid) @ basis.T  # (n, 2) in-plane coordinates
     require_spread(what, np.linalg.svd(uv, compute_uv=False), len(uv), 2, "collinear in the plane")
     model = _CentreModel(uv, (least_squares.centre - centroid) @ basis.T)
     d0, _ = model.evaluate()
-    size = _size(p)
-    solution = _sequential_lp(model, kind, size, what)
+    size = point_set_size(p)
+    solution = sequential_lp(model, kind, size, what)
 
     def make_element(radius: float) -> Circle:
         centre = centroid + solution.model.centre @ basis
@@ -290,13 +322,13 @@ def _circle(points, normal, kind: Kind, what: str) -> ZoneResult:
 
 def _sphere(points, kind: Kind, what: str) -> ZoneResult:
     p = check_points(points, what, (3,), 4)
-    centroid, s, _ = _principal_axes(p)
+    centroid, s, _ = principal_axes(p)
     require_spread(what, s, len(p), 3, "coplanar")
     start = fit_sphere(p).element.centre
-    size = _size(p)
+    size = point_set_size(p)
     model = _CentreModel(p - centroid, start - centroid)
     d0, _ = model.evaluate()
-    solution = _sequential_lp(model, kind, size, what)
+    solution = sequential_lp(model, kind, size, what)
 
     def make_element(radius: float) -> Sphere:
         return Sphere(centroid + solution.model.centre, radius)
@@ -306,13 +338,13 @@ def _sphere(points, kind: Kind, what: str) -> ZoneResult:
 
 def _cylinder(points, kind: Kind, what: str) -> ZoneResult:
     p = check_points(points, what, (3,), 5)
-    centroid, s, _ = _principal_axes(p)
+    centroid, s, _ = principal_axes(p)
     require_spread(what, s, len(p), 2, "collinear")
     start = fit_cylinder(p).element
-    size = _size(p)
-    model = _AxisModel(p - centroid, start.point - centroid, start.direction)
+    size = point_set_size(p)
+    model = AxisModel(p - centroid, start.point - centroid, start.direction)
     d0, _ = model.evaluate()
-    solution = _sequential_lp(model, kind, size, what)
+    solution = sequential_lp(model, kind, size, what)
 
     def make_element(radius: float) -> Cylinder:
         return Cylinder(centroid + solution.model.point, solution.model.direction, radius)

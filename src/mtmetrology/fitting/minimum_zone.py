@@ -46,22 +46,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from mtmetrology.fitting._zones import (
-    _CONTACT_RTOL,
-    ZONE_STATUS_MESSAGES,
-    ZoneResult,
-    ZoneStatus,
-    _check_normal,
-    _contacts,
-    _plane_basis,
-    _principal_axes,
-    _size,
-)
 from mtmetrology.fitting.elements import Line, Plane
+from mtmetrology.fitting.geometry import plane_basis, point_set_size, principal_axes
 from mtmetrology.fitting.least_squares import FitError, fit_line, fit_plane
 from mtmetrology.fitting.minimax import (
-    _AxisModel,
-    _sequential_lp,
+    AxisModel,
     circumscribed_circle,
     circumscribed_cylinder,
     circumscribed_sphere,
@@ -70,9 +59,17 @@ from mtmetrology.fitting.minimax import (
     inscribed_cylinder,
     inscribed_sphere,
     roundness,
+    sequential_lp,
     sphericity,
 )
-from mtmetrology.fitting.validation import check_points, require_spread
+from mtmetrology.fitting.validation import check_normal, check_points, require_spread
+from mtmetrology.fitting.zones import (
+    CONTACT_RTOL,
+    ZONE_STATUS_MESSAGES,
+    ZoneResult,
+    ZoneStatus,
+    contact_indices,
+)
 
 __all__ = [
     "ZONE_STATUS_MESSAGES",
@@ -110,7 +107,7 @@ def _min_width_2d(p: np.ndarray) -> tuple[np.ndarray, float, float]:
 
     ``p`` : (n, 2). Rotating calipers: the optimal zone has a line through a hull edge.
     """
-    centroid, s, vt = _principal_axes(p)
+    centroid, s, vt = principal_axes(p)
     if s[1] <= 1e-13 * s[0]:
         # Collinear to rounding: the zone is the principal direction, width at rounding level.
         n = vt[1]
@@ -136,7 +133,7 @@ def _min_width_3d(p: np.ndarray) -> tuple[np.ndarray, float, float]:
     (Houle & Toussaint 1988); every candidate's width is measured over all hull vertices,
     so a candidate admitted by rounding can only be too wide, never too narrow.
     """
-    centroid, s, vt = _principal_axes(p)
+    centroid, s, vt = principal_axes(p)
     if s[2] <= 1e-13 * s[0]:
         n = vt[2]
         h = p @ n
@@ -220,14 +217,16 @@ def _min_width_3d(p: np.ndarray) -> tuple[np.ndarray, float, float]:
 def _parallel_zone(element, residuals, width, size, least_squares_pv) -> ZoneResult:
     """Result of an exact zone between two parallel lines or planes."""
     half = 0.5 * width
-    tol = _CONTACT_RTOL * size
+    tol = CONTACT_RTOL * size
     return ZoneResult(
         element=element,
         method="minimum-zone",
         form_error=width,
         bounds=(-half, half),
         residuals=residuals,
-        contacts=np.union1d(_contacts(residuals, -half, tol), _contacts(residuals, half, tol)),
+        contacts=np.union1d(
+            contact_indices(residuals, -half, tol), contact_indices(residuals, half, tol)
+        ),
         least_squares_form_error=least_squares_pv,
         iterations=0,
         status=ZoneStatus.EXACT,
@@ -272,14 +271,14 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
     0.002
     """
     p = check_points(points, "straightness", (2, 3), 2)
-    centroid, s, _ = _principal_axes(p)
+    centroid, s, _ = principal_axes(p)
     require_spread("straightness", s, len(p), 1, "coincident")
     if p.shape[1] == 3 and plane_normal is None:
         start = fit_line(p).element
-        size = _size(p)
-        model = _AxisModel(p - centroid, start.point - centroid, start.direction)
+        size = point_set_size(p)
+        model = AxisModel(p - centroid, start.point - centroid, start.direction)
         d0, _ = model.evaluate()
-        solution = _sequential_lp(model, "outer", size, "straightness")
+        solution = sequential_lp(model, "outer", size, "straightness")
         d = solution.distances
         radius = float(d.max())
         return ZoneResult(
@@ -288,7 +287,7 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
             form_error=2.0 * radius,
             bounds=(0.0, radius),
             residuals=d,
-            contacts=_contacts(d, radius, _CONTACT_RTOL * size),
+            contacts=contact_indices(d, radius, CONTACT_RTOL * size),
             least_squares_form_error=2.0 * float(d0.max()),
             iterations=solution.iterations,
             status=solution.status,
@@ -298,7 +297,7 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
             raise FitError("plane_normal applies to points in 3-D; 2-D points lie in their plane")
         basis = np.eye(2)
     else:
-        basis = _plane_basis(_check_normal(plane_normal))[:2]
+        basis = plane_basis(check_normal(plane_normal))[:2]
     uv = (p - centroid) @ basis.T  # (n, 2)
     require_spread("straightness", np.linalg.svd(uv, compute_uv=False), len(uv), 1, "coincident")
     least_squares = fit_line(uv).element
@@ -310,7 +309,7 @@ def straightness(points, *, plane_normal=None) -> ZoneResult:
         Line(centroid + (mid * n) @ basis, np.array([n[1], -n[0]]) @ basis),
         uv @ n - mid,
         high - low,
-        _size(p),
+        point_set_size(p),
         float(np.ptp(least_squares.distances(uv))),
     )
 
@@ -350,7 +349,7 @@ def flatness(points) -> ZoneResult:
     0.003
     """
     p = check_points(points, "flatness", (3,), 3)
-    centroid, s, _ = _principal_axes(p)
+    centroid, s, _ = principal_axes(p)
     require_spread("flatness", s, len(p), 2, "collinear")
     least_squares = fit_plane(p).element
     q = p - centroid  # (n, 3)
@@ -362,6 +361,6 @@ def flatness(points) -> ZoneResult:
         Plane(centroid + mid * n, n),
         q @ n - mid,
         high - low,
-        _size(p),
+        point_set_size(p),
         float(np.ptp(least_squares.distances(p))),
     )

@@ -65,10 +65,16 @@ from typing import ClassVar
 import numpy as np
 
 from mtmetrology.errors import ConvergenceError, RankDeficientError
-from mtmetrology.fitting._zones import ZoneResult, _plane_basis
 from mtmetrology.fitting.batch_zones import BatchZoneFit
-from mtmetrology.fitting.features import _Scalar, _single, _stack, _TipCompensated
+from mtmetrology.fitting.features import (
+    ScalarFeature,
+    TipCompensatedSize,
+    single_point_set,
+    stacked_point_sets,
+)
+from mtmetrology.fitting.geometry import plane_basis
 from mtmetrology.fitting.least_squares import fit_plane
+from mtmetrology.fitting.zones import ZoneResult
 
 __all__ = [
     "MinimumZoneCylinderDiameter",
@@ -98,7 +104,7 @@ def _cylinder_gradients(p: np.ndarray, zone: ZoneResult, idx: np.ndarray) -> Gra
     """θ = (shift, tilt) of the axis in its frame (e1, e2, a): with local coordinates
     (x, y, z) of q_i, ``ρ = ‖(x, y)‖`` and ``∂ρ/∂θ = −(x, y, xz, yz)/ρ`` (Forbes, NPL
     DITC 140/89, §4.8); ``∂ρ_i/∂q_i`` is the radial unit vector."""
-    e1, e2, a = _plane_basis(zone.element.direction)
+    e1, e2, a = plane_basis(zone.element.direction)
     w = p[idx] - zone.element.point
     x, y, z = w @ e1, w @ e2, w @ a
     rho = np.hypot(x, y)
@@ -109,7 +115,7 @@ def _cylinder_gradients(p: np.ndarray, zone: ZoneResult, idx: np.ndarray) -> Gra
 def _flatness_gradients(p: np.ndarray, zone: ZoneResult, idx: np.ndarray) -> Gradients:
     """θ = tilt of the normal, n ≈ n0 + θ1 e1 + θ2 e2: ``d_i = n·(q_i − c)``,
     ``∂d/∂θ = ((q_i − c)·e1, (q_i − c)·e2)``, ``∂d_i/∂q_i = n``."""
-    e1, e2, nrm = _plane_basis(zone.element.normal)
+    e1, e2, nrm = plane_basis(zone.element.normal)
     w = p[idx] - zone.element.point
     return np.column_stack([w @ e1, w @ e2]), np.broadcast_to(nrm, w.shape), None
 
@@ -123,7 +129,7 @@ def _circle_gradients(p: np.ndarray, zone: ZoneResult, idx: np.ndarray) -> Gradi
     the plane's first-order Jacobian is accurate to O(flatness / size) relative, so its
     error is second order in the form deviations.
     """
-    e1, e2, nrm = _plane_basis(zone.element.normal)
+    e1, e2, nrm = plane_basis(zone.element.normal)
     w = p[idx] - zone.element.centre
     height = w @ nrm
     flat = w - height[:, None] * nrm
@@ -223,19 +229,19 @@ class _ZoneFeature:
         return self._shape.min_points
 
     def value(self, points: object) -> np.ndarray:
-        stack, lead = _stack(points, self.name, self.min_points)
+        stack, lead = stacked_point_sets(points, self.name, self.min_points)
         zones = self._shape.solve_sets(stack, self.name)
         if isinstance(zones, BatchZoneFit):
             return self._of_sets(zones).reshape(lead)
         return np.array([self._of(z) for z in zones]).reshape(lead)
 
     def jacobian(self, points: object) -> np.ndarray:
-        p = _single(points, self.name, self.min_points)
+        p = single_point_set(points, self.name, self.min_points)
         shape = self._shape
         return _zone_jacobian(p, shape.solve(p), shape.gradients, self._quantity, self.name)
 
 
-class _MinimumZoneForm(_ZoneFeature, _Scalar):
+class _MinimumZoneForm(_ZoneFeature, ScalarFeature):
     """A zone width (the form error)."""
 
     _quantity = WIDTH
@@ -247,7 +253,7 @@ class _MinimumZoneForm(_ZoneFeature, _Scalar):
         return zones.form_error
 
 
-class _MinimumZoneDiameter(_ZoneFeature, _TipCompensated):
+class _MinimumZoneDiameter(_ZoneFeature, TipCompensatedSize):
     """A mid-zone diameter ``r_in + r_out ± d_tip``."""
 
     _quantity = MEAN_DIAMETER

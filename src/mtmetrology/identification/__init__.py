@@ -22,7 +22,7 @@ from mtmetrology.identification.observations import (
 from mtmetrology.identification.solver import (
     IdentificationError,
     IdentificationResult,
-    gauss_newton,
+    levenberg_marquardt,
 )
 
 _UNCERTAINTY = {
@@ -48,7 +48,7 @@ __all__ = [
     "ScaleBar",
     "analyse_identifiability",
     "choose_datum",
-    "gauss_newton",
+    "levenberg_marquardt",
     "observability_indices",
     "senses_from_sequence",
     *_UNCERTAINTY,

@@ -41,7 +41,7 @@ from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.optimize import STATUS_MESSAGES, Status, least_squares
 
-__all__ = ["IdentificationError", "IdentificationResult", "gauss_newton"]
+__all__ = ["IdentificationError", "IdentificationResult", "levenberg_marquardt"]
 
 #: Former name of the rank-deficiency error of an identification.
 IdentificationError = RankDeficientError
@@ -49,7 +49,7 @@ IdentificationError = RankDeficientError
 
 @dataclass(frozen=True, eq=False)
 class IdentificationResult(NotebookRepr):
-    """Result of :func:`gauss_newton`.
+    """Result of :func:`levenberg_marquardt`.
 
     Attributes
     ----------
@@ -134,7 +134,7 @@ class IdentificationResult(NotebookRepr):
         )
 
 
-def gauss_newton(
+def levenberg_marquardt(
     problem,
     x0: np.ndarray | None = None,
     *,
@@ -144,7 +144,12 @@ def gauss_newton(
     minimum_norm: bool = False,
     report_names=None,
 ) -> IdentificationResult:
-    """Solve a weighted non-linear least-squares identification problem.
+    """Solve a weighted non-linear least-squares identification by Levenberg–Marquardt.
+
+    The project's damped core, :func:`mtmetrology.optimize.least_squares`, runs: undamped
+    Gauss–Newton steps while they lower the cost, Levenberg–Marquardt damping in the
+    column-scaled coordinates when they do not (see :mod:`mtmetrology.optimize`); then the
+    identifiability of the unknowns is analysed on the SVD of the last accepted point.
 
     Parameters
     ----------
@@ -192,7 +197,7 @@ def gauss_newton(
     ...     def evaluate(self, x, jacobian=True):
     ...         r = x[0] + x[1] * self.t - (1.0 + 2.0 * self.t)
     ...         return r, np.column_stack([np.ones(3), self.t])
-    >>> res = gauss_newton(Line())
+    >>> res = levenberg_marquardt(Line())
     >>> res.success, np.round(res.estimate, 12).tolist(), res.dof
     (True, [1.0, 2.0], 1)
 
@@ -211,7 +216,7 @@ def gauss_newton(
     ...     def evaluate(self, b, jacobian=True):
     ...         e = np.exp(-b[1] * self.x)
     ...         return b[0] * (1 - e) - self.y, np.column_stack([1 - e, b[0] * self.x * e])
-    >>> res = gauss_newton(Misra1a())
+    >>> res = levenberg_marquardt(Misra1a())
     >>> s = np.sqrt(res.variance_factor)
     >>> f"{res.estimate[0]:.8f}", f"{s:.10e}", f"{s * res.standard_uncertainty[0]:.10e}"
     ('238.94212918', '1.0187876330e-01', '2.7070075241e+00')

@@ -38,6 +38,7 @@ from mtmetrology.kinematics.parameters import (
 )
 from mtmetrology.kinematics.preset_registry import list_presets, preset_text
 from mtmetrology.kinematics.topology import LINEAR_AXES, Topology, parse_topology
+from mtmetrology.optimize import STATUS_MESSAGES, Status, least_squares_batch
 from mtmetrology.units import parse_unit
 
 __all__ = ["Machine"]
@@ -511,7 +512,9 @@ class Machine:
         the first Newton step from any start is the nominal closed form; with errors the
         iteration converges quadratically (and in one step whenever the error model is
         affine in the linear axes, e.g. the 13-parameter model of Sepahi Boroujeni (2021),
-        Table 5-1).
+        Table 5-1).  Each point is one square 3 × 3 problem of the batched least-squares
+        core (:func:`mtmetrology.optimize.least_squares_batch`: Newton's step with the
+        Levenberg–Marquardt safeguard, only the points still iterating evaluated).
 
         Parameters
         ----------
@@ -560,31 +563,84 @@ class Machine:
             raise InputError(f"points must be a finite (..., 3) array, mm; got {what}")
         q, theta = self._check(readings, params)
         shape = np.broadcast_shapes(target.shape[:-1], q.shape[:-1], theta.shape[:-1])
-        q = np.broadcast_to(q, (*shape, self.n_axes)).copy()
-        for it in range(max_iter):
-            ev = self.evaluate(q, theta, senses=senses, tool=tool, d_axes=True)
-            resid = target - ev.position
-            try:
-                step = np.linalg.solve(ev.d_axes[..., :, lin], resid[..., None])[..., 0]
-            except np.linalg.LinAlgError:
+        n_points = int(np.prod(shape))
+        start = np.broadcast_to(q, (*shape, self.n_axes)).reshape(n_points, self.n_axes).copy()
+        goal = np.broadcast_to(target, (*shape, 3)).reshape(n_points, 3)
+        per_point = {
+            key: _point_rows(value, shape, n_points)
+            for key, value in (("params", theta), ("senses", senses), ("tool", tool))
+        }
+
+        def normal_equations(linear, index):
+            # r = p(q) − target with J = ∂p/∂q_linear (3 × 3): one small problem per point
+            rows = start[index]
+            rows[:, lin] = linear
+            ev = self.evaluate(
+                rows,
+                _take(per_point["params"], index),
+                senses=_take(per_point["senses"], index),
+                tool=_take(per_point["tool"], index),
+                d_axes=True,
+            )
+            jac = ev.d_axes[:, :, lin]
+            resid = ev.position - goal[index]
+            return (
+                np.einsum("kji,kjl->kil", jac, jac),
+                np.einsum("kji,kj->ki", jac, resid),
+                np.einsum("kj,kj->k", resid, resid),
+                3,
+            )
+
+        # Newton's method for the square system, on the batched core (Levenberg–Marquardt
+        # safeguard, status per point); the step tolerance is the position tolerance since
+        # the linear columns of ∂p/∂q are unit vectors up to the errors
+        solved = least_squares_batch(
+            normal_equations,
+            start[:, lin],
+            xtol=tol,
+            max_iter=max_iter,
+            residual_rounding=np.finfo(float).eps * np.maximum(np.max(np.abs(goal), axis=1), 1.0),
+        )
+        residual = np.sqrt(2.0 * solved.cost)
+        failed = ~solved.success | ~(
+            residual
+            <= np.maximum(tol, 8 * np.finfo(float).eps * (np.max(np.abs(goal), axis=1) + 1.0))
+        )
+        if failed.any():
+            singular = solved.status == Status.NOT_FINITE
+            if np.any(singular & np.isfinite(residual)):
                 raise ConvergenceError(
                     "inverse kinematics: the position does not depend on the linear readings "
                     "(singular Jacobian): check the machine's axis directions"
-                ) from None
-            q[..., lin] += step
-            if np.max(np.abs(resid), initial=0.0) <= tol and it > 0:
-                break
-        else:
-            error = np.nan_to_num(np.max(np.abs(resid), axis=-1), nan=np.inf)
-            at = np.unravel_index(int(np.argmax(error)), error.shape)
+                )
+            error = np.where(failed, np.nan_to_num(residual, nan=np.inf), 0.0)
+            worst = int(np.argmax(error))
+            at = np.unravel_index(worst, shape) if shape else ()
             where = f" at point {at[0] if len(at) == 1 else tuple(map(int, at))}" if at else ""
             raise ConvergenceError(
-                f"inverse kinematics did not converge (residual {float(error[at]):.3g} mm"
-                f"{where} after {max_iter} Newton steps, tol {tol:g} mm)"
+                f"inverse kinematics did not converge (residual {float(error[worst]):.3g} mm"
+                f"{where} after {int(solved.nit[worst])} Newton steps, tol {tol:g} mm; "
+                f"{STATUS_MESSAGES[Status(int(solved.status[worst]))]})"
             )
+        start[:, lin] = solved.x
+        q = start.reshape(*shape, self.n_axes)
         if snap:
             for i in lin:
                 res = self.axes[self.axis_names[i]].resolution
                 if res:
                     q[..., i] = np.round(q[..., i] / res) * res
         return q
+
+
+def _point_rows(value, shape: tuple, n_points: int):
+    """``value`` (…, k) as (n_points, k) rows when it varies by point; unchanged otherwise."""
+    if value is None:
+        return None
+    value = np.asarray(value, dtype=float)
+    if value.ndim <= 1:
+        return value
+    return np.broadcast_to(value, (*shape, value.shape[-1])).reshape(n_points, -1)
+
+
+def _take(rows, index: np.ndarray):
+    return rows if rows is None or rows.ndim <= 1 else rows[index]

@@ -2,7 +2,7 @@
 
 :func:`calibrate_multilateration` solves :class:`~mtmetrology.multilateration.problem.
 LengthProblem` with the identification engine (:func:`mtmetrology.identification.
-gauss_newton`: one least-squares core, rank diagnostics naming what the set-up cannot
+levenberg_marquardt`: one least-squares core, rank diagnostics naming what the set-up cannot
 see) and returns a :class:`MultilaterationResult`: the machine's error parameters with
 their covariance (the GUF of the weighted least squares, (JᵀJ)⁻¹ with the weights
 1/u(ℓ) of the instrument specification), the stations and dead paths, the residuals.
@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mtmetrology.errors import InputError
-from mtmetrology.identification import gauss_newton
+from mtmetrology.identification import levenberg_marquardt
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.multilateration.problem import LASERTRACER_SPEC, LengthProblem
@@ -289,7 +289,7 @@ def calibrate_multilateration(
     problem = LengthProblem(
         machine, record.readings, record.tools, record.stations, record.lengths, spec
     )
-    solved = gauss_newton(problem, report_names=machine.parameter_names)
+    solved = levenberg_marquardt(problem, report_names=machine.parameter_names)
     if not solved.success:
         raise InputError(f"multilateration: the identification did not converge ({solved.message})")
     pset = solved.parameter_set(machine, provenance)

@@ -17,12 +17,14 @@ from mtmetrology.errors import InputError
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.schema import describe_validation_error
 from mtmetrology.omm.repeatability import (
-    _COV_DEGREES,
-    _STD_DEGREES,
     COVARIANCE_OUTPUTS,
     FACTOR_UNITS,
     FACTORS,
     STD_OUTPUTS,
+)
+from mtmetrology.omm.repeatability_model import (
+    COVARIANCE_DEGREES,
+    STD_DEGREES,
     OutputFit,
     RepeatabilityModel,
 )
@@ -103,7 +105,7 @@ def repeatability_model_from_document(document: object, source: str) -> Repeatab
     fits = []
     for o in doc.outputs:
         is_std = o.name in STD_OUTPUTS
-        degrees = _STD_DEGREES if is_std else _COV_DEGREES
+        degrees = STD_DEGREES if is_std else COVARIANCE_DEGREES
         unit, size = ("µm" if is_std else "µm²"), _n_coefficients(degrees)
         if o.unit != unit or len(o.coefficients) != size or len(o.u) != size:
             raise InputError(

@@ -25,12 +25,14 @@ from mtmetrology.omm.hysteresis import (
 )
 from mtmetrology.omm.notebook import OMMNotebookRepr
 from mtmetrology.omm.repeatability import (
-    MIN_TARGETS_PER_COEFFICIENT,
-    RepeatabilityModel,
     TargetStatistics,
     factors_from_file_units,
-    fit_repeatability_model,
     target_statistics,
+)
+from mtmetrology.omm.repeatability_model import (
+    MIN_TARGETS_PER_COEFFICIENT,
+    RepeatabilityModel,
+    fit_repeatability_model,
 )
 from mtmetrology.omm.repeatability_windows import WindowStatistics, window_statistics
 from mtmetrology.units import to_internal

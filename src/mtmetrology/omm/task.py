@@ -58,7 +58,7 @@ import numpy as np
 from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.omm.notebook import OMMNotebookRepr
-from mtmetrology.omm.repeatability import RepeatabilityModel
+from mtmetrology.omm.repeatability_model import RepeatabilityModel
 from mtmetrology.omm.simulator import MeasurementModel, TaskInputs, covariance_simulator
 from mtmetrology.rng import SeedLike, chunk_generators
 from mtmetrology.uncertainty.conformity import ConformityDecision

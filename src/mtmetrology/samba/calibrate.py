@@ -1,8 +1,8 @@
 """SAMBA calibration: machine errors, ball centres and tool offset from ball-centre indications.
 
-The identification is the weighted Gauss–Newton of the identification engine
+The identification is the weighted Levenberg–Marquardt of the identification engine
 (:class:`~mtmetrology.identification.BallCentreProblem`,
-:func:`~mtmetrology.identification.gauss_newton`; Alami Mchichi (2018) §5.3.4 and §6.3.2,
+:func:`~mtmetrology.identification.levenberg_marquardt`; Alami Mchichi (2018) §5.3.4 and §6.3.2,
 Sepahi Boroujeni (2021),
 eqs 5-1…5-6): unknowns are the machine's error parameters, the centres of every probed
 ball (nuisance) and, with ``estimate_tool``, the tool-vector correction.  Besides the
@@ -39,7 +39,7 @@ from mtmetrology.errors import ConvergenceError, RankDeficientError
 from mtmetrology.identification import (
     BallCentreProblem,
     IdentificationResult,
-    gauss_newton,
+    levenberg_marquardt,
 )
 from mtmetrology.kinematics.conventions import describe_parameters
 from mtmetrology.kinematics.machine import Machine
@@ -417,7 +417,7 @@ def calibrate(
     InputError
         If a tool prior is given without ``estimate_tool`` or with a u that is not positive.
     ConvergenceError
-        If the Gauss–Newton iteration stops without converging.
+        If the Levenberg–Marquardt iteration stops without converging.
 
     Notes
     -----
@@ -440,7 +440,9 @@ def calibrate(
     )
     report = [*machine.parameter_names, *(n for n in problem.names if n.startswith("tool"))]
     try:
-        result = gauss_newton(problem, xtol=XTOL, report_names=report, minimum_norm=minimum_norm)
+        result = levenberg_marquardt(
+            problem, xtol=XTOL, report_names=report, minimum_norm=minimum_norm
+        )
     except RankDeficientError as err:
         groups = [g for g in err.confounded if set(g) & set(report)] or list(err.confounded)
         listed = "; ".join(" ~ ".join(g) for g in groups)
@@ -466,7 +468,7 @@ def calibrate(
         tool_prior=tool_prior,
         **tools,
     )
-    nominal = gauss_newton(nominal_problem, minimum_norm=True)
+    nominal = levenberg_marquardt(nominal_problem, minimum_norm=True)
     provenance = {
         "method": "SAMBA (Alami Mchichi 2018; Sepahi Boroujeni 2021)",
         "records": records.source,

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mtmetrology.identification.datum import Datum
-from mtmetrology.identification.solver import gauss_newton
+from mtmetrology.identification.solver import levenberg_marquardt
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.tracker import (
@@ -242,7 +242,7 @@ def calibrate(
         machine, q, tools, measurements.temperatures, measured, start, noise, conditions
     )
     problem = TrackerProblem(identified, q, tools, measured, whitening(cov), start)
-    result = gauss_newton(problem, report_names=identified.parameter_names)
+    result = levenberg_marquardt(problem, report_names=identified.parameter_names)
     n = identified.n_params
     pose = TrackerPose.from_vector(result.estimate[n:])
     predicted, _ = problem.model(result.estimate, jacobian=False)

@@ -9,7 +9,7 @@ with ``f`` the machine's forward kinematics and its error parameters θ (the kin
 engine: 18 error functions and 3 squareness errors of the XFYZ preset), ``(T, α, β, δ)`` the
 tracker pose.  The unknowns are θ (the identifiable subset, :func:`datum`) and the six pose
 components, identified jointly in one phase by weighted least squares through the one core
-(:func:`mtmetrology.identification.gauss_newton`); the residuals are whitened by the
+(:func:`mtmetrology.identification.levenberg_marquardt`); the residuals are whitened by the
 per-point covariance ``Σ_i`` (tracker noise J Σ Jᵀ, SMR, and the axis repeatability and
 thermal-correction variances), ``r_i = L_i⁻¹(p_LT,i(x) − p_meas,i)`` with ``Σ_i = L_i L_iᵀ``.
 

@@ -6,8 +6,15 @@
   ensembles and Type A inputs from simultaneous observations;
 - :mod:`~mtmetrology.uncertainty.outputs` — the output record shared by every method and
   the result document;
+- :mod:`~mtmetrology.uncertainty.result` — ``UncertaintyResult``, the fields every method's
+  result shares;
 - :mod:`~mtmetrology.uncertainty.guf` — law of propagation, budgets, Welch–Satterthwaite;
 - :mod:`~mtmetrology.uncertainty.mcm` — fixed and adaptive Monte Carlo;
+- :mod:`~mtmetrology.uncertainty.mcm_result` — its result;
+- :mod:`~mtmetrology.uncertainty.chunks` — its chunked evaluation and random streams;
+- :mod:`~mtmetrology.uncertainty.sample_statistics` — its streaming moments;
+- :mod:`~mtmetrology.uncertainty.stability` — its numerical tolerances and stability
+  tests (JCGM 101 7.9);
 - :mod:`~mtmetrology.uncertainty.regions` — coverage intervals and regions;
 - :mod:`~mtmetrology.uncertainty.validation` — GUF validated by Monte Carlo;
 - :mod:`~mtmetrology.uncertainty.executors` — in-process, process pool, Dask;
@@ -57,6 +64,7 @@ _EXPORTS = {
     "load_model": "mtmetrology.uncertainty.modelfile",
     "Output": "mtmetrology.uncertainty.outputs",
     "result_document": "mtmetrology.uncertainty.outputs",
+    "UncertaintyResult": "mtmetrology.uncertainty.result",
     "ValidationReport": "mtmetrology.uncertainty.validation",
     "validate_guf": "mtmetrology.uncertainty.validation",
     "validate_results": "mtmetrology.uncertainty.validation",
@@ -89,6 +97,7 @@ if TYPE_CHECKING:
     from mtmetrology.uncertainty.mcm import MCMResult, monte_carlo
     from mtmetrology.uncertainty.modelfile import MeasurementModel, load_model
     from mtmetrology.uncertainty.outputs import Output, result_document
+    from mtmetrology.uncertainty.result import UncertaintyResult
     from mtmetrology.uncertainty.validation import ValidationReport, validate_guf, validate_results
 
 __all__ = [
@@ -115,6 +124,7 @@ __all__ = [
     "Tolerance",
     "Trapezoidal",
     "Triangular",
+    "UncertaintyResult",
     "ValidationReport",
     "decide",
     "guf",

@@ -18,13 +18,14 @@ from typing import ClassVar
 
 import numpy as np
 
-from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import ConvergenceError, InputError
-from mtmetrology.uncertainty.outputs import Output, json_dof, output_labels, output_records
+from mtmetrology.optimize import solve_equations
+from mtmetrology.uncertainty.outputs import json_dof, output_labels
 from mtmetrology.uncertainty.regions import (
     normal_ellipsoidal_coverage_factor,
     normal_rectangular_coverage_factor,
 )
+from mtmetrology.uncertainty.result import UncertaintyResult
 from mtmetrology.units import display_unit
 
 __all__ = ["BudgetRow", "GUFResult", "guf", "variance_shares", "welch_satterthwaite"]
@@ -100,43 +101,23 @@ class BudgetRow:
 
 
 @dataclass(frozen=True)
-class GUFResult(NotebookRepr):
-    """Result of :func:`guf`, in the vocabulary shared with Monte Carlo (:mod:`.outputs`).
+class GUFResult(UncertaintyResult):
+    """Result of :func:`guf`: the fields of :class:`.UncertaintyResult` (estimate
+    y = f(x), covariance U_y = C U_x Cᵀ, intervals y ± U with U = k u(y), k from
+    t_ν_eff, k_p = sqrt(χ²_m(p)) and the Bonferroni k_q) and the GUF's own.
 
     Attributes
     ----------
-    names, units : tuple of str, length m
-        Output names and unit labels.
     input_names, input_units : tuple of str, length N
     input_estimate, input_standard_uncertainty, input_dof : (N,) ndarray
     input_covariance : (N, N) ndarray
     input_ensemble : (N,) ndarray of int
         Ensemble number of each input (−1: none), see :class:`.InputSet`.
-    estimate : (m,) ndarray
-        y = f(x).
-    covariance : (m, m) ndarray
-        U_y = C U_x Cᵀ.
     sensitivities : (m, N) ndarray
         C (zero for inputs of zero variance when differentiated numerically).
-    standard_uncertainty : (m,) ndarray
-        u(y_j).
-    correlation : (m, m) ndarray
-    largest_eigenvalue : float
-        λ_max of ``correlation`` (JCGM 102 validation quantity).
     dof_effective : (m,) ndarray
         ν_eff of each output by Welch–Satterthwaite, ensembles counted as one component
         (inf when every contributing ν_i is).
-    coverage_factor : (m,) ndarray
-        Per-output k from t_ν_eff (normal when ν_eff = inf) for probability p.
-    expanded_uncertainty : (m,) ndarray
-        U = k u(y).
-    interval : (m, 2) ndarray
-        y ± U.
-    region_coverage_factor : float
-        Hyper-ellipsoid k_p = sqrt(χ²_m(p)) (JCGM 102:2011, 6.5.2.3).
-    rectangular_coverage_factor : float
-        Bonferroni hyper-rectangle k_q.
-    p : float
     scalar_model : bool
         The model returned a scalar per evaluation.
     sensitivity_method : {"analytic", "central differences"}
@@ -147,8 +128,6 @@ class GUFResult(NotebookRepr):
 
     method: ClassVar[str] = "guf"
 
-    names: tuple[str, ...]
-    units: tuple[str, ...]
     input_names: tuple[str, ...]
     input_units: tuple[str, ...]
     input_estimate: np.ndarray
@@ -156,40 +135,11 @@ class GUFResult(NotebookRepr):
     input_dof: np.ndarray
     input_covariance: np.ndarray
     input_ensemble: np.ndarray
-    estimate: np.ndarray
-    covariance: np.ndarray
     sensitivities: np.ndarray
-    standard_uncertainty: np.ndarray
-    correlation: np.ndarray
-    largest_eigenvalue: float
     dof_effective: np.ndarray
-    coverage_factor: np.ndarray
-    expanded_uncertainty: np.ndarray
-    interval: np.ndarray
-    region_coverage_factor: float
-    rectangular_coverage_factor: float
-    p: float
     scalar_model: bool
     sensitivity_method: str
     newton_iterations: int
-
-    @property
-    def outputs(self) -> tuple[Output, ...]:
-        """One :class:`.Output` per output quantity."""
-        return output_records(self, self.expanded_uncertainty, self.coverage_factor)
-
-    def output(self, key: int | str = 0) -> Output:
-        """The :class:`.Output` of one output quantity, by index or name."""
-        return self.outputs[self._index(key)]
-
-    def _index(self, key: int | str) -> int:
-        if isinstance(key, str):
-            if key not in self.names:
-                raise InputError(f"no output named {key!r}; outputs are {list(self.names)}")
-            return self.names.index(key)
-        if not -len(self.names) <= int(key) < len(self.names):
-            raise InputError(f"output index {key} out of range for {len(self.names)} outputs")
-        return int(key)
 
     def budget(self, output: int | str = 0) -> tuple[BudgetRow, ...]:
         """The uncertainty budget of one output (index or name), one row per input."""
@@ -211,26 +161,15 @@ class GUFResult(NotebookRepr):
             for i in range(c.size)
         )
 
-    def to_dict(self) -> dict:
-        """JSON-ready result: ``method``, ``outputs`` (:class:`.Output` layout), joint data.
+    def _per_output_dict(self) -> dict:
+        """``dof_effective``: ν_eff per output (None for infinity)."""
+        return {"dof_effective": [json_dof(v) for v in self.dof_effective]}
 
-        ``dof_effective`` lists ν_eff per output (None for infinity); ``budget`` maps each
-        output name to its rows (values in ``unit``, full precision; ``display_unit`` is
-        the unit a report shows them in; ``share`` as in :func:`variance_shares`).
-        """
+    def _method_dict(self) -> dict:
+        """``sensitivity_method``, ``newton_iterations`` and ``budget``: each output name
+        to its rows (values in ``unit``, full precision; ``display_unit`` is the unit a
+        report shows them in; ``share`` as in :func:`variance_shares`)."""
         return {
-            "method": self.method,
-            "outputs": [o.to_dict() for o in self.outputs],
-            "dof_effective": [json_dof(v) for v in self.dof_effective],
-            "covariance": {
-                "names": list(self.names),
-                "units": list(self.units),
-                "matrix": self.covariance.tolist(),
-            },
-            "correlation": self.correlation.tolist(),
-            "largest_eigenvalue": self.largest_eigenvalue,
-            "region_coverage_factor": self.region_coverage_factor,
-            "rectangular_coverage_factor": self.rectangular_coverage_factor,
             "sensitivity_method": self.sensitivity_method,
             "newton_iterations": self.newton_iterations,
             "budget": {
@@ -366,14 +305,20 @@ def _central_differences(f: Callable, x: np.ndarray, step: np.ndarray, m: int) -
 
 
 def _solve_implicit(h, x, y0, jacobian, tol, max_iter):
-    """Newton iteration for h(y, x) = 0.
+    """Solve h(y, x) = 0 for y by Newton's method on the least-squares core.
 
     Returns y (m,), C_y (m, m), C_x (m, N) or None when no Jacobian was given, and
     the number of iterations.
+
+    Raises
+    ------
+    ConvergenceError
+        If :func:`mtmetrology.optimize.solve_equations` stops without converging (its
+        status message, the residual ‖h‖ and the number of steps are named).
     """
-    y = np.atleast_1d(np.asarray(y0, dtype=float)).copy()
-    m = y.size
-    if not np.all(np.isfinite(y)):
+    y_start = np.atleast_1d(np.asarray(y0, dtype=float)).copy()
+    m = y_start.size
+    if not np.all(np.isfinite(y_start)):
         raise InputError("y0 contains NaN or inf")
 
     def c_y(yy):
@@ -383,25 +328,25 @@ def _solve_implicit(h, x, y0, jacobian, tol, max_iter):
             lambda yp: h(yp, np.broadcast_to(x, (*yp.shape[:-1], x.size))), yy, step, m
         )
 
-    iterations = 0
-    converged = False
-    while not converged:
-        if iterations == max_iter:
-            raise ConvergenceError(
-                f"implicit model: Newton did not converge in {max_iter} iterations; "
-                "give a better y0"
-            )
-        hv = np.asarray(h(y, x), dtype=float).reshape(m)
-        cy = jacobian(y, x)[0] if jacobian is not None else c_y(y)
-        dy = np.linalg.solve(np.asarray(cy, dtype=float).reshape(m, m), hv)
-        y = y - dy
-        iterations += 1
-        converged = bool(np.all(np.abs(dy) <= tol * np.maximum(np.abs(y), 1.0)))
+    def equations(yy):
+        hv = np.asarray(h(yy, x), dtype=float).reshape(m)
+        cy = jacobian(yy, x)[0] if jacobian is not None else c_y(yy)
+        return hv, np.asarray(cy, dtype=float).reshape(m, m)
+
+    solved = solve_equations(equations, y_start, rtol=tol, max_iter=max_iter)
+    if not solved.success:
+        raise ConvergenceError(
+            f"implicit model: Newton's method did not solve h(y, x) = 0 ({solved.message}): "
+            f"residual |h| = {np.linalg.norm(solved.residuals):.3g} at y = "
+            f"{np.array2string(np.asarray(solved.x), precision=6)} after {solved.nit} steps; "
+            "give a better y0"
+        )
+    y = np.asarray(solved.x, dtype=float)
     if jacobian is None:
-        return y, c_y(y), None, iterations
+        return y, c_y(y), None, solved.nit
     cy, cx = jacobian(y, x)
     cy = np.asarray(cy, dtype=float).reshape(m, m)
-    return y, cy, np.asarray(cx, dtype=float).reshape(m, x.size), iterations
+    return y, cy, np.asarray(cx, dtype=float).reshape(m, x.size), solved.nit
 
 
 def guf(
@@ -444,7 +389,9 @@ def guf(
         Round ν_eff down to an integer before taking the t quantile, as
         JCGM 100:2008 G.4.1 and H.1.6 do (ν_eff itself is reported unrounded).
     tol, max_iter :
-        Newton stopping rule (relative step) and iteration limit.
+        Newton stopping rule and iteration limit of an implicit model: the ``rtol`` and
+        ``max_iter`` of :func:`mtmetrology.optimize.solve_equations` (the step relative
+        to the size of the terms of h).
 
     Returns
     -------
@@ -457,7 +404,8 @@ def guf(
         returns NaN, an implicit model without y0, or correlated inputs with finite
         degrees of freedom outside a common ensemble (Welch–Satterthwaite does not apply).
     ConvergenceError
-        Newton's method did not solve an implicit model in ``max_iter`` iterations.
+        Newton's method did not solve an implicit model (iteration limit, no descent, or
+        C_y singular at y0); the message names the residual ‖h‖ and the steps taken.
 
     Notes
     -----

@@ -1,7 +1,8 @@
-"""Machinery shared by the orthogonal-distance least-squares fits.
+"""Orthogonal-distance regression: what the least-squares fits share.
 
-The result object, input checks, Gauss–Newton with a Levenberg–Marquardt safeguard,
-local frames and the algebraic starting values used by :mod:`.least_squares` (line,
+The result object and its sensitivities, the conditioning check, the call of the
+project's least-squares core on a fit's local parameters, the comparison of fits from
+several starts and the algebraic starting values used by :mod:`.least_squares` (line,
 plane, circle, sphere) and :mod:`.axial` (cylinder, cone).  See
 :mod:`mtmetrology.fitting.least_squares` for the definitions and references.
 """
@@ -17,14 +18,24 @@ import numpy as np
 
 from mtmetrology.display import NotebookRepr
 from mtmetrology.fitting.elements import Element
+from mtmetrology.fitting.geometry import singular_values
 from mtmetrology.fitting.validation import FitError
 from mtmetrology.optimize import LeastSquaresResult, Status, least_squares
 
+__all__ = [
+    "FitResult",
+    "Sensitivities",
+    "better_fit",
+    "check_conditioning",
+    "fit_message",
+    "fit_result",
+    "hyper_fit",
+    "local_to_points",
+    "solve_distances",
+]
+
 # Gauss–Newton stops when the step is below this fraction of the data size.
 _STEP_TOL = 1e-13
-# Steps whose predicted relative cost decrease is below this are accepted whatever the
-# (rounding-level) change of the cost; the iteration ends when they stop contracting.
-_NEAR_REL = 1e-10
 _EPS = float(np.finfo(float).eps)
 _MAX_ITER = 200
 
@@ -136,33 +147,24 @@ class FitResult(NotebookRepr):
         return out
 
 
-def _singular_values(x: np.ndarray) -> np.ndarray:
-    return np.linalg.svd(x, compute_uv=False)
+def local_to_points(j: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """Sensitivities of the local parameters to the points, ``dβ/dP = −J⁺ ∂d/∂P``
+    (first-order implicit-function form at the solution), for residuals grouped per point.
 
+    Parameters
+    ----------
+    j : (n, q, p) ndarray
+        Jacobian of the q residuals of each point with respect to the local parameters β.
+    g : (n, q, dim) ndarray
+        Derivative of each residual with respect to its own point.
 
-def _canonical(v: np.ndarray) -> np.ndarray:
-    """Sign convention for undirected axes and normals: largest component positive."""
-    return v if v[np.argmax(np.abs(v))] > 0 else -v
+    Returns
+    -------
+    (p, n, dim) ndarray
+        ``dβ/dP``.
 
-
-def _perp_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors completing ``a`` to a right-handed orthonormal frame.
-
-    A deterministic function of ``a``: evaluation and update use the same frame.
-    """
-    helper = np.eye(3)[int(np.argmin(np.abs(a)))]
-    e1 = np.cross(a, helper)
-    e1 /= np.linalg.norm(e1)
-    return e1, np.cross(a, e1)
-
-
-def _local_to_points(j: np.ndarray, g: np.ndarray) -> np.ndarray:
-    """dβ/dP = −J⁺ ∂d/∂P for residuals grouped per point.
-
-    j : (n, q, p) Jacobian of the q residuals of each point w.r.t. local parameters β.
-    g : (n, q, dim) derivative of each residual w.r.t. its own point.
-    Returns (p, n, dim).
-
+    Notes
+    -----
     ``J⁺ = R⁺R⁺ᵀJᵀ`` with R the triangular factor of ``J = QR`` (so ``R⁺R⁺ᵀ = (JᵀJ)⁺``):
     the pseudo-inverse of the small R instead of a thin SVD of J, whose (n·q, p) factor
     would double the memory of a fit to millions of points.
@@ -174,8 +176,24 @@ def _local_to_points(j: np.ndarray, g: np.ndarray) -> np.ndarray:
     return np.einsum("pnq,nqd->pnd", a, g)
 
 
-def _check_conditioning(kind: str, j: np.ndarray, names: str) -> None:
-    s = _singular_values(j)
+def check_conditioning(kind: str, j: np.ndarray, names: str) -> None:
+    """Refuse a fit whose Jacobian is rank-deficient at the solution.
+
+    Parameters
+    ----------
+    kind : str
+        What is fitted; leads the message.
+    j : (m, p) ndarray
+        Jacobian of the distances with respect to the local parameters.
+    names : str
+        The parameters, for the message.
+
+    Raises
+    ------
+    FitError
+        When ``σ_min(j) ≤ 1e-12 σ_max(j)``: the points do not determine the parameters.
+    """
+    s = singular_values(j)
     if s[-1] <= 1e-12 * s[0]:
         raise FitError(
             f"{kind}: the parameters ({names}) are not determined by these points "
@@ -183,19 +201,34 @@ def _check_conditioning(kind: str, j: np.ndarray, names: str) -> None:
         )
 
 
-def _gauss_newton(
+def solve_distances(
     evaluate: Callable[[Any], tuple[np.ndarray, np.ndarray]],
     retract: Callable[[Any, np.ndarray], Any],
     state: Any,
     scale: float,
 ) -> LeastSquaresResult:
-    """The project's least-squares core on a fit's local parameters.
+    """The project's least-squares core (:func:`mtmetrology.optimize.least_squares`) on a
+    fit's local parameters: minimise ``Σ d_i²`` over the orthogonal distances d.
 
-    ``evaluate(state) -> (d (m,), J (m, p))``; ``retract(state, δ)`` applies a step in the
-    local parameters and returns the new state (None if it leaves the domain).  Distances
-    are differences of coordinates of size ``scale``, so their rounding unit is
-    ``eps·scale``: below it the cost cannot judge steps and the iteration stops when they
-    stop contracting (status 2).
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(state) -> (d (m,), J (m, p))``: distances, mm, and their Jacobian with
+        respect to the local parameters.
+    retract : callable
+        ``retract(state, δ)`` applies a step δ (p,) in the local parameters and returns the
+        new state (None if it leaves the domain).
+    state : object
+        The starting element.
+    scale : float
+        Size of the point set, mm.  Distances are differences of coordinates of this size,
+        so their rounding unit is ``eps·scale``: below it the cost cannot judge steps and
+        the iteration stops when they stop contracting (status 2); the step tolerance is
+        ``1e-13·scale``.
+
+    Returns
+    -------
+    mtmetrology.optimize.LeastSquaresResult
     """
     return least_squares(
         evaluate,
@@ -207,7 +240,7 @@ def _gauss_newton(
     )
 
 
-def _better(solve: LeastSquaresResult, best: LeastSquaresResult | None) -> bool:
+def better_fit(solve: LeastSquaresResult, best: LeastSquaresResult | None) -> bool:
     """Whether a fit from another starting value beats the best so far: converged first,
     then a cost lower beyond rounding (ties keep the earlier, preferred candidate)."""
     if best is None or (solve.success and not best.success):
@@ -215,7 +248,7 @@ def _better(solve: LeastSquaresResult, best: LeastSquaresResult | None) -> bool:
     return solve.success == best.success and solve.cost < best.cost * (1.0 - 1e-9)
 
 
-def _message(kind: str, solve: LeastSquaresResult | None, rms: float) -> str:
+def fit_message(kind: str, solve: LeastSquaresResult | None, rms: float) -> str:
     """One line from the status: what stopped the fit, and the rms residual."""
     if solve is None:
         return f"{kind}: closed-form SVD fit (rms {rms:.3g} mm)"
@@ -223,7 +256,7 @@ def _message(kind: str, solve: LeastSquaresResult | None, rms: float) -> str:
     return text if solve.success else f"{text}; the result is the best point reached"
 
 
-def _result(
+def fit_result(
     element: Element,
     residuals: np.ndarray,
     solve: LeastSquaresResult | None,
@@ -231,6 +264,9 @@ def _result(
     sensitivities: Callable[[], Sensitivities],
     form_error: float | None = None,
 ) -> FitResult:
+    """Assemble a :class:`FitResult`: rms, peak-to-valley (unless ``form_error`` is given)
+    and the solver's status, iterations and evaluations (``EXACT`` and 0 for a closed-form
+    fit, ``solve is None``)."""
     rms = float(np.sqrt(np.mean(residuals**2)))
     pv = float(residuals.max() - residuals.min()) if form_error is None else form_error
     return FitResult(
@@ -246,19 +282,28 @@ def _result(
     )
 
 
-def _centred(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    centroid = points.mean(axis=0)
-    x = points - centroid
-    scale = float(np.sqrt(np.einsum("ij,ij->", x, x) / x.shape[0]))
-    return x, centroid, scale
-
-
-def _hyper_fit(x: np.ndarray) -> tuple[np.ndarray, float]:
+def hyper_fit(x: np.ndarray) -> tuple[np.ndarray, float]:
     """Algebraic "hyper" circle/sphere fit of centred points x (n, d).
 
     Minimises ``AᵀMA`` subject to ``AᵀNA = 1`` for ``A0‖x‖² + b·x + c = 0`` with the
     hyper constraint ``N = 2 N_Taubin − N_Pratt`` (Al-Sharadqah & Chernov, Electron. J.
     Stat. 3 (2009) 886), which has no essential bias; used only as a starting value.
+
+    Parameters
+    ----------
+    x : (n, d) ndarray, mm
+        Centred points, d = 2 (circle) or 3 (sphere).
+
+    Returns
+    -------
+    centre : (d,) ndarray, mm
+        In the centred coordinates.
+    radius : float, mm
+
+    Raises
+    ------
+    FitError
+        When no admissible algebraic solution exists, or the points lie on a line or plane.
     """
     import scipy.linalg  # here, not at the top: importing it takes 0.5 s
 

@@ -1,4 +1,5 @@
-"""Tests for mtmetrology.report.figures: what each figure draws."""
+"""Tests of mtmetrology.report.figures.uncertainty: what each figure of a result and its
+uncertainty draws."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from scipy import stats
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.report import figures
-from mtmetrology.report.figures import _ellipse
+from mtmetrology.report.figures.uncertainty import _ellipse
 
 
 def test_ellipse_points_lie_on_the_mahalanobis_contour():
@@ -84,26 +85,6 @@ def test_budget_bars_sorted_by_magnitude_with_signed_shares():
     assert widths == pytest.approx([0.0, -25.0, 125.0])
 
 
-def test_residual_vectors_default_magnification_is_a_tenth_of_the_extent():
-    pts = np.array([[0.0, 0, 0], [200.0, 0, 0], [0, 100.0, 50.0]])
-    res = np.array([[2.0, 0, 0], [0, 1.0, 0], [0, 0, 0.5]])
-    fig = figures.residual_vectors(pts, res)
-    quiver = fig.axes[0].collections[-1]
-    assert np.max(np.hypot(quiver.U, quiver.V)) == pytest.approx(20.0)
-    with pytest.raises(ValueError, match=r"got \(3, 3\) and \(2, 3\)"):
-        figures.residual_vectors(pts, res[:2])
-
-
-def test_error_map_grid_and_scattered_forms():
-    gx, gy = np.linspace(0, 1, 4), np.linspace(0, 1, 3)
-    assert len(figures.error_map(gx, gy, np.zeros((3, 4))).axes) == 2
-    rng = np.random.default_rng(0)
-    x, y = rng.random(20), rng.random(20)
-    assert len(figures.error_map(x, y, x + y).axes) == 2
-    with pytest.raises(ValueError, match=r"got \(4,\), \(3,\), \(4, 3\)$"):
-        figures.error_map(gx, gy, np.zeros((4, 3)))
-
-
 def test_coverage_ellipses_pairs_and_shape_checks():
     fig = figures.coverage_ellipses(list("abcd"), np.zeros(4), np.eye(4), max_pairs=6)
     assert len(fig.axes) == 6
@@ -114,8 +95,3 @@ def test_coverage_ellipses_pairs_and_shape_checks():
 def test_correlation_heatmap_refuses_a_wrong_shape():
     with pytest.raises(ValueError, match=r"2 x 2 for 2 names, got \(3, 3\)"):
         figures.correlation_heatmap(["a", "b"], np.eye(3))
-
-
-def test_convergence_one_curve_or_several():
-    assert len(figures.convergence([1.0, 2.0]).axes[0].lines) == 1
-    assert len(figures.convergence([[1.0, 2.0], np.array([0.5, 1.5, 2.0])]).axes[0].lines) == 2

@@ -1,4 +1,5 @@
-"""Shared pieces of the minimax (Chebyshev-norm) fits: the result object and its status.
+"""What the minimax (Chebyshev-norm) fits share: the result object, its status and the
+contacts that define a zone.
 
 Used by :mod:`.minimum_zone` (exact hull methods) and :mod:`.minimax` (sequential
 linear programming); see :mod:`mtmetrology.fitting.minimum_zone` for the definitions.
@@ -14,8 +15,18 @@ import numpy as np
 
 from mtmetrology.display import NotebookRepr
 from mtmetrology.fitting.elements import Circle, Cylinder, Line, Plane, Sphere
-from mtmetrology.fitting.validation import FitError
 
+__all__ = [
+    "CONTACT_RTOL",
+    "ZONE_STATUS_MESSAGES",
+    "Kind",
+    "ZoneResult",
+    "ZoneStatus",
+    "contact_indices",
+]
+
+#: What a radial minimax fit minimises: the zone width, the largest distance (outer,
+#: circumscribed) or minus the smallest (inner, inscribed).
 Kind = Literal["zone", "outer", "inner"]
 
 
@@ -57,10 +68,9 @@ def _count(iterations: int) -> str:
     return f"{iterations} linear programme{'' if iterations == 1 else 's'}"
 
 
-# Contacts are the points within this fraction of the point-set size of a zone boundary:
-# far below any form error a CMM resolves, far above the rounding of the distances.
-_CONTACT_RTOL = 1e-9
-_MAX_ITERATIONS = 200
+#: Contacts are the points within this fraction of the point-set size of a zone boundary:
+#: far below any form error a CMM resolves, far above the rounding of the distances.
+CONTACT_RTOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -124,36 +134,8 @@ class ZoneResult(NotebookRepr):
         return ZONE_STATUS_MESSAGES[ZoneStatus(self.status)].format(count=_count(self.iterations))
 
 
-# --------------------------------------------------------------------------------------
-# geometry helpers
-
-
-def _principal_axes(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Centroid, singular values and principal directions (rows) of a point set."""
-    centroid = p.mean(axis=0)
-    _, s, vt = np.linalg.svd(p - centroid, full_matrices=False)
-    return centroid, s, vt
-
-
-def _check_normal(normal) -> np.ndarray:
-    n = np.asarray(normal, dtype=float)
-    if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) == 0.0:
-        raise FitError(f"normal must be a finite, non-zero 3-vector, got {normal!r}")
-    return n / np.linalg.norm(n)
-
-
-def _plane_basis(normal: np.ndarray) -> np.ndarray:
-    """Rows u, v, n: a right-handed orthonormal frame whose third axis is ``normal``."""
-    helper = np.eye(3)[int(np.argmin(np.abs(normal)))]
-    u = np.cross(normal, helper)
-    u /= np.linalg.norm(u)
-    return np.stack([u, np.cross(normal, u), normal])
-
-
-def _contacts(values: np.ndarray, level: float, tol: float) -> np.ndarray:
+def contact_indices(values: np.ndarray, level: float, tol: float) -> np.ndarray:
+    """Indices of the points on a zone boundary: those whose ``values`` (distances) lie
+    within ``tol`` of the boundary ``level`` (``tol = CONTACT_RTOL ×`` the point-set
+    size)."""
     return np.flatnonzero(np.abs(values - level) <= tol)
-
-
-def _size(p: np.ndarray) -> float:
-    """Radius of the point set about its centroid: the scale of its coordinates."""
-    return float(np.max(np.linalg.norm(p - p.mean(axis=0), axis=1)))
