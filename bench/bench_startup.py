@@ -11,7 +11,9 @@ resident set of the child (``VmHWM``):
   command, as the console script runs them;
 - baseline: ``mtm --help`` with every command module imported (what the listing cost
   before the summaries: the whole command line built);
-- floor: ``python -c "import numpy"``.
+- floor: ``python -c "import numpy"``; and, second, Typer's own help machinery
+  (``typer.rich_utils`` and pydantic, which Typer 0.29 imports to build every parameter's
+  adapter): what any ``mtm <command> --help`` pays before it imports a module of ours.
 
 Run: ``python bench/bench_startup.py`` (``make bench``).  On a shared host the wall
 times mostly measure the other processes: the notes give each command's CPU seconds (user
@@ -27,6 +29,7 @@ from harness import Benchmark
 from mtmetrology.cli import COMMANDS, SHARED_GROUPS
 
 FLOOR = [sys.executable, "-c", f"{OWN_PEAK}; import numpy"]
+TYPER_FLOOR = [sys.executable, "-c", f"{OWN_PEAK}; import typer.rich_utils, pydantic"]
 #: The whole command line built, then its listing (the cost before the summaries).
 FULL_HELP = [
     sys.executable,
@@ -41,6 +44,9 @@ def main() -> None:
     floor = Child(FLOOR)
     bench.time('python -c "import numpy"', "floor", floor)
     bench.timings[-1].note = floor.note()
+    typer_floor = Child(TYPER_FLOOR)
+    bench.time("Typer's help machinery (rich, pydantic)", "floor", typer_floor)
+    bench.timings[-1].note = typer_floor.note()
     children = {}
     runs = [("mtm --help", ["--help"]), ("mtm machine list", ["machine", "list"])]
     runs += [(f"mtm {c} --help", [c, "--help"]) for c in [*COMMANDS, *SHARED_GROUPS]]
@@ -56,7 +62,8 @@ def main() -> None:
     for label, child in children.items():
         ratio = min(child.cpu) / min(floor.cpu)
         bench.notes.append(
-            f"CPU {label}: {ratio:.1f}x the floor's ({'met' if ratio <= 3 else 'over'} 3x)"
+            f"CPU {label}: {ratio:.1f}x the floor's ({'met' if ratio <= 3 else 'over'} 3x), "
+            f"{min(child.cpu) / min(typer_floor.cpu):.1f}x Typer's help machinery"
         )
     bench.report()
 

@@ -25,7 +25,7 @@ _API = {
     # kinematics
     "Machine": "mtmetrology.kinematics.machine",
     "ParameterSet": "mtmetrology.kinematics.parameter_set",
-    "list_presets": "mtmetrology.kinematics.machine",
+    "list_presets": "mtmetrology.kinematics.preset_registry",
     # uncertainty (GUM, JCGM 101/102)
     "InputQuantity": "mtmetrology.uncertainty.inputs",
     "InputSet": "mtmetrology.uncertainty.inputs",
@@ -101,8 +101,9 @@ if TYPE_CHECKING:
         identification_guf,
         identification_mcm,
     )
-    from mtmetrology.kinematics.machine import Machine, list_presets
+    from mtmetrology.kinematics.machine import Machine
     from mtmetrology.kinematics.parameter_set import ParameterSet
+    from mtmetrology.kinematics.preset_registry import list_presets
     from mtmetrology.report.document import Report
     from mtmetrology.uncertainty.distributions import Normal, Rectangular, StudentT, Triangular
     from mtmetrology.uncertainty.guf import guf

@@ -20,6 +20,7 @@ from typer.testing import CliRunner
 from mtmetrology.cli import app
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.uncertainty.conformity import Tolerance
 
 runner = CliRunner()
 MACHINE = Machine.load("five-axis-wcbxfzyst")
@@ -296,10 +297,10 @@ def case_repeatability_fit(tmp_path):
     return cli, library.to_dict()
 
 
-def case_ballplate(tmp_path):
+def _ballplate_files(tmp_path):
+    """Plate, probe set, positions and simulated records of a 3 x 3 ball plate in 4
+    positions on the moving-bridge CMM."""
     import yaml
-
-    from mtmetrology.cmm.requests import calibrate_ballplate_files
 
     probes = {"P0": [0, 0, -150], "PX1": [50, 0, -150], "PY1": [0, 50, -150]}
     balls = [
@@ -331,32 +332,240 @@ def case_ballplate(tmp_path):
     for name, doc in docs.items():
         path[name] = tmp_path / f"{name}.yaml"
         path[name].write_text(yaml.safe_dump(doc), encoding="utf-8")
-    records = tmp_path / "records.csv"
-    common = ["--machine", "cmm-moving-bridge", "--plate", path["plate"], "--probes"]
+    path["records"] = tmp_path / "records.csv"
     result = runner.invoke(
         app,
         [
             str(a)
             for a in [
-                *("simulate", "ballplate", *common, path["probes"], "--positions"),
-                *(path["positions"], "--seed", "3", "-o", records),
+                *("simulate", "ballplate", "--machine", "cmm-moving-bridge", "--plate"),
+                *(path["plate"], "--probes", path["probes"], "--positions"),
+                *(path["positions"], "--seed", "3", "-o", path["records"]),
             ]
         ],
     )
     assert result.exit_code == 0, result.output
+    return path
+
+
+def case_ballplate(tmp_path):
+    from mtmetrology.cmm.requests import calibrate_ballplate_files
+
+    path = _ballplate_files(tmp_path)
     cli = _json(
         [
-            *("calibrate", "ballplate", records, *common, path["probes"]),
+            *("calibrate", "ballplate", path["records"], "--machine", "cmm-moving-bridge"),
+            *("--plate", path["plate"], "--probes", path["probes"]),
             *("-o", tmp_path / "cal.json", "--sigma-um", "0.6", "--seed", "1", "--json"),
         ]
     )
     library = calibrate_ballplate_files(
-        records, "cmm-moving-bridge", path["plate"], path["probes"], sigma=0.6e-3, seed=1
+        path["records"], "cmm-moving-bridge", path["plate"], path["probes"], sigma=0.6e-3, seed=1
+    )
+    return cli, library.to_dict()
+
+
+def case_cmm_compare(tmp_path):
+    from mtmetrology.cmm.files import load_plate, load_probes, read_records
+    from mtmetrology.cmm.heldout import compare_held_out
+
+    path = _ballplate_files(tmp_path)
+    cli = _json(
+        [
+            *("cmm", "compare", path["records"], "--machine", "cmm-moving-bridge"),
+            *("--plate", path["plate"], "--probes", path["probes"]),
+            *("--held-out", "VY", "--held-out", "T"),
+            *("--model", "seed", "--sigma-um", "0.6", "--json"),
+        ]
+    )
+    plate, probes = load_plate(path["plate"]), load_probes(path["probes"])
+    library = compare_held_out(
+        Machine.load("cmm-moving-bridge"),
+        read_records(path["records"], plate, probes),
+        plate,
+        probes,
+        ["VY", "T"],
+        sigma=0.6e-3,
+        kinematic_model="seed",
+    )
+    return cli, library.to_dict()
+
+
+def case_design_compare(tmp_path):
+    from mtmetrology.design.compare import compare_strategies
+    from mtmetrology.design.inputs import load_balls, read_indexations
+
+    balls = tmp_path / "balls.yaml"
+    balls.write_text(
+        'kind: samba-balls\nballs:\n  - {id: "1", centre_mm: [-80, -40, 100]}\n',
+        encoding="utf-8",
+    )
+    pairs = tmp_path / "pairs.csv"
+    pairs.write_text(
+        "B,C\n" + "".join(f"{b},{c}\n" for b in range(-90, 91, 30) for c in range(0, 360, 45)),
+        encoding="utf-8",
+    )
+    cli = _json(
+        [
+            *("design", "compare", "--machine", MACHINE.name, "--model", "13", "--balls"),
+            *(balls, "--indexations", pairs, "--n-balls", "1", "--k", "3", "--starts", "1"),
+            *("--criterion", "D", "--sigma-um", "0.8", "--seed", "5", "--json"),
+        ]
+    )
+    spec = load_balls(balls)
+    library = compare_strategies(
+        Machine.load(MACHINE.name, "13"),
+        read_indexations(pairs),
+        ([b.id for b in spec.balls], [b.centre_mm for b in spec.balls]),
+        n_balls=[1],
+        ks=[3.0],
+        criteria=["D"],
+        bar=spec.scale_bar,
+        sigma_mm=0.8e-3,
+        starts=1,
+        seed=5,
+    )
+    return cli, library.to_dict()
+
+
+def case_volumetric_map(tmp_path):
+    from mtmetrology.budgets.volumetric_map import load_map, volumetric_map_budget
+    from mtmetrology.io import read_csv_table
+
+    machine = Machine.load("three-axis-xfyz")
+    rng = np.random.default_rng(7)
+    a = machine.parameter_scales[:, None] * rng.normal(size=(machine.n_params,) * 2)
+    params = tmp_path / "params.json"
+    ParameterSet(
+        machine.parameter_names,
+        rng.normal(size=machine.n_params) * machine.parameter_scales,
+        machine.parameter_units,
+        covariance=1e-2 * a @ a.T,
+        machine=machine.name,
+    ).save(params)
+    t = np.linspace(0.0, 2.0 * np.pi, 12, endpoint=False)
+    rows = ["x,y,z,cycle"]
+    for cycle in range(3):
+        q = np.c_[1000 + 40 * np.cos(t), 300 + 40 * np.sin(t), np.full(12, 300.0)]
+        xyz = machine.forward(q + rng.normal(0.0, 1e-3, q.shape))
+        rows += [f"{x:.6f},{y:.6f},{z:.6f},{cycle}" for x, y, z in xyz]
+    points = tmp_path / "points.csv"
+    points.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    cli = _json(
+        [
+            *("budget", "volumetric-map", points, "--machine", machine.name),
+            *("--params", params, "--feature", "circle", "--probe-u", "2"),
+            *("--tolerance", "diameter=80,-0.01,0.01", "--json"),
+        ]
+    )
+    table = read_csv_table(points)
+    xyz = table.vectors("xyz")
+    library = volumetric_map_budget(
+        xyz,
+        load_map(machine, params, xyz),
+        "circle",
+        cycles=table.strings("cycle"),
+        machine=machine.name,
+        probe_error=2e-3,
+        tolerances={"diameter": Tolerance.parse("80,-0.01,0.01")},
+        provenance={"points": str(points), "params": str(params)},
+    )
+    return cli, library.to_dict()
+
+
+def case_validate_task(tmp_path):
+    """``mtm validate task`` adds two fields of its own to the library's document, the
+    thermal reference and the source files (issue 20: no single library call yet); the
+    case checks those two against their library values and the rest field for field."""
+    from mtmetrology.io import read_csv_table
+    from mtmetrology.kinematics.readings_table import readings_from_table
+    from mtmetrology.omm.reference import thermal_reference_value
+    from mtmetrology.omm.task_request import ordered_covariance
+    from mtmetrology.omm.validation import validate_gauge
+
+    params = _params(tmp_path / "params.json")
+    sides = {}
+    for name, x, rows in (("a", -75.0, ((0, 0), (30, 90))), ("b", 75.0, ((0, 45), (-30, 180)))):
+        sides[name] = tmp_path / f"{name}.csv"
+        sides[name].write_text(
+            "point,X,Y,Z,B,C\n"
+            + "".join(f"{name}{i},{x},10,50,{b},{c}\n" for i, (b, c) in enumerate(rows)),
+            encoding="utf-8",
+        )
+    cli = _json(
+        [
+            *("validate", "task", sides["a"], sides["b"], "--machine", MACHINE.name),
+            *("--params", params, "--reference-mm", "150", "--reference-u-um", "0.15"),
+            *("--cte", "10.8e-6", "--cte-u", "0.15e-6", "--delta-t", "1.75"),
+            *("--recalibrated", "--tip-diameter", "0", "--json"),
+        ]
+    )
+    pset = ParameterSet.load(params, MACHINE)
+    machine = pset.machine_for(MACHINE)
+    a, b = (readings_from_table(machine, read_csv_table(sides[n])) for n in "ab")
+    reference = thermal_reference_value(
+        150.0,
+        0.15e-3,
+        expansion_coefficient=10.8e-6,
+        expansion_coefficient_uncertainty=0.15e-6,
+        temperature_difference=1.75,
+        temperature_difference_uncertainty=0.0,
+        name="gauge_length",
+    )
+    library = validate_gauge(
+        machine,
+        a,
+        b,
+        pset.vector_for(machine),
+        ordered_covariance(pset, machine),
+        reference.value,
+        reference.standard_uncertainty,
+        tip_diameter=0.0,
+        recalibrated=True,
+    )
+    assert cli["reference"].pop("thermal") == _plain(reference.to_dict())
+    source = {"side_a": str(sides["a"]), "side_b": str(sides["b"]), "params": str(params)}
+    assert cli.pop("source") == source
+    return cli, library.to_dict()
+
+
+def case_verify_length(tmp_path):
+    from mtmetrology.samba import read_length_readings, verify_length
+
+    gauge = tmp_path / "gauge.csv"
+    result = runner.invoke(
+        app,
+        [
+            *("simulate", "length", "--machine", MACHINE.name, "--end-a", "-100,-100,40"),
+            *("--end-b", "100,100,40", "--pairs", "5", "--noise-um", "0.5", "--seed", "8"),
+            *("-o", str(gauge)),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    length = float(np.hypot(200.0, 200.0))
+    cli = _json(
+        [
+            *("verify", "length", gauge, "--machine", MACHINE.name, "--length", repr(length)),
+            *("--u-length", "0.0002", "--json"),
+        ]
+    )
+    library = verify_length(
+        MACHINE,
+        None,
+        read_length_readings(gauge, MACHINE),
+        length,
+        tip_radius=MACHINE.tip_radius,
+        u_length=0.0002,
     )
     return cli, library.to_dict()
 
 
 CASES = {
+    "budget volumetric-map": case_volumetric_map,
+    "cmm compare": case_cmm_compare,
+    "design compare": case_design_compare,
+    "validate task": case_validate_task,
+    "verify length": case_verify_length,
     "calibrate ballplate": case_ballplate,
     "repeatability fit": case_repeatability_fit,
     "simulate length": case_simulate_length,

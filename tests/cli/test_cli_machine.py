@@ -9,8 +9,8 @@ from typer.testing import CliRunner
 from mtmetrology.cli import app
 from mtmetrology.io import read_csv_table
 from mtmetrology.kinematics import Machine
-from mtmetrology.kinematics.machine import list_presets
 from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.kinematics.preset_registry import list_presets
 from mtmetrology.samba import SambaSetup, probing_sequence
 
 runner = CliRunner()

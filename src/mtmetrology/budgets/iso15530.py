@@ -43,10 +43,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from enum import StrEnum
 
 import numpy as np
 
+from mtmetrology.budgets.choices import Policy, RepeatabilityMethod
 from mtmetrology.errors import InputError
 from mtmetrology.uncertainty.conformity import ConformityDecision, Tolerance, decide
 from mtmetrology.uncertainty.outputs import Output
@@ -56,8 +56,6 @@ __all__ = [
     "BUDGET_KIND",
     "PROBE_THRESHOLD",
     "ISO15530Budget",
-    "Policy",
-    "RepeatabilityMethod",
     "budget_output",
     "combine",
     "iso15530_3_budget",
@@ -74,21 +72,6 @@ PROBE_THRESHOLD = {"small": to_internal(1.0, "µm"), "large": to_internal(3.0, "
 #: ISO 15530-3 usage of the repeatability: cycles per series and repeats in all.
 MIN_CYCLES_PER_SERIES = 10
 MIN_REPEATS = 20
-
-
-class Policy(StrEnum):
-    """How the bias b enters the expanded uncertainty (see the module notes)."""
-
-    ISO_2004 = "2004"
-    ISO_2011 = "2011"
-    PAPER_003 = "paper003"
-
-
-class RepeatabilityMethod(StrEnum):
-    """u_p as one sample standard deviation or as the largest over series."""
-
-    SAMPLE = "sample"
-    MAX_OVER_SERIES = "max-over-series"
 
 
 def _nonnegative(value: float, name: str) -> float:

@@ -38,6 +38,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from mtmetrology.budgets.choices import FEATURE_KINDS
 from mtmetrology.budgets.iso15530 import (
     Policy,
     RepeatabilityMethod,
@@ -66,7 +67,6 @@ from mtmetrology.uncertainty.conformity import Tolerance, decide
 from mtmetrology.units import from_internal, to_internal
 
 __all__ = [
-    "FEATURE_KINDS",
     "CharacteristicBudget",
     "VolumetricMapBudget",
     "characteristics",
@@ -77,7 +77,6 @@ __all__ = [
 
 BUDGET_KIND = "volumetric-map-budget"
 _VERSION = 1
-FEATURE_KINDS = ("circle", "plane", "sphere", "cylinder", "length", "position")
 MODES = ("uncorrected", "corrected")
 
 

@@ -58,6 +58,7 @@ __all__ = [
     "readings_from_table",
     "senses_from_table",
     "user_errors",
+    "vector_option",
 ]
 
 INTERRUPTED = "interrupted; nothing written"
@@ -220,6 +221,19 @@ def senses_from_table(machine: Machine, table: Table) -> np.ndarray | None:
     return readings_table.senses_from_table(machine, table)
 
 
+def vector_option(text: str, option: str, unit: str = "mm") -> tuple[float, float, float]:
+    """Three comma-separated numbers of an option (``--end-a 10,0,5``), refused with one
+    line naming the option unless there are three finite numbers."""
+    parts = [p for p in text.split(",") if p.strip()]
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise InputError(f"{option} needs three numbers x,y,z in {unit}, got {text!r}")
+    return values
+
+
 ReportOption = Annotated[
     Path | None,
     typer.Option(
@@ -256,11 +270,21 @@ def command_line(ctx: typer.Context) -> str:
 
 
 def emit_result(
-    document: dict, summary: str, *, output: Path | None, report, report_path, as_json: bool
+    document: dict,
+    summary: str | Callable[[], object],
+    *,
+    output: Path | None,
+    report,
+    report_path: Path | None,
+    as_json: bool,
 ) -> None:
     """The end of every command that computes a result: write its JSON (``-o``) and its
     report (``--report``, built before anything is written), then print the JSON or the
-    one-paragraph summary."""
+    console summary.
+
+    ``summary`` is the summary text, or a function that prints it (called only when the
+    JSON is not printed).
+    """
     from mtmetrology.io.files import write_json
 
     if output is not None:
@@ -269,6 +293,8 @@ def emit_result(
         write_report(report, report_path)
     if as_json:
         print_json(document)
+    elif callable(summary):
+        summary()
     else:
         typer.echo(summary)
 
@@ -300,18 +326,6 @@ def machine_with_parameters(machine: str, params: Path | None):
     return m, pset.vector_for(m)
 
 
-def parse_vector(text: str, option: str, unit: str = "mm") -> tuple[float, float, float]:
-    """Three comma-separated numbers of an option."""
-    parts = [p for p in text.split(",") if p.strip()]
-    try:
-        values = tuple(float(p) for p in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise InputError(f"{option} needs three numbers x,y,z in {unit}, got {text!r}")
-    return values
-
-
 def parse_tools(options: list[str] | None) -> dict[str, tuple[float, float, float]] | None:
     """``{id: vector}`` of the ``--tool ID=x,y,z`` options (None without one)."""
     if not options:
@@ -323,5 +337,5 @@ def parse_tools(options: list[str] | None) -> dict[str, tuple[float, float, floa
             raise InputError(f"--tool needs ID=x,y,z (mm), got {text!r}")
         if name.strip() in out:
             raise InputError(f"--tool {name.strip()!r} is given twice")
-        out[name.strip()] = parse_vector(vector, f"--tool {name.strip()}")
+        out[name.strip()] = vector_option(vector, f"--tool {name.strip()}")
     return out

@@ -5,11 +5,12 @@ default file)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from mtmetrology.kinematics.machine import Machine
+if TYPE_CHECKING:
+    from mtmetrology.kinematics.machine import Machine
 
 __all__ = ["HISTORY_PARAMS", "HistoryOption", "load_parameters", "record_in_history"]
 

@@ -7,26 +7,14 @@ from typing import Annotated
 
 import typer
 
-from mtmetrology.budgets.iso15530 import Policy, RepeatabilityMethod, iso15530_3_budget
-from mtmetrology.budgets.volumetric_map import (
-    FEATURE_KINDS,
-    load_map,
-    volumetric_map_budget,
-)
+from mtmetrology.budgets.choices import FEATURE_KINDS, Policy, RepeatabilityMethod
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
-    print_json,
+    emit_result,
     user_errors,
-    write_report,
 )
 from mtmetrology.errors import InputError
-from mtmetrology.formatting import format_uncertainty
-from mtmetrology.io import check_output, read_csv_table
-from mtmetrology.io.files import write_json
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.uncertainty.conformity import Tolerance
-from mtmetrology.units import to_internal
 
 app = typer.Typer(help="Task-uncertainty budgets of on-machine measurements.", no_args_is_help=True)
 
@@ -50,6 +38,8 @@ def _report(ctx: typer.Context, title: str, inputs: list, header: list, rows: li
 
 
 def _um(value: float, option: str) -> float:
+    from mtmetrology.units import to_internal
+
     if not value >= 0:
         raise InputError(f"{option}: must be >= 0 µm, got {value}")
     return float(to_internal(value, "µm"))
@@ -85,6 +75,11 @@ def iso15530_3(
     output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
     report_path: ReportOption = None,
 ) -> None:
+    from mtmetrology.budgets.iso15530 import iso15530_3_budget
+    from mtmetrology.formatting import format_uncertainty
+    from mtmetrology.io import check_output, read_csv_table
+    from mtmetrology.uncertainty.conformity import Tolerance
+
     if output is not None:
         check_output(output, [runs])
     if report_path is not None:
@@ -124,26 +119,23 @@ def iso15530_3(
             f"{budget.result:.6f} mm"
             + ("" if budget.decision is None else f"; decision {budget.decision.decision.value}"),
         )
-    if output is not None:
-        write_json(output, doc)
-    if report is not None:
-        write_report(report, report_path)
-    if json:
-        print_json(doc)
-        return
-    um = doc["um"]
-    typer.echo(
-        f"ISO 15530-3 budget of {runs.name}, policy {budget.policy.value}, "
-        f"n = {budget.n}, k = {budget.k:g} (µm)"
-    )
-    typer.echo(
-        f"  mean {budget.mean:.6f} mm  calibrated {budget.calibrated:.6f} mm  b {um['b']:.2f}"
-    )
-    for name in ("u_b", "u_p", "u_cal", "u_w", "u_probe", "u", "U"):
-        typer.echo(f"  {name:<8} {format_uncertainty(um[name])}")
-    typer.echo(f"  result {budget.result:.6f} mm ± {format_uncertainty(um['U'])} µm")
-    if budget.decision is not None:
-        typer.echo(f"  decision (ISO 14253-1): {budget.decision.decision.value}")
+
+    def summary() -> None:
+        um = doc["um"]
+        typer.echo(
+            f"ISO 15530-3 budget of {runs.name}, policy {budget.policy.value}, "
+            f"n = {budget.n}, k = {budget.k:g} (µm)"
+        )
+        typer.echo(
+            f"  mean {budget.mean:.6f} mm  calibrated {budget.calibrated:.6f} mm  b {um['b']:.2f}"
+        )
+        for name in ("u_b", "u_p", "u_cal", "u_w", "u_probe", "u", "U"):
+            typer.echo(f"  {name:<8} {format_uncertainty(um[name])}")
+        typer.echo(f"  result {budget.result:.6f} mm ± {format_uncertainty(um['U'])} µm")
+        if budget.decision is not None:
+            typer.echo(f"  decision (ISO 14253-1): {budget.decision.decision.value}")
+
+    emit_result(doc, summary, output=output, report=report, report_path=report_path, as_json=json)
 
 
 MAP_HELP = f"""VDI/VDE 2617-11 budget of a feature with a volumetric error map.
@@ -207,6 +199,11 @@ def volumetric_map(
     output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
     report_path: ReportOption = None,
 ) -> None:
+    from mtmetrology.budgets.volumetric_map import load_map, volumetric_map_budget
+    from mtmetrology.io import check_output, read_csv_table
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.uncertainty.conformity import Tolerance
+
     for target in (output, report_path):
         if target is not None:
             check_output(target, [points, params])
@@ -269,22 +266,19 @@ def volumetric_map(
             f"(P_true = P - e(P)), u_cal by {u_cal}, k = {k:g}; largest map correction "
             f"{doc['largest_correction_um']:.2f} µm.",
         )
-    if output is not None:
-        write_json(output, doc)
-    if report is not None:
-        write_report(report, report_path)
-    if json:
-        print_json(doc)
-        return
-    typer.echo(
-        f"VDI/VDE 2617-11 budget of {points.name}: {feature}, {budget.cycles} cycle(s) of "
-        f"{budget.n_points} points, mode {mode}, u_cal by {u_cal}, k = {k:g} (µm); largest "
-        f"map correction {doc['largest_correction_um']:.2f} µm"
-    )
-    typer.echo(
-        f"  {'characteristic':<14} {'u_b':>6} {'u_p':>6} {'u_cal':>6} {'u_MS':>6} {'U_MS':>6}"
-    )
-    for row in budget.table():
-        typer.echo(f"  {row[0]:<14} " + " ".join(f"{v:>6}" for v in row[1:]))
-    for name, decision in budget.decisions().items():
-        typer.echo(f"  decision (ISO 14253-1) on {name}: {decision.decision.value}")
+
+    def summary() -> None:
+        typer.echo(
+            f"VDI/VDE 2617-11 budget of {points.name}: {feature}, {budget.cycles} cycle(s) of "
+            f"{budget.n_points} points, mode {mode}, u_cal by {u_cal}, k = {k:g} (µm); largest "
+            f"map correction {doc['largest_correction_um']:.2f} µm"
+        )
+        typer.echo(
+            f"  {'characteristic':<14} {'u_b':>6} {'u_p':>6} {'u_cal':>6} {'u_MS':>6} {'U_MS':>6}"
+        )
+        for row in budget.table():
+            typer.echo(f"  {row[0]:<14} " + " ".join(f"{v:>6}" for v in row[1:]))
+        for name, decision in budget.decisions().items():
+            typer.echo(f"  decision (ISO 14253-1) on {name}: {decision.decision.value}")
+
+    emit_result(doc, summary, output=output, report=report, report_path=report_path, as_json=json)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import typer
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -11,6 +11,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
+    emit_result,
     fail,
     print_json,
     user_errors,
@@ -18,21 +19,10 @@ from mtmetrology.cli._common import (
 )
 from mtmetrology.cli._history import HistoryOption, record_in_history
 from mtmetrology.errors import ConvergenceError, InputError
-from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError, write_json
-from mtmetrology.io.schema import describe_validation_error
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameters import parse_parameter
-from mtmetrology.samba import (
-    calibrate,
-    evaluate_uncertainty,
-    indication_inputs,
-    load_artefact,
-    read_records,
-)
-from mtmetrology.samba.uncertainty import pooled_sigma
-from mtmetrology.uncertainty.unexplained_estimate import estimate_unexplained_covariance
-from mtmetrology.units import from_internal, to_internal
+
+if TYPE_CHECKING:
+    from mtmetrology.kinematics.machine import Machine
 
 app = typer.Typer(help="Calibrate a machine from artefact measurements.", no_args_is_help=True)
 
@@ -71,6 +61,10 @@ class Repeatability(BaseModel):
 
 def load_repeatability(path: Path) -> tuple[float, float, float]:
     """(u_X, u_Y, u_Z) in mm from a repeatability JSON/YAML file."""
+    from mtmetrology.io.documents import load_document
+    from mtmetrology.io.schema import describe_validation_error
+    from mtmetrology.units import to_internal
+
     data = load_document(path, "repeatability model")
     try:
         model = Repeatability.model_validate(data)
@@ -92,6 +86,8 @@ def parse_tool_prior(text: str | None, estimate_tool: bool) -> tuple[float, ...]
     >>> parse_tool_prior(None, False) is None
     True
     """
+    from mtmetrology.units import to_internal
+
     if text is None:
         return None
     if not estimate_tool:
@@ -109,6 +105,9 @@ def parse_tool_prior(text: str | None, estimate_tool: bool) -> tuple[float, ...]
 
 
 def _machine(machine: str, model: str | None, params_only: str | None) -> Machine:
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.parameters import parse_parameter
+
     m = Machine.load(machine, model)
     if params_only:
         names = [parse_parameter(n.strip()).name for n in params_only.split(",") if n.strip()]
@@ -220,6 +219,16 @@ def samba(
     ] = None,
     history: HistoryOption = False,
 ) -> None:
+    from mtmetrology.samba import (
+        calibrate,
+        evaluate_uncertainty,
+        indication_inputs,
+        load_artefact,
+        read_records,
+    )
+    from mtmetrology.samba.uncertainty import pooled_sigma
+    from mtmetrology.units import from_internal, to_internal
+
     if uncertainty not in ("none", "guf", "mcm", "both"):
         raise InputError(f"--uncertainty must be none, guf, mcm or both, got {uncertainty!r}")
     if noise_um is not None and repeatability is not None:
@@ -331,6 +340,8 @@ def unexplained_from_calibration(cal, sigma: float):
     """cov(e) of a SAMBA calibration's residual vectors: p = all unknowns fitted (machine
     parameters, ball centres, tool), Σ_v = σ² I the indication noise it was weighted with
     (:mod:`mtmetrology.uncertainty.unexplained_estimate`)."""
+    from mtmetrology.uncertainty.unexplained_estimate import estimate_unexplained_covariance
+
     return estimate_unexplained_covariance(
         cal.residual_vectors,
         fitted_parameters=len(cal.identification.estimate),
@@ -433,7 +444,8 @@ def unexplained(
     json: Annotated[bool, typer.Option("--json", help="Print E.json.")] = False,
     report_path: ReportOption = None,
 ) -> None:
-    from mtmetrology.samba import unexplained_from_campaigns
+    from mtmetrology.samba import load_artefact, read_records, unexplained_from_campaigns
+    from mtmetrology.units import from_internal, to_internal
 
     if not noise_um > 0:
         raise InputError(f"--noise-um must be positive, got {noise_um}")
@@ -442,23 +454,27 @@ def unexplained(
     records = [read_records(path, m, art) for path in campaigns]
     sigma = float(to_internal(noise_um, "µm"))
     result = unexplained_from_campaigns(m, records, art, sigma=sigma, estimate_tool=estimate_tool)
-    doc = result.to_dict()
     report = None
     if report_path is not None:
         inputs = [*campaigns, artefact, machine if not Path(machine).is_file() else Path(machine)]
         report = samba_report(ctx, "cov(e) from SAMBA campaigns", inputs, result)
-    if output is not None:
-        write_json(output, doc)
-    if report is not None:
-        write_report(report, report_path)
-    if json:
-        print_json(doc)
-        return
-    for name, est in (("between campaigns", result.between), ("within campaigns", result.within)):
-        u = from_internal(est.u, "µm")
-        typer.echo(
-            f"u(e) {name}: {u[0]:.2g}, {u[1]:.2g}, {u[2]:.2g} µm "
-            f"(ν = {est.degrees_of_freedom:.1f}{', clipped' if est.clipped else ''})"
-        )
-    if output is not None:
-        typer.echo(f"wrote {output}", err=True)
+
+    def summary() -> None:
+        for name, est in (
+            ("between campaigns", result.between),
+            ("within campaigns", result.within),
+        ):
+            u = from_internal(est.u, "µm")
+            typer.echo(
+                f"u(e) {name}: {u[0]:.2g}, {u[1]:.2g}, {u[2]:.2g} µm "
+                f"(ν = {est.degrees_of_freedom:.1f}{', clipped' if est.clipped else ''})"
+            )
+
+    emit_result(
+        result.to_dict(),
+        summary,
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=json,
+    )

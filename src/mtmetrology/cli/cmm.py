@@ -24,24 +24,8 @@ from mtmetrology.cli._common import (
     write_report,
 )
 from mtmetrology.cli._history import HistoryOption, record_in_history
-from mtmetrology.cmm.budget import ballplate_budget, cmm_statement, load_budget
-from mtmetrology.cmm.files import (
-    load_plate,
-    load_positions,
-    load_probes,
-    probe_tools,
-    read_records,
-    write_records,
-)
-from mtmetrology.cmm.gp import GPErrorModel, fit_gp
-from mtmetrology.cmm.models import parse_model
-from mtmetrology.cmm.requests import AUTO_CANDIDATES, calibrate_ballplate_files
-from mtmetrology.cmm.simulate import simulate_ballplate
-from mtmetrology.io.documents import load_document
+from mtmetrology.cmm.requests import AUTO_CANDIDATES
 from mtmetrology.io.files import InputFileError, atomic_write, check_output, write_json
-from mtmetrology.io.tables import read_csv_table, write_columns
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.units import from_internal, to_internal
 
 __all__ = ["gp_app", "register"]
 
@@ -106,6 +90,8 @@ def add_cmm_result(report, result, **context) -> None:
 def read_ballplate_inputs(records: Path, plate: Path, probes: Path):
     """The ball-plate records read against their plate and probe-set files: (records,
     plate, probes)."""
+    from mtmetrology.cmm.files import load_plate, load_probes, read_records
+
     pl, pr = load_plate(plate), load_probes(probes)
     return read_records(records, pl, pr), pl, pr
 
@@ -149,6 +135,10 @@ def calibrate_ballplate_cmd(
     unobservable combinations named. Writes a ballplate-calibration result (a parameter set
     for `mtm predict --params`) with U1/U2/U3 from the full covariance.
     """
+    from mtmetrology.cmm.requests import calibrate_ballplate_files
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.units import to_internal
+
     sigma = to_internal(positive_option(sigma_um, "--sigma-um"), "µm")
     m = Machine.load(machine)
     request = calibrate_ballplate_files(
@@ -241,6 +231,9 @@ def budget_cmd(
     report_path: ReportOption = None,
 ) -> None:
     """Uncertainty budget of a ball-plate length (15 items, Edlén refractive index, GUF)."""
+    from mtmetrology.cmm.budget import ballplate_budget, cmm_statement, load_budget
+    from mtmetrology.units import from_internal
+
     spec = load_budget(budget)
     res = ballplate_budget(spec)
     doc = {"kind": "ballplate-budget-result", "version": 1, **res.to_dict()}
@@ -290,6 +283,10 @@ def simulate_ballplate_cmd(
     ] = False,
 ) -> None:
     """Simulate ball-plate records (position,ball,probe,X,Y,Z) of a virtual CMM."""
+    from mtmetrology.cmm.files import load_plate, load_positions, load_probes, write_records
+    from mtmetrology.cmm.simulate import simulate_ballplate
+    from mtmetrology.units import to_internal
+
     if not (math.isfinite(sigma_um) and sigma_um >= 0):
         raise InputFileError(f"--sigma-um: must be >= 0, got {sigma_um}")
     m, theta = machine_with_parameters(machine, params)
@@ -327,6 +324,11 @@ def gp_fit(
     report_path: ReportOption = None,
 ) -> None:
     """Fit a GP per error component (ML hyper-parameters), alternating with plate poses."""
+    from mtmetrology.cmm.gp import fit_gp
+    from mtmetrology.cmm.models import parse_model
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.units import to_internal
+
     sigma = to_internal(positive_option(sigma_um, "--sigma-um"), "µm")
     m = Machine.load(machine)
     rec, pl, pr = read_ballplate_inputs(records, plate, probes)
@@ -374,6 +376,13 @@ def gp_predict(
     output: OutOpt,
 ) -> None:
     """Compensated x,y,z (mm) with standard uncertainties u_x,u_y,u_z (µm)."""
+    from mtmetrology.cmm.files import load_probes, probe_tools
+    from mtmetrology.cmm.gp import GPErrorModel
+    from mtmetrology.io.documents import load_document
+    from mtmetrology.io.tables import read_csv_table, write_columns
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.units import from_internal
+
     check_output(output, [readings, model, probes])
     m = Machine.load(machine)
     gp = GPErrorModel.from_document(load_document(model, "GP model"), m, str(model))

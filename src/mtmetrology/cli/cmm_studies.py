@@ -10,7 +10,7 @@ unknowns (:mod:`mtmetrology.cmm.probecal`).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -25,15 +25,10 @@ from mtmetrology.cli.cmm import (
     positive_option,
     read_ballplate_inputs,
 )
-from mtmetrology.cmm.files import read_records
-from mtmetrology.cmm.gpml import source_gp_demo
-from mtmetrology.cmm.heldout import compare_held_out
-from mtmetrology.cmm.models import parse_model
-from mtmetrology.cmm.probecal import CalibratedLength, calibrate_with_probes
-from mtmetrology.cmm.selfcal import TABLE_4_3, THESIS_TABLES, selfcal_design
 from mtmetrology.io.files import InputFileError, check_output, write_json
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.units import to_internal
+
+if TYPE_CHECKING:
+    from mtmetrology.cmm.probecal import CalibratedLength
 
 __all__ = ["app"]
 
@@ -80,6 +75,11 @@ def compare(
     """Fit the kinematic model and the GP without the held-out positions; compare both on
     every length between two balls of a held-out position (same stylus) against the plate
     certificate: RMS and max length error, mean u, coverage of ±2u."""
+    from mtmetrology.cmm.heldout import compare_held_out
+    from mtmetrology.cmm.models import parse_model
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.units import to_internal
+
     sigma = to_internal(positive_option(sigma_um, "--sigma-um"), "µm")
     if output is not None:
         check_output(output, [records, plate, probes])
@@ -136,6 +136,8 @@ def source_gp(
     """Re-run the source's GP (Ch. 5, Appendix 3): GPML's gpml_randn(0.01, 9) data, the
     zero-mean SE GP from [0, 0, log 0.1] and the quadratic-mean GP (eq. 5.11) from the
     source's start; the largest difference of their means on the 21 x 21 grid."""
+    from mtmetrology.cmm.gpml import source_gp_demo
+
     if output is not None:
         check_output(output)
     res = source_gp_demo()
@@ -180,6 +182,10 @@ def selfcal_design_cmd(
     styli at +-50 mm, reference sphere; ball centres, stylus offsets and poses unknown; the
     plate frame, one length and the stylus centroid fixed): full covariance and truncated
     SVD, and what each constraint leaves free."""
+    from mtmetrology.cmm.selfcal import TABLE_4_3, THESIS_TABLES, selfcal_design
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.units import to_internal
+
     sigma = to_internal(positive_option(sigma_um, "--sigma-um"), "µm")
     if output is not None:
         check_output(output)
@@ -220,6 +226,9 @@ def selfcal_design_cmd(
 
 
 def _length(text: str) -> CalibratedLength:
+    from mtmetrology.cmm.probecal import CalibratedLength
+    from mtmetrology.units import to_internal
+
     parts = [p.strip() for p in text.split(",")]
     try:
         a, b, length, u_um = parts[0], parts[1], float(parts[2]), float(parts[3])
@@ -268,6 +277,12 @@ def calibrate_cmd(
     stylus centroid is fixed; the plate by its certificate or, with --length, self-calibrated
     with one length as its only scale. A set-up that leaves directions free is refused with
     them named."""
+    from mtmetrology.cmm.files import read_records
+    from mtmetrology.cmm.models import parse_model
+    from mtmetrology.cmm.probecal import calibrate_with_probes
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.units import to_internal
+
     sigma = to_internal(positive_option(sigma_um, "--sigma-um"), "µm")
     check_output(output, [records, plate, probes, qualification])
     m = Machine.load(machine)

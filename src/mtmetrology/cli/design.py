@@ -19,24 +19,11 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
-from mtmetrology.design.accessibility import AccessibilityRule, load_accessibility_rule
-from mtmetrology.design.counts import COUNT_RULES, MINUTES_PER_MEASUREMENT
+from mtmetrology.design.counts import MINUTES_PER_MEASUREMENT
 from mtmetrology.design.criteria import CRITERIA
-from mtmetrology.design.inputs import (
-    BallGridFile,
-    axis_grid,
-    default_indexations,
-    grid_indexations,
-    load_ball_grid,
-    load_balls,
-    read_indexations,
-)
-from mtmetrology.design.samba import plan_samba
+from mtmetrology.design.inputs import BallGridFile
 from mtmetrology.errors import InputError
 from mtmetrology.io.files import atomic_write
-from mtmetrology.io.tables import write_csv_table
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.units import to_internal
 
 app = typer.Typer(
     help="Plan calibrations: artefact layout and probing programme.", no_args_is_help=True
@@ -187,6 +174,21 @@ def samba(
     plan reports what the styli after the first buy: the parameters the first alone
     confounds, the condition number and the predicted u with one stylus and with all.
     """
+    from mtmetrology.design.accessibility import AccessibilityRule, load_accessibility_rule
+    from mtmetrology.design.counts import COUNT_RULES
+    from mtmetrology.design.inputs import (
+        axis_grid,
+        default_indexations,
+        grid_indexations,
+        load_ball_grid,
+        load_balls,
+        read_indexations,
+    )
+    from mtmetrology.design.samba import plan_samba
+    from mtmetrology.io.tables import write_csv_table
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.units import to_internal
+
     _positive(sigma_um, "--sigma-um")
     _positive(k, "--k")
     _positive(minutes_per_measurement, "--minutes-per-measurement")
@@ -365,6 +367,9 @@ def compare(
     check (nominal and compensated model). Alami Mchichi (2018) Tables 5.2, 5.3, 5.5.
     """
     from mtmetrology.design.compare import compare_strategies
+    from mtmetrology.design.inputs import default_indexations, load_balls, read_indexations
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.units import to_internal
 
     _positive(sigma_um, "--sigma-um")
     _positive(gauge_mm, "--gauge-mm")

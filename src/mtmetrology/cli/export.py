@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -16,11 +16,12 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
-from mtmetrology.io import load_document, read_csv_table, write_columns
 from mtmetrology.io.files import atomic_write, check_output, write_json
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
-from mtmetrology.kinematics.volumetric_map import MAP_KIND, VolumetricMap
+
+if TYPE_CHECKING:
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+    from mtmetrology.kinematics.volumetric_map import VolumetricMap
 
 
 def _split(text: str | None) -> list[str] | None:
@@ -47,6 +48,10 @@ def _per_axis(text: str | None, option: str, pair: bool) -> dict | None:
 def _source(path: Path, machine: Machine, fmt: str) -> ParameterSet | VolumetricMap:
     """The parameter set, or for the grid format also a volumetric map: a map document
     (kind volumetric-map) or a vendor grid CSV (x,y,z,ex,ey,ez[,ux,uy,uz]; errors)."""
+    from mtmetrology.io import load_document
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+    from mtmetrology.kinematics.volumetric_map import MAP_KIND, VolumetricMap
+
     if fmt == "grid" and path.suffix.lower() == ".csv":
         return VolumetricMap.from_table(path, machine=machine.name)
     doc = load_document(path, "parameter set or map")
@@ -109,6 +114,8 @@ def export(
     after the control's own interpolation, with its uncertainty (k = 2), on a grid over the
     travel."""
     from mtmetrology.export.workflow import export_compensation
+    from mtmetrology.io import read_csv_table, write_columns
+    from mtmetrology.kinematics.machine import Machine
 
     if (pitch is None) == (points is None):
         fail("give exactly one of --pitch and --points")

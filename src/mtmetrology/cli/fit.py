@@ -21,7 +21,6 @@ from rich.console import Console
 from rich.table import Table as RichTable
 
 from mtmetrology.cli._common import ReportOption, command_line, write_report
-from mtmetrology.fitting.element_fit import fit_points_file
 
 __all__ = ["ElementName", "Method", "fit"]
 
@@ -112,6 +111,8 @@ def fit(
     A line whose points all have the same z is a profile in that plane (2-D straightness);
     otherwise its minimum zone is the smallest enclosing cylinder (ISO 12780-1).
     """
+    from mtmetrology.fitting.element_fit import fit_points_file
+
     result = fit_points_file(
         element.value, points_csv, method=method.value, tip_radius=tip_radius, inside=inside
     )

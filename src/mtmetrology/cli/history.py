@@ -22,27 +22,7 @@ from mtmetrology.cli._common import (
     write_report,
 )
 from mtmetrology.errors import InputError
-from mtmetrology.history import (
-    add_result,
-    export_rows,
-    list_runs,
-    long_term_covariance,
-    open_history,
-    parameter_drift,
-    parameter_trend,
-    show_run,
-)
-from mtmetrology.history.dcc import (
-    calibration_certificate,
-    certified_ball_centres,
-    certified_length,
-    read_certificate,
-)
-from mtmetrology.history.records import machine_names
-from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import atomic_write, write_json
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.units import from_internal
 
 app = typer.Typer(
     help="Calibration history: record results, control charts, drift, long-term covariance."
@@ -76,6 +56,8 @@ def _category(category: str) -> str:
 
 
 def _one_machine(engine, machine: str | None) -> str:
+    from mtmetrology.history.records import machine_names
+
     if machine is not None:
         return machine
     names = machine_names(engine)
@@ -113,6 +95,10 @@ def add(
     json: Annotated[bool, typer.Option("--json", help="Print the stored run.")] = False,
 ) -> None:
     """Record a result in the history (one transaction: fully there or absent)."""
+    from mtmetrology.history import add_result, open_history
+    from mtmetrology.io.documents import load_document
+    from mtmetrology.kinematics.machine import Machine
+
     document = load_document(result, "result")
     name = machine
     if name is None:
@@ -155,6 +141,8 @@ def list_(
     json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """List the recorded runs, oldest first."""
+    from mtmetrology.history import list_runs, open_history
+
     runs = list_runs(
         open_history(db),
         machine=machine,
@@ -183,6 +171,8 @@ def show(
     json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Show one recorded run."""
+    from mtmetrology.history import open_history, show_run
+
     record = show_run(open_history(db), run, _category(category))
     if json:
         print_json(record.to_dict())
@@ -231,6 +221,8 @@ def trend(
     json: Annotated[bool, typer.Option("--json", help="Print TREND.json.")] = False,
 ) -> None:
     """Individuals control chart of a parameter (Shewhart limits x̄ ± 3 MR̄/1.128)."""
+    from mtmetrology.history import open_history, parameter_drift, parameter_trend
+
     engine = open_history(db)
     name = _one_machine(engine, machine)
     when = _date(since, "--since")
@@ -333,6 +325,8 @@ def covariance(
     db: Db = None,
 ) -> None:
     """Long-term covariance of the machine's calibrations, for mtm task uncertainty --long-term."""
+    from mtmetrology.history import long_term_covariance, open_history
+
     result = long_term_covariance(
         open_history(db),
         machine,
@@ -356,6 +350,8 @@ def export(
     db: Db = None,
 ) -> None:
     """Export a machine's calibrations: CSV (one row per run) or JSON (the full runs)."""
+    from mtmetrology.history import export_rows, list_runs, open_history, show_run
+
     engine = open_history(db)
     when = _date(since, "--since")
     if output.suffix.lower() == ".json":
@@ -402,6 +398,8 @@ def drift(
 ) -> None:
     """Drift (constant slope + random walk, Kalman filter) and the date the next calibration
     is due: P(|value| > MPE) passes 1 - reliability (ILAC-G24 / OIML D 10, NCSLI RP-1)."""
+    from mtmetrology.history import open_history, parameter_drift
+
     engine = open_history(db)
     result = parameter_drift(
         engine,
@@ -437,6 +435,8 @@ _DISPLAY = {"m": "µm", "rad": "µrad", "1": "µm/m"}
 
 
 def _print_certificate(cert) -> None:
+    from mtmetrology.units import from_internal
+
     typer.echo(
         f"{cert.identifier}: {cert.item}, {cert.laboratory} ({cert.country}), "
         f"{cert.begin.isoformat()} to {cert.end.isoformat()}; U = k u with "
@@ -467,6 +467,9 @@ def dcc(
     db: Db = None,
 ) -> None:
     """Export a calibration run as a PTB Digital Calibration Certificate (DCC 3.1.2)."""
+    from mtmetrology.history import open_history, show_run
+    from mtmetrology.history.dcc import calibration_certificate
+
     record = show_run(open_history(db), run)
     cert = calibration_certificate(
         record,
@@ -511,6 +514,10 @@ def dcc_import(
     json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Read a DCC (a scale bar's or ball plate's certificate): values, u and covariance."""
+    from mtmetrology.history.dcc import certified_ball_centres, certified_length, read_certificate
+    from mtmetrology.io.documents import load_document
+    from mtmetrology.units import from_internal
+
     cert = read_certificate(certificate)
     document = cert.to_dict()
     if scale_bar is not None:

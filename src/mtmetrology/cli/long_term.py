@@ -6,16 +6,15 @@ A command of the shared ``mtm calibrate`` group (:data:`mtmetrology.cli.SHARED_G
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from mtmetrology.cli._common import print_json, user_errors
 from mtmetrology.errors import InputError
-from mtmetrology.identification.long_term import VALUE_CHOICES, long_term_parameters
-from mtmetrology.io.documents import load_document
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
+
+if TYPE_CHECKING:
+    from mtmetrology.kinematics.parameter_set import ParameterSet
 
 app = typer.Typer()
 
@@ -53,6 +52,11 @@ def long_term(
     ] = False,
     json: Annotated[bool, typer.Option("--json", help="Print LONGTERM.json.")] = False,
 ) -> None:
+    from mtmetrology.identification.long_term import VALUE_CHOICES, long_term_parameters
+    from mtmetrology.io.documents import load_document
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+
     if values not in VALUE_CHOICES:
         raise InputError(f"--values must be one of {', '.join(VALUE_CHOICES)}, got {values!r}")
     if len(calibrations) < 2:

@@ -20,10 +20,6 @@ from mtmetrology.cli._common import (
     write_report,
 )
 from mtmetrology.errors import EXIT_INPUT, InputError, RankDeficientError
-from mtmetrology.kinematics.conventions import machine_description
-from mtmetrology.kinematics.machine import Machine, list_presets, preset_text
-from mtmetrology.kinematics.parameters import MAX_DEGREE
-from mtmetrology.units import to_internal
 
 app = typer.Typer(
     help="Machine definitions: list, show, export, check, identifiability.",
@@ -39,16 +35,15 @@ ModelOpt = Annotated[
 @app.command("list")
 def list_command() -> None:
     """List the machine presets shipped with mtmetrology."""
+    from mtmetrology.kinematics.preset_registry import preset_summaries
+
     console = Console()
     table = RichTable(title="machine presets")
     for col in ("name", "topology", "error models", "description"):
         table.add_column(col)
-    for name in list_presets():
-        m = Machine.load(name)
-        models = ", ".join(m.spec.error_models) if m.spec else ""
-        desc = (m.spec.description if m.spec else "").replace("\n", " ")
-        desc = desc.split(",")[0].split(":")[0]
-        table.add_row(name, m.topology.string, models, desc)
+    for preset in preset_summaries():
+        desc = preset.description.split(",")[0].split(":")[0]
+        table.add_row(preset.name, preset.topology, ", ".join(preset.error_models), desc)
     console.print(table)
 
 
@@ -75,6 +70,10 @@ def show(
     json: Annotated[bool, typer.Option("--json", help="Print a JSON document.")] = False,
 ) -> None:
     """Show a machine: axes, and the parameters of its error model with units."""
+    from mtmetrology.kinematics.conventions import machine_description
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.parameters import MAX_DEGREE
+
     if not 0 <= degree <= MAX_DEGREE:
         raise InputError(f"--degree must be 0 to {MAX_DEGREE}, got {degree}")
     m = Machine.load(machine, model)
@@ -129,6 +128,8 @@ def export(
 ) -> None:
     """Write a preset as a machine file, to edit (travels, offsets, models) and give to
     --machine FILE; read unchanged, it is the preset."""
+    from mtmetrology.kinematics.preset_registry import preset_text
+
     text = preset_text(preset)
     if output is None:
         typer.echo(text, nl=False)
@@ -145,6 +146,8 @@ def export(
 @user_errors
 def check(machine_file: Annotated[Path, typer.Argument(help="Machine YAML file.")]) -> None:
     """Validate a machine file: schema, topology, every error model."""
+    from mtmetrology.kinematics.machine import Machine
+
     first = Machine.load(machine_file)
     names = list(first.spec.error_models) if first.spec else []
     console = Console()
@@ -243,7 +246,9 @@ def identifiability(
         senses_from_sequence,
     )
     from mtmetrology.io.tables import read_csv_table
+    from mtmetrology.kinematics.machine import Machine
     from mtmetrology.samba.artefact import load_artefact
+    from mtmetrology.units import to_internal
 
     if not (math.isfinite(sigma_um) and sigma_um > 0):
         raise InputError(f"--sigma-um must be a positive number of µm, got {sigma_um}")

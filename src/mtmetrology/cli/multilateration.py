@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Annotated
 
@@ -11,25 +10,11 @@ import typer
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
-    print_json,
+    emit_result,
     user_errors,
-    write_report,
+    vector_option,
 )
 from mtmetrology.errors import InputError
-from mtmetrology.formatting import format_uncertainty
-from mtmetrology.io import check_output
-from mtmetrology.io.files import write_json
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
-from mtmetrology.multilateration.files import read_stations, write_lengths
-from mtmetrology.multilateration.problem import parse_spec
-from mtmetrology.multilateration.requests import (
-    calibrate_multilateration_file,
-    pose_grid,
-    reflector_tools,
-)
-from mtmetrology.multilateration.workflow import simulate_lengths
-from mtmetrology.units import from_internal
 
 simulate_app = typer.Typer()
 calibrate_app = typer.Typer()
@@ -59,17 +44,6 @@ measured volume by N Monte Carlo re-solves.
 """
 
 
-def _vector(text: str, option: str) -> tuple[float, float, float]:
-    parts = [p for p in text.split(",") if p.strip()]
-    try:
-        values = tuple(float(p) for p in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise InputError(f"{option} needs three numbers x,y,z in mm, got {text!r}")
-    return values
-
-
 def _grid(text: str) -> list[int]:
     try:
         return [int(c) for c in text.split(",")]
@@ -96,6 +70,14 @@ def simulate_multilateration(
     noise: Annotated[str, typer.Option("--noise", help=SPEC_HELP)] = "0.2um+0.3um/m",
     seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
 ) -> None:
+    from mtmetrology.io import check_output
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+    from mtmetrology.multilateration.files import read_stations, write_lengths
+    from mtmetrology.multilateration.problem import parse_spec
+    from mtmetrology.multilateration.requests import pose_grid, reflector_tools
+    from mtmetrology.multilateration.workflow import simulate_lengths
+
     check_output(output, [stations] + ([truth] if truth else []))
     m = Machine.load(machine, model)
     theta = None
@@ -103,7 +85,7 @@ def simulate_multilateration(
         pset = ParameterSet.load(truth, m)
         m = pset.machine_for(m)
         theta = pset.vector_for(m)
-    tools = [_vector(t, "--tool") for t in tool or ()]
+    tools = [vector_option(t, "--tool") for t in tool or ()]
     record = simulate_lengths(
         m,
         theta,
@@ -133,6 +115,12 @@ def calibrate_multilateration_cmd(
     output: Annotated[Path | None, typer.Option("-o", "--output", help="MAP.json.")] = None,
     report_path: ReportOption = None,
 ) -> None:
+    from mtmetrology.formatting import format_uncertainty
+    from mtmetrology.io import check_output
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.multilateration.requests import calibrate_multilateration_file
+    from mtmetrology.units import from_internal
+
     for target in (output, report_path):
         if target is not None:
             check_output(target, [lengths])
@@ -159,27 +147,26 @@ def calibrate_multilateration_cmd(
             ],
         )
         add_result(report, result.parameters)
-    if output is not None:
-        write_json(output, doc)
-    if report is not None:
-        write_report(report, report_path)
-    if json:
-        print_json(doc)
-        return
-    prov = doc["provenance"]
-    factor = result.variance_factor
-    typer.echo(f"multilateration of {m.name}: {result.n_lengths} lengths, {result.message}")
-    typer.echo(
-        f"  residual rms {prov['residual_rms_um']:.3f} µm, variance factor "
-        f"{'-' if factor is None else f'{factor:.3f}'}"
-    )
-    for s, u in zip(result.stations, result.station_u, strict=True):
-        pos = ", ".join(f"{v:.4f}" for v in s.position)
-        u_um = format_uncertainty(from_internal(u[:3].max(), "µm"))
-        typer.echo(f"  station {s.name}: ({pos}) mm ± {u_um} µm, dead path {s.dead_path:.4f} mm")
-    if check is not None:
+
+    def summary() -> None:
+        prov = doc["provenance"]
+        factor = result.variance_factor
+        typer.echo(f"multilateration of {m.name}: {result.n_lengths} lengths, {result.message}")
         typer.echo(
-            f"  map u (GUF) up to {format_uncertainty(from_internal(check.u_guf.max(), 'µm'))} µm;"
-            f" Monte Carlo ({check.trials} trials) within "
-            f"{100 * check.largest_ratio_deviation:.1f} % of it"
+            f"  residual rms {prov['residual_rms_um']:.3f} µm, variance factor "
+            f"{'-' if factor is None else f'{factor:.3f}'}"
         )
+        for s, u in zip(result.stations, result.station_u, strict=True):
+            pos = ", ".join(f"{v:.4f}" for v in s.position)
+            u_um = format_uncertainty(from_internal(u[:3].max(), "µm"))
+            typer.echo(
+                f"  station {s.name}: ({pos}) mm ± {u_um} µm, dead path {s.dead_path:.4f} mm"
+            )
+        if check is not None:
+            u_map = format_uncertainty(from_internal(check.u_guf.max(), "µm"))
+            typer.echo(
+                f"  map u (GUF) up to {u_map} µm; Monte Carlo ({check.trials} trials) within "
+                f"{100 * check.largest_ratio_deviation:.1f} % of it"
+            )
+
+    emit_result(doc, summary, output=output, report=report, report_path=report_path, as_json=json)

@@ -4,30 +4,19 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from mtmetrology._memory import release_free_memory
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
     user_errors,
     write_report,
 )
-from mtmetrology.io import (
-    InputFileError,
-    atomic_write,
-    check_output,
-    read_csv_table,
-    write_columns,
-)
-from mtmetrology.io.documents import load_document
-from mtmetrology.kinematics.compensation import compensate
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
-from mtmetrology.kinematics.readings_table import readings_from_table, senses_from_table
-from mtmetrology.units import from_internal
+
+if TYPE_CHECKING:
+    from mtmetrology.kinematics.machine import Machine
 
 #: ``kind`` of a Gaussian-process error-model file (``mtm gp fit``): checked before
 #: anything of :mod:`mtmetrology.cmm` (scikit-learn) is imported, so that compensating with a
@@ -40,6 +29,9 @@ def read_error_model(path: Path, machine: Machine):
 
     Exactly one of ``gp`` (a GP model file) and ``parameter_set`` is not None.
     """
+    from mtmetrology.io.documents import load_document
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+
     doc = load_document(path, "error model")
     if isinstance(doc, dict) and doc.get("kind") == GP_KIND:
         from mtmetrology.cmm.gp import GPErrorModel
@@ -93,6 +85,19 @@ def predict(
     With --u, u_x_um, u_y_um, u_z_um (µm) follow: √diag(G U_θ Gᵀ), G = ∂f/∂δ, the
     compensation with the estimate δ̂ of covariance U_θ (readings taken as exact).
     """
+    from mtmetrology._memory import release_free_memory
+    from mtmetrology.io import (
+        InputFileError,
+        atomic_write,
+        check_output,
+        read_csv_table,
+        write_columns,
+    )
+    from mtmetrology.kinematics.compensation import compensate
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.readings_table import readings_from_table, senses_from_table
+    from mtmetrology.units import from_internal
+
     inputs = [readings, *(p for p in (params, probes) if p is not None)]
     if Path(machine).suffix.lower() in (".yaml", ".yml", ".json"):
         inputs.append(Path(machine))

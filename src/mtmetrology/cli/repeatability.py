@@ -24,11 +24,7 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
-from mtmetrology.formatting import format_uncertainty, format_value
-from mtmetrology.io import write_json
-from mtmetrology.omm.hysteresis import summary_line
 from mtmetrology.omm.repeatability_model import MIN_TARGETS_PER_COEFFICIENT
-from mtmetrology.omm.repeatability_records import fit_repeatability_file, hysteresis_from_file
 
 app = typer.Typer(
     help="Probing repeatability models (on-machine measurement).", no_args_is_help=True
@@ -115,6 +111,8 @@ def fit(
     first. --window W adds a "windows" block (σ per window start, µm) and, with --report,
     a figure of σ against the window start.
     """
+    from mtmetrology.omm.repeatability_records import fit_repeatability_file
+
     result = fit_repeatability_file(
         records,
         holdout=holdout,
@@ -173,6 +171,8 @@ def _print_validation(document: dict) -> None:
 
 def _write(document: dict, output: Path | None, what: str, report, report_path) -> None:
     """Write the document, then the report: both are complete before either is written."""
+    from mtmetrology.io import write_json
+
     if output is not None:
         write_json(output, document)
         typer.echo(f"{what} written to {output}", err=True)
@@ -224,6 +224,10 @@ def hysteresis(
     Welch–Satterthwaite degrees of freedom. Summary: the mean of H over the indexations
     with u = √(Σu²)/m, the mean of |H| and the RMS of u(H). Output unit: µm.
     """
+    from mtmetrology.formatting import format_uncertainty, format_value
+    from mtmetrology.omm.hysteresis import summary_line
+    from mtmetrology.omm.repeatability_records import hysteresis_from_file
+
     result = hysteresis_from_file(records, p=p)
     document = result.to_dict()
     json.dumps(document, allow_nan=False)  # refuse NaN before anything is written

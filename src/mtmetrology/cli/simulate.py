@@ -3,22 +3,15 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from mtmetrology.cli._common import parse_tools, parse_vector, user_errors
+from mtmetrology.cli._common import parse_tools, user_errors, vector_option
 from mtmetrology.errors import InputError
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
-from mtmetrology.samba import (
-    load_artefact,
-    load_balls,
-    read_poses,
-    simulate_length_check,
-    simulate_records,
-)
-from mtmetrology.units import to_internal
+
+if TYPE_CHECKING:
+    from mtmetrology.kinematics.machine import Machine
 
 app = typer.Typer(help="Simulate measurements on a virtual machine.", no_args_is_help=True)
 
@@ -62,6 +55,8 @@ centre against end a and end b of a length whose end-face centres END_A and END_
 
 
 def _truth(machine: Machine, truth: Path | None):
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+
     if truth is None:
         return machine, None
     pset = ParameterSet.load(truth, machine)
@@ -108,13 +103,17 @@ def samba(
     ] = None,
     seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
 ) -> None:
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.samba import load_artefact, load_balls, read_poses, simulate_records
+    from mtmetrology.units import to_internal
+
     if noise_um < 0 or drift_um < 0:
         raise InputError("--noise-um and --drift-um must be >= 0")
     m, theta = _truth(Machine.load(machine, model), truth)
     offset = (0.0, 0.0, 0.0)
     if tool_offset_um:
-        given = parse_vector(tool_offset_um, "--tool-offset-um", "µm")
-        offset = tuple(float(to_internal(v, "µm")) for v in given)
+        um = vector_option(tool_offset_um, "--tool-offset-um", "µm")
+        offset = tuple(float(to_internal(v, "µm")) for v in um)
     rec = simulate_records(
         m,
         theta,
@@ -150,12 +149,16 @@ def length(
     noise_um: Annotated[float, typer.Option("--noise-um", help="Reading noise, µm.")] = 0.0,
     seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
 ) -> None:
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.samba import simulate_length_check
+    from mtmetrology.units import to_internal
+
     m, theta = _truth(Machine.load(machine, model), truth)
     check = simulate_length_check(
         m,
         theta,
-        parse_vector(end_a, "--end-a"),
-        parse_vector(end_b, "--end-b"),
+        vector_option(end_a, "--end-a"),
+        vector_option(end_b, "--end-b"),
         pairs=pairs,
         b_max_deg=b_max_deg,
         noise=float(to_internal(noise_um, "µm")),

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -25,13 +25,9 @@ from mtmetrology.cli._common import (
     write_report,
 )
 from mtmetrology.cli._history import HISTORY_PARAMS, load_parameters
-from mtmetrology.formatting import format_share, format_uncertainty, format_value
-from mtmetrology.io import write_json
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.omm.simulator import group_label
-from mtmetrology.omm.task import TaskResult
-from mtmetrology.omm.task_request import task_uncertainty_from_files
-from mtmetrology.units import from_internal
+
+if TYPE_CHECKING:
+    from mtmetrology.omm.task import TaskResult
 
 __all__ = ["app"]
 
@@ -172,6 +168,10 @@ def uncertainty(
     Method: GUF with the covariance simulator, adaptive Monte Carlo (JCGM 101/102), or both
     with the validation of the GUF.
     """
+    from mtmetrology.io import write_json
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.omm.task_request import task_uncertainty_from_files
+
     lt = long_term
     if long_term is not None and str(long_term).startswith(HISTORY_PARAMS):
         lt = load_parameters(long_term, Machine.load(machine_name))
@@ -238,6 +238,10 @@ NOT_GIVEN = {
 
 def _print(result: TaskResult, given: dict[str, Path | None]) -> None:
     """Console summary; a source without its file is named as absent, not as 0.0 %."""
+    from mtmetrology.formatting import format_share, format_uncertainty, format_value
+    from mtmetrology.omm.simulator import group_label
+    from mtmetrology.units import from_internal
+
     r = result.result
     absent = [NOT_GIVEN[option] for option, path in given.items() if path is None]
     omit = {source for source, _ in absent}

@@ -20,7 +20,7 @@ import json
 import math
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
@@ -28,19 +28,10 @@ from rich.table import Table
 
 from mtmetrology.cli._common import ReportOption, command_line, fail, write_report
 from mtmetrology.errors import ConvergenceError, MtmetrologyError, ResourceLimitError
-from mtmetrology.formatting import (
-    SHARE_DEFINITION,
-    budget_cells,
-    budget_columns,
-    format_uncertainty,
-    format_value,
-)
-from mtmetrology.uncertainty.guf import GUFResult, guf
-from mtmetrology.uncertainty.mcm import monte_carlo
-from mtmetrology.uncertainty.modelfile import ModelFileError, load_model
-from mtmetrology.uncertainty.outputs import Output, result_document
-from mtmetrology.uncertainty.validation import validate_results
-from mtmetrology.units import display_unit
+
+if TYPE_CHECKING:
+    from mtmetrology.uncertainty.guf import GUFResult
+    from mtmetrology.uncertainty.outputs import Output
 
 #: Most Monte Carlo values kept for the coverage intervals (trials x outputs): 400 MB.
 MAX_VALUES = 50_000_000
@@ -68,6 +59,9 @@ def _fail(message: str) -> None:
 
 def _budget_table(r: GUFResult, j: int) -> Table:
     """The budget of output j as the HTML report shows it (display units, one share)."""
+    from mtmetrology.formatting import SHARE_DEFINITION, budget_cells, budget_columns
+    from mtmetrology.units import display_unit
+
     name = r.names[j]
     unit = display_unit(r.units[j]) if r.units[j] else ""
     table = Table(
@@ -83,6 +77,8 @@ def _budget_table(r: GUFResult, j: int) -> Table:
 
 def _results_table(title: str, outputs: tuple[Output, ...], extra: dict | None = None) -> Table:
     """One row per output; ``extra`` = {column: [cell per output]}."""
+    from mtmetrology.formatting import format_uncertainty, format_value
+
     table = Table(title=title)
     for col in ("output", "value", "u", "U", "k", "interval", "unit", *(extra or {})):
         table.add_column(col, justify="left" if col in ("output", "unit") else "right")
@@ -134,6 +130,11 @@ def evaluate_model(loaded, model_file: Path, method: Method, *, digits=2, p=0.95
         The document of :func:`mtmetrology.uncertainty.outputs.result_document`, the
         results of each method that ran, and the validation when both did.
     """
+    from mtmetrology.uncertainty.guf import guf
+    from mtmetrology.uncertainty.mcm import monte_carlo
+    from mtmetrology.uncertainty.outputs import result_document
+    from mtmetrology.uncertainty.validation import validate_results
+
     g = r = report = None
     if method in (Method.guf, Method.both):
         g = guf(loaded.model, loaded.inputs, p=p)
@@ -174,6 +175,9 @@ def run(
     report_path: ReportOption = None,
 ) -> None:
     """Evaluate a measurement model by GUF, Monte Carlo, or both (with validation)."""
+    from mtmetrology.formatting import format_value
+    from mtmetrology.uncertainty.modelfile import ModelFileError, load_model
+
     if not 0.0 < p < 1.0:
         _fail(f"--p must lie in (0, 1), got {p}")
     if method is Method.guf and (trials is not None or adaptive):

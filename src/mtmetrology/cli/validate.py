@@ -12,7 +12,7 @@ draws 25 points (:func:`mtmetrology.omm.pooling.pooling_experiment`).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -25,20 +25,25 @@ from mtmetrology.cli._common import (
     write_report,
 )
 from mtmetrology.errors import InputError
-from mtmetrology.fitting.features import SphereDiameter, Sphericity
-from mtmetrology.io import read_csv_table, write_json
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import ParameterSet
-from mtmetrology.omm.pooling import pooling_experiment
-from mtmetrology.omm.reference import thermal_reference_value
-from mtmetrology.omm.repeatability_file import load_repeatability_model
-from mtmetrology.omm.task import reading_covariance
-from mtmetrology.omm.task_request import ordered_covariance
-from mtmetrology.omm.unexplained import load_unexplained_covariance
-from mtmetrology.omm.validation import GaugeValidation, validate_gauge
-from mtmetrology.units import to_internal
+
+if TYPE_CHECKING:
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.omm.validation import GaugeValidation
 
 app = typer.Typer(help="Validate uncertainty statements against calibrated artefacts.")
+
+CteOpt = Annotated[float, typer.Option("--cte", help="Expansion coefficient α, 1/°C.")]
+CteUOpt = Annotated[float, typer.Option("--cte-u", help="u(α), 1/°C.")]
+DeltaTUOpt = Annotated[float, typer.Option("--delta-t-u", help="u(ΔT), °C.")]
+RepeatabilityOpt = Annotated[
+    Path | None, typer.Option(help="repeatability-model JSON (needs i,j,k columns).")
+]
+UnexplainedOpt = Annotated[
+    Path | None, typer.Option(help="unexplained-volumetric-error document (µm²).")
+]
+TipDiameterOpt = Annotated[
+    float | None, typer.Option(help="Effective tip diameter, mm (default: the machine's).")
+]
 
 
 @app.callback()
@@ -47,6 +52,9 @@ def _group() -> None:
 
 
 def _side(path: Path, machine: Machine, repeatability):
+    from mtmetrology.io import read_csv_table
+    from mtmetrology.omm.task import reading_covariance
+
     table = read_csv_table(path, required=("point",))
     readings = readings_from_table(machine, table)
     if repeatability is None:
@@ -72,12 +80,12 @@ def task(
         float,
         typer.Option("--reference-u-um", help="Its standard uncertainty at 20 °C, µm (U/k)."),
     ],
-    cte: Annotated[float, typer.Option("--cte", help="Expansion coefficient α, 1/°C.")] = 0.0,
-    cte_u: Annotated[float, typer.Option("--cte-u", help="u(α), 1/°C.")] = 0.0,
+    cte: CteOpt = 0.0,
+    cte_u: CteUOpt = 0.0,
     delta_t: Annotated[
         float, typer.Option("--delta-t", help="Gauge temperature − 20 °C during probing.")
     ] = 0.0,
-    delta_t_u: Annotated[float, typer.Option("--delta-t-u", help="u(ΔT), °C.")] = 0.0,
+    delta_t_u: DeltaTUOpt = 0.0,
     long_term: Annotated[
         Path | None,
         typer.Option("--long-term", help="Parameter set whose covariance is Σ_lt."),
@@ -85,21 +93,25 @@ def task(
     recalibrated: Annotated[
         bool, typer.Option("--recalibrated", help="Recalibrated for the campaign: no Σ_lt.")
     ] = False,
-    repeatability: Annotated[
-        Path | None, typer.Option(help="repeatability-model JSON (needs i,j,k columns).")
-    ] = None,
-    unexplained: Annotated[
-        Path | None, typer.Option(help="unexplained-volumetric-error document (µm²).")
-    ] = None,
-    tip_diameter: Annotated[
-        float | None, typer.Option(help="Effective tip diameter, mm (default: the machine's).")
-    ] = None,
+    repeatability: RepeatabilityOpt = None,
+    unexplained: UnexplainedOpt = None,
+    tip_diameter: TipDiameterOpt = None,
     p: Annotated[float, typer.Option("--p", help="Coverage probability.")] = 0.95,
     json_output: Annotated[bool, typer.Option("--json", help="Print the result document.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="Write it here.")] = None,
     report_path: ReportOption = None,
 ) -> None:
     """Coverage of gauge-length intervals over every side-A × side-B bipoint (eq. 6-16)."""
+    from mtmetrology.io import write_json
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+    from mtmetrology.omm.reference import thermal_reference_value
+    from mtmetrology.omm.repeatability_file import load_repeatability_model
+    from mtmetrology.omm.task_request import ordered_covariance
+    from mtmetrology.omm.unexplained import load_unexplained_covariance
+    from mtmetrology.omm.validation import validate_gauge
+    from mtmetrology.units import to_internal
+
     if recalibrated == (long_term is not None):
         raise InputError("give one of --long-term FILE and --recalibrated")
     base = Machine.load(machine_name)
@@ -220,19 +232,13 @@ def pooling(
     sphericity_u_um: Annotated[
         float, typer.Option("--sphericity-u-um", help="Its standard uncertainty, µm.")
     ] = 0.0,
-    cte: Annotated[float, typer.Option("--cte", help="Expansion coefficient α, 1/°C.")] = 0.0,
-    cte_u: Annotated[float, typer.Option("--cte-u", help="u(α), 1/°C.")] = 0.0,
+    cte: CteOpt = 0.0,
+    cte_u: CteUOpt = 0.0,
     delta_t: Annotated[float, typer.Option("--delta-t", help="Sphere temperature − 20 °C.")] = 0.0,
-    delta_t_u: Annotated[float, typer.Option("--delta-t-u", help="u(ΔT), °C.")] = 0.0,
-    repeatability: Annotated[
-        Path | None, typer.Option(help="repeatability-model JSON (needs i,j,k columns).")
-    ] = None,
-    unexplained: Annotated[
-        Path | None, typer.Option(help="unexplained-volumetric-error document (µm²).")
-    ] = None,
-    tip_diameter: Annotated[
-        float | None, typer.Option(help="Effective tip diameter, mm (default: the machine's).")
-    ] = None,
+    delta_t_u: DeltaTUOpt = 0.0,
+    repeatability: RepeatabilityOpt = None,
+    unexplained: UnexplainedOpt = None,
+    tip_diameter: TipDiameterOpt = None,
     k: Annotated[
         str | None, typer.Option("--k", help="Numbers of pooled sets, e.g. 1,2,3 (default all).")
     ] = None,
@@ -245,6 +251,17 @@ def pooling(
     report_path: ReportOption = None,
 ) -> None:
     """Coverage of sphere diameter (and sphericity) intervals on draws pooled from k sets."""
+    from mtmetrology.fitting.features import SphereDiameter, Sphericity
+    from mtmetrology.io import write_json
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+    from mtmetrology.omm.pooling import pooling_experiment
+    from mtmetrology.omm.reference import thermal_reference_value
+    from mtmetrology.omm.repeatability_file import load_repeatability_model
+    from mtmetrology.omm.task_request import ordered_covariance
+    from mtmetrology.omm.unexplained import load_unexplained_covariance
+    from mtmetrology.units import to_internal
+
     base = Machine.load(machine_name)
     pset = ParameterSet.load(params, base)
     machine = pset.machine_for(base)
@@ -310,6 +327,7 @@ def pooling(
 
 def _pooling_report(path: Path, doc: dict, command: str, inputs: list[Path]) -> None:
     from mtmetrology.report import Report
+    from mtmetrology.units import to_internal
 
     um = float(to_internal(1.0, "µm"))
     rep = Report("Task validation: pooling test", command=command, provenance={"inputs": inputs})

@@ -9,16 +9,12 @@ import typer
 
 from mtmetrology.cli._common import (
     ReportOption,
+    emit_result,
     machine_with_parameters,
-    print_json,
     user_errors,
-    write_report,
 )
 from mtmetrology.cli.calibrate import samba_report
 from mtmetrology.errors import InputError
-from mtmetrology.formatting import format_uncertainty
-from mtmetrology.io.files import write_json
-from mtmetrology.samba import read_length_readings, verify_length
 
 app = typer.Typer(help="Independent checks of a calibrated machine.", no_args_is_help=True)
 
@@ -83,7 +79,9 @@ def length(
 ) -> None:
     from mtmetrology.fitting.least_squares import FitError
     from mtmetrology.fitting.probe import effective_tip_diameter
+    from mtmetrology.formatting import format_uncertainty
     from mtmetrology.io.tables import read_csv_table
+    from mtmetrology.samba import read_length_readings, verify_length
     from mtmetrology.samba.verify import thermal_reference
     from mtmetrology.units import to_internal
 
@@ -126,30 +124,27 @@ def length(
         if params is not None:
             inputs.append(params)
         report = samba_report(ctx, f"Gauge-length check: {readings.name}", inputs, check)
-    if output is not None:
-        write_json(output, doc)
-    if report is not None:
-        write_report(report, report_path)
-    if json:
-        print_json(doc)
-        return
-    typer.echo(f"length check, L = {length_mm} mm, {len(check.pairs)} pairs (errors in µm)")
-    for name in ("nominal", "compensated"):
-        s = doc[name]
-        typer.echo(
-            f"  {name:<12} mean {s['mean']:9.3f}  rms {s['rms']:9.3f}  "
-            f"max |e| {s['max_abs']:9.3f}  range {s['range']:9.3f}"
-        )
-    if doc["thermal"] is not None:
-        t = doc["thermal"]
-        typer.echo(
-            f"  reference L_T = {t['length_mm']:.5f} mm at {temperature_c:g} °C "
-            f"(sensitivity {1e3 * t['sensitivities']['temperature']:.2f} µm/°C)"
-        )
-    if doc["u_tip_diameter_mm"] is not None:
-        typer.echo(f"  tip radius {doc['tip_radius_mm']:.5f} mm from the reference sphere")
-    if doc["u_error_um"] is not None:
-        typer.echo(f"  u(e) of each error = {format_uncertainty(doc['u_error_um'])} µm")
+
+    def summary() -> None:
+        typer.echo(f"length check, L = {length_mm} mm, {len(check.pairs)} pairs (errors in µm)")
+        for name in ("nominal", "compensated"):
+            s = doc[name]
+            typer.echo(
+                f"  {name:<12} mean {s['mean']:9.3f}  rms {s['rms']:9.3f}  "
+                f"max |e| {s['max_abs']:9.3f}  range {s['range']:9.3f}"
+            )
+        if doc["thermal"] is not None:
+            t = doc["thermal"]
+            typer.echo(
+                f"  reference L_T = {t['length_mm']:.5f} mm at {temperature_c:g} °C "
+                f"(sensitivity {1e3 * t['sensitivities']['temperature']:.2f} µm/°C)"
+            )
+        if doc["u_tip_diameter_mm"] is not None:
+            typer.echo(f"  tip radius {doc['tip_radius_mm']:.5f} mm from the reference sphere")
+        if doc["u_error_um"] is not None:
+            typer.echo(f"  u(e) of each error = {format_uncertainty(doc['u_error_um'])} µm")
+
+    emit_result(doc, summary, output=output, report=report, report_path=report_path, as_json=json)
 
 
 # laser-tracker verification (mtmetrology.cli.tracker): its commands join this group

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from mtmetrology.cmm.calibrate import BallPlateCalibration, calibrate_ballplate, cross_validate
-from mtmetrology.cmm.files import load_plate, load_probes, read_records
-from mtmetrology.cmm.models import parse_model
 from mtmetrology.errors import InputError
-from mtmetrology.kinematics.machine import Machine
+
+if TYPE_CHECKING:  # loaded by the call: the command line's --help reads AUTO_CANDIDATES only
+    from mtmetrology.cmm.calibrate import BallPlateCalibration
+    from mtmetrology.kinematics.machine import Machine
 
 __all__ = ["AUTO_CANDIDATES", "BallPlateRequest", "calibrate_ballplate_files"]
 
@@ -71,6 +72,11 @@ def calibrate_ballplate_files(
     -------
     BallPlateRequest
     """
+    from mtmetrology.cmm.calibrate import calibrate_ballplate, cross_validate
+    from mtmetrology.cmm.files import load_plate, load_probes, read_records
+    from mtmetrology.cmm.models import parse_model
+    from mtmetrology.kinematics.machine import Machine
+
     m = machine if isinstance(machine, Machine) else Machine.load(machine)
     pl, pr = load_plate(plate), load_probes(probes)
     rec = read_records(records, pl, pr)

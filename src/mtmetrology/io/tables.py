@@ -43,14 +43,14 @@ import io
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import IO
+from typing import IO, TYPE_CHECKING
 
 import numpy as np
-import pyarrow as pa
-import pyarrow.compute as pc
-import pyarrow.csv as pacsv
 
 from mtmetrology.io.files import InputFileError, atomic_write
+
+if TYPE_CHECKING:  # pyarrow loads when a table is read or written: --help needs none
+    import pyarrow as pa
 
 __all__ = [
     "MAX_MAGNITUDE",
@@ -120,6 +120,8 @@ class Table:
 
     def take(self, rows: Sequence[int] | np.ndarray) -> Table:
         """The data rows ``rows`` (0-based indices) as a table, with their file lines."""
+        import pyarrow as pa
+
         rows = np.asarray(rows, dtype=np.intp)
         return Table(
             self.path, self.header, self.text.take(pa.array(rows)), self.lines[rows], self.quoted
@@ -172,6 +174,9 @@ class Table:
         InputFileError
             Naming the file, the line, the column and the cell.
         """
+        import pyarrow as pa
+        import pyarrow.compute as pc
+
         col = self._column(name)
         try:
             values = pc.cast(col, pa.float64()).to_numpy(zero_copy_only=False)
@@ -214,11 +219,16 @@ class Table:
 def _trim(column):
     """Cells without the ASCII spaces and tabs around them (not Unicode spaces: a
     no-break space is no padding a number may carry)."""
+    import pyarrow.compute as pc
+
     return pc.utf8_trim(column, characters=" \t")
 
 
 def _first_unparsable(col: pa.Array) -> int:
     """Index of the first cell Arrow cannot cast to float64 (bisection; error path only)."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
     lo, hi = 0, len(col)  # invariant: col[lo:hi] holds the first bad cell
     while hi - lo > 1:
         mid = (lo + hi) // 2
@@ -273,6 +283,8 @@ def _header(p: Path, data: bytes) -> tuple[int, list[str], int]:
 def _body(data: bytes, offset: int) -> tuple[pa.Buffer, np.ndarray, np.ndarray]:
     """The data rows without blank and comment lines (one buffer), their 0-based line
     index after the header, and the byte offset in ``data[offset:]`` of every body line."""
+    import pyarrow as pa
+
     buf = np.frombuffer(data, dtype=np.uint8, offset=offset)
     # Line ends found a block at a time: no byte-sized mask of the whole file in memory.
     newlines = np.concatenate(
@@ -338,6 +350,9 @@ def read_csv_table(
     InputFileError
         Missing file, bad header, ragged row, invalid text, missing column, too few rows.
     """
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
     p = Path(path)
     data = _read_bytes(p)
     header_line, header, offset = _header(p, data)
@@ -381,12 +396,18 @@ def format_decimal(values: np.ndarray, decimals: int) -> pa.Array:
     >>> format_decimal(np.array([200.0200001, -1e-9, 3.0]), 6).to_pylist()
     ['200.02', '0', '3']
     """
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
     v = np.round(np.asarray(values, dtype=float), decimals) + 0.0  # + 0.0: no "-0"
     return pc.cast(pa.array(v), pa.string())
 
 
 def _quoted(column: pa.Array) -> pa.Array:
     """Cells holding a comma, quote or line end quoted as CSV requires."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
     column = column if pa.types.is_string(column.type) else pc.cast(column, pa.string())
     needs = pc.match_substring_regex(column, _NEEDS_QUOTES)
     if not pc.any(needs).as_py():
@@ -423,6 +444,8 @@ def write_columns(
     int
         Number of rows written.
     """
+    import pyarrow.compute as pc
+
     names = list(columns)
     out = io.StringIO()
     csv.writer(out, lineterminator="\n").writerow(names)
@@ -444,6 +467,8 @@ def write_columns(
 
 
 def _flat(column):
+    import pyarrow as pa
+
     return column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
 
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Mapping, Sequence
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -37,51 +36,16 @@ from mtmetrology.kinematics.parameters import (
     coefficient_unit,
     parse_parameter,
 )
+from mtmetrology.kinematics.preset_registry import list_presets, preset_text
 from mtmetrology.kinematics.topology import LINEAR_AXES, Topology, parse_topology
 from mtmetrology.optimize import STATUS_MESSAGES, Status, least_squares_batch
 from mtmetrology.units import parse_unit
 
-__all__ = ["Machine", "list_presets", "preset_text"]
+__all__ = ["Machine"]
 
 _UNIT_VECTORS = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 _ROTARY_DIRECTION = {"A": "X", "B": "Y", "C": "Z", "S": "Z"}
 _DEG = np.pi / 180.0
-
-
-def list_presets() -> list[str]:
-    """Names of the machine presets shipped with mtmetrology."""
-    files = resources.files("mtmetrology.kinematics").joinpath("presets")
-    return sorted(p.name[: -len(".yaml")] for p in files.iterdir() if p.name.endswith(".yaml"))
-
-
-def _preset_path(name: str):
-    return resources.files("mtmetrology.kinematics").joinpath("presets", f"{name}.yaml")
-
-
-def preset_text(name: str) -> str:
-    """The machine file of a preset, as shipped (comments included).
-
-    Written to a file, it is a machine file that ``Machine.load(path)`` reads as the
-    preset: the starting point for a user's own travels, offsets or error models.
-
-    Parameters
-    ----------
-    name : str
-        A preset name (:func:`list_presets`).
-
-    Returns
-    -------
-    str
-        The YAML text.
-
-    Raises
-    ------
-    MachineFileError
-        ``name`` is not a preset.
-    """
-    if name not in list_presets():
-        raise MachineFileError(f"{name}: not a preset (presets: {', '.join(list_presets())})")
-    return _preset_path(name).read_text(encoding="utf-8")
 
 
 def _direction(spec, axis: str) -> np.ndarray:
@@ -165,9 +129,7 @@ class Machine:
         """
         text = str(source)
         if not Path(text).is_file() and text in list_presets():
-            data = parse_document(
-                _preset_path(text).read_text(encoding="utf-8"), f"preset {text}.yaml"
-            )
+            data = parse_document(preset_text(text), f"preset {text}.yaml")
             spec = parse_machine_spec(data, f"preset {text}")
         elif Path(text).is_file():
             spec = load_machine_spec(text)

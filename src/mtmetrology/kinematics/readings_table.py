@@ -35,21 +35,29 @@ def readings_from_table(machine: Machine, table: Table) -> np.ndarray:
     Raises
     ------
     InputFileError
-        A reading outside the travel of its axis (machine file ``travel_mm``/``travel_deg``)
-        is refused with its line: no measurement was taken there.
+        A missing column or a cell that is not a number; a reading outside the travel of
+        its axis (machine file ``travel_mm``/``travel_deg``) is refused with its line, its
+        column and the travel: no measurement was taken there.
     """
     readings = np.zeros((len(table), machine.n_axes))  # a missing S stays 0
     for k, a in enumerate(machine.axis_names):
         if a == "S" and not table.has(a):
             continue
-        travel = machine.axes[a].travel
-        unit = "mm" if machine.axes[a].linear else "deg"
-        bounds = None
-        if travel is not None:
-            low, high = (float(from_internal(t, unit)) for t in travel)
+        axis = machine.axes[a]
+        unit = "mm" if axis.linear else "deg"
+        values = table.floats(a, unit=unit)
+        if axis.travel is not None:
+            low, high = (float(from_internal(t, unit)) for t in axis.travel)
             slack = 1e-9 * max(abs(low), abs(high), 1.0)  # the round trip through rad
-            bounds = (low - slack, high + slack)
-        readings[:, k] = table.floats(a, bounds=bounds, unit=unit)
+            out = (values < low - slack) | (values > high + slack)
+            if out.any():
+                i = int(np.argmax(out))
+                raise InputFileError(
+                    f"{table.path}, line {table.lines[i]}: {a} = {values[i]:g} {unit} "
+                    f"lies outside the travel of {machine.name} [{low:g}, {high:g}] {unit}; "
+                    "check the readings or the machine file"
+                )
+        readings[:, k] = values
     # In place, one column at a time: records of millions of rows are not copied thrice.
     readings *= machine.readings_from_customary(np.ones(machine.n_axes))
     return readings

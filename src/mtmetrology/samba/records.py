@@ -41,6 +41,7 @@ from mtmetrology.identification import senses_from_sequence
 from mtmetrology.io.files import InputFileError
 from mtmetrology.io.tables import Table, read_csv_table
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.readings_table import readings_from_table, senses_from_table
 from mtmetrology.samba.artefact import SambaArtefact
 
 __all__ = ["SambaRecords", "check_travel", "read_records"]
@@ -115,30 +116,16 @@ def check_travel(machine: Machine, q: np.ndarray, where) -> None:
             )
 
 
-def _readings(machine: Machine, table: Table) -> np.ndarray:
-    cols = {}
-    for a in machine.axis_names:
-        if table.has(a) or a != "S":
-            cols[a] = table.floats(a)  # a missing column raises, naming the file
-    q = machine.readings_from_customary(cols)
-    check_travel(machine, q, lambda i: _where(table, i))
-    return q
-
-
 def _senses(machine: Machine, table: Table, readings: np.ndarray) -> np.ndarray | None:
+    """Senses of motion: the ``sense_<axis>`` columns where given, else from the order
+    of the rows; None when the model has no reversal terms."""
     if not any(p.kind == "reversal" for p in machine.parameters):
         return None
-    names = [f"sense_{a}" for a in machine.axis_names]
-    if not any(table.has(n) for n in names):
-        return senses_from_sequence(readings)
     out = senses_from_sequence(readings)
-    for k, n in enumerate(names):
-        if table.has(n):
-            v = table.floats(n)
-            bad = np.flatnonzero(~np.isin(v, (-1.0, 1.0)))
-            if bad.size:
-                raise InputFileError(f"{_where(table, bad[0])}: column {n!r} must be +1 or -1")
-            out[:, k] = v
+    given = senses_from_table(machine, table)
+    if given is not None:
+        columns = [k for k, a in enumerate(machine.axis_names) if table.has(f"sense_{a}")]
+        out[:, columns] = given[:, columns]
     return out
 
 
@@ -236,7 +223,7 @@ def read_records(path: str | Path, machine: Machine, artefact: SambaArtefact) ->
     """
     table = read_csv_table(path, required=["ball"])
     raw = table.has("measurement")
-    q = _readings(machine, table)
+    q = readings_from_table(machine, table)
     balls = table.strings("ball")
     known = {b.id for b in artefact.balls}
     unknown = next((i for i, b in enumerate(balls) if b not in known), None)

@@ -45,6 +45,7 @@ import numpy as np
 from mtmetrology.io.files import InputFileError
 from mtmetrology.io.tables import read_csv_table, write_csv_table
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.readings_table import readings_from_table
 from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.samba.notebook import SambaNotebookRepr
 from mtmetrology.samba.records import check_travel
@@ -165,12 +166,7 @@ def read_length_readings(path: str | Path, machine: Machine) -> LengthReadings:
         reading outside the travel.
     """
     table = read_csv_table(path, required=["pair", "end"])
-    cols = {}
-    for a in machine.axis_names:
-        if table.has(a) or a != "S":
-            cols[a] = table.floats(a)
-    q = machine.readings_from_customary(cols)
-    check_travel(machine, q, lambda i: f"{table.path}, line {table.lines[i]}")
+    q = readings_from_table(machine, table)
     ends = table.strings("end")
     pairs = table.strings("pair")
     index: dict[str, dict[str, int]] = {}

@@ -23,36 +23,84 @@
   specification ``Tolerance`` and ``decide``;
 - :mod:`~mtmetrology.uncertainty.unexplained_estimate` — a 3×3 error covariance (cov(e))
   estimated from residual vectors, PSD by eigenvalue clipping (import it by its path).
+
+The names load on first use (PEP 562): importing one module (``conformity`` for a
+command's options) does not import the others (scipy, the model-file parser).
 """
 
-from mtmetrology.uncertainty.conformity import ConformityDecision, Decision, Tolerance, decide
-from mtmetrology.uncertainty.distributions import (
-    Arcsine,
-    Beta,
-    CurvilinearTrapezoid,
-    MultivariateNormal,
-    MultivariateT,
-    Normal,
-    Rectangular,
-    Samples,
-    StudentT,
-    Trapezoidal,
-    Triangular,
-    make_distribution,
-)
-from mtmetrology.uncertainty.executors import (
-    DaskExecutor,
-    InProcessExecutor,
-    ProcessPoolExecutor,
-    resolve_executor,
-)
+from typing import TYPE_CHECKING
+
+from mtmetrology._lazy import lazy_exports
+
+# Imported now, not on first use: the function ``guf`` shares its name with its module,
+# which would otherwise take the package attribute once imported.
 from mtmetrology.uncertainty.guf import GUFResult, guf
-from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
-from mtmetrology.uncertainty.mcm import MCMResult, monte_carlo
-from mtmetrology.uncertainty.modelfile import MeasurementModel, load_model
-from mtmetrology.uncertainty.outputs import Output, result_document
-from mtmetrology.uncertainty.result import UncertaintyResult
-from mtmetrology.uncertainty.validation import ValidationReport, validate_guf, validate_results
+
+#: Public name -> module that defines it (loaded on first use, PEP 562).
+_EXPORTS = {
+    "ConformityDecision": "mtmetrology.uncertainty.conformity",
+    "Decision": "mtmetrology.uncertainty.conformity",
+    "Tolerance": "mtmetrology.uncertainty.conformity",
+    "decide": "mtmetrology.uncertainty.conformity",
+    "Arcsine": "mtmetrology.uncertainty.distributions",
+    "Beta": "mtmetrology.uncertainty.distributions",
+    "CurvilinearTrapezoid": "mtmetrology.uncertainty.distributions",
+    "MultivariateNormal": "mtmetrology.uncertainty.distributions",
+    "MultivariateT": "mtmetrology.uncertainty.distributions",
+    "Normal": "mtmetrology.uncertainty.distributions",
+    "Rectangular": "mtmetrology.uncertainty.distributions",
+    "Samples": "mtmetrology.uncertainty.distributions",
+    "StudentT": "mtmetrology.uncertainty.distributions",
+    "Trapezoidal": "mtmetrology.uncertainty.distributions",
+    "Triangular": "mtmetrology.uncertainty.distributions",
+    "make_distribution": "mtmetrology.uncertainty.distributions",
+    "DaskExecutor": "mtmetrology.uncertainty.executors",
+    "InProcessExecutor": "mtmetrology.uncertainty.executors",
+    "ProcessPoolExecutor": "mtmetrology.uncertainty.executors",
+    "resolve_executor": "mtmetrology.uncertainty.executors",
+    "InputQuantity": "mtmetrology.uncertainty.inputs",
+    "InputSet": "mtmetrology.uncertainty.inputs",
+    "MCMResult": "mtmetrology.uncertainty.mcm",
+    "monte_carlo": "mtmetrology.uncertainty.mcm",
+    "MeasurementModel": "mtmetrology.uncertainty.modelfile",
+    "load_model": "mtmetrology.uncertainty.modelfile",
+    "Output": "mtmetrology.uncertainty.outputs",
+    "result_document": "mtmetrology.uncertainty.outputs",
+    "UncertaintyResult": "mtmetrology.uncertainty.result",
+    "ValidationReport": "mtmetrology.uncertainty.validation",
+    "validate_guf": "mtmetrology.uncertainty.validation",
+    "validate_results": "mtmetrology.uncertainty.validation",
+}
+
+if TYPE_CHECKING:
+    from mtmetrology.uncertainty.conformity import ConformityDecision, Decision, Tolerance, decide
+    from mtmetrology.uncertainty.distributions import (
+        Arcsine,
+        Beta,
+        CurvilinearTrapezoid,
+        MultivariateNormal,
+        MultivariateT,
+        Normal,
+        Rectangular,
+        Samples,
+        StudentT,
+        Trapezoidal,
+        Triangular,
+        make_distribution,
+    )
+    from mtmetrology.uncertainty.executors import (
+        DaskExecutor,
+        InProcessExecutor,
+        ProcessPoolExecutor,
+        resolve_executor,
+    )
+    from mtmetrology.uncertainty.guf import GUFResult, guf
+    from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
+    from mtmetrology.uncertainty.mcm import MCMResult, monte_carlo
+    from mtmetrology.uncertainty.modelfile import MeasurementModel, load_model
+    from mtmetrology.uncertainty.outputs import Output, result_document
+    from mtmetrology.uncertainty.result import UncertaintyResult
+    from mtmetrology.uncertainty.validation import ValidationReport, validate_guf, validate_results
 
 __all__ = [
     "Arcsine",
@@ -90,3 +138,5 @@ __all__ = [
     "validate_guf",
     "validate_results",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
