@@ -50,6 +50,15 @@ evaluation per trial then meets the tolerance.  Fixed M or the adaptive procedur
 (JCGM 101 §7.9, JCGM 102 §7.8); chunks draw independent streams of one SeedSequence, so
 the result does not depend on the executor.
 
+Threads and processes
+---------------------
+A chunk's matrices are small (a few hundred residual rows, tens of unknowns, 2 000 trials):
+the model evaluates them with one BLAS thread (:func:`mtmetrology._backend.one_thread`),
+and uses the cores through the executor's processes instead.  Multi-threaded OpenBLAS is
+slower here even alone on its cores, and much slower when a core is busy (its threads
+spin on each other): on 2 shared cores, 10⁵ trials took 8.4 s (min) in-process at 2 BLAS
+threads against 1.7 s at 1, and 3.4 s against 1.0 s on 2 processes (bench/bench_samba.py).
+
 Joint coverage
 --------------
 The p hyper-ellipsoid of m normal outputs has ``k_p = sqrt(χ²_m(p))`` (JCGM 102:2011,
@@ -77,6 +86,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from mtmetrology._backend import one_thread
 from mtmetrology.errors import ConvergenceError, InputError
 from mtmetrology.optimize import chord_batch, least_squares
 from mtmetrology.rng import SeedLike
@@ -203,7 +213,8 @@ class IdentificationModel:
         self.x0 = result.estimate
         self.jacobian0 = result.jacobian
         # C = ∂x̂/∂z (n_unknowns, N): with z₀ known every trial starts at x̂ + C (z − z₀)
-        self.all_sensitivities = _sensitivities(problem, self.x0, self.jacobian0)
+        with one_thread():
+            self.all_sensitivities = _sensitivities(problem, self.x0, self.jacobian0)
         estimate = getattr(problem, "input_estimate", None)
         self.z0 = None if estimate is None else np.asarray(estimate(), dtype=float)
         self.index = np.array([names.index(n) for n in outputs], dtype=int)
@@ -219,8 +230,12 @@ class IdentificationModel:
         return self.all_sensitivities[self.index] / self.scales[:, None]
 
     def solve(self, z: np.ndarray) -> np.ndarray:
-        """All unknowns (M, n_unknowns), internal units, for inputs z (M, N)."""
-        z = np.atleast_2d(np.asarray(z, dtype=float))
+        """All unknowns (M, n_unknowns), internal units, for inputs z (M, N), with one BLAS
+        thread (module notes)."""
+        with one_thread():
+            return self._solve(np.atleast_2d(np.asarray(z, dtype=float)))
+
+    def _solve(self, z: np.ndarray) -> np.ndarray:
         if self.z0 is None:
             start = np.broadcast_to(self.x0, (z.shape[0], self.x0.size))
         else:
