@@ -54,10 +54,12 @@ Threads and processes
 ---------------------
 A chunk's matrices are small (a few hundred residual rows, tens of unknowns, 2 000 trials):
 the model evaluates them with one BLAS thread (:func:`mtmetrology._backend.one_thread`),
-and uses the cores through the executor's processes instead.  Multi-threaded OpenBLAS is
-slower here even alone on its cores, and much slower when a core is busy (its threads
-spin on each other): on 2 shared cores, 10⁵ trials took 8.4 s (min) in-process at 2 BLAS
-threads against 1.7 s at 1, and 3.4 s against 1.0 s on 2 processes (bench/bench_samba.py).
+and so do the GUF and the Monte Carlo statistics; the cores are used through the
+executor's processes.  Multi-threaded OpenBLAS is much slower on these sizes when a core
+is busy (its threads wait on each other): on 2 shared cores (load 2–6), 10⁵ trials took
+8.4 s (min) in-process at 2 BLAS threads against 1.7 s at 1, and 3.4 s against 1.0 s on
+2 processes; the 84 × 84 eigendecomposition of the 84-parameter model's output
+covariance 0.35 s against milliseconds (bench/bench_samba.py).
 
 Joint coverage
 --------------
@@ -295,14 +297,15 @@ def identification_guf(model: IdentificationModel, inputs: InputSet, p: float = 
     ``U_y = C U_z Cᵀ`` (JCGM 102:2011, 6.2.2).
     """
     sens = model.sensitivities()
-    return guf_propagate(
-        model,
-        inputs,
-        jacobian=lambda z: sens,
-        p=p,
-        output_names=model.output_names,
-        output_units=model.output_units,
-    )
+    with one_thread():
+        return guf_propagate(
+            model,
+            inputs,
+            jacobian=lambda z: sens,
+            p=p,
+            output_names=model.output_names,
+            output_units=model.output_units,
+        )
 
 
 def identification_mcm(
@@ -351,22 +354,23 @@ def identification_mcm(
     """
     if not adaptive and trials is None:
         trials = 100_000
-    return monte_carlo(
-        model,
-        inputs,
-        trials=trials,
-        adaptive=adaptive,
-        digits=digits,
-        tolerance=tolerance,
-        seed=seed,
-        executor=executor,
-        p=p,
-        chunk_size=chunk_size,
-        sequence_size=sequence_size,
-        keep_samples=keep_samples,
-        output_names=model.output_names,
-        output_units=model.output_units,
-    )
+    with one_thread():  # the statistics too (eigh, products of the samples): module notes
+        return monte_carlo(
+            model,
+            inputs,
+            trials=trials,
+            adaptive=adaptive,
+            digits=digits,
+            tolerance=tolerance,
+            seed=seed,
+            executor=executor,
+            p=p,
+            chunk_size=chunk_size,
+            sequence_size=sequence_size,
+            keep_samples=keep_samples,
+            output_names=model.output_names,
+            output_units=model.output_units,
+        )
 
 
 def joint_coverage(m: int, p: float = 0.95) -> dict:
