@@ -77,8 +77,10 @@ def one_thread():
 
 def pin_one_thread() -> None:
     """Limit every native thread pool of this process to one thread for good (a process
-    pool's worker initializer)."""
-    _thread_pools().limit(limits=1)
+    pool's worker initializer; it scans the libraries the worker has loaded)."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1)
 
 
 @functools.cache
