@@ -55,11 +55,11 @@ Threads and processes
 A chunk's matrices are small (a few hundred residual rows, tens of unknowns, 2 000 trials):
 the model evaluates them with one BLAS thread (:func:`mtmetrology._backend.one_thread`),
 and so do the GUF and the Monte Carlo statistics; the cores are used through the
-executor's processes.  Multi-threaded OpenBLAS is much slower on these sizes when a core
-is busy (its threads wait on each other): on 2 shared cores (load 2–6), 10⁵ trials took
-8.4 s (min) in-process at 2 BLAS threads against 1.7 s at 1, and 3.4 s against 1.0 s on
-2 processes; the 84 × 84 eigendecomposition of the 84-parameter model's output
-covariance 0.35 s against milliseconds (bench/bench_samba.py).
+executor's processes.  On idle cores multi-threaded OpenBLAS gains nothing here (10⁵
+trials in-process: 1.52 s median at 2 BLAS threads, 1.62 s at 1); when another process
+keeps a core busy its threads wait on each other: at load 8–11 on 2 cores, 10.2 s against
+2.4 s, and the 84 × 84 eigendecomposition of the 84-parameter model's output covariance
+0.35 s against milliseconds (bench/bench_samba.py ``--before``).
 
 Joint coverage
 --------------
