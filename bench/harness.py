@@ -133,6 +133,34 @@ class Benchmark:
         self.timings.append(timing)
         return timing
 
+    def time_interleaved(
+        self, contenders: list, *, repeats: int = 5, warmup: int = 1
+    ) -> list[Timing]:
+        """Time several contenders in alternation (a, b, c, a, b, c, ...) and record each,
+        so that a change of load on a shared machine hits all of them alike.
+        ``contenders``: tuples ``(label, kind, function)`` or ``(label, kind, function,
+        note)``."""
+        if repeats < 5:
+            raise ValueError(f"at least 5 repeats are needed for a min and a median, got {repeats}")
+        for c in contenders:
+            if c[1] not in KINDS:
+                raise ValueError(f"kind must be one of {KINDS}, got {c[1]!r}")
+        for _ in range(warmup):
+            for c in contenders:
+                c[2]()
+        times: list[list[float]] = [[] for _ in contenders]
+        for _ in range(repeats):
+            for c, out in zip(contenders, times, strict=True):
+                start = time.perf_counter()
+                c[2]()
+                out.append(time.perf_counter() - start)
+        recorded = [
+            Timing(c[0], c[1], t, 1.0, c[3] if len(c) > 3 else "")
+            for c, t in zip(contenders, times, strict=True)
+        ]
+        self.timings.extend(recorded)
+        return recorded
+
     def target(self, label: str, limit: float, relative_to: str | None = None, text: str = ""):
         self.targets.append(Target(label, limit, relative_to, text))
 

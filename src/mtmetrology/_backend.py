@@ -10,6 +10,12 @@ Compiled kernels are cached on disk where numba can write (``cache=True``), so a
 process loads them in milliseconds; where it cannot (read-only install, no home
 directory, a full disk), :func:`njit_cached` compiles them in memory for the process,
 silently: a cache is an optimisation, never a reason to fail.
+
+Native thread pools (OpenBLAS, OpenMP) are the other half of how the hot loops use the
+cores: :func:`one_thread` runs a block with one thread per pool, for work on matrices too
+small for threads to pay (a Monte Carlo chunk's few-hundred-row products and SVDs), and
+:func:`pin_one_thread` keeps a worker process at one thread, so that n workers use n cores
+instead of n × (threads per pool).
 """
 
 from __future__ import annotations
@@ -42,6 +48,39 @@ def njit_cached(**options):
             return njit(**options)(func)
 
     return decorate
+
+
+@functools.cache
+def _thread_pools():
+    """The native thread pools loaded now (threadpoolctl scans the libraries once)."""
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()
+
+
+def one_thread():
+    """Context manager: every native thread pool (BLAS, OpenMP) limited to one thread,
+    restored on exit.
+
+    Costs about 10 µs (``threadpool_limits`` rescans the loaded libraries, 0.4 ms); pools
+    loaded after the first call are not limited.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> with one_thread():
+    ...     float(np.ones((3, 3)) @ np.ones(3) @ np.ones(3))
+    9.0
+    """
+    return _thread_pools().limit(limits=1)
+
+
+def pin_one_thread() -> None:
+    """Limit every native thread pool of this process to one thread for good (a process
+    pool's worker initializer; it scans the libraries the worker has loaded)."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1)
 
 
 @functools.cache

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_info, threadpool_limits
 
 from mtmetrology.uncertainty.executors import (
     DaskExecutor,
@@ -70,6 +71,22 @@ def test_fixed_run_is_bit_identical_in_process_and_on_1_or_2_processes():
     with ProcessPoolExecutor(1) as one, ProcessPoolExecutor(2) as two:
         assert_identical(reference, monte_carlo(product_and_ratio, INPUTS, executor=one, **options))
         assert_identical(reference, monte_carlo(product_and_ratio, INPUTS, executor=two, **options))
+
+
+def blas_threads(_=None) -> list[int]:
+    """Threads of every BLAS pool loaded in this process."""
+    return [pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"]
+
+
+def test_pool_workers_run_one_blas_thread_and_leave_the_caller_alone():
+    """Forked workers inherit the parent's BLAS threads (2 here): the pool's initializer
+    pins each to 1, so 2 workers put 2 threads, not 4, on the cores."""
+    with threadpool_limits(2):
+        caller = blas_threads()
+        with ProcessPoolExecutor(2) as pool:
+            per_task = pool.map(blas_threads, range(4))
+        assert blas_threads() == caller == [2] * len(caller)
+    assert per_task == [[1] * len(caller)] * 4
 
 
 def test_adaptive_run_stops_at_the_same_sequence_for_any_worker_count():

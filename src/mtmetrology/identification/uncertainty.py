@@ -50,6 +50,17 @@ evaluation per trial then meets the tolerance.  Fixed M or the adaptive procedur
 (JCGM 101 §7.9, JCGM 102 §7.8); chunks draw independent streams of one SeedSequence, so
 the result does not depend on the executor.
 
+Threads and processes
+---------------------
+A chunk's matrices are small (a few hundred residual rows, tens of unknowns, 2 000 trials):
+the model evaluates them with one BLAS thread (:func:`mtmetrology._backend.one_thread`),
+and so do the GUF and the Monte Carlo statistics; the cores are used through the
+executor's processes.  On idle cores multi-threaded OpenBLAS gains nothing here (10⁵
+trials in-process: 1.52 s median at 2 BLAS threads, 1.62 s at 1); when another process
+keeps a core busy its threads wait on each other: at load 8–11 on 2 cores, 10.2 s against
+2.4 s, and the 84 × 84 eigendecomposition of the 84-parameter model's output covariance
+0.35 s against milliseconds (bench/bench_samba.py ``--before``).
+
 Joint coverage
 --------------
 The p hyper-ellipsoid of m normal outputs has ``k_p = sqrt(χ²_m(p))`` (JCGM 102:2011,
@@ -77,6 +88,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from mtmetrology._backend import one_thread
 from mtmetrology.errors import ConvergenceError, InputError
 from mtmetrology.optimize import chord_batch, least_squares
 from mtmetrology.rng import SeedLike
@@ -203,7 +215,8 @@ class IdentificationModel:
         self.x0 = result.estimate
         self.jacobian0 = result.jacobian
         # C = ∂x̂/∂z (n_unknowns, N): with z₀ known every trial starts at x̂ + C (z − z₀)
-        self.all_sensitivities = _sensitivities(problem, self.x0, self.jacobian0)
+        with one_thread():
+            self.all_sensitivities = _sensitivities(problem, self.x0, self.jacobian0)
         estimate = getattr(problem, "input_estimate", None)
         self.z0 = None if estimate is None else np.asarray(estimate(), dtype=float)
         self.index = np.array([names.index(n) for n in outputs], dtype=int)
@@ -219,8 +232,12 @@ class IdentificationModel:
         return self.all_sensitivities[self.index] / self.scales[:, None]
 
     def solve(self, z: np.ndarray) -> np.ndarray:
-        """All unknowns (M, n_unknowns), internal units, for inputs z (M, N)."""
-        z = np.atleast_2d(np.asarray(z, dtype=float))
+        """All unknowns (M, n_unknowns), internal units, for inputs z (M, N), with one BLAS
+        thread (module notes)."""
+        with one_thread():
+            return self._solve(np.atleast_2d(np.asarray(z, dtype=float)))
+
+    def _solve(self, z: np.ndarray) -> np.ndarray:
         if self.z0 is None:
             start = np.broadcast_to(self.x0, (z.shape[0], self.x0.size))
         else:
@@ -280,14 +297,15 @@ def identification_guf(model: IdentificationModel, inputs: InputSet, p: float = 
     ``U_y = C U_z Cᵀ`` (JCGM 102:2011, 6.2.2).
     """
     sens = model.sensitivities()
-    return guf_propagate(
-        model,
-        inputs,
-        jacobian=lambda z: sens,
-        p=p,
-        output_names=model.output_names,
-        output_units=model.output_units,
-    )
+    with one_thread():
+        return guf_propagate(
+            model,
+            inputs,
+            jacobian=lambda z: sens,
+            p=p,
+            output_names=model.output_names,
+            output_units=model.output_units,
+        )
 
 
 def identification_mcm(
@@ -336,22 +354,23 @@ def identification_mcm(
     """
     if not adaptive and trials is None:
         trials = 100_000
-    return monte_carlo(
-        model,
-        inputs,
-        trials=trials,
-        adaptive=adaptive,
-        digits=digits,
-        tolerance=tolerance,
-        seed=seed,
-        executor=executor,
-        p=p,
-        chunk_size=chunk_size,
-        sequence_size=sequence_size,
-        keep_samples=keep_samples,
-        output_names=model.output_names,
-        output_units=model.output_units,
-    )
+    with one_thread():  # the statistics too (eigh, products of the samples): module notes
+        return monte_carlo(
+            model,
+            inputs,
+            trials=trials,
+            adaptive=adaptive,
+            digits=digits,
+            tolerance=tolerance,
+            seed=seed,
+            executor=executor,
+            p=p,
+            chunk_size=chunk_size,
+            sequence_size=sequence_size,
+            keep_samples=keep_samples,
+            output_names=model.output_names,
+            output_units=model.output_units,
+        )
 
 
 def joint_coverage(m: int, p: float = 0.95) -> dict:

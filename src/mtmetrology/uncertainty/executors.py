@@ -20,6 +20,8 @@ import os
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol, runtime_checkable
 
+from mtmetrology._backend import pin_one_thread
+
 __all__ = [
     "DaskExecutor",
     "Executor",
@@ -73,6 +75,12 @@ class ProcessPoolExecutor:
 
     Notes
     -----
+    Each worker limits its native thread pools (OpenBLAS, OpenMP) to one thread when it
+    starts (:func:`mtmetrology._backend.pin_one_thread`): n workers each running the
+    library default of one BLAS thread per core would put n × cores threads on the cores,
+    and OpenBLAS threads that wait for a busy core spin (on a 2-core machine, 2 workers at
+    2 BLAS threads ran the SAMBA Monte Carlo 2.4× slower than at 1 when the machine was
+    otherwise nearly idle, 3–6× when it was shared; bench/bench_samba.py ``--before``).
     The pool starts on the first ``map`` and is reused until ``close`` (the adaptive
     procedure calls ``map`` once per batch of sequences). The model and the input sampler
     are pickled with every task (:func:`monte_carlo` sends its chunks in two batches per
@@ -93,7 +101,9 @@ class ProcessPoolExecutor:
     def map(self, function, tasks):
         if self._pool is None:
             self._pool = concurrent.futures.ProcessPoolExecutor(
-                max_workers=self.workers, mp_context=self._context
+                max_workers=self.workers,
+                mp_context=self._context,
+                initializer=pin_one_thread,
             )
         return list(self._pool.map(function, tasks))
 
