@@ -2,7 +2,7 @@
 
 ``mtm --help`` lists the commands from their summaries and imports no command module
 and no engine; ``mtm machine list`` reads the preset registry and builds no machine (no
-numpy, no kinematics config); no command's ``--help`` loads the
+numpy, no kinematics config); no command's ``--help`` loads numpy, a file schema, the
 report layer (matplotlib, Jinja2) or scikit-learn.  Times are in bench/bench_startup.py
 (never asserted here).
 """
@@ -25,7 +25,14 @@ PROBE = (
     "from mtmetrology.__main__ import main\n"
     "main()\n"
 )
-LINES = [["--help"], ["machine", "list"]] + [[c, "--help"] for c in [*COMMANDS, *SHARED_GROUPS]]
+#: Subcommand lines whose help shows a constant of the library (criteria, default duration,
+#: fewest targets per coefficient): read from light modules, not from the numpy ones.
+SUBCOMMAND_HELP = [["design", "samba", "--help"], ["repeatability", "fit", "--help"]]
+LINES = (
+    [["--help"], ["machine", "list"]]
+    + [[c, "--help"] for c in [*COMMANDS, *SHARED_GROUPS]]
+    + SUBCOMMAND_HELP
+)
 
 
 @pytest.fixture(scope="module")
@@ -95,28 +102,13 @@ def test_no_help_loads_the_report_layer_or_scikit_learn(loaded, line):
     assert "mtmetrology.report" not in loaded[line]
 
 
-#: The ``--help`` lines that load numpy, and why: constants of their help text live in
-#: modules of numpy code (design: the criteria and the seed 004 ball grid, a file schema;
-#: repeatability: the fewest targets per coefficient).
-NUMPY_FOR_HELP = {"design --help", "repeatability --help"}
-
-
 @pytest.mark.parametrize("line", [" ".join(a) for a in LINES])
 def test_no_help_loads_an_engine_it_does_not_run(loaded, line):
-    """No command line loads scipy, pyarrow, scikit-learn or SQLAlchemy to show its help;
-    numpy only for the lines of :data:`NUMPY_FOR_HELP`; pydantic comes with Typer (its
-    parameter adapters), never with a file schema except design's."""
+    """No command line loads numpy, scipy, pyarrow, scikit-learn or SQLAlchemy to show its
+    help, nor a file schema; pydantic comes with Typer (its parameter adapters)."""
     modules = loaded[line]
-    assert not _top(modules) & {"scipy", "pyarrow", "sklearn", "sqlalchemy", "alembic"}
-    if line not in NUMPY_FOR_HELP:
-        assert "numpy" not in _top(modules)
-        assert not modules & {"mtmetrology.kinematics.config", "mtmetrology.io.schema"}
-
-
-def test_numpy_exceptions_are_still_needed(loaded):
-    """Each exception of :data:`NUMPY_FOR_HELP` still loads numpy (drop it when fixed)."""
-    needed = {line for line in NUMPY_FOR_HELP if "numpy" in _top(loaded[line])}
-    assert needed == NUMPY_FOR_HELP
+    assert not _top(modules) & {"numpy", "scipy", "pyarrow", "sklearn", "sqlalchemy", "alembic"}
+    assert not modules & {"mtmetrology.kinematics.config", "mtmetrology.io.schema"}
 
 
 def test_predict_loads_neither_the_fitting_nor_the_uncertainty_engine(loaded):

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
+from mtmetrology.design.choices import CRITERIA
 from mtmetrology.design.criteria import (
-    CRITERIA,
     check_criterion,
     criterion_from_spectrum,
     scaled_spectrum,

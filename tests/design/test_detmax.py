@@ -4,7 +4,8 @@ reproducibility whatever the executor."""
 import numpy as np
 import pytest
 
-from mtmetrology.design.criteria import CRITERIA, criterion_from_spectrum, scaled_spectrum
+from mtmetrology.design.choices import CRITERIA
+from mtmetrology.design.criteria import criterion_from_spectrum, scaled_spectrum
 from mtmetrology.design.detmax import BlockInformation, detmax, detmax_run
 from mtmetrology.errors import InputError
 from mtmetrology.uncertainty.executors import ProcessPoolExecutor

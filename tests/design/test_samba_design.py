@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 from lab_balls import LAB_CENTRES, LAB_IDS
 
-from mtmetrology.cli.design import SEED004_GRID
 from mtmetrology.design.accessibility import AccessibilityRule
 from mtmetrology.design.counts import (
     count_rule_for,
@@ -12,7 +11,7 @@ from mtmetrology.design.counts import (
     indexation_count,
     measurement_count,
 )
-from mtmetrology.design.inputs import ScaleBarPlacement, default_indexations
+from mtmetrology.design.inputs import SEED004_GRID, ScaleBarPlacement, default_indexations
 from mtmetrology.design.programme import evaluate_programme
 from mtmetrology.design.samba import choose_balls, choose_indexations, plan_samba
 from mtmetrology.errors import InputError, RankDeficientError

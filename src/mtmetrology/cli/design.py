@@ -19,22 +19,13 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
+from mtmetrology.design.choices import CRITERIA
 from mtmetrology.design.counts import MINUTES_PER_MEASUREMENT
-from mtmetrology.design.criteria import CRITERIA
-from mtmetrology.design.inputs import BallGridFile
 from mtmetrology.errors import InputError
 from mtmetrology.io.files import atomic_write
 
 app = typer.Typer(
     help="Plan calibrations: artefact layout and probing programme.", no_args_is_help=True
-)
-
-#: Seed 004 candidate grid: 5 x 4 positions at 80 mm pitch, stems 75-175 mm (§5.5).
-SEED004_GRID = BallGridFile(
-    kind="samba-ball-grid",
-    x_mm=[-160.0, -80.0, 0.0, 80.0, 160.0],
-    y_mm=[-120.0, -40.0, 40.0, 120.0],
-    stems_mm=[75.0, 100.0, 125.0, 150.0, 175.0],
 )
 
 
@@ -177,6 +168,7 @@ def samba(
     from mtmetrology.design.accessibility import AccessibilityRule, load_accessibility_rule
     from mtmetrology.design.counts import COUNT_RULES
     from mtmetrology.design.inputs import (
+        SEED004_GRID,
         axis_grid,
         default_indexations,
         grid_indexations,

@@ -24,7 +24,7 @@ from mtmetrology.cli._common import (
     user_errors,
     write_report,
 )
-from mtmetrology.omm.repeatability_model import MIN_TARGETS_PER_COEFFICIENT
+from mtmetrology.omm.choices import MIN_TARGETS_PER_COEFFICIENT
 
 app = typer.Typer(
     help="Probing repeatability models (on-machine measurement).", no_args_is_help=True

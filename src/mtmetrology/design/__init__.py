@@ -8,7 +8,7 @@ _EXPORTS = {
     "estimate_test_duration_h": "mtmetrology.design.counts",
     "indexation_count": "mtmetrology.design.counts",
     "measurement_count": "mtmetrology.design.counts",
-    "CRITERIA": "mtmetrology.design.criteria",
+    "CRITERIA": "mtmetrology.design.choices",
     "criterion_from_spectrum": "mtmetrology.design.criteria",
     "scaled_spectrum": "mtmetrology.design.criteria",
     "uncertainty_propagation_factors": "mtmetrology.design.criteria",

@@ -41,21 +41,16 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from mtmetrology.design.choices import CRITERIA
 from mtmetrology.errors import InputError
 
 __all__ = [
-    "CRITERIA",
-    "SCALED_CRITERIA",
     "check_criterion",
     "criterion_from_spectrum",
     "scaled_spectrum",
     "uncertainty_propagation_factors",
 ]
 
-#: Criteria understood by the design routines.
-CRITERIA = ("D", "A", "E", "O1", "O2", "O3", "O4", "O5")
-#: Criteria evaluated on the per-design column-scaled information matrix.
-SCALED_CRITERIA = ("O1", "O2", "O3", "O4", "O5")
 
 #: Eigenvalues of the column-scaled information matrix below RANK_RTOL · λ_max count as
 #: zero: the rank tolerance of the diagnostics (1e-8 on σ) squared.
@@ -102,7 +97,7 @@ def criterion_from_spectrum(
     Parameters
     ----------
     criterion : str
-        One of :data:`CRITERIA`.
+        One of :data:`~mtmetrology.design.choices.CRITERIA`.
     eigenvalues : ndarray, shape (..., n)
         Eigenvalues of the information matrix, ascending: column-scaled per design
         (:func:`scaled_spectrum`) for O1–O5, in the fixed scaling for D, A, E.

@@ -55,8 +55,8 @@ from functools import partial
 
 import numpy as np
 
+from mtmetrology.design.choices import SCALED_CRITERIA
 from mtmetrology.design.criteria import (
-    SCALED_CRITERIA,
     check_criterion,
     criterion_from_spectrum,
     scaled_spectrum,
@@ -98,7 +98,7 @@ class BlockInformation:
         Rows each candidate adds; zero rows pad candidates that add fewer than r rows
         (e.g. a ball not accessible at that indexation).
     criterion : str
-        One of :data:`mtmetrology.design.criteria.CRITERIA`.
+        One of :data:`mtmetrology.design.choices.CRITERIA`.
     measurements_fixed : int
         Measurements (poses) in ``fixed`` (for O1).
     measurements : ndarray of int, shape (N,)

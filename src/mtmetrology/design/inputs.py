@@ -35,6 +35,7 @@ from mtmetrology.io.schema import describe_validation_error
 from mtmetrology.io.tables import read_csv_table
 
 __all__ = [
+    "SEED004_GRID",
     "BallGridFile",
     "BallsFile",
     "ScaleBarPlacement",
@@ -102,6 +103,16 @@ class BallGridFile(_Strict):
                     ids.append(f"x{x:g}y{y:g}h{h:g}")
                     centres.append((x, y, table_z_mm + h))
         return ids, np.array(centres, dtype=float)
+
+
+#: Seed 004 candidate grid, the default of ``mtm design samba`` without ``--balls-from``:
+#: 5 x 4 positions at 80 mm pitch, stems 75-175 mm (Alami Mchichi 2018, §5.5).
+SEED004_GRID = BallGridFile(
+    kind="samba-ball-grid",
+    x_mm=[-160.0, -80.0, 0.0, 80.0, 160.0],
+    y_mm=[-120.0, -40.0, 40.0, 120.0],
+    stems_mm=[75.0, 100.0, 125.0, 150.0, 175.0],
+)
 
 
 class _Ball(_Strict):

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mtmetrology.design.accessibility import AccessibilityRule, accessible
+from mtmetrology.design.choices import SCALED_CRITERIA
 from mtmetrology.design.counts import (
     MINUTES_PER_MEASUREMENT,
     count_rule_for,
@@ -33,7 +34,6 @@ from mtmetrology.design.counts import (
     measurement_count,
 )
 from mtmetrology.design.criteria import (
-    SCALED_CRITERIA,
     check_criterion,
     criterion_from_spectrum,
     scaled_spectrum,

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mtmetrology.errors import InputError
+from mtmetrology.omm.choices import MIN_TARGETS_PER_COEFFICIENT
 from mtmetrology.omm.repeatability import (
     COVARIANCE_OUTPUTS,
     FACTOR_UNITS,
@@ -38,7 +39,6 @@ from mtmetrology.units import from_internal
 
 __all__ = [
     "COVARIANCE_DEGREES",
-    "MIN_TARGETS_PER_COEFFICIENT",
     "STD_DEGREES",
     "VALIDATION_WARNING",
     "OutputFit",
@@ -48,9 +48,6 @@ __all__ = [
     "separable_design",
 ]
 
-#: Fewest fitting targets per coefficient a model is fitted with unless asked: with 36
-#: coefficients on 38 targets the held-out errors of cov(X,Y) reached 5 200 % (issue 18).
-MIN_TARGETS_PER_COEFFICIENT = 3.0
 #: Held-out RMS error, as a fraction of the RMS of the held-out values, above which an
 #: output is flagged: the model then predicts its values no better than half their size.
 VALIDATION_WARNING = 0.5

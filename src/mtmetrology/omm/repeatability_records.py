@@ -17,6 +17,7 @@ import numpy as np
 
 from mtmetrology.errors import InputError
 from mtmetrology.io import read_csv_table
+from mtmetrology.omm.choices import MIN_TARGETS_PER_COEFFICIENT
 from mtmetrology.omm.hysteresis import (
     HYSTERESIS_KINDS,
     HysteresisResult,
@@ -30,7 +31,6 @@ from mtmetrology.omm.repeatability import (
     target_statistics,
 )
 from mtmetrology.omm.repeatability_model import (
-    MIN_TARGETS_PER_COEFFICIENT,
     RepeatabilityModel,
     fit_repeatability_model,
 )
@@ -149,7 +149,8 @@ def fit_repeatability_file(
     seed : int
         Seed of the held-out draw.
     allow_few_targets : bool
-        Fit with fewer than :data:`MIN_TARGETS_PER_COEFFICIENT` targets per coefficient.
+        Fit with fewer than
+        :data:`~mtmetrology.omm.choices.MIN_TARGETS_PER_COEFFICIENT` targets per coefficient.
     drift : {"none", "cubic"}
         Remove a cubic drift in time from each target's series first.
     window, window_from : int
