@@ -474,16 +474,10 @@ def case_volumetric_map(tmp_path):
 
 
 def case_validate_task(tmp_path):
-    """``mtm validate task`` adds two fields of its own to the library's document, the
-    thermal reference and the source files (issue 20: no single library call yet); the
-    case checks those two against their library values and the rest field for field."""
-    from mtmetrology.io import read_csv_table
-    from mtmetrology.kinematics.readings_table import readings_from_table
-    from mtmetrology.omm.reference import thermal_reference_value
-    from mtmetrology.omm.task_request import ordered_covariance
-    from mtmetrology.omm.validation import validate_gauge
+    from mtmetrology.omm.validation_request import validate_gauge_from_files
 
     params = _params(tmp_path / "params.json")
+    lt = _params(tmp_path / "lt.json", seed=2)
     sides = {}
     for name, x, rows in (("a", -75.0, ((0, 0), (30, 90))), ("b", 75.0, ((0, 45), (-30, 180)))):
         sides[name] = tmp_path / f"{name}.csv"
@@ -497,35 +491,23 @@ def case_validate_task(tmp_path):
             *("validate", "task", sides["a"], sides["b"], "--machine", MACHINE.name),
             *("--params", params, "--reference-mm", "150", "--reference-u-um", "0.15"),
             *("--cte", "10.8e-6", "--cte-u", "0.15e-6", "--delta-t", "1.75"),
-            *("--recalibrated", "--tip-diameter", "0", "--json"),
+            *("--delta-t-u", "0.003", "--long-term", lt, "--tip-diameter", "0", "--json"),
         ]
     )
-    pset = ParameterSet.load(params, MACHINE)
-    machine = pset.machine_for(MACHINE)
-    a, b = (readings_from_table(machine, read_csv_table(sides[n])) for n in "ab")
-    reference = thermal_reference_value(
+    library = validate_gauge_from_files(
+        sides["a"],
+        sides["b"],
+        MACHINE.name,
+        params,
         150.0,
         0.15e-3,
         expansion_coefficient=10.8e-6,
         expansion_coefficient_uncertainty=0.15e-6,
         temperature_difference=1.75,
-        temperature_difference_uncertainty=0.0,
-        name="gauge_length",
-    )
-    library = validate_gauge(
-        machine,
-        a,
-        b,
-        pset.vector_for(machine),
-        ordered_covariance(pset, machine),
-        reference.value,
-        reference.standard_uncertainty,
+        temperature_difference_uncertainty=0.003,
+        long_term=lt,
         tip_diameter=0.0,
-        recalibrated=True,
     )
-    assert cli["reference"].pop("thermal") == _plain(reference.to_dict())
-    source = {"side_a": str(sides["a"]), "side_b": str(sides["b"]), "params": str(params)}
-    assert cli.pop("source") == source
     return cli, library.to_dict()
 
 

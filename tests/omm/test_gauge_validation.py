@@ -12,9 +12,11 @@ import pytest
 from typer.testing import CliRunner
 
 from mtmetrology.cli import app
+from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.omm.validation import GaugeValidation, binomial_region, validate_gauge
+from mtmetrology.omm.validation_request import validate_gauge_from_files
 
 MACHINE = Machine.load("five-axis-wcbxfzyst")
 UM = 1e-3
@@ -193,6 +195,42 @@ def test_command_matches_the_library_and_refuses_bad_input(tmp_path):
     assert doc["summary"]["bipoints"] == 9
     np.testing.assert_allclose(doc["bipoints"]["length_mm"], lib.length, atol=1e-8)
     np.testing.assert_allclose(doc["bipoints"]["U_um"], lib.expanded_uncertainty / UM, rtol=1e-6)
+
+
+def test_request_from_files_carries_the_reference_and_names_its_files(tmp_path):
+    """:func:`validate_gauge_from_files` on an exact 2 x 2 campaign (no noise, no e): the
+    reference is y_cal,20 (1 + αΔT) (eq. 6-17), its thermal propagation gives the same
+    value and u, every compensated length equals the simulated face distance, the
+    document names the files, and it survives from_dict; neither --long-term nor
+    --recalibrated is refused."""
+    rng = np.random.default_rng(4)
+    delta = rng.normal(size=13) * MACHINE.parameter_scales * 10
+    for name, x in (("a", -75.0), ("b", 75.0)):
+        _write_side(tmp_path / f"{name}.csv", _side(rng, x, 2, delta, cov_e=None, noise=0.0))
+    replace(ParameterSet.zeros(MACHINE), values=delta, covariance=U_THETA).save(
+        tmp_path / "params.json"
+    )
+    files = [tmp_path / "a.csv", tmp_path / "b.csv", MACHINE.name, tmp_path / "params.json"]
+    thermal = dict(expansion_coefficient=10.8e-6, temperature_difference=1.75)
+    r = validate_gauge_from_files(
+        *files, 500.0, 0.2 * UM, recalibrated=True, tip_diameter=0.0, **thermal
+    )
+    y_cal = 500.0 * (1 + 10.8e-6 * 1.75)
+    assert r.reference_value == pytest.approx(y_cal, abs=1e-12)
+    (out,) = r.thermal_reference["outputs"]
+    assert out["value"] == pytest.approx(r.reference_value, abs=1e-12)
+    assert out["u"] == pytest.approx(r.reference_uncertainty, rel=1e-12)
+    np.testing.assert_allclose(r.length, 150.0, atol=1e-6)  # the faces, to the CSV's digits
+    assert r.source == {
+        "side_a": str(files[0]),
+        "side_b": str(files[1]),
+        "params": str(files[3]),
+    }
+    doc = json.loads(json.dumps(r.to_dict()))
+    assert doc["reference"]["thermal"] == r.thermal_reference
+    assert GaugeValidation.from_dict(doc).to_dict() == doc
+    with pytest.raises(InputError, match="--recalibrated"):
+        validate_gauge_from_files(*files, 150.0, 0.2 * UM, tip_diameter=0.0)
 
 
 def test_pooling_command_matches_the_library(tmp_path):

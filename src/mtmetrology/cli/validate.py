@@ -12,23 +12,19 @@ draws 25 points (:func:`mtmetrology.omm.pooling.pooling_experiment`).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import Annotated
 
 import typer
 
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
+    emit_result,
     print_json,
-    readings_from_table,
     user_errors,
     write_report,
 )
 from mtmetrology.errors import InputError
-
-if TYPE_CHECKING:
-    from mtmetrology.kinematics.machine import Machine
-    from mtmetrology.omm.validation import GaugeValidation
 
 app = typer.Typer(help="Validate uncertainty statements against calibrated artefacts.")
 
@@ -49,18 +45,6 @@ TipDiameterOpt = Annotated[
 @app.callback()
 def _group() -> None:
     """Validate uncertainty statements against calibrated artefacts."""
-
-
-def _side(path: Path, machine: Machine, repeatability):
-    from mtmetrology.io import read_csv_table
-    from mtmetrology.omm.task import reading_covariance
-
-    table = read_csv_table(path, required=("point",))
-    readings = readings_from_table(machine, table)
-    if repeatability is None:
-        return readings, None
-    approach = table.vectors("ijk")
-    return readings, reading_covariance(machine, repeatability, readings, approach)
 
 
 @app.command("task")
@@ -102,70 +86,40 @@ def task(
     report_path: ReportOption = None,
 ) -> None:
     """Coverage of gauge-length intervals over every side-A × side-B bipoint (eq. 6-16)."""
-    from mtmetrology.io import write_json
-    from mtmetrology.kinematics.machine import Machine
-    from mtmetrology.kinematics.parameter_set import ParameterSet
-    from mtmetrology.omm.reference import thermal_reference_value
-    from mtmetrology.omm.repeatability_file import load_repeatability_model
-    from mtmetrology.omm.task_request import ordered_covariance
-    from mtmetrology.omm.unexplained import load_unexplained_covariance
-    from mtmetrology.omm.validation import validate_gauge
+    from mtmetrology.omm.validation_request import validate_gauge_from_files
     from mtmetrology.units import to_internal
 
-    if recalibrated == (long_term is not None):
-        raise InputError("give one of --long-term FILE and --recalibrated")
-    base = Machine.load(machine_name)
-    pset = ParameterSet.load(params, base)
-    machine = pset.machine_for(base)
-    if pset.covariance is None:
-        raise InputError(f"{params}: no covariance; the task uncertainty needs one")
-    sigma_lt = None
-    if long_term is not None:
-        lt = ParameterSet.load(long_term, base)
-        if lt.covariance is None or set(lt.names) != set(pset.names):
-            raise InputError(f"{long_term}: needs a covariance over the parameters of {params}")
-        sigma_lt = ordered_covariance(lt, machine)
-    model = load_repeatability_model(repeatability) if repeatability is not None else None
-    a, va = _side(side_a, machine, model)
-    b, vb = _side(side_b, machine, model)
-    cov_e = load_unexplained_covariance(unexplained) if unexplained is not None else None
-    ref = thermal_reference_value(
+    result = validate_gauge_from_files(
+        side_a,
+        side_b,
+        machine_name,
+        params,
         reference_mm,
         float(to_internal(reference_u_um, "µm")),
         expansion_coefficient=cte,
         expansion_coefficient_uncertainty=cte_u,
         temperature_difference=delta_t,
         temperature_difference_uncertainty=delta_t_u,
-        name="gauge_length",
-    )
-    result = validate_gauge(
-        machine,
-        a,
-        b,
-        pset.vector_for(machine),
-        ordered_covariance(pset, machine),
-        ref.value,
-        ref.standard_uncertainty,
-        tip_diameter=2.0 * machine.tip_radius if tip_diameter is None else tip_diameter,
-        long_term_covariance=sigma_lt,
+        long_term=long_term,
         recalibrated=recalibrated,
-        reading_covariance_a=va,
-        reading_covariance_b=vb,
-        unexplained_covariance=cov_e,
+        repeatability=repeatability,
+        unexplained=unexplained,
+        tip_diameter=tip_diameter,
         p=p,
     )
     doc = result.to_dict()
-    doc["reference"]["thermal"] = ref.to_dict()
-    doc["source"] = {"side_a": str(side_a), "side_b": str(side_b), "params": str(params)}
+    report = None
     if report_path is not None:
         inputs = [side_a, side_b, params, *(f for f in (long_term, unexplained) if f)]
-        _report(report_path, result, command_line(ctx), inputs)
-    if output is not None:
-        write_json(output, doc)
-    if json_output:
-        print_json(doc)
-    else:
-        _print(doc)
+        report = _report(doc, command_line(ctx), inputs)
+    emit_result(
+        doc,
+        lambda: _print(doc),
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=json_output,
+    )
 
 
 def _print(doc: dict) -> None:
@@ -187,10 +141,10 @@ def _print(doc: dict) -> None:
     )
 
 
-def _report(path: Path, result: GaugeValidation, command: str, inputs: list[Path]) -> None:
+def _report(doc: dict, command: str, inputs: list[Path]):
     from mtmetrology.report import Report
 
-    s = result.to_dict()["summary"]
+    s = doc["summary"]
     rep = Report("Task validation: gauge bipoints", command=command, provenance={"inputs": inputs})
     rep.section(
         "Coverage",
@@ -208,7 +162,7 @@ def _report(path: Path, result: GaugeValidation, command: str, inputs: list[Path
     if s["mean_coverage_without_e"] is not None:
         rows.append(["mean coverage without cov(e)", f"{100 * s['mean_coverage_without_e']:.1f} %"])
     rep.table(["quantity", "value"], rows)
-    write_report(rep, path)
+    return rep
 
 
 @app.command("pooling")
@@ -260,6 +214,7 @@ def pooling(
     from mtmetrology.omm.repeatability_file import load_repeatability_model
     from mtmetrology.omm.task_request import ordered_covariance
     from mtmetrology.omm.unexplained import load_unexplained_covariance
+    from mtmetrology.omm.validation_request import read_side
     from mtmetrology.units import to_internal
 
     base = Machine.load(machine_name)
@@ -272,7 +227,7 @@ def pooling(
     except ValueError:
         raise InputError(f"--k: expected integers separated by commas, got {k!r}") from None
     model = load_repeatability_model(repeatability) if repeatability is not None else None
-    read = [_side(path, machine, model) for path in sets]
+    read = [read_side(path, machine, model) for path in sets]
     v = None if model is None else [c for _, c in read]
     diameter = thermal_reference_value(
         diameter_mm,

@@ -73,6 +73,13 @@ class GaugeValidation:
         The same without the unexplained volumetric error (None when no cov(e) given).
     p : float
         Coverage probability the intervals are stated for.
+    thermal_reference : dict or None
+        The ``uncertainty-result`` document of y_cal carried from 20 °C to the measurement
+        temperature (eqs. 6-17 to 6-19), recorded as ``reference.thermal`` when the request
+        gave the calibrated value at 20 °C (:func:`~mtmetrology.omm.validation_request.
+        validate_gauge_from_files`).
+    source : dict or None
+        The files of the request, recorded as ``source`` in the document.
     """
 
     reference_value: float
@@ -85,6 +92,8 @@ class GaugeValidation:
     expanded_uncertainty_without_e: np.ndarray | None
     coverage_without_e: np.ndarray | None
     p: float
+    thermal_reference: dict | None = None
+    source: dict | None = None
 
     @property
     def mean_coverage(self) -> float:
@@ -126,15 +135,18 @@ class GaugeValidation:
             else None,
             "mean_length_uncompensated_mm": float(self.length_uncompensated.mean()),
         }
-        return {
+        reference = {
+            "value_mm": self.reference_value,
+            "u_um": float(from_internal(self.reference_uncertainty, "µm")),
+        }
+        if self.thermal_reference is not None:
+            reference["thermal"] = self.thermal_reference
+        doc = {
             "kind": KIND,
             "version": 1,
             "measurement_model": "bipoint length l = ‖q₂ − q₁‖ − d_tip of compensated points; "
             "reference y_cal = y_cal,20 (1 + αΔT) (eqs. 6-17, 6-19); coverage eq. 6-16",
-            "reference": {
-                "value_mm": self.reference_value,
-                "u_um": float(from_internal(self.reference_uncertainty, "µm")),
-            },
+            "reference": reference,
             "summary": summary,
             "bipoints": {
                 "pairs": self.pairs.tolist(),
@@ -148,6 +160,9 @@ class GaugeValidation:
                 else self.coverage_without_e.tolist(),
             },
         }
+        if self.source is not None:
+            doc["source"] = dict(self.source)
+        return doc
 
     @classmethod
     def from_dict(cls, doc: dict) -> GaugeValidation:
@@ -169,6 +184,8 @@ class GaugeValidation:
             arr("U_without_e_um", mm),
             arr("coverage_without_e"),
             float(doc["summary"]["p"]),
+            thermal_reference=doc["reference"].get("thermal"),
+            source=doc.get("source"),
         )
 
 

@@ -1,0 +1,165 @@
+"""One gauge validation campaign from its files (``mtm validate task``).
+
+:func:`validate_gauge_from_files` reads the two sides' readings, the calibration, the
+long-term variation, the repeatability model and cov(e), carries the calibrated length to
+the measurement temperature (eqs. 6-17 to 6-19) and runs
+:func:`~mtmetrology.omm.validation.validate_gauge`: the command line and a notebook get the
+same :class:`~mtmetrology.omm.validation.GaugeValidation`, with the thermal reference and
+the source files in its document.
+
+References
+----------
+Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine
+Tool Metrology*. PhD thesis, Polytechnique Montréal, §6.4 (eqs. 6-16 to 6-19).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from mtmetrology.errors import InputError
+from mtmetrology.io import read_csv_table
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.kinematics.readings_table import readings_from_table
+from mtmetrology.omm.reference import thermal_reference_value
+from mtmetrology.omm.repeatability_file import load_repeatability_model
+from mtmetrology.omm.repeatability_model import RepeatabilityModel
+from mtmetrology.omm.task import reading_covariance
+from mtmetrology.omm.task_request import ordered_covariance
+from mtmetrology.omm.unexplained import load_unexplained_covariance
+from mtmetrology.omm.validation import GaugeValidation, validate_gauge
+
+__all__ = ["read_side", "validate_gauge_from_files"]
+
+
+def read_side(
+    path: str | Path, machine: Machine, repeatability: RepeatabilityModel | None = None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """The readings of one face (CSV ``point``, one column per axis, ``i,j,k`` with a
+    repeatability model) and, with ``repeatability``, their covariances v (mm², rad²)."""
+    table = read_csv_table(path, required=("point",))
+    readings = readings_from_table(machine, table)
+    if repeatability is None:
+        return readings, None
+    return readings, reading_covariance(machine, repeatability, readings, table.vectors("ijk"))
+
+
+def validate_gauge_from_files(
+    side_a: str | Path,
+    side_b: str | Path,
+    machine: str | Path | Machine,
+    params: str | Path,
+    calibrated_length: float,
+    calibration_uncertainty: float,
+    *,
+    expansion_coefficient: float = 0.0,
+    expansion_coefficient_uncertainty: float = 0.0,
+    temperature_difference: float = 0.0,
+    temperature_difference_uncertainty: float = 0.0,
+    long_term: str | Path | None = None,
+    recalibrated: bool = False,
+    repeatability: str | Path | None = None,
+    unexplained: str | Path | None = None,
+    tip_diameter: float | None = None,
+    p: float = 0.95,
+) -> GaugeValidation:
+    """Coverage of the compensated gauge lengths of every side-A × side-B bipoint.
+
+    The reference is the calibrated length carried to the measurement temperature,
+    y_cal = y_cal,20 (1 + αΔT) with u_cal from eq. 6-19
+    (:func:`~mtmetrology.omm.reference.thermal_reference_value`); each bipoint's interval
+    y ± U is the full-covariance GUF of the compensated length and eq. 6-16 the
+    probability that it holds y_cal (:func:`~mtmetrology.omm.validation.validate_gauge`).
+
+    Parameters
+    ----------
+    side_a, side_b : path
+        CSV of the points probed on each face: ``point``, one column per axis (mm,
+        degrees), ``i,j,k`` with ``repeatability``.
+    machine : Machine, preset name or machine YAML
+    params : path
+        The calibration that compensates (parameter set with its covariance U_θ).
+    calibrated_length, calibration_uncertainty : float, mm
+        y_cal,20 and its standard uncertainty at 20 °C.
+    expansion_coefficient, expansion_coefficient_uncertainty : float, 1/°C
+        α of the gauge and u(α).
+    temperature_difference, temperature_difference_uncertainty : float, °C
+        ΔT = gauge temperature − 20 °C during probing, and u(ΔT).
+    long_term : path, optional
+        Parameter set whose covariance is the variation Σ_lt of the parameters between
+        calibrations; one of ``long_term`` and ``recalibrated`` is required.
+    recalibrated : bool
+        The machine is recalibrated for the campaign: no long-term term.
+    repeatability, unexplained : path, optional
+        ``repeatability-model`` JSON (the sides then need ``i,j,k``); the
+        unexplained-volumetric-error document (µm²), which also gives the ablation.
+    tip_diameter : float, mm, optional
+        Effective tip diameter subtracted from each centre distance (default: the
+        machine's).
+    p : float
+        Coverage probability of each interval.
+
+    Returns
+    -------
+    GaugeValidation
+        With ``thermal_reference`` (the eqs. 6-17 to 6-19 propagation) and ``source``
+        naming the files.
+
+    Raises
+    ------
+    InputError
+        Neither or both of ``long_term`` and ``recalibrated``, a calibration or long-term
+        set without covariance, a bad file.
+
+    References
+    ----------
+    Sepahi Boroujeni (2021), §6.4, eqs. 6-16 to 6-19.
+    """
+    if recalibrated == (long_term is not None):
+        raise InputError("give one of --long-term FILE and --recalibrated")
+    base = machine if isinstance(machine, Machine) else Machine.load(machine)
+    pset = ParameterSet.load(params, base)
+    model = pset.machine_for(base)
+    if pset.covariance is None:
+        raise InputError(f"{params}: no covariance; the task uncertainty needs one")
+    sigma_lt = None
+    if long_term is not None:
+        lt = ParameterSet.load(long_term, base)
+        if lt.covariance is None or set(lt.names) != set(pset.names):
+            raise InputError(f"{long_term}: needs a covariance over the parameters of {params}")
+        sigma_lt = ordered_covariance(lt, model)
+    rep = load_repeatability_model(repeatability) if repeatability is not None else None
+    a, va = read_side(side_a, model, rep)
+    b, vb = read_side(side_b, model, rep)
+    cov_e = load_unexplained_covariance(unexplained) if unexplained is not None else None
+    reference = thermal_reference_value(
+        calibrated_length,
+        calibration_uncertainty,
+        expansion_coefficient=expansion_coefficient,
+        expansion_coefficient_uncertainty=expansion_coefficient_uncertainty,
+        temperature_difference=temperature_difference,
+        temperature_difference_uncertainty=temperature_difference_uncertainty,
+        name="gauge_length",
+    )
+    result = validate_gauge(
+        model,
+        a,
+        b,
+        pset.vector_for(model),
+        ordered_covariance(pset, model),
+        reference.value,
+        reference.standard_uncertainty,
+        tip_diameter=2.0 * model.tip_radius if tip_diameter is None else tip_diameter,
+        long_term_covariance=sigma_lt,
+        recalibrated=recalibrated,
+        reading_covariance_a=va,
+        reading_covariance_b=vb,
+        unexplained_covariance=cov_e,
+        p=p,
+    )
+    source = {"side_a": str(side_a), "side_b": str(side_b), "params": str(params)}
+    return replace(result, thermal_reference=reference.to_dict(), source=source)
