@@ -271,19 +271,22 @@ def command_line(ctx: typer.Context) -> str:
 
 def emit_result(
     document: dict,
-    summary: str | Callable[[], object],
+    summary: str | Callable[[], object] | None,
     *,
     output: Path | None,
     report,
     report_path: Path | None,
     as_json: bool,
+    messages: Callable[[], object] | None = None,
 ) -> None:
     """The end of every command that computes a result: write its JSON (``-o``) and its
     report (``--report``, built before anything is written), then print the JSON or the
-    console summary.
+    console summary on standard output, then the messages on standard error.
 
     ``summary`` is the summary text, or a function that prints it (called only when the
-    JSON is not printed).
+    JSON is not printed), or None (the command's console lines are all messages).
+    ``messages`` prints on standard error what is said whether or not the JSON is printed
+    (warnings, the files written), so that standard output stays the data.
     """
     from mtmetrology.io.files import write_json
 
@@ -295,8 +298,10 @@ def emit_result(
         print_json(document)
     elif callable(summary):
         summary()
-    else:
+    elif summary is not None:
         typer.echo(summary)
+    if messages is not None:
+        messages()
 
 
 def write_report(report, path: Path) -> None:

@@ -18,14 +18,13 @@ import typer
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
+    emit_result,
     machine_with_parameters,
-    print_json,
     user_errors,
-    write_report,
 )
 from mtmetrology.cli._history import HistoryOption, record_in_history
 from mtmetrology.cmm.requests import AUTO_CANDIDATES
-from mtmetrology.io.files import InputFileError, atomic_write, check_output, write_json
+from mtmetrology.io.files import InputFileError, atomic_write, check_output
 
 __all__ = ["gp_app", "register"]
 
@@ -162,30 +161,37 @@ def calibrate_ballplate_cmd(
         add_cmm_result(report, cal, model_selection=selection)
     if history:
         record_in_history(doc, m, "mtm calibrate ballplate", [records, plate, probes])
-    write_json(output, doc)
-    if report is not None:
-        write_report(report, report_path)
-    if json_out:
-        print_json(doc)
-    if selection is not None:
-        _print_selection(selection)
-    u = cal.summary
-    if not cal.identification.success:
-        typer.echo(f"warning: {cal.identification.message}", err=True)
-    p_chi2 = doc["fit"]["chi2_p_value"]
-    if p_chi2 is not None and p_chi2 < 0.01:
+
+    def messages() -> None:
+        if selection is not None:
+            _print_selection(selection)
+        u = cal.summary
+        if not cal.identification.success:
+            typer.echo(f"warning: {cal.identification.message}", err=True)
+        p_chi2 = doc["fit"]["chi2_p_value"]
+        if p_chi2 is not None and p_chi2 < 0.01:
+            typer.echo(
+                f"warning: variance factor {doc['fit']['variance_factor']:.3g} (chi-square "
+                f"p = {p_chi2:.2g}): the model or --sigma-um does not explain the residuals, "
+                "so the uncertainties are optimistic; try --model auto or a larger --sigma-um",
+                err=True,
+            )
         typer.echo(
-            f"warning: variance factor {doc['fit']['variance_factor']:.3g} (chi-square p = "
-            f"{p_chi2:.2g}): the model or --sigma-um does not explain the residuals, so the "
-            "uncertainties are optimistic; try --model auto or a larger --sigma-um",
+            f"{cal.model}: {cal.machine.n_params} parameters, rms residual "
+            f"{doc['fit']['rms_residual_um']:.3g} µm; U1 {_rounded(u['U1_um'])} "
+            f"U2 {_rounded(u['U2_um'])} U3 {_rounded(u['U3_um'])} µm; "
+            f"wrote {output}",
             err=True,
         )
-    typer.echo(
-        f"{cal.model}: {cal.machine.n_params} parameters, rms residual "
-        f"{doc['fit']['rms_residual_um']:.3g} µm; U1 {_rounded(u['U1_um'])} "
-        f"U2 {_rounded(u['U2_um'])} U3 {_rounded(u['U3_um'])} µm; "
-        f"wrote {output}",
-        err=True,
+
+    emit_result(
+        doc,
+        None,
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=json_out,
+        messages=messages,
     )
 
 
@@ -243,25 +249,32 @@ def budget_cmd(
     if report_path is not None:
         report = cmm_report(ctx, f"Ball-plate length budget: {budget.name}", [budget])
         add_cmm_result(report, res)
-    write_json(output, doc)
-    if report is not None:
-        write_report(report, report_path)
-    if json_out:
-        print_json(doc)
-    o = doc["outputs"][0]
-    typer.echo(
-        f"l_x = {o['value']:.6f} mm, u = {from_internal(o['u'], 'µm'):.3g} µm, "
-        f"U = {from_internal(o['U'], 'µm'):.3g} µm (k = {o['k']:.2f}); wrote {output}",
-        err=True,
-    )
-    if "statement" in doc:
-        st = doc["statement"]
+
+    def messages() -> None:
+        o = doc["outputs"][0]
         typer.echo(
-            f"at {st['length_mm']:g} mm: CMM U {st['U_cmm_um']:.3f} µm, plate U "
-            f"{st['U_plate_um']:.3f} µm, MPE {st['mpe_um']:.3f} µm; U(P) {st['U_P_um']:.2g} µm, "
-            f"U(E) {st['U_E_um']:.2g} µm (k = {st['k']:g})",
+            f"l_x = {o['value']:.6f} mm, u = {from_internal(o['u'], 'µm'):.3g} µm, "
+            f"U = {from_internal(o['U'], 'µm'):.3g} µm (k = {o['k']:.2f}); wrote {output}",
             err=True,
         )
+        if "statement" in doc:
+            st = doc["statement"]
+            typer.echo(
+                f"at {st['length_mm']:g} mm: CMM U {st['U_cmm_um']:.3f} µm, plate U "
+                f"{st['U_plate_um']:.3f} µm, MPE {st['mpe_um']:.3f} µm; "
+                f"U(P) {st['U_P_um']:.2g} µm, U(E) {st['U_E_um']:.2g} µm (k = {st['k']:g})",
+                err=True,
+            )
+
+    emit_result(
+        doc,
+        None,
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=json_out,
+        messages=messages,
+    )
 
 
 @user_errors
@@ -353,17 +366,26 @@ def gp_fit(
             ctx, f"GP error model: {records.name}", [records, plate, probes], machine
         )
         add_cmm_result(report, gp)
-    write_json(output, doc)
-    if report is not None:
-        write_report(report, report_path)
-    parts = ", ".join(
-        f"{c['component']}: ℓ {c['length_scale_mm']:.0f} mm, s {c['amplitude_um']:.2g} µm, "
-        f"noise {c['noise_um']:.2g} µm"
-        for c in doc["components"]
+
+    def messages() -> None:
+        parts = ", ".join(
+            f"{c['component']}: ℓ {c['length_scale_mm']:.0f} mm, s {c['amplitude_um']:.2g} µm, "
+            f"noise {c['noise_um']:.2g} µm"
+            for c in doc["components"]
+        )
+        typer.echo(f"{parts}; wrote {output}", err=True)
+        for flag in gp.at_bounds:
+            typer.echo(f"warning: hyper-parameter {flag} (not a likelihood optimum)", err=True)
+
+    emit_result(
+        doc,
+        None,
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=False,
+        messages=messages,
     )
-    typer.echo(f"{parts}; wrote {output}", err=True)
-    for flag in gp.at_bounds:
-        typer.echo(f"warning: hyper-parameter {flag} (not a likelihood optimum)", err=True)
 
 
 @gp_app.command("predict")

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from mtmetrology.cli._common import ReportOption, print_json, user_errors, write_report
+from mtmetrology.cli._common import ReportOption, emit_result, user_errors
 from mtmetrology.cli.cmm import (
     MachineOpt,
     PlateOpt,
@@ -25,7 +25,7 @@ from mtmetrology.cli.cmm import (
     positive_option,
     read_ballplate_inputs,
 )
-from mtmetrology.io.files import InputFileError, check_output, write_json
+from mtmetrology.io.files import InputFileError, check_output
 
 if TYPE_CHECKING:
     from mtmetrology.cmm.probecal import CalibratedLength
@@ -35,16 +35,13 @@ __all__ = ["app"]
 app = typer.Typer(help="Bridge-CMM studies on ball-plate records.", no_args_is_help=True)
 
 
-def _write(ctx, result, doc, output, report_path, title, inputs, machine=None) -> None:
-    """Write the JSON result and, if asked, the report (command line and inputs as provenance)."""
-    report = None
-    if report_path is not None:
-        report = cmm_report(ctx, title, inputs, machine)
-        add_cmm_result(report, result)
-    if output is not None:
-        write_json(output, doc)
-    if report is not None:
-        write_report(report, report_path)
+def _report(ctx, result, report_path, title, inputs, machine=None):
+    """The report of ``result`` when asked for (command line and inputs as provenance)."""
+    if report_path is None:
+        return None
+    report = cmm_report(ctx, title, inputs, machine)
+    add_cmm_result(report, result)
+    return report
 
 
 @app.command("compare")
@@ -101,26 +98,27 @@ def compare(
         gp_mean=None if gp_mean == "none" else gp_mean,
         kernel=kernel,
     )
-    doc = res.to_dict()
-    report = None
-    if report_path is not None:
-        report = cmm_report(
-            ctx, f"Kinematic versus GP: {records.name}", [records, plate, probes], machine
-        )
-        add_cmm_result(report, res)
-    if output is not None:
-        write_json(output, doc)
-    if report is not None:
-        write_report(report, report_path)
-    if json_out:
-        print_json(doc)
-    for r in res.table:
-        typer.echo(
-            f"{r['model']}: {r['n_lengths']} lengths, rms {r['rms_error_um']:.2g} µm, "
-            f"max {r['max_error_um']:.2g} µm, mean u {r['mean_u_um']:.2g} µm, "
-            f"{100 * r['coverage']:.0f} % within ±{r['coverage_factor']:g}u",
-            err=True,
-        )
+    title = f"Kinematic versus GP: {records.name}"
+    report = _report(ctx, res, report_path, title, [records, plate, probes], machine)
+
+    def messages() -> None:
+        for r in res.table:
+            typer.echo(
+                f"{r['model']}: {r['n_lengths']} lengths, rms {r['rms_error_um']:.2g} µm, "
+                f"max {r['max_error_um']:.2g} µm, mean u {r['mean_u_um']:.2g} µm, "
+                f"{100 * r['coverage']:.0f} % within ±{r['coverage_factor']:g}u",
+                err=True,
+            )
+
+    emit_result(
+        res.to_dict(),
+        None,
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=json_out,
+        messages=messages,
+    )
 
 
 @app.command("source-gp")
@@ -142,16 +140,26 @@ def source_gp(
         check_output(output)
     res = source_gp_demo()
     doc = res.to_dict()
-    _write(ctx, res, doc, output, report_path, "The source's GP re-run", [])
-    if json_out:
-        print_json(doc)
-    for name, gp in (("zero mean", res.zero_mean), ("quadratic mean", res.quadratic_mean)):
-        hyp = ", ".join(f"{v:.6f}" for v in gp.hyperparameters)
-        typer.echo(f"{name}: hyp [{hyp}], NLML {gp.nlml:.5f}", err=True)
-    at = doc["max_difference_at"]
-    typer.echo(
-        f"max |m_zero - m_quad| = {res.max_difference:.5f} at ({at[0]:.2f}, {at[1]:.2f})",
-        err=True,
+
+    def messages() -> None:
+        for name, gp in (("zero mean", res.zero_mean), ("quadratic mean", res.quadratic_mean)):
+            hyp = ", ".join(f"{v:.6f}" for v in gp.hyperparameters)
+            typer.echo(f"{name}: hyp [{hyp}], NLML {gp.nlml:.5f}", err=True)
+        at = doc["max_difference_at"]
+        typer.echo(
+            f"max |m_zero - m_quad| = {res.max_difference:.5f} at ({at[0]:.2f}, {at[1]:.2f})",
+            err=True,
+        )
+
+    report = _report(ctx, res, report_path, "The source's GP re-run", [])
+    emit_result(
+        doc,
+        None,
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=json_out,
+        messages=messages,
     )
 
 
@@ -200,29 +208,38 @@ def selfcal_design_cmd(
         balls_per_side=balls_per_side,
         pitch_mm=pitch_mm,
     )
-    doc = res.to_dict()
-    _write(ctx, res, doc, output, report_path, "Self-calibration design", [], machine)
-    if json_out:
-        print_json(doc)
-    key = "+".join(locs)
-    typer.echo(
-        f"{key}: {res.n_unknowns} unknowns, {res.n_constraints} constraints, rank {res.rank}"
-        f" ({'full' if res.full_rank else 'deficient'})",
-        err=True,
+    report = _report(ctx, res, report_path, "Self-calibration design", [], machine)
+
+    def messages() -> None:
+        key = "+".join(locs)
+        typer.echo(
+            f"{key}: {res.n_unknowns} unknowns, {res.n_constraints} constraints, rank {res.rank}"
+            f" ({'full' if res.full_rank else 'deficient'})",
+            err=True,
+        )
+        for label, table in (("full", res.U_full), (f"K = {truncation}", res.U_truncated)):
+            if table is None:
+                free = res.freedoms["all constraints"]["message"]
+                typer.echo(f"{label}: no full covariance: {free}", err=True)
+                continue
+            parts = "; ".join(f"{u} {'/'.join(f'{v:.2g}' for v in table[u])}" for u in table)
+            typer.echo(f"{label}: {parts} µm (x/y/z)", err=True)
+        pub, table = THESIS_TABLES.get(key), "Tables 4.1-4.2"
+        if balls_per_side != 3 or pitch_mm != 100.0:
+            pub, table = TABLE_4_3.get(balls_per_side) if key == "L1" else None, "Table 4.3"
+        if pub is not None:
+            parts = "; ".join(f"{u} {'/'.join(f'{v:.2g}' for v in pub[u])}" for u in pub)
+            typer.echo(f"source ({table}): {parts} µm", err=True)
+
+    emit_result(
+        res.to_dict(),
+        None,
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=json_out,
+        messages=messages,
     )
-    for label, table in (("full", res.U_full), (f"K = {truncation}", res.U_truncated)):
-        if table is None:
-            typer.echo(f"{label}: no full covariance: {res.freedoms['all constraints']['message']}",
-                       err=True)  # fmt: skip
-            continue
-        parts = "; ".join(f"{u} {'/'.join(f'{v:.2g}' for v in table[u])}" for u in table)
-        typer.echo(f"{label}: {parts} µm (x/y/z)", err=True)
-    pub, table = THESIS_TABLES.get(key), "Tables 4.1-4.2"
-    if balls_per_side != 3 or pitch_mm != 100.0:
-        pub, table = TABLE_4_3.get(balls_per_side) if key == "L1" else None, "Table 4.3"
-    if pub is not None:
-        parts = "; ".join(f"{u} {'/'.join(f'{v:.2g}' for v in pub[u])}" for u in pub)
-        typer.echo(f"source ({table}): {parts} µm", err=True)
 
 
 def _length(text: str) -> CalibratedLength:
@@ -303,18 +320,27 @@ def calibrate_cmd(
         model=parse_model(model),
         length=None if length is None else _length(length),
     )
-    doc = res.to_dict()
     inputs = [records, plate, probes, qualification]
     title = f"Styli and plate as unknowns: {records.name}"
-    _write(ctx, res, doc, output, report_path, title, inputs, machine)
-    if json_out:
-        print_json(doc)
-    for pid, p in res.probes.items():
-        corr = "/".join(f"{v:+.2g}" for v in p["correction_um"])
-        u = "/".join(f"{v:.2g}" for v in p["u_um"])
-        typer.echo(f"stylus {pid}: correction {corr} µm (u {u} µm)", err=True)
-    typer.echo(
-        f"{res.model}, plate by {res.plate}: rms residual {res.fit['rms_residual_um']:.2g} µm; "
-        f"wrote {output}",
-        err=True,
+    report = _report(ctx, res, report_path, title, inputs, machine)
+
+    def messages() -> None:
+        for pid, p in res.probes.items():
+            corr = "/".join(f"{v:+.2g}" for v in p["correction_um"])
+            u = "/".join(f"{v:.2g}" for v in p["u_um"])
+            typer.echo(f"stylus {pid}: correction {corr} µm (u {u} µm)", err=True)
+        typer.echo(
+            f"{res.model}, plate by {res.plate}: rms residual "
+            f"{res.fit['rms_residual_um']:.2g} µm; wrote {output}",
+            err=True,
+        )
+
+    emit_result(
+        res.to_dict(),
+        None,
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=json_out,
+        messages=messages,
     )
