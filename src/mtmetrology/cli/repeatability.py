@@ -20,9 +20,8 @@ import typer
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
-    print_json,
+    emit_result,
     user_errors,
-    write_report,
 )
 from mtmetrology.omm.choices import MIN_TARGETS_PER_COEFFICIENT
 
@@ -125,17 +124,25 @@ def fit(
     document = result.to_dict()
     zero = result.resolution_warnings
     report = None if report_path is None else _report(ctx, records, "Probing repeatability", result)
-    _write(document, output, "repeatability model", report, report_path)
-    if json_output:
-        print_json(document)
-    else:
+
+    def summary() -> None:
         _print_validation(document)
-    if not json_output and zero:
-        typer.echo(
-            f"warning: zero variance of a coordinate at {len(zero)} target(s) "
-            f"({', '.join(zero[:5])}): approach slightly off the axes",
-            err=True,
-        )
+        if zero:
+            typer.echo(
+                f"warning: zero variance of a coordinate at {len(zero)} target(s) "
+                f"({', '.join(zero[:5])}): approach slightly off the axes",
+                err=True,
+            )
+
+    emit_result(
+        document,
+        summary,
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=json_output,
+        messages=_written(output, "repeatability model"),
+    )
 
 
 def _print_validation(document: dict) -> None:
@@ -169,15 +176,11 @@ def _print_validation(document: dict) -> None:
         )
 
 
-def _write(document: dict, output: Path | None, what: str, report, report_path) -> None:
-    """Write the document, then the report: both are complete before either is written."""
-    from mtmetrology.io import write_json
-
-    if output is not None:
-        write_json(output, document)
-        typer.echo(f"{what} written to {output}", err=True)
-    if report is not None:
-        write_report(report, report_path)
+def _written(output: Path | None, what: str):
+    """The message saying that ``output`` was written (None without ``-o``)."""
+    if output is None:
+        return None
+    return lambda: typer.echo(f"{what} written to {output}", err=True)
 
 
 def _report(ctx: typer.Context, records: Path, title: str, result):
@@ -233,16 +236,24 @@ def hysteresis(
     json.dumps(document, allow_nan=False)  # refuse NaN before anything is written
     kind = result.kind
     report = None if report_path is None else _report(ctx, records, "Hysteresis", result)
-    _write(document, output, "hysteresis result", report, report_path)
-    if json_output:
-        print_json(document)
-        return
-    typer.echo(f"{kind} hysteresis, {document['definition']} (µm), p = {p:g}")
-    typer.echo(f"{'psi (deg)':>10} {'H':>8} {'u':>7} {'U':>7} {'k':>6}")
-    for row, o in zip(document["indexations"], document["outputs"], strict=True):
-        value, u, big_u = format_value(o["value"], o["u"]), o["u"], o["U"]
-        typer.echo(
-            f"{row['psi']:>10g} {value:>8} {format_uncertainty(u):>7} "
-            f"{format_uncertainty(big_u):>7} {o['k']:>6.2f}"
-        )
-    typer.echo(summary_line(document["summary"]))
+
+    def summary() -> None:
+        typer.echo(f"{kind} hysteresis, {document['definition']} (µm), p = {p:g}")
+        typer.echo(f"{'psi (deg)':>10} {'H':>8} {'u':>7} {'U':>7} {'k':>6}")
+        for row, o in zip(document["indexations"], document["outputs"], strict=True):
+            value, u, big_u = format_value(o["value"], o["u"]), o["u"], o["U"]
+            typer.echo(
+                f"{row['psi']:>10g} {value:>8} {format_uncertainty(u):>7} "
+                f"{format_uncertainty(big_u):>7} {o['k']:>6.2f}"
+            )
+        typer.echo(summary_line(document["summary"]))
+
+    emit_result(
+        document,
+        summary,
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=json_output,
+        messages=_written(output, "hysteresis result"),
+    )

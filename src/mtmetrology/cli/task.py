@@ -20,9 +20,8 @@ import typer
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
-    print_json,
+    emit_result,
     user_errors,
-    write_report,
 )
 from mtmetrology.cli._history import HISTORY_PARAMS, load_parameters
 
@@ -168,7 +167,6 @@ def uncertainty(
     Method: GUF with the covariance simulator, adaptive Monte Carlo (JCGM 101/102), or both
     with the validation of the GUF.
     """
-    from mtmetrology.io import write_json
     from mtmetrology.kinematics.machine import Machine
     from mtmetrology.omm.task_request import task_uncertainty_from_files
 
@@ -199,27 +197,29 @@ def uncertainty(
         guard_band_factor=guard_band_factor,
         p=p,
     )
-    document = result.to_dict()
+    report = None
     if report_path is not None:
         optional = (long_term, repeatability, unexplained)
         inputs = [points_csv, params, *(f for f in optional if f is not None)]
-        _write_report(report_path, result, command_line(ctx), inputs)
-    if output is not None:
-        write_json(output, document)
-    if json_output:
-        print_json(document)
-    else:
-        _print(result, {"repeatability": repeatability, "unexplained": unexplained})
+        report = _report(result, command_line(ctx), inputs)
+    emit_result(
+        result.to_dict(),
+        lambda: _print(result, {"repeatability": repeatability, "unexplained": unexplained}),
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=json_output,
+    )
 
 
-def _write_report(path: Path, result: TaskResult, command: str, inputs: list[Path]) -> None:
+def _report(result: TaskResult, command: str, inputs: list[Path]):
     """The report of the result (:mod:`mtmetrology.omm.report`), titled by its target output."""
     from mtmetrology.report import Report
     from mtmetrology.report.results import add_result
 
     name = result.result.names[result.target]
     rep = Report(f"Task uncertainty: {name}", command=command, provenance={"inputs": inputs})
-    write_report(add_result(rep, result), path)
+    return add_result(rep, result)
 
 
 #: What the computation uses for a source whose file was not given (console notes).

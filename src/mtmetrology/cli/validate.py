@@ -20,9 +20,7 @@ from mtmetrology.cli._common import (
     ReportOption,
     command_line,
     emit_result,
-    print_json,
     user_errors,
-    write_report,
 )
 from mtmetrology.errors import InputError
 
@@ -206,7 +204,6 @@ def pooling(
 ) -> None:
     """Coverage of sphere diameter (and sphericity) intervals on draws pooled from k sets."""
     from mtmetrology.fitting.features import SphereDiameter, Sphericity
-    from mtmetrology.io import write_json
     from mtmetrology.kinematics.machine import Machine
     from mtmetrology.kinematics.parameter_set import ParameterSet
     from mtmetrology.omm.pooling import pooling_experiment
@@ -264,23 +261,30 @@ def pooling(
     )
     doc = result.to_dict()
     doc["source"] = {"sets": [str(s) for s in sets], "params": str(params)}
+    report = None
     if report_path is not None:
-        _pooling_report(report_path, doc, command_line(ctx), [*sets, params])
-    if output is not None:
-        write_json(output, doc)
-    if json_output:
-        print_json(doc)
-        return
-    for out in doc["outputs"]:
-        typer.echo(f"{out['name']} (reference {out['reference']['value']:.5f} mm):")
-        for row in out["per_k"]:
-            typer.echo(
-                f"  k = {row['k']:>2}: coverage {100 * row['coverage']:5.1f} %, mean U "
-                f"{row['mean_U'] / float(to_internal(1.0, 'µm')):.3g} µm"
-            )
+        report = _pooling_report(doc, command_line(ctx), [*sets, params])
+
+    def summary() -> None:
+        for out in doc["outputs"]:
+            typer.echo(f"{out['name']} (reference {out['reference']['value']:.5f} mm):")
+            for row in out["per_k"]:
+                typer.echo(
+                    f"  k = {row['k']:>2}: coverage {100 * row['coverage']:5.1f} %, mean U "
+                    f"{row['mean_U'] / float(to_internal(1.0, 'µm')):.3g} µm"
+                )
+
+    emit_result(
+        doc,
+        summary,
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=json_output,
+    )
 
 
-def _pooling_report(path: Path, doc: dict, command: str, inputs: list[Path]) -> None:
+def _pooling_report(doc: dict, command: str, inputs: list[Path]):
     from mtmetrology.report import Report
     from mtmetrology.units import to_internal
 
@@ -306,4 +310,4 @@ def _pooling_report(path: Path, doc: dict, command: str, inputs: list[Path]) -> 
                 for row in out["per_k"]
             ],
         )
-    write_report(rep, path)
+    return rep
