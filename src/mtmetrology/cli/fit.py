@@ -12,7 +12,6 @@ The workflow, including the probe-tip compensation, is
 from __future__ import annotations
 
 import enum
-import json
 from pathlib import Path
 from typing import Annotated
 
@@ -20,7 +19,7 @@ import typer
 from rich.console import Console
 from rich.table import Table as RichTable
 
-from mtmetrology.cli._common import ReportOption, command_line, write_report
+from mtmetrology.cli._common import ReportOption, command_line, emit_result
 
 __all__ = ["ElementName", "Method", "fit"]
 
@@ -117,6 +116,7 @@ def fit(
         element.value, points_csv, method=method.value, tip_radius=tip_radius, inside=inside
     )
     document = result.to_dict()
+    report = None
     if report_path is not None:
         from mtmetrology.report import Report
         from mtmetrology.report.results import add_fit_document
@@ -126,8 +126,12 @@ def fit(
             command=command_line(ctx),
             provenance={"inputs": [points_csv]},
         )
-        write_report(add_fit_document(rep, document, result.residuals, result.points), report_path)
-    if json_output:
-        typer.echo(json.dumps(document, indent=2, allow_nan=False, ensure_ascii=False))
-    else:
-        _print(Console(), document)
+        report = add_fit_document(rep, document, result.residuals, result.points)
+    emit_result(
+        document,
+        lambda: _print(Console(), document),
+        output=None,
+        report=report,
+        report_path=report_path,
+        as_json=json_output,
+    )

@@ -16,7 +16,6 @@ document come from the library.
 
 from __future__ import annotations
 
-import json
 import math
 from enum import StrEnum
 from pathlib import Path
@@ -26,7 +25,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from mtmetrology.cli._common import ReportOption, command_line, fail, write_report
+from mtmetrology.cli._common import ReportOption, command_line, emit_result, fail
 from mtmetrology.errors import ConvergenceError, MtmetrologyError, ResourceLimitError
 
 if TYPE_CHECKING:
@@ -97,7 +96,7 @@ def _results_table(title: str, outputs: tuple[Output, ...], extra: dict | None =
     return table
 
 
-def _write_report(path: Path, loaded, model_file: Path, g, r, validation, command, *, seed):
+def _report(loaded, model_file: Path, g, r, validation, command, *, seed):
     """The HTML report: GUF budget, Monte Carlo histograms against the GUF, validation."""
     from mtmetrology.report import Report
     from mtmetrology.report.results import add_result
@@ -115,7 +114,7 @@ def _write_report(path: Path, loaded, model_file: Path, g, r, validation, comman
         add_result(rep, g)
     if r is not None:
         add_result(rep, r, names=loaded.output_names, units=loaded.output_units, guf=g)
-    write_report(rep, path)
+    return rep
 
 
 def evaluate_model(loaded, model_file: Path, method: Method, *, digits=2, p=0.95, **mcm_options):
@@ -204,38 +203,42 @@ def run(
     except (MtmetrologyError, ValueError, TypeError) as exc:
         _fail(f"{model_file}: {exc}")
 
+    html = None
     if report_path is not None:
-        _write_report(report_path, loaded, model_file, g, r, report, command_line(ctx), seed=seed)
-    if as_json:
-        typer.echo(json.dumps(document, indent=2, allow_nan=False))
-        return
-    console = Console()
-    title = loaded.name or str(model_file)
-    console.print(f"[bold]{title}[/bold]  ({model_file})")
-    if g is not None:
-        for j in range(len(g.names)):
-            console.print(_budget_table(g, j))
-        dof = ["inf" if math.isinf(v) else f"{v:.1f}" for v in g.dof_effective]
-        console.print(_results_table(f"GUF results, p = {p}", g.outputs, {"dof": dof}))
-        if len(g.names) > 1:
+        html = _report(loaded, model_file, g, r, report, command_line(ctx), seed=seed)
+
+    def summary() -> None:
+        console = Console()
+        title = loaded.name or str(model_file)
+        console.print(f"[bold]{title}[/bold]  ({model_file})")
+        if g is not None:
+            for j in range(len(g.names)):
+                console.print(_budget_table(g, j))
+            dof = ["inf" if math.isinf(v) else f"{v:.1f}" for v in g.dof_effective]
+            console.print(_results_table(f"GUF results, p = {p}", g.outputs, {"dof": dof}))
+            if len(g.names) > 1:
+                console.print(
+                    f"hyper-ellipsoid k_p = {g.region_coverage_factor:.3f}, "
+                    f"λ_max = {g.largest_eigenvalue:.3f}"
+                )
+        if r is not None:
+            shortest = [
+                f"[{format_value(low, o.u)}, {format_value(high, o.u)}]"
+                for (low, high), o in zip(r.interval_shortest, r.outputs, strict=True)
+            ]
             console.print(
-                f"hyper-ellipsoid k_p = {g.region_coverage_factor:.3f}, "
-                f"λ_max = {g.largest_eigenvalue:.3f}"
+                _results_table(
+                    f"Monte Carlo results, p = {p} ({r.trials} trials)",
+                    r.outputs,
+                    {"shortest interval": shortest},
+                )
             )
-    if r is not None:
-        shortest = [
-            f"[{format_value(low, o.u)}, {format_value(high, o.u)}]"
-            for (low, high), o in zip(r.interval_shortest, r.outputs, strict=True)
-        ]
-        console.print(
-            _results_table(
-                f"Monte Carlo results, p = {p} ({r.trials} trials)",
-                r.outputs,
-                {"shortest interval": shortest},
-            )
-        )
-        console.print(r.message)
-    if report is not None:
-        console.print(report.to_rich())
-        verdict = "GUF validated" if report.passed else "GUF NOT validated"
-        console.print(f"[bold]{verdict}[/bold] by Monte Carlo ({report.procedure})")
+            console.print(r.message)
+        if report is not None:
+            console.print(report.to_rich())
+            verdict = "GUF validated" if report.passed else "GUF NOT validated"
+            console.print(f"[bold]{verdict}[/bold] by Monte Carlo ({report.procedure})")
+
+    emit_result(
+        document, summary, output=None, report=html, report_path=report_path, as_json=as_json
+    )
