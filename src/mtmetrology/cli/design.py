@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json as json_module
 import math
 from pathlib import Path
 from typing import Annotated
@@ -14,10 +13,9 @@ from rich.table import Table as RichTable
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
+    emit_result,
     parse_tools,
-    print_json,
     user_errors,
-    write_report,
 )
 from mtmetrology.design.choices import CRITERIA
 from mtmetrology.design.counts import MINUTES_PER_MEASUREMENT
@@ -237,17 +235,22 @@ def samba(
     if balls_out is not None:
         with atomic_write(balls_out) as fh:
             fh.write(_balls_yaml(doc))
-    write_csv_table(output, header, rows)
+    report = None
     if report_path is not None:
         inputs = [machine, balls, balls_from, indexations, accessibility]
-        _design_report(design, command_line(ctx), inputs, report_path, doc)
-    if json:
-        print_json(doc)
-        return
-    _print(doc, output)
+        report = _design_report(design, command_line(ctx), inputs, doc)
+    write_csv_table(output, header, rows)
+    emit_result(
+        doc,
+        lambda: _print(doc, output),
+        output=None,
+        report=report,
+        report_path=report_path,
+        as_json=json,
+    )
 
 
-def _design_report(design, command: str, inputs: list, path: Path, doc: dict) -> None:
+def _design_report(design, command: str, inputs: list, doc: dict):
     import mtmetrology.design.report  # noqa: F401  (registers the plan renderer)
     from mtmetrology.report import Report
     from mtmetrology.report.results import add_result
@@ -258,7 +261,7 @@ def _design_report(design, command: str, inputs: list, path: Path, doc: dict) ->
         "minutes_per_measurement": doc["minutes_per_measurement"],
         "minutes_per_indexation": doc["minutes_per_indexation"],
     }
-    write_report(add_result(report, design, **timing), path)
+    return add_result(report, design, **timing)
 
 
 def _print(doc: dict, output: Path) -> None:
@@ -382,26 +385,31 @@ def compare(
         seed=seed,
     )
     doc = result.to_dict()
-    if output is not None:
-        with atomic_write(output) as fh:
-            fh.write(json_module.dumps(doc, indent=2, ensure_ascii=False, allow_nan=False))
+    report = None
     if report_path is not None:
         import mtmetrology.design.report  # noqa: F401  (registers the renderer)
         from mtmetrology.report import Report
         from mtmetrology.report.results import add_result
 
-        report = Report("SAMBA strategy comparison", command=command_line(ctx))
-        write_report(add_result(report, result), report_path)
-    if json:
-        print_json(doc)
-        return
-    header, rows = result.table()
-    table = RichTable(title=f"SAMBA strategies, {doc['model']}-parameter model")
-    for col in header:
-        table.add_column(col)
-    for row in rows:
-        table.add_row(*[str(v) for v in row])
-    Console().print(table)
+        report = add_result(Report("SAMBA strategy comparison", command=command_line(ctx)), result)
+
+    def summary() -> None:
+        header, rows = result.table()
+        table = RichTable(title=f"SAMBA strategies, {doc['model']}-parameter model")
+        for col in header:
+            table.add_column(col)
+        for row in rows:
+            table.add_row(*[str(v) for v in row])
+        Console().print(table)
+
+    emit_result(
+        doc,
+        summary,
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=json,
+    )
 
 
 # laser-tracker verification (mtmetrology.cli.tracker): its commands join this group
