@@ -13,9 +13,7 @@ from mtmetrology.cli._common import (
     command_line,
     emit_result,
     fail,
-    print_json,
     user_errors,
-    write_report,
 )
 from mtmetrology.cli._history import HistoryOption, record_in_history
 from mtmetrology.errors import ConvergenceError, InputError
@@ -318,15 +316,10 @@ def samba(
     cov_e = None if unexplained_out is None else unexplained_from_calibration(cal, sigma)
     if history:
         record_in_history(doc, m, "mtm calibrate samba", [records, artefact])
-    if output is not None:
-        write_json(output, doc)
     if cov_e is not None:
         write_json(unexplained_out, cov_e.to_dict())
-    if report is not None:
-        write_report(report, report_path)
-    if json:
-        print_json(doc)
-    else:
+
+    def summary() -> None:
         _summary(doc, output)
         if cov_e is not None:
             u = from_internal(cov_e.u, "µm")
@@ -334,6 +327,8 @@ def samba(
                 f"unexplained volumetric error u(e) = {u[0]:.2g}, {u[1]:.2g}, {u[2]:.2g} µm "
                 f"(ν = {cov_e.degrees_of_freedom:.1f}) → {unexplained_out}"
             )
+
+    emit_result(doc, summary, output=output, report=report, report_path=report_path, as_json=json)
 
 
 def unexplained_from_calibration(cal, sigma: float):

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from mtmetrology.cli._common import print_json, user_errors
+from mtmetrology.cli._common import emit_result, user_errors
 from mtmetrology.errors import InputError
 
 if TYPE_CHECKING:
@@ -79,11 +79,15 @@ def long_term(
         sets, values=values, add_within=add_within, sources=[str(p) for p in calibrations]
     )
     if output is not None:
-        result.save(output)
-    if json:
-        print_json(result.to_document())
-    else:
-        _summary(result, output)
+        result.save(output)  # JSON or YAML by its suffix (ParameterSet.save)
+    emit_result(
+        result.to_document(),
+        lambda: _summary(result, output),
+        output=None,
+        report=None,
+        report_path=None,
+        as_json=json,
+    )
 
 
 def _summary(result: ParameterSet, output: Path | None) -> None:

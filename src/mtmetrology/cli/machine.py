@@ -13,11 +13,10 @@ from rich.table import Table as RichTable
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
-    print_json,
+    emit_result,
     readings_from_table,
     senses_from_table,
     user_errors,
-    write_report,
 )
 from mtmetrology.errors import EXIT_INPUT, InputError, RankDeficientError
 
@@ -80,41 +79,42 @@ def show(
     if catalogue:
         m = m.with_parameters([p.name for p in m.catalogue(degree)])
     doc = machine_description(m)
-    if json:
-        print_json(doc)
-        return
-    console = Console()
-    console.print(f"[bold]{m.name}[/bold]  topology {m.topology.string}  model {m.model_name}")
-    at = RichTable(title="axes")
-    for col in ("axis", "type", "branch", "direction", "sign", "travel", "resolution", "basis"):
-        at.add_column(col)
-    for a in doc["axes"]:
-        travel = "" if a["travel"] is None else f"{a['travel'][0]:g} .. {a['travel'][1]:g}"
-        res = "" if a["resolution"] is None else f"{a['resolution']:g}"
-        at.add_row(
-            a["axis"],
-            a["type"],
-            a["branch"],
-            _direction_label(a["direction"]),
-            f"{a['sign']:+d}",
-            f"{travel} {a['unit']}",
-            f"{res} {a['unit']}",
-            a["basis"],
+
+    def summary() -> None:
+        console = Console()
+        console.print(f"[bold]{m.name}[/bold]  topology {m.topology.string}  model {m.model_name}")
+        at = RichTable(title="axes")
+        for col in ("axis", "type", "branch", "direction", "sign", "travel", "resolution", "basis"):
+            at.add_column(col)
+        for a in doc["axes"]:
+            travel = "" if a["travel"] is None else f"{a['travel'][0]:g} .. {a['travel'][1]:g}"
+            res = "" if a["resolution"] is None else f"{a['resolution']:g}"
+            at.add_row(
+                a["axis"],
+                a["type"],
+                a["branch"],
+                _direction_label(a["direction"]),
+                f"{a['sign']:+d}",
+                f"{travel} {a['unit']}",
+                f"{res} {a['unit']}",
+                a["basis"],
+            )
+        console.print(at)
+        title = "catalogue" if catalogue else f"error model {m.model_name}"
+        pt = RichTable(title=f"{title}: {m.n_params} parameters", show_lines=True)
+        for col in ("parameter", "unit", "a positive value", "referred to"):
+            pt.add_column(col, overflow="fold")
+        for p in doc["parameters"]:
+            pt.add_row(p["name"], p["unit"], p["positive"], p["reference"])
+        console.print(pt)
+        console.print(
+            "Error motions are deviations of the tool relative to the workpiece (ISO 230-1, "
+            "ISO 841), whichever component moves; location errors place the axis average lines "
+            f"in the machine frame (right-hand rule). Stylus centre at zero readings: "
+            f"{tuple(doc['stylus_at_zero_mm'])} mm."
         )
-    console.print(at)
-    title = "catalogue" if catalogue else f"error model {m.model_name}"
-    pt = RichTable(title=f"{title}: {m.n_params} parameters", show_lines=True)
-    for col in ("parameter", "unit", "a positive value", "referred to"):
-        pt.add_column(col, overflow="fold")
-    for p in doc["parameters"]:
-        pt.add_row(p["name"], p["unit"], p["positive"], p["reference"])
-    console.print(pt)
-    console.print(
-        "Error motions are deviations of the tool relative to the workpiece (ISO 230-1, "
-        "ISO 841), whichever component moves; location errors place the axis average lines "
-        f"in the machine frame (right-hand rule). Stylus centre at zero readings: "
-        f"{tuple(doc['stylus_at_zero_mm'])} mm."
-    )
+
+    emit_result(doc, summary, output=None, report=None, report_path=None, as_json=json)
 
 
 @app.command("export")
@@ -160,7 +160,7 @@ def check(machine_file: Annotated[Path, typer.Argument(help="Machine YAML file."
     console.print("valid")
 
 
-def _identifiability_report(diagnosis, setup, command, inputs, path) -> None:
+def _identifiability_report(diagnosis, setup, command, inputs):
     from mtmetrology.report import Report
     from mtmetrology.report.results import add_result
 
@@ -170,7 +170,7 @@ def _identifiability_report(diagnosis, setup, command, inputs, path) -> None:
         provenance={"inputs": [p for p in inputs if p is not None]},
     )
     report.section("Set-up").table(["item", "value"], setup)
-    write_report(add_result(report, diagnosis), path)
+    return add_result(report, diagnosis)
 
 
 def _styli(table, art, path) -> dict:
@@ -277,6 +277,7 @@ def identifiability(
         jac, problem.names, n_measurements=len(table), report_names=m.parameter_names
     )
     deficient = not rep.full_rank and not allow_deficient
+    report = None
     if report_path is not None:
         setup = [
             ["machine", f"{m.name}, model {m.model_name or 'custom'}"],
@@ -287,42 +288,50 @@ def identifiability(
             ["tool offset", "estimated" if estimate_tool else "known"],
             ["indication σ (µm)", sigma_um],
         ]
-        _identifiability_report(rep, setup, command_line(ctx), [poses, artefact], report_path)
-    if json:
-        print_json({**rep.to_dict(), "sigma_um": sigma_um})
-        if deficient:
-            raise typer.Exit(code=EXIT_INPUT)
-        return
-    console = Console()
-    if not rep.full_rank:
-        console.print(f"[bold red]rank deficient[/bold red]: {rep.message}")
-    console.print(
-        f"{m.name} model {m.model_name or 'custom'}: {m.n_params} parameters, "
-        f"{problem.n_balls} balls, {len(table)} indications, {len(bars)} scale bar(s), "
-        f"tool {'estimated' if estimate_tool else 'known'}, indication σ = {sigma_um:g} µm"
-    )
-    console.print(f"unknowns {rep.n_unknowns}, rank {rep.rank}")
-    if rep.full_rank:
+        report = _identifiability_report(rep, setup, command_line(ctx), [poses, artefact])
+
+    def summary() -> None:
+        console = Console()
+        if not rep.full_rank:
+            console.print(f"[bold red]rank deficient[/bold red]: {rep.message}")
         console.print(
-            f"condition number {rep.condition_scaled:.4g} (columns scaled to unit norm), "
-            f"{rep.condition_raw:.4g} (raw: mm, rad, internal units)"
+            f"{m.name} model {m.model_name or 'custom'}: {m.n_params} parameters, "
+            f"{problem.n_balls} balls, {len(table)} indications, {len(bars)} scale bar(s), "
+            f"tool {'estimated' if estimate_tool else 'known'}, indication σ = {sigma_um:g} µm"
         )
-        console.print(
-            "observability " + ", ".join(f"{k} {v:.4g}" for k, v in rep.observability.items())
-        )
-        s = rep.singular_values
-        console.print(
-            f"singular values (columns scaled): largest {s[0]:.4g}, smallest {s[-1]:.4g}; "
-            "--json lists them all"
-        )
-    else:
-        console.print("unidentifiable combinations:")
-        for d in rep.null_directions:
-            console.print(f"  {d}    ({d.combination()})")
-        if deficient:
-            raise RankDeficientError(
-                f"rank {rep.rank} of {rep.n_unknowns}: {rep.message.split(': ', 1)[-1]}; "
-                "add balls, indexations or spindle indexing that separate them "
-                "(--allow-deficient reports without failing)",
-                confounded=rep.confounded(),
+        console.print(f"unknowns {rep.n_unknowns}, rank {rep.rank}")
+        if rep.full_rank:
+            console.print(
+                f"condition number {rep.condition_scaled:.4g} (columns scaled to unit norm), "
+                f"{rep.condition_raw:.4g} (raw: mm, rad, internal units)"
             )
+            console.print(
+                "observability " + ", ".join(f"{k} {v:.4g}" for k, v in rep.observability.items())
+            )
+            s = rep.singular_values
+            console.print(
+                f"singular values (columns scaled): largest {s[0]:.4g}, smallest {s[-1]:.4g}; "
+                "--json lists them all"
+            )
+        else:
+            console.print("unidentifiable combinations:")
+            for d in rep.null_directions:
+                console.print(f"  {d}    ({d.combination()})")
+            if deficient:
+                raise RankDeficientError(
+                    f"rank {rep.rank} of {rep.n_unknowns}: {rep.message.split(': ', 1)[-1]}; "
+                    "add balls, indexations or spindle indexing that separate them "
+                    "(--allow-deficient reports without failing)",
+                    confounded=rep.confounded(),
+                )
+
+    emit_result(
+        {**rep.to_dict(), "sigma_um": sigma_um},
+        summary,
+        output=None,
+        report=report,
+        report_path=report_path,
+        as_json=json,
+    )
+    if json and deficient:
+        raise typer.Exit(code=EXIT_INPUT)
