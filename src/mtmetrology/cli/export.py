@@ -10,13 +10,12 @@ import typer
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
+    emit_result,
     fail,
-    print_json,
     readings_from_table,
     user_errors,
-    write_report,
 )
-from mtmetrology.io.files import atomic_write, check_output, write_json
+from mtmetrology.io.files import atomic_write, check_output
 
 if TYPE_CHECKING:
     from mtmetrology.kinematics.machine import Machine
@@ -159,7 +158,7 @@ def export(
         with atomic_write(targets["residual_at.csv"], "wb") as fh:
             write_columns(fh, columns, decimals=4)
     doc = result.to_dict()
-    write_json(targets["check.json"], doc)
+    report = None
     if report_path is not None:
         import mtmetrology.export.report  # noqa: F401  (registers the renderer)
         from mtmetrology.report import Report
@@ -172,39 +171,48 @@ def export(
             provenance={"inputs": inputs},
         )
         add_result(report, result)
-        write_report(report, report_path)
-    if as_json:
-        print_json(doc)
-        return
-    r = result.residual
-    typer.echo(f"{result.format}: wrote {', '.join(targets)} to {output}")
-    for t in result.tables:
+
+    def summary() -> None:
+        r = result.residual
+        typer.echo(f"{result.format}: wrote {', '.join(targets)} to {output}")
+        for t in result.tables:
+            typer.echo(
+                f"  {t['function']}: {t['points']} points"
+                + (f", pitch {t['pitch']:g} {t['pitch_unit']}" if "pitch" in t else "")
+                + f", largest correction {t['max_correction']:.2f} {t['unit']}"
+            )
+        if result.not_carried:
+            typer.echo(f"  not carried by {result.format}: {', '.join(result.not_carried)}")
+        u = "" if r["max_U_um"] is None else f", U (k = 2) up to {r['max_U_um']:.2g} µm"
         typer.echo(
-            f"  {t['function']}: {t['points']} points"
-            + (f", pitch {t['pitch']:g} {t['pitch_unit']}" if "pitch" in t else "")
-            + f", largest correction {t['max_correction']:.2f} {t['unit']}"
+            f"residual over {r['points']} check points: largest {r['max_um']:.3g} µm, "
+            f"rms {r['rms_um']:.3g} µm{u} "
+            f"(uncompensated largest {r['uncompensated_max_um']:.3g} µm)"
         )
-    if result.not_carried:
-        typer.echo(f"  not carried by {result.format}: {', '.join(result.not_carried)}")
-    u = "" if r["max_U_um"] is None else f", U (k = 2) up to {r['max_U_um']:.2g} µm"
-    typer.echo(
-        f"residual over {r['points']} check points: largest {r['max_um']:.3g} µm, "
-        f"rms {r['rms_um']:.3g} µm{u} (uncompensated largest {r['uncompensated_max_um']:.3g} µm)"
+        neg = r.get("negative")
+        if neg is not None:
+            u = "" if neg["max_U_um"] is None else f", U (k = 2) up to {neg['max_U_um']:.2g} µm"
+            typer.echo(
+                f"  travel in the negative direction: largest {neg['max_um']:.3g} µm, "
+                f"rms {neg['rms_um']:.3g} µm{u} "
+                f"(uncompensated {neg['uncompensated_max_um']:.3g} µm)"
+            )
+        if result.advisor is not None:
+            typer.echo(f"pitch advisor: {result.advisor['reason']}")
+        for note in result.notes:
+            typer.echo(f"note: {note}")
+        if result.at_points is not None:
+            doc_at = doc["at_points"]
+            typer.echo(
+                f"at the {doc_at['points']} points of {at.name}: largest {doc_at['max_um']:.3g} µm "
+                f"(residual_at.csv, µm, U with k = 2)"
+            )
+
+    emit_result(
+        doc,
+        summary,
+        output=targets["check.json"],
+        report=report,
+        report_path=report_path,
+        as_json=as_json,
     )
-    neg = r.get("negative")
-    if neg is not None:
-        u = "" if neg["max_U_um"] is None else f", U (k = 2) up to {neg['max_U_um']:.2g} µm"
-        typer.echo(
-            f"  travel in the negative direction: largest {neg['max_um']:.3g} µm, "
-            f"rms {neg['rms_um']:.3g} µm{u} (uncompensated {neg['uncompensated_max_um']:.3g} µm)"
-        )
-    if result.advisor is not None:
-        typer.echo(f"pitch advisor: {result.advisor['reason']}")
-    for note in result.notes:
-        typer.echo(f"note: {note}")
-    if result.at_points is not None:
-        doc_at = doc["at_points"]
-        typer.echo(
-            f"at the {doc_at['points']} points of {at.name}: largest {doc_at['max_um']:.3g} µm "
-            f"(residual_at.csv, µm, U with k = 2)"
-        )
