@@ -17,9 +17,8 @@ import typer
 from mtmetrology.cli._common import (
     ReportOption,
     command_line,
-    print_json,
+    emit_result,
     user_errors,
-    write_report,
 )
 from mtmetrology.errors import InputError
 from mtmetrology.io.files import atomic_write, write_json
@@ -120,13 +119,11 @@ def add(
         serial=serial,
         input_files=tuple(inputs or ()),
     )
-    if json:
-        print_json(record.to_dict())
-    else:
-        typer.echo(
-            f"recorded {record.category} run {record.id} of {record.machine} "
-            f"({record.kind}, {record.performed_at:%Y-%m-%d %H:%M} UTC)"
-        )
+    summary = (
+        f"recorded {record.category} run {record.id} of {record.machine} "
+        f"({record.kind}, {record.performed_at:%Y-%m-%d %H:%M} UTC)"
+    )
+    emit_result(record.to_dict(), summary, output=None, report=None, report_path=None, as_json=json)
 
 
 @app.command("list")
@@ -149,15 +146,23 @@ def list_(
         category=_category(category),
         since=_date(since, "--since"),
     )
-    if json:
-        print_json({"kind": "history-list", "version": 1, "runs": [r.to_dict() for r in runs]})
-        return
-    for r in runs:
-        typer.echo(
-            f"{r.id:>6}  {r.performed_at:%Y-%m-%d %H:%M}  {r.machine:<24} {r.kind:<22} "
-            f"{r.operator_note or ''}"
-        )
-    typer.echo(f"{len(runs)} {category} run(s)", err=True)
+
+    def summary() -> None:
+        for r in runs:
+            typer.echo(
+                f"{r.id:>6}  {r.performed_at:%Y-%m-%d %H:%M}  {r.machine:<24} {r.kind:<22} "
+                f"{r.operator_note or ''}"
+            )
+        typer.echo(f"{len(runs)} {category} run(s)", err=True)
+
+    emit_result(
+        {"kind": "history-list", "version": 1, "runs": [r.to_dict() for r in runs]},
+        summary,
+        output=None,
+        report=None,
+        report_path=None,
+        as_json=json,
+    )
 
 
 @app.command("show")
@@ -174,28 +179,29 @@ def show(
     from mtmetrology.history import open_history, show_run
 
     record = show_run(open_history(db), run, _category(category))
-    if json:
-        print_json(record.to_dict())
-        return
-    typer.echo(
-        f"{record.category} run {record.id}: {record.machine}, {record.kind}, performed "
-        f"{record.performed_at.isoformat()}, recorded {record.recorded_at.isoformat()} "
-        f"(mtmetrology {record.software_version})"
-    )
-    for label, value in (
-        ("note", record.operator_note),
-        ("artefact", record.artefact),
-        ("temperature", None if record.temperature_c is None else f"{record.temperature_c} °C"),
-    ):
-        if value is not None:
-            typer.echo(f"  {label}: {value}")
-    for key, value in record.residual_statistics.items():
-        typer.echo(f"  {key}: {value}")
-    for path, sha in record.input_hashes.items():
-        typer.echo(f"  sha256 {sha}  {path}")
-    for p in record.parameters:
-        u = "" if p["u"] is None else f" ± {p['u']:.2g}"
-        typer.echo(f"  {p['name']:<8} {p['value']:>12.4f}{u} {p['unit']}")
+
+    def summary() -> None:
+        typer.echo(
+            f"{record.category} run {record.id}: {record.machine}, {record.kind}, performed "
+            f"{record.performed_at.isoformat()}, recorded {record.recorded_at.isoformat()} "
+            f"(mtmetrology {record.software_version})"
+        )
+        for label, value in (
+            ("note", record.operator_note),
+            ("artefact", record.artefact),
+            ("temperature", None if record.temperature_c is None else f"{record.temperature_c} °C"),
+        ):
+            if value is not None:
+                typer.echo(f"  {label}: {value}")
+        for key, value in record.residual_statistics.items():
+            typer.echo(f"  {key}: {value}")
+        for path, sha in record.input_hashes.items():
+            typer.echo(f"  sha256 {sha}  {path}")
+        for p in record.parameters:
+            u = "" if p["u"] is None else f" ± {p['u']:.2g}"
+            typer.echo(f"  {p['name']:<8} {p['value']:>12.4f}{u} {p['unit']}")
+
+    emit_result(record.to_dict(), summary, output=None, report=None, report_path=None, as_json=json)
 
 
 @app.command("trend")
@@ -236,25 +242,24 @@ def trend(
     if drifted is not None:
         document["drift"] = drifted.to_dict()
     report = None if report_path is None else _trend_report(ctx, result, drifted)
-    if output is not None:
-        write_json(output, document)
-    if report is not None:
-        write_report(report, report_path)
-    if json:
-        print_json(document)
-        return
-    typer.echo(
-        f"{result.parameter} of {result.machine}: {len(result.values)} runs, centre "
-        f"{result.centre:.4f} {result.unit}, limits [{result.lower_limit:.4f}, "
-        f"{result.upper_limit:.4f}] {result.unit} (sigma {result.sigma:.2g} from "
-        f"{result.baseline} runs)"
+
+    def summary() -> None:
+        typer.echo(
+            f"{result.parameter} of {result.machine}: {len(result.values)} runs, centre "
+            f"{result.centre:.4f} {result.unit}, limits [{result.lower_limit:.4f}, "
+            f"{result.upper_limit:.4f}] {result.unit} (sigma {result.sigma:.2g} from "
+            f"{result.baseline} runs)"
+        )
+        for i, d, v, flag in zip(
+            result.run_ids, result.dates, result.values, result.out_of_control, strict=True
+        ):
+            if flag:
+                typer.echo(f"  out of control: run {i} ({d:%Y-%m-%d}) {v:.4f} {result.unit}")
+        typer.echo(f"{int(result.out_of_control.sum())} point(s) out of control")
+
+    emit_result(
+        document, summary, output=output, report=report, report_path=report_path, as_json=json
     )
-    for i, d, v, flag in zip(
-        result.run_ids, result.dates, result.values, result.out_of_control, strict=True
-    ):
-        if flag:
-            typer.echo(f"  out of control: run {i} ({d:%Y-%m-%d}) {v:.4f} {result.unit}")
-    typer.echo(f"{int(result.out_of_control.sum())} point(s) out of control")
 
 
 def _trend_report(ctx: typer.Context, result, drifted):
@@ -410,24 +415,23 @@ def drift(
         since=_date(since, "--since"),
     )
     document = result.to_dict()
-    if output is not None:
-        write_json(output, document)
-    if json:
-        print_json(document)
-        return
-    per_year = 365.25
-    typer.echo(
-        f"{result.parameter}: {result.level:.4f} {result.unit} on "
-        f"{result.last_date:%Y-%m-%d}; slope {result.slope * per_year:.3g} ± "
-        f"{result.u_slope * per_year:.2g} {result.unit}/year; random walk "
-        f"{math.sqrt(result.random_walk_variance * per_year):.2g} {result.unit}/√year"
-    )
-    if result.mpe is not None:
-        due = "beyond the horizon" if result.due_date is None else f"{result.due_date:%Y-%m-%d}"
+
+    def summary() -> None:
+        per_year = 365.25
         typer.echo(
-            f"due: {due} (P(|{result.parameter}| > {result.mpe:g} {result.unit}) passes "
-            f"{1 - result.reliability:.3g})"
+            f"{result.parameter}: {result.level:.4f} {result.unit} on "
+            f"{result.last_date:%Y-%m-%d}; slope {result.slope * per_year:.3g} ± "
+            f"{result.u_slope * per_year:.2g} {result.unit}/year; random walk "
+            f"{math.sqrt(result.random_walk_variance * per_year):.2g} {result.unit}/√year"
         )
+        if result.mpe is not None:
+            due = "beyond the horizon" if result.due_date is None else f"{result.due_date:%Y-%m-%d}"
+            typer.echo(
+                f"due: {due} (P(|{result.parameter}| > {result.mpe:g} {result.unit}) passes "
+                f"{1 - result.reliability:.3g})"
+            )
+
+    emit_result(document, summary, output=output, report=None, report_path=None, as_json=json)
 
 
 # Display unit of a certificate quantity by its SI unit (ISO 230-1 customary units).
@@ -543,9 +547,11 @@ def dcc_import(
         document.pop("u_mm", None)
         document["covariance_mm2"] = covariance.tolist()
         typer.echo(f"ball plate {cert.identifier}: {len(balls)} centres", err=True)
-    if output is not None:
-        write_json(output, document)
-    if json:
-        print_json(document)
-        return
-    _print_certificate(cert)
+    emit_result(
+        document,
+        lambda: _print_certificate(cert),
+        output=output,
+        report=None,
+        report_path=None,
+        as_json=json,
+    )
