@@ -204,21 +204,15 @@ def pooling(
 ) -> None:
     """Coverage of sphere diameter (and sphericity) intervals on draws pooled from k sets."""
     from mtmetrology.fitting.features import SphereDiameter, Sphericity
-    from mtmetrology.kinematics.machine import Machine
-    from mtmetrology.kinematics.parameter_set import ParameterSet
     from mtmetrology.omm.pooling import pooling_experiment
     from mtmetrology.omm.reference import thermal_reference_value
     from mtmetrology.omm.repeatability_file import load_repeatability_model
-    from mtmetrology.omm.task_request import ordered_covariance
+    from mtmetrology.omm.task_request import load_calibration, ordered_covariance
     from mtmetrology.omm.unexplained import load_unexplained_covariance
     from mtmetrology.omm.validation_request import read_side
     from mtmetrology.units import to_internal
 
-    base = Machine.load(machine_name)
-    pset = ParameterSet.load(params, base)
-    machine = pset.machine_for(base)
-    if pset.covariance is None:
-        raise InputError(f"{params}: no covariance; the task uncertainty needs one")
+    _, pset, machine = load_calibration(machine_name, params)
     try:
         k_values = None if k is None else [int(v) for v in k.split(",")]
     except ValueError:

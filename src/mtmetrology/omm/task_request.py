@@ -47,6 +47,7 @@ __all__ = [
     "DEFAULT_SIDE",
     "FEATURES",
     "FORM_FEATURES",
+    "load_calibration",
     "ordered_covariance",
     "task_feature",
     "task_points",
@@ -117,6 +118,25 @@ def task_feature(name: str, form: str, side: str | None, d_tip: float, n_points:
         "points": lambda: (PointCoordinates(n_points),),
     }[name]()
     return parts[0] if len(parts) == 1 else CombinedFeature(parts)
+
+
+def load_calibration(
+    machine: str | Path | Machine, params: str | Path
+) -> tuple[Machine, ParameterSet, Machine]:
+    """The machine (preset name, machine YAML or object), the calibration ``params`` that
+    compensates it, and the machine restricted to the calibration's parameters.
+
+    Raises
+    ------
+    InputError
+        A calibration without covariance (a task uncertainty needs U_θ), a bad file.
+    """
+    base = machine if isinstance(machine, Machine) else Machine.load(machine)
+    pset = ParameterSet.load(params, base)
+    model = pset.machine_for(base)
+    if pset.covariance is None:
+        raise InputError(f"{params}: no covariance; the task uncertainty needs one")
+    return base, pset, model
 
 
 def ordered_covariance(pset: ParameterSet, machine: Machine) -> np.ndarray:
@@ -259,11 +279,7 @@ def task_uncertainty_from_files(
         raise InputError(f"--side applies to a sphere, circle or cylinder, not to a {feature}")
     if form == "minimum-zone" and feature not in FORM_FEATURES:
         raise InputError(f"--form minimum-zone applies to a form error, not to a {feature}")
-    base = machine if isinstance(machine, Machine) else Machine.load(machine)
-    pset = ParameterSet.load(params, base)
-    model = pset.machine_for(base)
-    if pset.covariance is None:
-        raise InputError(f"{params}: no covariance; the task uncertainty needs one")
+    base, pset, model = load_calibration(machine, params)
     sigma_lt = None
     if long_term is not None:
         lt = (

@@ -29,7 +29,7 @@ from mtmetrology.omm.reference import thermal_reference_value
 from mtmetrology.omm.repeatability_file import load_repeatability_model
 from mtmetrology.omm.repeatability_model import RepeatabilityModel
 from mtmetrology.omm.task import reading_covariance
-from mtmetrology.omm.task_request import ordered_covariance
+from mtmetrology.omm.task_request import load_calibration, ordered_covariance
 from mtmetrology.omm.unexplained import load_unexplained_covariance
 from mtmetrology.omm.validation import GaugeValidation, validate_gauge
 
@@ -121,11 +121,7 @@ def validate_gauge_from_files(
     """
     if recalibrated == (long_term is not None):
         raise InputError("give one of --long-term FILE and --recalibrated")
-    base = machine if isinstance(machine, Machine) else Machine.load(machine)
-    pset = ParameterSet.load(params, base)
-    model = pset.machine_for(base)
-    if pset.covariance is None:
-        raise InputError(f"{params}: no covariance; the task uncertainty needs one")
+    base, pset, model = load_calibration(machine, params)
     sigma_lt = None
     if long_term is not None:
         lt = ParameterSet.load(long_term, base)
