@@ -11,9 +11,12 @@ resident set of the child (``VmHWM``):
   command, as the console script runs them;
 - baseline: ``mtm --help`` with every command module imported (what the listing cost
   before the summaries: the whole command line built);
-- floor: ``python -c "import numpy"``; and, second, Typer's own help machinery
+- floor: ``python -c "import numpy"``; second, Typer's own help machinery
   (``typer.rich_utils`` and pydantic, which Typer 0.29 imports to build every parameter's
-  adapter): what any ``mtm <command> --help`` pays before it imports a module of ours.
+  adapter): what any ``mtm <command> --help`` pays before it imports a module of ours;
+  third, a bare Typer group's ``--help`` (five commands of three parameters, nothing of
+  ours): the help of a group of subcommands, which ``mtm machine --help`` is, rendered
+  by Typer alone.
 
 Run: ``python bench/bench_startup.py`` (``make bench``).  On a shared host the wall
 times mostly measure the other processes: the notes give each command's CPU seconds (user
@@ -30,6 +33,22 @@ from mtmetrology.cli import COMMANDS, SHARED_GROUPS
 
 FLOOR = [sys.executable, "-c", f"{OWN_PEAK}; import numpy"]
 TYPER_FLOOR = [sys.executable, "-c", f"{OWN_PEAK}; import typer.rich_utils, pydantic"]
+#: A Typer group of five commands (an argument and two options each), its --help.
+TYPER_GROUP = (
+    "from typing import Annotated\n"
+    "import typer\n"
+    "app, group = typer.Typer(), typer.Typer(help='A group.')\n"
+    "def command(name: Annotated[str, typer.Argument(help='a')],\n"
+    "            model: Annotated[str | None, typer.Option(help='b')] = None,\n"
+    "            json: Annotated[bool, typer.Option(help='c')] = False) -> None:\n"
+    "    'A command.'\n"
+    "for i in range(5):\n"
+    "    group.command(f'c{i}')(command)\n"
+    "app.add_typer(group, name='group')\n"
+    "app.callback()(lambda: None)\n"
+    "app(['group', '--help'], prog_name='mtm', standalone_mode=False)\n"
+)
+TYPER_GROUP_HELP = [sys.executable, "-c", f"{OWN_PEAK}\n{TYPER_GROUP}"]
 #: The whole command line built, then its listing (the cost before the summaries).
 FULL_HELP = [
     sys.executable,
@@ -47,6 +66,9 @@ def main() -> None:
     typer_floor = Child(TYPER_FLOOR)
     bench.time("Typer's help machinery (rich, pydantic)", "floor", typer_floor)
     bench.timings[-1].note = typer_floor.note()
+    typer_group = Child(TYPER_GROUP_HELP)
+    bench.time("a bare Typer group's --help (5 commands)", "floor", typer_group)
+    bench.timings[-1].note = typer_group.note()
     children = {}
     runs = [("mtm --help", ["--help"]), ("mtm machine list", ["machine", "list"])]
     runs += [(f"mtm {c} --help", [c, "--help"]) for c in [*COMMANDS, *SHARED_GROUPS]]
@@ -63,7 +85,8 @@ def main() -> None:
         ratio = min(child.cpu) / min(floor.cpu)
         bench.notes.append(
             f"CPU {label}: {ratio:.1f}x the floor's ({'met' if ratio <= 3 else 'over'} 3x), "
-            f"{min(child.cpu) / min(typer_floor.cpu):.1f}x Typer's help machinery"
+            f"{min(child.cpu) / min(typer_floor.cpu):.1f}x Typer's help machinery, "
+            f"{min(child.cpu) / min(typer_group.cpu):.1f}x a bare Typer group's --help"
         )
     bench.report()
 
