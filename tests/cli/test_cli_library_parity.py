@@ -511,6 +511,49 @@ def case_validate_task(tmp_path):
     return cli, library.to_dict()
 
 
+def case_validate_pooling(tmp_path):
+    from mtmetrology.omm.validation_request import pooling_from_files
+
+    params = _params(tmp_path / "params.json")
+    sets = []
+    for i, (b, c) in enumerate(((0, 0), (20, 90), (-20, 200))):
+        sets.append(tmp_path / f"set{i}.csv")
+        sets[-1].write_text(
+            "point,X,Y,Z,B,C\n"
+            + "".join(
+                f"p{j},{10 * np.cos(t):.6f},{10 * np.sin(t):.6f},{50 + 3 * np.sin(2 * t):.6f},"
+                f"{b},{c}\n"
+                for j, t in enumerate(np.linspace(0, 6, 7))
+            ),
+            encoding="utf-8",
+        )
+    cli = _json(
+        [
+            *("validate", "pooling", *sets, "--machine", MACHINE.name, "--params", params),
+            *("--diameter-mm", "20", "--diameter-u-um", "0.25", "--sphericity-um", "0.4"),
+            *("--sphericity-u-um", "0.05", "--cte", "11.5e-6", "--delta-t", "0.5"),
+            *("--tip-diameter", "0", "--draws", "4", "--points-per-draw", "6", "--seed", "3"),
+            "--json",
+        ]
+    )
+    library = pooling_from_files(
+        sets,
+        MACHINE.name,
+        params,
+        20.0,
+        0.25e-3,
+        sphericity=0.4e-3,
+        sphericity_uncertainty=0.05e-3,
+        expansion_coefficient=11.5e-6,
+        temperature_difference=0.5,
+        tip_diameter=0.0,
+        draws=4,
+        points_per_draw=6,
+        seed=3,
+    )
+    return cli, library.to_dict()
+
+
 def case_verify_length(tmp_path):
     from mtmetrology.samba import read_length_readings, verify_length
 
@@ -547,6 +590,7 @@ CASES = {
     "cmm compare": case_cmm_compare,
     "design compare": case_design_compare,
     "validate task": case_validate_task,
+    "validate pooling": case_validate_pooling,
     "verify length": case_verify_length,
     "calibrate ballplate": case_ballplate,
     "repeatability fit": case_repeatability_fit,

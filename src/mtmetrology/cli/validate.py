@@ -203,50 +203,29 @@ def pooling(
     report_path: ReportOption = None,
 ) -> None:
     """Coverage of sphere diameter (and sphericity) intervals on draws pooled from k sets."""
-    from mtmetrology.fitting.features import SphereDiameter, Sphericity
-    from mtmetrology.omm.pooling import pooling_experiment
-    from mtmetrology.omm.reference import thermal_reference_value
-    from mtmetrology.omm.repeatability_file import load_repeatability_model
-    from mtmetrology.omm.task_request import load_calibration, ordered_covariance
-    from mtmetrology.omm.unexplained import load_unexplained_covariance
-    from mtmetrology.omm.validation_request import read_side
+    from mtmetrology.omm.validation_request import pooling_from_files
     from mtmetrology.units import to_internal
 
-    _, pset, machine = load_calibration(machine_name, params)
     try:
         k_values = None if k is None else [int(v) for v in k.split(",")]
     except ValueError:
         raise InputError(f"--k: expected integers separated by commas, got {k!r}") from None
-    model = load_repeatability_model(repeatability) if repeatability is not None else None
-    read = [read_side(path, machine, model) for path in sets]
-    v = None if model is None else [c for _, c in read]
-    diameter = thermal_reference_value(
+    um = float(to_internal(1.0, "µm"))
+    result = pooling_from_files(
+        sets,
+        machine_name,
+        params,
         diameter_mm,
         float(to_internal(diameter_u_um, "µm")),
+        sphericity=None if sphericity_um is None else sphericity_um * um,
+        sphericity_uncertainty=sphericity_u_um * um,
         expansion_coefficient=cte,
         expansion_coefficient_uncertainty=cte_u,
         temperature_difference=delta_t,
         temperature_difference_uncertainty=delta_t_u,
-        name="sphere_diameter",
-    )
-    d_tip = 2.0 * machine.tip_radius if tip_diameter is None else tip_diameter
-    features = [SphereDiameter(d_tip)]
-    references = [diameter]
-    if sphericity_um is not None:  # thermal effects on form neglected (§6.4)
-        features.append(Sphericity())
-        um = float(to_internal(1.0, "µm"))
-        references.append((sphericity_um * um, sphericity_u_um * um))
-    result = pooling_experiment(
-        machine,
-        [r for r, _ in read],
-        pset.vector_for(machine),
-        ordered_covariance(pset, machine),
-        features,
-        references,
-        reading_covariance=v,
-        unexplained_covariance=(
-            load_unexplained_covariance(unexplained) if unexplained is not None else None
-        ),
+        repeatability=repeatability,
+        unexplained=unexplained,
+        tip_diameter=tip_diameter,
         k_values=k_values,
         draws=draws,
         points_per_draw=points_per_draw,
@@ -254,7 +233,6 @@ def pooling(
         seed=seed,
     )
     doc = result.to_dict()
-    doc["source"] = {"sets": [str(s) for s in sets], "params": str(params)}
     report = None
     if report_path is not None:
         report = _pooling_report(doc, command_line(ctx), [*sets, params])
@@ -265,7 +243,7 @@ def pooling(
             for row in out["per_k"]:
                 typer.echo(
                     f"  k = {row['k']:>2}: coverage {100 * row['coverage']:5.1f} %, mean U "
-                    f"{row['mean_U'] / float(to_internal(1.0, 'µm')):.3g} µm"
+                    f"{row['mean_U'] / um:.3g} µm"
                 )
 
     emit_result(

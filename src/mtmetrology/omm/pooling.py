@@ -59,6 +59,9 @@ class PoolingResult:
     points_per_draw : int
     p : float
         Coverage probability the intervals were stated for.
+    source : dict or None
+        The files of the request, recorded as ``source`` in the document
+        (:func:`~mtmetrology.omm.validation_request.pooling_from_files`).
     """
 
     k: np.ndarray
@@ -73,6 +76,7 @@ class PoolingResult:
     mean_value: np.ndarray
     points_per_draw: int
     p: float
+    source: dict | None = None
 
     @property
     def draws(self) -> int:
@@ -102,7 +106,7 @@ class PoolingResult:
                     ],
                 }
             )
-        return {
+        doc = {
             "kind": "omm-pooling-test",
             "version": 1,
             "method": "guf",
@@ -111,6 +115,9 @@ class PoolingResult:
             "points_per_draw": self.points_per_draw,
             "outputs": outputs,
         }
+        if self.source is not None:
+            doc["source"] = dict(self.source)
+        return doc
 
 
 def _draw_indices(

@@ -1,16 +1,19 @@
-"""One gauge validation campaign from its files (``mtm validate task``).
+"""The validation campaigns of a task uncertainty from their files (``mtm validate task``,
+``mtm validate pooling``).
 
 :func:`validate_gauge_from_files` reads the two sides' readings, the calibration, the
 long-term variation, the repeatability model and cov(e), carries the calibrated length to
 the measurement temperature (eqs. 6-17 to 6-19) and runs
 :func:`~mtmetrology.omm.validation.validate_gauge`: the command line and a notebook get the
 same :class:`~mtmetrology.omm.validation.GaugeValidation`, with the thermal reference and
-the source files in its document.
+the source files in its document. :func:`pooling_from_files` does the same for the
+pooling test (§6.5): the sphere point sets, the diameter carried to the measurement
+temperature and the sphericity, into :func:`~mtmetrology.omm.pooling.pooling_experiment`.
 
 References
 ----------
 Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine
-Tool Metrology*. PhD thesis, Polytechnique Montréal, §6.4 (eqs. 6-16 to 6-19).
+Tool Metrology*. PhD thesis, Polytechnique Montréal, §6.4 (eqs. 6-16 to 6-19), §6.5.
 """
 
 from __future__ import annotations
@@ -21,10 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from mtmetrology.errors import InputError
+from mtmetrology.fitting.features import SphereDiameter, Sphericity
 from mtmetrology.io import read_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.readings_table import readings_from_table
+from mtmetrology.omm.pooling import PoolingResult, pooling_experiment
 from mtmetrology.omm.reference import thermal_reference_value
 from mtmetrology.omm.repeatability_file import load_repeatability_model
 from mtmetrology.omm.repeatability_model import RepeatabilityModel
@@ -33,7 +38,7 @@ from mtmetrology.omm.task_request import load_calibration, ordered_covariance
 from mtmetrology.omm.unexplained import load_unexplained_covariance
 from mtmetrology.omm.validation import GaugeValidation, validate_gauge
 
-__all__ = ["read_side", "validate_gauge_from_files"]
+__all__ = ["pooling_from_files", "read_side", "validate_gauge_from_files"]
 
 
 def read_side(
@@ -159,3 +164,109 @@ def validate_gauge_from_files(
     )
     source = {"side_a": str(side_a), "side_b": str(side_b), "params": str(params)}
     return replace(result, thermal_reference=reference.to_dict(), source=source)
+
+
+def pooling_from_files(
+    sets: list[str | Path],
+    machine: str | Path | Machine,
+    params: str | Path,
+    calibrated_diameter: float,
+    calibration_uncertainty: float,
+    *,
+    sphericity: float | None = None,
+    sphericity_uncertainty: float = 0.0,
+    expansion_coefficient: float = 0.0,
+    expansion_coefficient_uncertainty: float = 0.0,
+    temperature_difference: float = 0.0,
+    temperature_difference_uncertainty: float = 0.0,
+    repeatability: str | Path | None = None,
+    unexplained: str | Path | None = None,
+    tip_diameter: float | None = None,
+    k_values: list[int] | None = None,
+    draws: int = 200,
+    points_per_draw: int = 25,
+    p: float = 0.95,
+    seed: int | None = None,
+) -> PoolingResult:
+    """Coverage of sphere diameter (and sphericity) intervals on draws pooled from k sets.
+
+    The diameter's reference is the calibrated value carried to the measurement
+    temperature, d = d_20 (1 + αΔT) with u from eq. 6-19; the sphericity's is taken as
+    calibrated (thermal effects on form neglected, §6.4). Each draw of ``points_per_draw``
+    points from k of the sets is compensated and given its full-covariance GUF interval;
+    the coverage is the mean of eq. 6-16 over the draws
+    (:func:`~mtmetrology.omm.pooling.pooling_experiment`).
+
+    Parameters
+    ----------
+    sets : list of path
+        CSV of each sphere point set (one pose each): ``point``, one column per axis (mm,
+        degrees), ``i,j,k`` with ``repeatability``.
+    machine : Machine, preset name or machine YAML
+    params : path
+        The calibration that compensates (parameter set with its covariance U_θ).
+    calibrated_diameter, calibration_uncertainty : float, mm
+        d_20 and its standard uncertainty at 20 °C.
+    sphericity, sphericity_uncertainty : float, mm, optional
+        Calibrated sphericity and its standard uncertainty: the sphericity is then a
+        second output.
+    expansion_coefficient, expansion_coefficient_uncertainty : float, 1/°C
+    temperature_difference, temperature_difference_uncertainty : float, °C
+        ΔT = sphere temperature − 20 °C, and u(ΔT).
+    repeatability, unexplained : path, optional
+        ``repeatability-model`` JSON; the unexplained-volumetric-error document (µm²).
+    tip_diameter : float, mm, optional
+        Effective tip diameter (default: the machine's).
+    k_values, draws, points_per_draw, p, seed
+        As :func:`~mtmetrology.omm.pooling.pooling_experiment`.
+
+    Returns
+    -------
+    PoolingResult
+        With ``source`` naming the files.
+
+    Raises
+    ------
+    InputError
+        A calibration without covariance, a bad file, or what
+        :func:`~mtmetrology.omm.pooling.pooling_experiment` refuses (k outside 1 … n).
+
+    References
+    ----------
+    Sepahi Boroujeni (2021), §6.4 (eqs. 6-16 to 6-19), §6.5.
+    """
+    _, pset, model = load_calibration(machine, params)
+    rep = load_repeatability_model(repeatability) if repeatability is not None else None
+    read = [read_side(path, model, rep) for path in sets]
+    diameter = thermal_reference_value(
+        calibrated_diameter,
+        calibration_uncertainty,
+        expansion_coefficient=expansion_coefficient,
+        expansion_coefficient_uncertainty=expansion_coefficient_uncertainty,
+        temperature_difference=temperature_difference,
+        temperature_difference_uncertainty=temperature_difference_uncertainty,
+        name="sphere_diameter",
+    )
+    d_tip = 2.0 * model.tip_radius if tip_diameter is None else tip_diameter
+    features, references = [SphereDiameter(d_tip)], [diameter]
+    if sphericity is not None:
+        features.append(Sphericity())
+        references.append((sphericity, sphericity_uncertainty))
+    result = pooling_experiment(
+        model,
+        [r for r, _ in read],
+        pset.vector_for(model),
+        ordered_covariance(pset, model),
+        features,
+        references,
+        reading_covariance=None if rep is None else [v for _, v in read],
+        unexplained_covariance=(
+            load_unexplained_covariance(unexplained) if unexplained is not None else None
+        ),
+        k_values=k_values,
+        draws=draws,
+        points_per_draw=points_per_draw,
+        p=p,
+        seed=seed,
+    )
+    return replace(result, source={"sets": [str(s) for s in sets], "params": str(params)})
