@@ -35,13 +35,22 @@ __all__ = ["app"]
 app = typer.Typer(help="Bridge-CMM studies on ball-plate records.", no_args_is_help=True)
 
 
-def _report(ctx, result, report_path, title, inputs, machine=None):
-    """The report of ``result`` when asked for (command line and inputs as provenance)."""
-    if report_path is None:
-        return None
-    report = cmm_report(ctx, title, inputs, machine)
-    add_cmm_result(report, result)
-    return report
+def _emit(ctx, result, title, inputs, machine, *, output, report_path, as_json, messages):
+    """The end of a study: its JSON (``-o``, ``--json``), its report when asked for (command
+    line and inputs as provenance) and its console lines on standard error."""
+    report = None
+    if report_path is not None:
+        report = cmm_report(ctx, title, inputs, machine)
+        add_cmm_result(report, result)
+    emit_result(
+        result.to_dict(),
+        None,
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=as_json,
+        messages=messages,
+    )
 
 
 @app.command("compare")
@@ -98,8 +107,6 @@ def compare(
         gp_mean=None if gp_mean == "none" else gp_mean,
         kernel=kernel,
     )
-    title = f"Kinematic versus GP: {records.name}"
-    report = _report(ctx, res, report_path, title, [records, plate, probes], machine)
 
     def messages() -> None:
         for r in res.table:
@@ -110,11 +117,14 @@ def compare(
                 err=True,
             )
 
-    emit_result(
-        res.to_dict(),
-        None,
+    title = f"Kinematic versus GP: {records.name}"
+    _emit(
+        ctx,
+        res,
+        title,
+        [records, plate, probes],
+        machine,
         output=output,
-        report=report,
         report_path=report_path,
         as_json=json_out,
         messages=messages,
@@ -151,12 +161,13 @@ def source_gp(
             err=True,
         )
 
-    report = _report(ctx, res, report_path, "The source's GP re-run", [])
-    emit_result(
-        doc,
+    _emit(
+        ctx,
+        res,
+        "The source's GP re-run",
+        [],
         None,
         output=output,
-        report=report,
         report_path=report_path,
         as_json=json_out,
         messages=messages,
@@ -208,7 +219,6 @@ def selfcal_design_cmd(
         balls_per_side=balls_per_side,
         pitch_mm=pitch_mm,
     )
-    report = _report(ctx, res, report_path, "Self-calibration design", [], machine)
 
     def messages() -> None:
         key = "+".join(locs)
@@ -231,11 +241,13 @@ def selfcal_design_cmd(
             parts = "; ".join(f"{u} {'/'.join(f'{v:.2g}' for v in pub[u])}" for u in pub)
             typer.echo(f"source ({table}): {parts} µm", err=True)
 
-    emit_result(
-        res.to_dict(),
-        None,
+    _emit(
+        ctx,
+        res,
+        "Self-calibration design",
+        [],
+        machine,
         output=output,
-        report=report,
         report_path=report_path,
         as_json=json_out,
         messages=messages,
@@ -322,7 +334,6 @@ def calibrate_cmd(
     )
     inputs = [records, plate, probes, qualification]
     title = f"Styli and plate as unknowns: {records.name}"
-    report = _report(ctx, res, report_path, title, inputs, machine)
 
     def messages() -> None:
         for pid, p in res.probes.items():
@@ -335,11 +346,13 @@ def calibrate_cmd(
             err=True,
         )
 
-    emit_result(
-        res.to_dict(),
-        None,
+    _emit(
+        ctx,
+        res,
+        title,
+        inputs,
+        machine,
         output=output,
-        report=report,
         report_path=report_path,
         as_json=json_out,
         messages=messages,
