@@ -9,7 +9,7 @@ from scipy import stats
 
 from mtmetrology.cmm.calibrate import calibrate_ballplate, cross_validate
 from mtmetrology.cmm.compare import length_errors
-from mtmetrology.cmm.models import SQUARENESS, choose_datum, machine_for_model, parse_model
+from mtmetrology.cmm.models import SQUARENESS
 from mtmetrology.cmm.simulate import simulate_ballplate
 from mtmetrology.errors import RankDeficientError
 
@@ -125,16 +125,6 @@ def test_compensation_independent_of_equivalent_datum(base, campaign, plate3, pr
     np.testing.assert_allclose(
         _lengths(alt, campaign, probes), _lengths(ref, campaign, probes), rtol=0, atol=1e-5
     )
-
-
-def test_datum_drops_constants_and_straightness_slopes(base):
-    """Constant terms are plate shifts/rotations; three slopes are squareness (§2.6)."""
-    d = choose_datum(machine_for_model(base, parse_model("full-1")))
-    dropped = {n for n, _ in d.dropped}
-    assert {f"E_{c}{a}0" for a in "XYZ" for c in "XYZABC"} <= dropped
-    assert {"E_XY1", "E_ZX1", "E_ZY1"} <= dropped
-    assert set(SQUARENESS) <= set(d.kept)
-    assert dict(d.dropped)["E_XY1"] == ("E_C0X",)
 
 
 def test_seed_model_is_recovered_exactly(base, plate3, probes):

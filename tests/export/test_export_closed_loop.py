@@ -9,28 +9,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from mtmetrology.errors import InputError
 from mtmetrology.export import etalon, fanuc, isg, linuxcnc, siemens
 from mtmetrology.export.control import residual
 from mtmetrology.export.model import compensation_model
 from mtmetrology.export.workflow import export_compensation
 from mtmetrology.kinematics import Machine
-
-ROTARY_MACHINE = """kind: machine
-version: 1
-name: rotary-test
-topology: WCXFYZT
-axes:
-  X: {travel_mm: [0, 400]}
-  Y: {travel_mm: [0, 300]}
-  Z: {travel_mm: [0, 200]}
-  C: {travel_deg: [0, 360]}
-error_models:
-  m:
-    basis: monomial
-    motions:
-      E_CC: [1, 2]
-"""
 
 
 def _read_back(module, tables, model):
@@ -129,43 +112,6 @@ def test_every_writer_has_a_reader_that_gives_the_same_table(make_set, module):
         np.testing.assert_allclose([v for _, v in consts], [v for _, v in isg.constants(cm)])
 
 
-def test_fanuc_increments_sum_to_the_absolute_table(make_set):
-    m = Machine.load("three-axis-xfyz")
-    cm = compensation_model(m, _random_set(make_set, m, 4), pitch=20)
-    tables = fanuc.build(cm)
-    text = fanuc.render(tables, cm)["fanuc_pitch.txt"]
-    increments = [int(line.split()[1][1:]) for line in text.splitlines() if line.startswith("N")]
-    start = 0
-    for t in tables:
-        inc = np.array(increments[start : start + t.positions.size])
-        absolute = np.round(t.forward / 1e-3).astype(int)  # detection unit 1 µm
-        np.testing.assert_array_equal(np.cumsum(inc) - inc[0], absolute - absolute[0])
-        assert absolute[t.reference_index] == 0
-        start += t.positions.size
-
-
-def test_fanuc_rotary_increments_sum_to_zero_and_a_non_periodic_table_is_refused(
-    make_set, tmp_path
-):
-    """E_CC(c) = c1 c + c2 c² with c2 = −c1/(2π) is periodic over 360°: the increments of
-    one revolution sum to zero; with c2 = 0 they cannot and the control would refuse it."""
-    path = tmp_path / "rotary.yaml"
-    path.write_text(ROTARY_MACHINE)
-    m = Machine.load(path)
-    c1 = 1000.0
-    ps = make_set(m, {"E_CC1": c1, "E_CC2": -c1 / (2 * np.pi)})
-    cm = compensation_model(m, ps, pitch=45)
-    (table,) = fanuc.build(cm, ["E_CC"])
-    text = fanuc.render([table], cm)["fanuc_pitch.txt"]
-    inc = [int(line.split()[1][1:]) for line in text.splitlines() if line.startswith("N")]
-    assert len(inc) == 9 and sum(inc[1:]) == 0 and max(np.abs(inc)) > 30
-    assert inc[0] == inc[-1]  # the reference point takes the value of the last (p. 100)
-    assert "3625 C 360000" in text.splitlines()
-    bad = compensation_model(m, make_set(m, {"E_CC1": c1}), pitch=45)
-    with pytest.raises(InputError, match=r"sum to .* not zero"):
-        fanuc.build(bad, ["E_CC"])
-
-
 def test_samba_13_through_isg_leaves_only_second_order_error(make_set):
     """The 13 SAMBA parameters (location errors and linear scales) are all carried by the
     ISG volumetric compensation; linear interpolation of linear functions is exact."""
@@ -214,18 +160,6 @@ def test_virtual_machine_residual_uncertainty_covers_95_percent(preset, model, p
     assert (lo, hi) == (181, 197)
     assert lo <= covered <= hi
     assert np.median(shrink) < 0.2  # the tables remove most of the error
-
-
-def test_fanuc_states_the_correction_left_to_the_reference_position(make_set):
-    """Five-axis preset, E_XX1 = +100 µm/m, reference X = −100 mm: the table is zero there
-    and the note gives the correction −E_XX(−100 mm) = +10 µm."""
-    m = Machine.load("five-axis-wcbxfzyst")
-    ps = make_set(m, {"E_XX1": 100.0})
-    result = export_compensation(
-        m, ps, "fanuc", pitch=10, functions=["E_XX"], reference={"X": -100.0}
-    )
-    (note,) = result.notes
-    assert note.startswith("E_XX: the correction at the reference position X = -100 mm (+10 µm)")
 
 
 def test_isg_carries_a_reversal_as_a_bilateral_ssfk_table(make_set):

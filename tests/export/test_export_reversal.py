@@ -1,42 +1,13 @@
 """Per-direction tables: a reversal term E_XXb exported for both directions of approach
-(Fanuc bidirectional pitch-error compensation, LinuxCNC forward/reverse columns) and the
-residual checked for travel in either direction."""
+(LinuxCNC forward/reverse columns; Fanuc's bidirectional parameters: test_fanuc.py) and
+the residual checked for travel in either direction."""
 
 import numpy as np
 import pytest
 
-from mtmetrology.export import fanuc, linuxcnc
+from mtmetrology.export import linuxcnc
 from mtmetrology.export.model import compensation_model
 from mtmetrology.export.workflow import export_compensation
-
-
-def test_fanuc_bidirectional_parameters_closed_form(reversal_machine, make_set):
-    machine = reversal_machine
-    """E_XX = 100 µm/m · x + 3 µm · sense: corrections −E differ by 2 · 3 µm between the
-    directions, so 3627 (negative-direction value at the reference) is +6 units (1 µm),
-    the negative table follows the positive one from 3626, and the file read back gives
-    the same two tables."""
-    ps = make_set(machine, {"E_XX1": 100.0, "E_XXb": 3.0})
-    cm = compensation_model(machine, ps, pitch=20)
-    tables = fanuc.build(cm, ["E_XX"])
-    files = fanuc.render(tables, cm)
-    params = {
-        line.split()[0]: int(line.split()[2])
-        for line in files["fanuc_pitch.txt"].splitlines()
-        if line[:1].isdigit()
-    }
-    assert params["3605#0"] == 1
-    assert params["3626"] == params["3622"] + 1  # 21 points each: 0–20, 21–41
-    assert params["3627"] == 6
-    (back,) = fanuc.parse(files)
-    np.testing.assert_array_equal(back.forward, tables[0].forward)
-    np.testing.assert_array_equal(back.reverse, tables[0].reverse)
-    np.testing.assert_allclose(back.reverse - back.forward, 6e-3, atol=1e-12)
-    # without a reversal term nothing of the bidirectional function is written
-    one = fanuc.render(
-        fanuc.build(compensation_model(machine, make_set(machine, {}), pitch=20)), cm
-    )
-    assert "3605#0" not in one["fanuc_pitch.txt"]
 
 
 @pytest.mark.parametrize(

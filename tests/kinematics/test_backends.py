@@ -12,7 +12,6 @@ import pytest
 
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics import chain as kinematic_chain
-from mtmetrology.kinematics._program import Program
 
 pytest.importorskip("numba")
 
@@ -128,22 +127,3 @@ def test_numpy_blocks_of_whole_trials_do_not_show(monkeypatch):
     parts = m.evaluate(q, theta, senses=senses, tool=tool, d_params=True)
     np.testing.assert_array_equal(parts.position, whole.position)
     np.testing.assert_array_equal(parts.d_params, whole.d_params)
-
-
-def test_program_fuses_products_and_reuses_registers():
-    """x + y·s and x − y·z become one instruction; dead values are dropped; no
-    destination overlaps an operand of its own instruction."""
-    from mtmetrology.kinematics import _program as pr
-
-    prog = Program(n_poses=4, n_inputs=2)
-    x, y = prog.inputs()
-    s = np.arange(4.0)
-    unused = x * y  # never stored
-    del unused
-    value = (x + y * s) - (x * y)
-    prog.store(pr.POSITION, 0, -value)
-    ops, n_registers = prog.compile()
-    assert [int(op[0]) for op in ops] == [pr.FMA_RS, pr.FMS_RR, pr.STORE_NEG]
-    for op in ops[:-1]:
-        assert op[1] not in op[2:4]
-    assert n_registers == 4

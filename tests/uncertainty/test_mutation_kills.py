@@ -3,9 +3,7 @@
 import numpy as np
 import pytest
 
-from mtmetrology.uncertainty.dimensions import check_output_units
 from mtmetrology.uncertainty.distributions import Normal, make_distribution
-from mtmetrology.uncertainty.expressions import CompiledModel, ModelFileError
 
 
 def test_bounded_refuses_low_high_mixed_with_half_width():
@@ -27,58 +25,6 @@ def test_bounded_refuses_centre_half_width_mixed_with_high():
 
 def test_normal_accepts_coverage_factor_below_one():
     assert make_distribution("normal", x=0.0, U=0.1, k=0.5).u == pytest.approx(0.2)
-
-
-def _units_error(inputs, expression, input_units, output_unit=None):
-    model = CompiledModel(inputs, [("y", expression)])
-    with pytest.raises(ModelFileError) as info:
-        check_output_units(model, input_units, [output_unit], "m.yaml")
-    return str(info.value)
-
-
-def test_dimensioned_exponent_message():
-    msg = _units_error(["a", "b"], "a ** b", ["m", "m"])
-    assert msg.startswith("m.yaml: outputs.0 ('y'): an exponent must be dimensionless, not a ")
-    assert msg.endswith(" quantity; check the input units")
-
-
-def test_sqrt_halves_and_abs_keeps_dimension():
-    model = CompiledModel(["a"], [("y", "sqrt(a * a)"), ("z", "abs(a)")])
-    check_output_units(model, ["m"], ["m", "m"], "m.yaml")
-    with pytest.raises(ModelFileError, match=r"^m\.yaml: outputs\.1 \('z'\): unit 's' is time"):
-        check_output_units(model, ["m"], ["mm", "s"], "m.yaml")
-
-
-def test_output_identifier_message_names_output():
-    with pytest.raises(ModelFileError) as info:
-        CompiledModel(["a"], [("class", "a")], source="m.yaml")
-    assert str(info.value) == "m.yaml: output name 'class' is not a valid identifier"
-
-
-def _expression_error(expression):
-    with pytest.raises(ModelFileError) as info:
-        CompiledModel(["a"], [("y", expression)], source="m.yaml")
-    return str(info.value)
-
-
-def test_syntax_error_shows_expression_of_exactly_sixty_characters():
-    expression = "a + " + "b" * 54 + " +"
-    assert len(expression) == 60
-    assert _expression_error(expression) == (
-        f"m.yaml: output 'y': syntax error in {expression!r}: invalid syntax"
-    )
-
-
-def test_too_deep_expression_message():
-    assert _expression_error("-" * 205 + "a") == (
-        "m.yaml: output 'y': nested 208 levels deep, more than 200; define intermediate outputs"
-    )
-
-
-def test_forbidden_binary_operator_message_has_column():
-    assert _expression_error("a % 2") == (
-        "m.yaml: output 'y': operator in 'a % 2' is not allowed (use + - * / **) (column 1)"
-    )
 
 
 def test_welch_satterthwaite_correlated_finite_dof_message():
@@ -287,17 +233,6 @@ def test_sequence_statistics_largest_eigenvalue_of_three_outputs():
     stats = sequence_statistics(values, 0.95)
     assert stats.shape == (14,)
     assert stats[12] == pytest.approx(np.linalg.eigvalsh(np.corrcoef(values.T))[-1])
-
-
-def test_derivative_drops_multiplication_by_one():
-    from mtmetrology.uncertainty.expressions import Call
-
-    model = CompiledModel(["a"], [("y", "exp(a)")])
-    program = model._jacobian_program()
-    root = program.steps[program.roots[0]][0]
-    assert isinstance(root, Call) and root.func == "exp"
-    assert len(program.steps) == 2
-    assert model.jacobian(np.array([0.0]))[..., 0, 0] == pytest.approx(1.0)
 
 
 def test_evaluate_chunk_counts_are_integers_when_all_finite():

@@ -1,4 +1,5 @@
-"""Minimum-zone features: values, and the active-set Jacobians against differences."""
+"""Tests for mtmetrology.fitting.zone_features (minimum-zone features): values, and the
+active-set Jacobians against differences."""
 
 from __future__ import annotations
 
@@ -153,6 +154,19 @@ def test_known_zones_and_diameters():
     assert float(d) == pytest.approx(30.0, abs=1e-9)
     shaft = MinimumZoneCylinderDiameter(inner=False, tip_diameter=6.0).value(bore)
     assert float(shaft) == pytest.approx(18.0, abs=1e-9)
+
+
+def test_known_roundness_and_flatness():
+    """A 12-gon of radii 20 ± 0.5 µm in a tilted plane; a 3 × 3 grid whose corners are
+    raised by 4 µm: the zone is 4 µm wide whatever the pose."""
+    t = np.arange(12) * np.pi / 6
+    r = 20 + 0.0005 * (-1.0) ** np.arange(12)
+    ring = _posed(np.c_[r * np.cos(t), r * np.sin(t), np.zeros(12)], 3, [1.0, 2.0, 3.0])
+    assert float(MinimumZoneRoundness().value(ring)) == pytest.approx(0.001, abs=1e-12)
+    x, y = np.meshgrid([-30.0, 0.0, 30.0], [-30.0, 0.0, 30.0])
+    z = 0.004 * ((np.abs(x) == 30) & (np.abs(y) == 30))
+    plate = _posed(np.c_[x.ravel(), y.ravel(), z.ravel()], 4, [0.0, 0.0, 500.0])
+    assert float(MinimumZoneFlatness().value(plate)) == pytest.approx(0.004, abs=1e-12)
 
 
 def test_degenerate_zone_has_no_jacobian():

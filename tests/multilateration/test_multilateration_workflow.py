@@ -1,4 +1,5 @@
-"""Sequential multilateration: Jacobians, exact recovery, observability, coverage, MC."""
+"""Tests for mtmetrology.multilateration.workflow (sequential multilateration): simulated
+lengths, Jacobians, exact recovery, observability, coverage, MC, the result document."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from mtmetrology.kinematics.volumetric_map import VolumetricMap
 from mtmetrology.multilateration.problem import LengthProblem, parse_spec
 from mtmetrology.multilateration.workflow import (
     LengthRecord,
+    MapMonteCarlo,
     MultilaterationResult,
     Station,
     calibrate_multilateration,
@@ -42,6 +44,51 @@ def _truth(rng):
 
 def _poses(rng, n):
     return rng.uniform(LOW, HIGH, (n, 3))
+
+
+def test_simulated_lengths_are_distances_less_the_dead_path_in_station_tool_pose_order():
+    """Error-free machine, no noise: ℓ = ‖q + t − S‖ − ℓ0 for the preset's forward model."""
+    q = np.array([[900.0, 200.0, 300.0], [1100.0, 400.0, 250.0]])
+    rec = simulate_lengths(M, None, STATIONS[:2], q, THREE_TOOLS[:2], spec=(0.0, 0.0))
+    assert rec.stations == ("S1",) * 4 + ("S2",) * 4
+    np.testing.assert_array_equal(rec.readings, np.tile(q, (4, 1)))
+    np.testing.assert_array_equal(rec.tools[:4], np.repeat(THREE_TOOLS[:2], 2, axis=0))
+    points = M.forward(rec.readings, None, tool=rec.tools)
+    centres = np.repeat([s.position for s in STATIONS[:2]], 4, axis=0)
+    dead = np.repeat([s.dead_path for s in STATIONS[:2]], 4)
+    np.testing.assert_allclose(
+        rec.lengths, np.linalg.norm(points - centres, axis=1) - dead, rtol=1e-15
+    )
+
+
+def test_simulated_noise_has_the_specified_standard_deviation():
+    """ε ~ N(0, (a + b L)²): the normalised noise of 4 × 3 × 200 lengths has unit variance
+    within the two-sided 99.9 % chi-square acceptance region."""
+    rng = np.random.default_rng(12)
+    q = _poses(rng, 200)
+    spec = (2e-4, 5e-7)
+    exact = simulate_lengths(M, None, STATIONS, q, THREE_TOOLS, spec=(0.0, 0.0))
+    noisy = simulate_lengths(M, None, STATIONS, q, THREE_TOOLS, spec=spec, seed=13)
+    dead = np.array([{s.name: s.dead_path for s in STATIONS}[n] for n in exact.stations])
+    z = (noisy.lengths - exact.lengths) / (spec[0] + spec[1] * (exact.lengths + dead))
+    n = z.size
+    lo, hi = stats.chi2.ppf([0.0005, 0.9995], n)
+    assert lo <= np.sum(z**2) <= hi
+
+
+def test_map_monte_carlo_ratio_and_document():
+    mc = MapMonteCarlo(
+        points=np.zeros((2, 3)),
+        u_guf=np.full((2, 3), 1e-3),
+        u_mcm=np.array([[1.1e-3, 1e-3, 1e-3], [1e-3, 0.8e-3, 1e-3]]),
+        trials=50,
+        failed=1,
+    )
+    assert mc.largest_ratio_deviation == pytest.approx(0.2)
+    doc = mc.to_dict()
+    assert doc["kind"] == "multilateration-map-monte-carlo" and doc["failed"] == 1
+    assert doc["u_guf_um"] == [[1.0, 1.0, 1.0]] * 2
+    assert doc["u_mcm_um"][1] == pytest.approx([1.0, 0.8, 1.0])
 
 
 def test_parse_spec_is_k2():

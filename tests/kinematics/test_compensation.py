@@ -1,4 +1,5 @@
-"""``kinematics.compensation.compensate``: the chunked compensation of a record (issue 20)."""
+"""Tests for mtmetrology.kinematics.compensation: the chunked compensation of a record
+(issue 20), the covariance G U_θ Gᵀ of the compensated points and the corrections."""
 
 from __future__ import annotations
 
@@ -6,7 +7,13 @@ import numpy as np
 import pytest
 
 from mtmetrology.errors import InputError
-from mtmetrology.kinematics.compensation import Compensation, compensate, compensated_points
+from mtmetrology.kinematics.compensation import (
+    Compensation,
+    compensate,
+    compensated_points,
+    compensation_covariance,
+    correction_statistics,
+)
 from mtmetrology.kinematics.machine import Machine
 
 MACHINE = Machine.load("five-axis-wcbxfzyst")
@@ -70,6 +77,48 @@ def test_u_without_a_covariance_is_refused():
     q, theta, _ = _record()
     with pytest.raises(InputError, match="needs a parameter covariance"):
         compensate(MACHINE, q, theta, with_u=True)
+
+
+def test_covariance_is_the_parameter_jacobian_propagation():
+    """One parameter of variance σ²: U_q = σ² g gᵀ with g = ∂f/∂δ_k by central differences."""
+    q, theta, _ = _record(n=3, seed=2)
+    k = 7
+    sigma = 2.0 * MACHINE.parameter_scales[k]
+    cov = np.zeros((MACHINE.n_params,) * 2)
+    cov[k, k] = sigma**2
+    points, u_q = compensation_covariance(MACHINE, q, theta, cov)
+    h = 1e-3 * MACHINE.parameter_scales[k]
+    step = np.zeros(MACHINE.n_params)
+    step[k] = h
+    tool = MACHINE.tool
+    g = (
+        MACHINE.forward(q, theta + step, tool=tool) - MACHINE.forward(q, theta - step, tool=tool)
+    ) / (2 * h)
+    assert np.abs(g).max() > 1e-3  # the parameter moves the point: the check is not 0 = 0
+    np.testing.assert_allclose(points, MACHINE.forward(q, theta, tool=tool), atol=1e-12)
+    expected = sigma**2 * np.einsum("si,sj->sij", g, g)
+    np.testing.assert_allclose(u_q, expected, rtol=1e-6, atol=1e-15)
+
+
+def test_u_is_the_root_of_the_covariance_diagonal_and_scales_with_the_covariance():
+    q, theta, cov = _record(seed=3)
+    _, full = compensation_covariance(MACHINE, q, theta, cov)
+    assert np.all(np.linalg.eigvalsh(full) >= -1e-18)
+    np.testing.assert_allclose(full, np.swapaxes(full, 1, 2), atol=1e-18)
+    _, u = compensated_points(MACHINE, q, theta, cov)
+    np.testing.assert_allclose(u, np.sqrt(np.diagonal(full, axis1=1, axis2=2)), rtol=1e-12)
+    _, u4 = compensated_points(MACHINE, q, theta, 16.0 * cov)
+    np.testing.assert_allclose(u4, 4.0 * u, rtol=1e-12)
+
+
+def test_correction_statistics_of_known_corrections():
+    """Corrections (3, 4, 0) µm and (0, 0, 12) µm: norms 5 and 12 µm, rms √84.5 µm."""
+    nominal = np.array([[10.0, 20.0, 30.0], [-5.0, 0.0, 40.0]])
+    points = nominal + np.array([[3e-3, 4e-3, 0.0], [0.0, 0.0, 12e-3]])
+    correction, largest, rms = correction_statistics(points, nominal)
+    np.testing.assert_allclose(correction, [[3.0, 4.0, 0.0], [0.0, 0.0, 12.0]], atol=1e-9)
+    assert largest == pytest.approx(12.0, abs=1e-9)
+    assert rms == pytest.approx(np.sqrt(84.5), abs=1e-9)
 
 
 def _report_rows(html: str) -> dict[str, str]:
