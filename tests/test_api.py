@@ -58,3 +58,30 @@ def test_lazy_packages_export_what_they_list(package):
         assert getattr(module, name) is not None
     exports = getattr(module, "_EXPORTS", None) or module._UNCERTAINTY
     assert set(exports) <= set(module.__all__)
+
+
+def test_an_exported_name_keeps_its_meaning_after_its_module_loads():
+    """``samba.calibrate`` (a function in ``samba/calibrate.py``) and ``design.detmax`` are
+    the functions whatever was imported first: the import system's binding of a loaded
+    submodule to the package attribute must not replace the export (fresh interpreter, the
+    modules imported before the names are asked for)."""
+    code = (
+        "import importlib, types\n"
+        "pairs = [('samba', 'calibrate'), ('design', 'detmax')]\n"
+        "for pkg, name in pairs:\n"
+        "    importlib.import_module(f'mtmetrology.{pkg}.{name}')\n"
+        "for pkg, name in pairs:\n"
+        "    value = getattr(importlib.import_module(f'mtmetrology.{pkg}'), name)\n"
+        "    print(pkg, name, isinstance(value, types.ModuleType), callable(value))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.split("\n")
+    assert out[:2] == ["samba calibrate False True", "design detmax False True"]
+
+
+def test_the_module_of_an_exported_name_stays_importable():
+    from mtmetrology.samba import calibrate
+
+    module = importlib.import_module("mtmetrology.samba.calibrate")
+    assert callable(calibrate) and module.calibrate is calibrate

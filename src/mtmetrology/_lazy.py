@@ -11,9 +11,32 @@ from __future__ import annotations
 
 import importlib
 import sys
+import types
 from collections.abc import Callable, Mapping
 
-__all__ = ["lazy_exports"]
+__all__ = ["LazyPackage", "lazy_exports"]
+
+
+class LazyPackage(types.ModuleType):
+    """A package whose exported names keep their meaning when a module of the same name loads.
+
+    The import system binds every submodule to its package's attribute once it has loaded
+    it (``setattr(package, "calibrate", <module>)``).  Where a package exports a function
+    under its module's name (``samba.calibrate`` from ``samba/calibrate.py``), that binding
+    would make ``from mtmetrology.samba import calibrate`` return the module or the
+    function depending on what was imported first; the binding is skipped instead, and
+    the module stays reachable through ``sys.modules`` and ``from … import``.
+    """
+
+    def __setattr__(self, name: str, value: object) -> None:
+        exports = self.__dict__.get("_lazy_exports", ())
+        if (
+            name in exports
+            and isinstance(value, types.ModuleType)
+            and value.__name__ == f"{self.__name__}.{name}"
+        ):
+            return
+        super().__setattr__(name, value)
 
 
 def lazy_exports(
@@ -40,4 +63,11 @@ def lazy_exports(
     def __dir__() -> list[str]:
         return sorted(set(vars(sys.modules[package])) | set(table))
 
+    module = sys.modules[package]
+    module._lazy_exports = frozenset(table)
+    module.__class__ = LazyPackage
+    for name in table:  # a module of an exported name already loaded by the package itself
+        value = module.__dict__.get(name)
+        if isinstance(value, types.ModuleType) and value.__name__ == f"{package}.{name}":
+            del module.__dict__[name]
     return __getattr__, __dir__
