@@ -49,7 +49,11 @@ if TYPE_CHECKING:  # loaded by the commands that use them: mtm --help needs none
 __all__ = [
     "CLICK_EXCEPTION",
     "INTERRUPTED",
+    "ArtefactOption",
+    "ErrorModelOption",
+    "MachineOption",
     "MtmGroup",
+    "ParamsOnlyOption",
     "describe_failure",
     "fail",
     "interrupt_reported",
@@ -234,6 +238,15 @@ def vector_option(text: str, option: str, unit: str = "mm") -> tuple[float, floa
     return values
 
 
+MachineOption = Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")]
+ArtefactOption = Annotated[Path, typer.Option("--artefact", help="ARTEFACT.yaml.")]
+ErrorModelOption = Annotated[
+    str | None, typer.Option("--model", help="Error model: 13, 84 or a model name.")
+]
+ParamsOnlyOption = Annotated[
+    str | None,
+    typer.Option("--params-only", help="Identify only these parameters (E_X0C,E_A0C,...)."),
+]
 ReportOption = Annotated[
     Path | None,
     typer.Option(

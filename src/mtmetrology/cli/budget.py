@@ -9,6 +9,7 @@ import typer
 
 from mtmetrology.budgets.choices import FEATURE_KINDS, Policy, RepeatabilityMethod
 from mtmetrology.cli._common import (
+    MachineOption,
     ReportOption,
     command_line,
     emit_result,
@@ -158,7 +159,7 @@ Prints the budget in the layout of Mutilba et al., Table 1 (µm).
 def volumetric_map(
     ctx: typer.Context,
     points: Annotated[Path, typer.Argument(help="POINTS.csv: x,y,z[,cycle[,series]] (mm).")],
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    machine: MachineOption,
     params: Annotated[Path, typer.Option("--params", help="MAP.json or a map document.")],
     feature: Annotated[str, typer.Option("--feature", help=" | ".join(FEATURE_KINDS))],
     mode: Annotated[str, typer.Option("--mode", help="uncorrected or corrected.")] = (

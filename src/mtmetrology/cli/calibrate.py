@@ -9,6 +9,10 @@ import typer
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from mtmetrology.cli._common import (
+    ArtefactOption,
+    ErrorModelOption,
+    MachineOption,
+    ParamsOnlyOption,
     ReportOption,
     command_line,
     emit_result,
@@ -145,15 +149,10 @@ def samba_report(ctx: typer.Context, title: str, inputs: list, result, **context
 def samba(
     ctx: typer.Context,
     records: Annotated[Path, typer.Argument(help="RECORDS.csv (formats: docs/file-formats.md).")],
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
-    artefact: Annotated[Path, typer.Option("--artefact", help="ARTEFACT.yaml.")],
-    model: Annotated[
-        str | None, typer.Option("--model", help="Error model: 13, 84 or a model name.")
-    ] = None,
-    params_only: Annotated[
-        str | None,
-        typer.Option("--params-only", help="Identify only these parameters (E_X0C,E_A0C,...)."),
-    ] = None,
+    machine: MachineOption,
+    artefact: ArtefactOption,
+    model: ErrorModelOption = None,
+    params_only: ParamsOnlyOption = None,
     noise_um: Annotated[
         float | None,
         typer.Option(
@@ -420,15 +419,10 @@ def unexplained(
     campaigns: Annotated[
         list[Path], typer.Argument(help="CAMPAIGN.csv files (two or more, the same test).")
     ],
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
-    artefact: Annotated[Path, typer.Option("--artefact", help="ARTEFACT.yaml.")],
-    model: Annotated[
-        str | None, typer.Option("--model", help="Error model: 13, 84 or a model name.")
-    ] = None,
-    params_only: Annotated[
-        str | None,
-        typer.Option("--params-only", help="Identify only these parameters (E_X0C,E_A0C,...)."),
-    ] = None,
+    machine: MachineOption,
+    artefact: ArtefactOption,
+    model: ErrorModelOption = None,
+    params_only: ParamsOnlyOption = None,
     noise_um: Annotated[
         float, typer.Option("--noise-um", help="Standard uncertainty of every reading, µm.")
     ] = 0.5,

@@ -16,6 +16,7 @@ from typing import Annotated
 import typer
 
 from mtmetrology.cli._common import (
+    MachineOption,
     ReportOption,
     command_line,
     emit_result,
@@ -47,7 +48,6 @@ gp_app = typer.Typer(
     no_args_is_help=True,
 )
 
-MachineOpt = Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")]
 PlateOpt = Annotated[Path, typer.Option("--plate", help="Ball-plate file (kind: ball-plate).")]
 ProbesOpt = Annotated[Path, typer.Option("--probes", help="Probe-set file (kind: probe-set).")]
 SigmaOpt = Annotated[
@@ -99,7 +99,7 @@ def read_ballplate_inputs(records: Path, plate: Path, probes: Path):
 def calibrate_ballplate_cmd(
     ctx: typer.Context,
     records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
-    machine: MachineOpt,
+    machine: MachineOption,
     plate: PlateOpt,
     probes: ProbesOpt,
     output: OutOpt,
@@ -279,7 +279,7 @@ def budget_cmd(
 
 @user_errors
 def simulate_ballplate_cmd(
-    machine: MachineOpt,
+    machine: MachineOption,
     plate: PlateOpt,
     probes: ProbesOpt,
     positions: Annotated[
@@ -324,7 +324,7 @@ def simulate_ballplate_cmd(
 def gp_fit(
     ctx: typer.Context,
     records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
-    machine: MachineOpt,
+    machine: MachineOption,
     plate: PlateOpt,
     probes: ProbesOpt,
     output: OutOpt,
@@ -392,7 +392,7 @@ def gp_fit(
 @user_errors
 def gp_predict(
     readings: Annotated[Path, typer.Argument(help="CSV with X,Y,Z (mm) and probe columns.")],
-    machine: MachineOpt,
+    machine: MachineOption,
     model: Annotated[Path, typer.Option("--model", help="GP model file (mtm gp fit).")],
     probes: ProbesOpt,
     output: OutOpt,

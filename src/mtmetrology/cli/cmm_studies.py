@@ -14,9 +14,8 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from mtmetrology.cli._common import ReportOption, emit_result, user_errors
+from mtmetrology.cli._common import MachineOption, ReportOption, emit_result, user_errors
 from mtmetrology.cli.cmm import (
-    MachineOpt,
     PlateOpt,
     ProbesOpt,
     SigmaOpt,
@@ -58,7 +57,7 @@ def _emit(ctx, result, title, inputs, machine, *, output, report_path, as_json, 
 def compare(
     ctx: typer.Context,
     records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
-    machine: MachineOpt,
+    machine: MachineOption,
     plate: PlateOpt,
     probes: ProbesOpt,
     held_out: Annotated[
@@ -178,7 +177,7 @@ def source_gp(
 @user_errors
 def selfcal_design_cmd(
     ctx: typer.Context,
-    machine: MachineOpt,
+    machine: MachineOption,
     locations: Annotated[
         str, typer.Option("--locations", help="Plate locations, comma-separated: L0, L1, L2.")
     ] = "L0,L1,L2",
@@ -275,7 +274,7 @@ def _length(text: str) -> CalibratedLength:
 def calibrate_cmd(
     ctx: typer.Context,
     records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
-    machine: MachineOpt,
+    machine: MachineOption,
     plate: PlateOpt,
     probes: ProbesOpt,
     qualification: Annotated[

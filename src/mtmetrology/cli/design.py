@@ -11,6 +11,8 @@ from rich.console import Console
 from rich.table import Table as RichTable
 
 from mtmetrology.cli._common import (
+    ErrorModelOption,
+    MachineOption,
     ReportOption,
     command_line,
     emit_result,
@@ -66,9 +68,9 @@ def _balls_yaml(doc: dict) -> str:
 @user_errors
 def samba(
     ctx: typer.Context,
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML file.")],
+    machine: MachineOption,
     output: Annotated[Path, typer.Option("-o", "--output", help="Programme CSV to write.")],
-    model: Annotated[str | None, typer.Option("--model", help="Error model (e.g. 13, 84).")] = None,
+    model: ErrorModelOption = None,
     params_only: Annotated[
         str | None,
         typer.Option("--params-only", help="Plan for these parameters only (E_X0C,E_AY1,...)."),
@@ -328,11 +330,11 @@ def _list(text: str, option: str, cast):
 @user_errors
 def compare(
     ctx: typer.Context,
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML file.")],
+    machine: MachineOption,
     balls: Annotated[
         Path, typer.Option("--balls", help="Placed balls YAML; n balls = the first n.")
     ],
-    model: Annotated[str | None, typer.Option("--model", help="Error model (e.g. 13, 84).")] = None,
+    model: ErrorModelOption = None,
     n_balls: Annotated[str, typer.Option("--n-balls", help="Ball counts, e.g. 1,2,3,4.")] = "1,4",
     k: Annotated[str, typer.Option("--k", help="Multiples of unknowns/3, e.g. 2,3,5.")] = "2,3",
     criterion: Annotated[

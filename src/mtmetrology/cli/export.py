@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from mtmetrology.cli._common import (
+    MachineOption,
     ReportOption,
     command_line,
     emit_result,
@@ -73,7 +74,7 @@ def export(
             "document or a vendor grid CSV x,y,z,ex,ey,ez[,ux,uy,uz] (mm, µm; errors).",
         ),
     ],
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    machine: MachineOption,
     output: Annotated[Path, typer.Option("-o", "--output", help="Existing output directory.")],
     pitch: Annotated[
         float | None, typer.Option("--pitch", help="Table spacing: mm (linear), deg (rotary).")

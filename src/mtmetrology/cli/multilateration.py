@@ -8,6 +8,8 @@ from typing import Annotated
 import typer
 
 from mtmetrology.cli._common import (
+    ErrorModelOption,
+    MachineOption,
     ReportOption,
     command_line,
     emit_result,
@@ -54,13 +56,13 @@ def _grid(text: str) -> list[int]:
 @simulate_app.command("multilateration", help=SIMULATE_HELP)
 @user_errors
 def simulate_multilateration(
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    machine: MachineOption,
     stations: Annotated[Path, typer.Option("--stations", help="STATIONS.yaml.")],
     output: Annotated[Path, typer.Option("-o", "--output", help="LENGTHS.csv to write.")],
     truth: Annotated[
         Path | None, typer.Option("--truth", help="TRUTH.json (zero errors if omitted).")
     ] = None,
-    model: Annotated[str | None, typer.Option("--model", help="Error model.")] = None,
+    model: ErrorModelOption = None,
     grid: Annotated[str, typer.Option("--grid", help="Poses per linear axis NX,NY,NZ.")] = (
         "5,8,5"
     ),
@@ -104,8 +106,8 @@ def simulate_multilateration(
 def calibrate_multilateration_cmd(
     ctx: typer.Context,
     lengths: Annotated[Path, typer.Argument(help="LENGTHS.csv.")],
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
-    model: Annotated[str | None, typer.Option("--model", help="Error model.")] = None,
+    machine: MachineOption,
+    model: ErrorModelOption = None,
     noise: Annotated[str, typer.Option("--noise", help=SPEC_HELP)] = "0.2um+0.3um/m",
     mc: Annotated[
         int, typer.Option("--mc", help="Monte Carlo trials checking the map uncertainty.")

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from mtmetrology.cli._common import (
+    MachineOption,
     ReportOption,
     command_line,
     user_errors,
@@ -51,7 +52,7 @@ U_COLUMNS = ("u_x_um", "u_y_um", "u_z_um")
 def predict(
     ctx: typer.Context,
     readings: Annotated[Path, typer.Argument(help="Probing records CSV: X,Y,Z,B,C[,S] ...")],
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    machine: MachineOption,
     params: Annotated[
         Path | None,
         typer.Option(

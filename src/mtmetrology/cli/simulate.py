@@ -7,7 +7,14 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from mtmetrology.cli._common import parse_tools, user_errors, vector_option
+from mtmetrology.cli._common import (
+    ArtefactOption,
+    ErrorModelOption,
+    MachineOption,
+    parse_tools,
+    user_errors,
+    vector_option,
+)
 from mtmetrology.errors import InputError
 
 if TYPE_CHECKING:
@@ -69,14 +76,12 @@ def _truth(machine: Machine, truth: Path | None):
 @app.command("samba", help=SIMULATE_HELP)
 @user_errors
 def samba(
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
-    artefact: Annotated[Path, typer.Option("--artefact", help="ARTEFACT.yaml.")],
+    machine: MachineOption,
+    artefact: ArtefactOption,
     balls: Annotated[Path, typer.Option("--balls", help="BALLS.yaml (true ball centres).")],
     poses: Annotated[Path, typer.Option("--poses", help="POSES.csv: ball,B,C[,S].")],
     output: Annotated[Path, typer.Option("-o", "--output", help="RECORDS.csv to write.")],
-    model: Annotated[
-        str | None, typer.Option("--model", help="Error model: 13, 84 or a name.")
-    ] = None,
+    model: ErrorModelOption = None,
     truth: Annotated[
         Path | None, typer.Option("--truth", help="TRUTH.json (zero errors if omitted).")
     ] = None,
@@ -136,11 +141,11 @@ def samba(
 @app.command("length", help=LENGTH_HELP)
 @user_errors
 def length(
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    machine: MachineOption,
     end_a: Annotated[str, typer.Option("--end-a", help="Centre of end face a: x,y,z (mm).")],
     end_b: Annotated[str, typer.Option("--end-b", help="Centre of end face b: x,y,z (mm).")],
     output: Annotated[Path, typer.Option("-o", "--output", help="READINGS.csv to write.")],
-    model: Annotated[str | None, typer.Option("--model", help="Error model.")] = None,
+    model: ErrorModelOption = None,
     truth: Annotated[Path | None, typer.Option("--truth", help="TRUTH.json.")] = None,
     pairs: Annotated[int, typer.Option("--pairs", help="Number of (B, C) indexations.")] = 20,
     b_max_deg: Annotated[

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from mtmetrology.cli._common import (
+    MachineOption,
     ReportOption,
     command_line,
     emit_result,
@@ -77,7 +78,7 @@ def uncertainty(
     points_csv: Annotated[
         Path, typer.Argument(help="Probed readings: point,X,Y,Z,B,C[,i,j,k][,end].")
     ],
-    machine_name: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    machine_name: MachineOption,
     params: Annotated[
         Path,
         typer.Option("--params", help="The calibration that compensates, with its covariance U_θ."),

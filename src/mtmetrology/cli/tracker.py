@@ -14,6 +14,8 @@ from typing import Annotated
 import typer
 
 from mtmetrology.cli._common import (
+    ErrorModelOption,
+    MachineOption,
     ReportOption,
     command_line,
     emit_result,
@@ -51,7 +53,7 @@ CONDITIONS_HELP = (
 @simulate_app.command("tracker")
 @user_errors
 def simulate_tracker(
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    machine: MachineOption,
     mesh: Annotated[str, typer.Option("--mesh", help=MESH_HELP)],
     output: Annotated[Path, typer.Option("-o", "--output", help="MEASUREMENTS.csv to write.")],
     truth: Annotated[
@@ -89,8 +91,8 @@ def simulate_tracker(
 def calibrate_tracker(
     ctx: typer.Context,
     measurements: Annotated[Path, typer.Argument(help="MEASUREMENTS.csv.")],
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
-    model: Annotated[str | None, typer.Option("--model", help="Error model name.")] = None,
+    machine: MachineOption,
+    model: ErrorModelOption = None,
     angle_urad: NoiseOption = 20.0,
     conditions: Annotated[Path | None, typer.Option("--conditions", help=CONDITIONS_HELP)] = None,
     json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
@@ -122,7 +124,7 @@ def calibrate_tracker(
 @user_errors
 def verify_tracker(
     ctx: typer.Context,
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    machine: MachineOption,
     mesh: Annotated[str, typer.Option("--mesh", help=MESH_HELP)] = (
         "800:1200:100,100:500:100,200:400:100"
     ),
@@ -184,7 +186,7 @@ def _region(text: str):
 @user_errors
 def tracker_placement(
     ctx: typer.Context,
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    machine: MachineOption,
     mesh: Annotated[str, typer.Option("--mesh", help=MESH_HELP)] = (
         "800:1200:100,100:500:100,200:400:100"
     ),

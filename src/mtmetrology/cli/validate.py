@@ -17,6 +17,7 @@ from typing import Annotated
 import typer
 
 from mtmetrology.cli._common import (
+    MachineOption,
     ReportOption,
     command_line,
     emit_result,
@@ -51,7 +52,7 @@ def task(
     ctx: typer.Context,
     side_a: Annotated[Path, typer.Argument(help="Side-A readings: point,X,Y,Z,B,C[,i,j,k].")],
     side_b: Annotated[Path, typer.Argument(help="Side-B readings, same columns.")],
-    machine_name: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    machine_name: MachineOption,
     params: Annotated[
         Path, typer.Option("--params", help="The calibration that compensates, with U_θ.")
     ],
@@ -168,7 +169,7 @@ def _report(doc: dict, command: str, inputs: list[Path]):
 def pooling(
     ctx: typer.Context,
     sets: Annotated[list[Path], typer.Argument(help="Point sets on the sphere, one CSV per pose.")],
-    machine_name: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    machine_name: MachineOption,
     params: Annotated[
         Path, typer.Option("--params", help="The calibration that compensates, with U_θ.")
     ],

@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from mtmetrology.cli._common import (
+    MachineOption,
     ReportOption,
     emit_result,
     machine_with_parameters,
@@ -36,7 +37,7 @@ length-check document, -o writes it.
 def length(
     ctx: typer.Context,
     readings: Annotated[Path, typer.Argument(help="READINGS.csv: pair,end,X,Y,Z,B,C[,S].")],
-    machine: Annotated[str, typer.Option("--machine", help="Preset name or machine YAML.")],
+    machine: MachineOption,
     length_mm: Annotated[float, typer.Option("--length", help="Calibrated length L, mm.")],
     params: Annotated[
         Path | None, typer.Option("--params", help="RESULT.json or a parameter set.")
