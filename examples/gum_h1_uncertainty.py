@@ -18,9 +18,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from mtmetrology.cli.uncertainty import Method, evaluate_model
 from mtmetrology.report.demo import DemoContext
 from mtmetrology.report.results import add_result
+from mtmetrology.uncertainty.evaluation import evaluate_model
 from mtmetrology.uncertainty.modelfile import load_model
 
 #: The model file of GUM H.1 shipped beside this script (also read by gum_h1_end_gauge.py).
@@ -32,16 +32,17 @@ def main(ctx: DemoContext) -> None:
     ctx.write_text(MODEL.read_text(encoding="utf-8"), "uncertainty", "gum-h1.yaml")
     loaded = load_model(ctx.path("uncertainty", "gum-h1.yaml"))
     with ctx.step("GUM H.1 by GUF and adaptive Monte Carlo (2 significant digits)"):
-        document, g, r, validation = evaluate_model(
+        evaluation = evaluate_model(
             loaded,
-            ctx.path("uncertainty", "gum-h1.yaml"),
-            Method.both,
+            "both",
             adaptive=True,
             digits=2,
             seed=ctx.seed,
             p=0.99,
+            source=str(ctx.path("uncertainty", "gum-h1.yaml")),
         )
-    ctx.write_json(document, "uncertainty", "gum-h1-result.json")
+    g, r, validation = evaluation.guf, evaluation.mcm, evaluation.validation
+    ctx.write_json(evaluation.to_dict(), "uncertainty", "gum-h1-result.json")
     ctx.report.section(
         "Uncertainty of a measurement model: GUM H.1",
         "The end-gauge calibration of JCGM 100:2008, annex H.1: the GUF gives u = 32 nm and "
@@ -49,9 +50,7 @@ def main(ctx: DemoContext) -> None:
         "u = 34 nm, as the annex's second-order analysis (H.1.7), and a shorter 99 % "
         "interval, so the GUF is not validated at two significant digits.",
     )
-    add_result(ctx.report, validation, units=dict(zip(g.names, g.units, strict=True)))
-    add_result(ctx.report, g)
-    add_result(ctx.report, r, names=loaded.output_names, units=loaded.output_units, guf=g)
+    add_result(ctx.report, evaluation)
     ctx.command(
         "GUF, Monte Carlo and validation",
         "uncertainty",

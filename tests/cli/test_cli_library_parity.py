@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -585,7 +586,21 @@ def case_verify_length(tmp_path):
     return cli, library.to_dict()
 
 
+def case_uncertainty_run(tmp_path):
+    from mtmetrology.uncertainty.evaluation import evaluate_model
+    from mtmetrology.uncertainty.modelfile import load_model
+
+    model = Path(__file__).resolve().parents[2] / "examples" / "gum-h1-end-gauge.yaml"
+    options = ("--method", "both", "--trials", "20000", "--seed", "3", "--p", "0.99")
+    cli = _json(["uncertainty", "run", model, *options, "--json"])
+    library = evaluate_model(
+        load_model(model), "both", trials=20000, seed=3, p=0.99, source=str(model)
+    )
+    return cli, library.to_dict()
+
+
 CASES = {
+    "uncertainty run": case_uncertainty_run,
     "budget volumetric-map": case_volumetric_map,
     "cmm compare": case_cmm_compare,
     "design compare": case_design_compare,

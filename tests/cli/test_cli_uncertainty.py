@@ -94,9 +94,9 @@ def test_rich_output_prints_budget_results_and_verdict():
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--trials", "100"], "--trials and --adaptive apply to --method mcm or both"),
-        (["--method", "mcm", "--trials", "100", "--adaptive"], "either --trials N or --adaptive"),
-        (["--p", "1.5"], "--p must lie in (0, 1)"),
+        (["--trials", "100"], "trials and adaptive apply to the Monte Carlo method"),
+        (["--method", "mcm", "--trials", "100", "--adaptive"], "either a number of trials or"),
+        (["--p", "1.5"], "p (the coverage probability) must lie in (0, 1), got 1.5"),
     ],
 )
 def test_bad_options_exit_with_a_message(args, message):

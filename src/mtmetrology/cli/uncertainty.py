@@ -26,17 +26,11 @@ from rich.console import Console
 from rich.table import Table
 
 from mtmetrology.cli._common import ReportOption, command_line, emit_result, fail
-from mtmetrology.errors import ConvergenceError, MtmetrologyError, ResourceLimitError
+from mtmetrology.errors import MtmetrologyError, ResourceLimitError
 
 if TYPE_CHECKING:
     from mtmetrology.uncertainty.guf import GUFResult
     from mtmetrology.uncertainty.outputs import Output
-
-#: Most Monte Carlo values kept for the coverage intervals (trials x outputs): 400 MB.
-MAX_VALUES = 50_000_000
-#: Most significant digits an adaptive run may be asked for (JCGM 101:2008, 7.9.2 uses
-#: 1 or 2; each further digit costs 100 times the trials).
-MAX_DIGITS = 3
 
 app = typer.Typer(help="Evaluate measurement uncertainty (GUF, Monte Carlo).", no_args_is_help=True)
 
@@ -96,62 +90,18 @@ def _results_table(title: str, outputs: tuple[Output, ...], extra: dict | None =
     return table
 
 
-def _report(loaded, model_file: Path, g, r, validation, command, *, seed):
-    """The HTML report: GUF budget, Monte Carlo histograms against the GUF, validation."""
+def _report(evaluation, model_file: Path, command, *, seed):
+    """The HTML report: validation, GUF budget, Monte Carlo histograms against the GUF."""
     from mtmetrology.report import Report
     from mtmetrology.report.results import add_result
 
     provenance = {"inputs": [model_file], "seed": "none (fresh entropy)" if seed is None else seed}
     rep = Report(
-        f"Measurement uncertainty: {loaded.name or model_file.name}",
+        f"Measurement uncertainty: {evaluation.model or model_file.name}",
         command=command,
         provenance=provenance,
     )
-    if validation is not None:
-        units = dict(zip(loaded.output_names, loaded.output_units or [], strict=False))
-        add_result(rep, validation, units=units)
-    if g is not None:
-        add_result(rep, g)
-    if r is not None:
-        add_result(rep, r, names=loaded.output_names, units=loaded.output_units, guf=g)
-    return rep
-
-
-def evaluate_model(loaded, model_file: Path, method: Method, *, digits=2, p=0.95, **mcm_options):
-    """The ``uncertainty-result`` document of a loaded model and the results behind it.
-
-    ``mcm_options`` go to :func:`mtmetrology.uncertainty.mcm.monte_carlo` (``trials``,
-    ``adaptive``, ``seed``, ``executor``).
-
-    Returns
-    -------
-    (dict, GUFResult or None, MCMResult or None, ValidationReport or None)
-        The document of :func:`mtmetrology.uncertainty.outputs.result_document`, the
-        results of each method that ran, and the validation when both did.
-    """
-    from mtmetrology.uncertainty.guf import guf
-    from mtmetrology.uncertainty.mcm import monte_carlo
-    from mtmetrology.uncertainty.outputs import result_document
-    from mtmetrology.uncertainty.validation import validate_results
-
-    g = r = report = None
-    if method in (Method.guf, Method.both):
-        g = guf(loaded.model, loaded.inputs, p=p)
-    if method in (Method.mcm, Method.both):
-        max_trials = min(10_000_000, MAX_VALUES // len(loaded.output_names))
-        r = monte_carlo(
-            loaded.model, loaded.inputs, digits=digits, p=p, max_trials=max_trials, **mcm_options
-        )
-        if r.converged is False:
-            raise ConvergenceError(
-                f"adaptive Monte Carlo did not reach the tolerance of "
-                f"{digits} significant digit(s) within {r.trials} trials; ask for fewer "
-                "--digits or run a fixed number of --trials"
-            )
-    if g is not None and r is not None:
-        report = validate_results(g, r, digits=digits)
-    document = result_document(g, r, report, model=loaded.name, source=str(model_file))
-    return document, g, r, report
+    return add_result(rep, evaluation)
 
 
 @app.command("run")
@@ -175,37 +125,34 @@ def run(
 ) -> None:
     """Evaluate a measurement model by GUF, Monte Carlo, or both (with validation)."""
     from mtmetrology.formatting import format_value
+    from mtmetrology.uncertainty.evaluation import evaluate_model
     from mtmetrology.uncertainty.modelfile import ModelFileError, load_model
 
-    if not 0.0 < p < 1.0:
-        _fail(f"--p must lie in (0, 1), got {p}")
-    if method is Method.guf and (trials is not None or adaptive):
-        _fail("--trials and --adaptive apply to --method mcm or both")
-    if trials is not None and adaptive:
-        _fail("give either --trials N or --adaptive, not both")
-    if not 1 <= digits <= MAX_DIGITS:
-        _fail(f"--digits must be 1 to {MAX_DIGITS} significant digits, got {digits}")
     try:
         loaded = load_model(model_file)
     except ModelFileError as exc:
         _fail(str(exc))
-    n_outputs = len(loaded.output_names)
-    if trials is not None and not 2 <= trials <= MAX_VALUES // n_outputs:
-        raise ResourceLimitError(
-            f"--trials {trials}: give 2 to {MAX_VALUES // n_outputs} trials for "
-            f"{n_outputs} output(s) (every value is kept for the coverage intervals)"
-        )
     try:
-        mcm_options = {"trials": trials, "adaptive": adaptive, "seed": seed, "executor": executor}
-        document, g, r, report = evaluate_model(
-            loaded, model_file, method, digits=digits, p=p, **mcm_options
+        evaluation = evaluate_model(
+            loaded,
+            method.value,
+            digits=digits,
+            p=p,
+            trials=trials,
+            adaptive=adaptive,
+            seed=seed,
+            executor=executor,
+            source=str(model_file),
         )
+    except ResourceLimitError:
+        raise
     except (MtmetrologyError, ValueError, TypeError) as exc:
         _fail(f"{model_file}: {exc}")
+    g, r, report = evaluation.guf, evaluation.mcm, evaluation.validation
 
     html = None
     if report_path is not None:
-        html = _report(loaded, model_file, g, r, report, command_line(ctx), seed=seed)
+        html = _report(evaluation, model_file, command_line(ctx), seed=seed)
 
     def summary() -> None:
         console = Console()
@@ -240,5 +187,10 @@ def run(
             console.print(f"[bold]{verdict}[/bold] by Monte Carlo ({report.procedure})")
 
     emit_result(
-        document, summary, output=None, report=html, report_path=report_path, as_json=as_json
+        evaluation.to_dict(),
+        summary,
+        output=None,
+        report=html,
+        report_path=report_path,
+        as_json=as_json,
     )

@@ -34,6 +34,7 @@ from mtmetrology.kinematics.compensation import Compensation, correction_statist
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
+from mtmetrology.uncertainty.evaluation import ModelEvaluation
 from mtmetrology.uncertainty.guf import GUFResult
 from mtmetrology.uncertainty.mcm import MCMResult
 from mtmetrology.uncertainty.validation import ValidationReport
@@ -232,6 +233,18 @@ def _validation(rep: Report, v, *, units=None, **_) -> None:
 
 
 # -- identification ------------------------------------------------------------------------
+@renders(ModelEvaluation, "Measurement uncertainty")
+def _model_evaluation(rep: Report, e, **_) -> None:
+    """The validation first (its verdict decides which result to quote), then each method."""
+    if e.validation is not None:
+        units = dict(zip(e.output_names, e.output_units, strict=False))
+        _validation(rep, e.validation, units=units)
+    if e.guf is not None:
+        _guf(rep, e.guf)
+    if e.mcm is not None:
+        _mcm(rep, e.mcm, names=e.output_names, units=e.output_units or None, guf=e.guf)
+
+
 @renders(IdentifiabilityReport, "Identifiability")
 def _identifiability(rep: Report, d, **_) -> None:
     rep.section("Identifiability", d.message)

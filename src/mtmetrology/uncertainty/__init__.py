@@ -19,6 +19,8 @@
 - :mod:`~mtmetrology.uncertainty.validation` — GUF validated by Monte Carlo;
 - :mod:`~mtmetrology.uncertainty.executors` — in-process, process pool, Dask;
 - :mod:`~mtmetrology.uncertainty.modelfile` — measurement models in YAML;
+- :mod:`~mtmetrology.uncertainty.evaluation` — a model file by the GUF, Monte Carlo or
+  both, validated (what ``mtm uncertainty run`` computes);
 - :mod:`~mtmetrology.uncertainty.conformity` — ISO 14253-1 decision rules (JCGM 106): a
   specification ``Tolerance`` and ``decide``;
 - :mod:`~mtmetrology.uncertainty.unexplained_estimate` — a 3×3 error covariance (cov(e))
@@ -64,6 +66,8 @@ _EXPORTS = {
     "monte_carlo": "mtmetrology.uncertainty.mcm",
     "MeasurementModel": "mtmetrology.uncertainty.modelfile",
     "load_model": "mtmetrology.uncertainty.modelfile",
+    "ModelEvaluation": "mtmetrology.uncertainty.evaluation",
+    "evaluate_model": "mtmetrology.uncertainty.evaluation",
     "Output": "mtmetrology.uncertainty.outputs",
     "result_document": "mtmetrology.uncertainty.outputs",
     "UncertaintyResult": "mtmetrology.uncertainty.result",
@@ -88,6 +92,7 @@ if TYPE_CHECKING:
         Triangular,
         make_distribution,
     )
+    from mtmetrology.uncertainty.evaluation import ModelEvaluation, evaluate_model
     from mtmetrology.uncertainty.executors import (
         DaskExecutor,
         InProcessExecutor,
@@ -115,6 +120,7 @@ __all__ = [
     "InputSet",
     "MCMResult",
     "MeasurementModel",
+    "ModelEvaluation",
     "MultivariateNormal",
     "MultivariateT",
     "Normal",
@@ -129,6 +135,7 @@ __all__ = [
     "UncertaintyResult",
     "ValidationReport",
     "decide",
+    "evaluate_model",
     "guf",
     "load_model",
     "make_distribution",
