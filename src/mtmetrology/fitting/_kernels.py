@@ -85,3 +85,17 @@ def kasa_moments(xt, scale, out):  # pragma: no cover - compiled
         for i in range(m):
             for j in range(i):
                 out[k, j, i] = out[k, i, j]
+
+
+@njit_cached(nogil=True)
+def round_residuals(xt, centres, radii, out):  # pragma: no cover - compiled
+    """out[k, p] = ‖x_kp − c_k‖ − r_k of coordinate-major sets ``xt`` (K, d, n), in one
+    pass (the numpy path forms the (K, d, n) differences first)."""
+    k_sets, d, n = xt.shape
+    for k in range(k_sets):
+        for p in range(n):
+            squared = 0.0
+            for j in range(d):
+                e = xt[k, j, p] - centres[k, j]
+                squared += e * e
+            out[k, p] = np.sqrt(squared) - radii[k]

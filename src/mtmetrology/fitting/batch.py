@@ -251,9 +251,13 @@ def _round_gauss_newton(
     return solve.x[:, :d], out_radii, solve.status, solve.nit
 
 
-def round_residuals(xt: np.ndarray, c: np.ndarray, r: np.ndarray) -> np.ndarray:
+def round_residuals(xt: np.ndarray, c: np.ndarray, r: np.ndarray, kernels=None) -> np.ndarray:
     """Radial residuals ``‖x_i − c‖ − r`` (k, n) of coordinate-major sets xt (k, d, n)
-    about centres c (k, d) and radii r (k,), mm."""
+    about centres c (k, d) and radii r (k,), mm (by the compiled ``kernels`` when given)."""
+    if kernels is not None:
+        out = np.empty(xt.shape[::2])
+        kernels.round_residuals(xt, np.ascontiguousarray(c), np.ascontiguousarray(r), out)
+        return out
     return np.sqrt(_squared_norms(xt - c[:, :, None])) - r[:, None]
 
 
@@ -323,7 +327,7 @@ def fit_spheres(points: object, radius: float | None = None) -> BatchRoundFit:
         require_spread_scatter(kind, scatter, start)
         scale = np.sqrt(np.trace(scatter, axis1=1, axis2=2) / xt.shape[2])
         c, r, status[part], nit[part] = _round_gauss_newton(xt, scale, radius, kernels)
-        residuals[part] = round_residuals(xt, c, r)
+        residuals[part] = round_residuals(xt, c, r, kernels)
         centres[part], radii[part] = c + centroid, r
     return _round_fit(kind, centres, radii, None, residuals, status, nit)
 
@@ -357,8 +361,9 @@ def fit_circles(points: object) -> BatchRoundFit:
     vt = require_spread_sets(kind, x, 2, "collinear")
     if p.shape[2] == 2:
         xt = np.ascontiguousarray(x.transpose(0, 2, 1))
-        c, r, status, nit = _round_gauss_newton(xt, scale, None, _compiled_kernels(len(p)))
-        res = round_residuals(xt, c, r)
+        kernels = _compiled_kernels(len(p))
+        c, r, status, nit = _round_gauss_newton(xt, scale, None, kernels)
+        res = round_residuals(xt, c, r, kernels)
         centres, normals = c + centroid, None
     else:
         normals = canonical_rows(vt[:, 2])
@@ -369,7 +374,7 @@ def fit_circles(points: object) -> BatchRoundFit:
         kernels = _compiled_kernels(len(p))
         c2, r, status, nit = _round_gauss_newton(uv - uv_mean[:, :, None], scale, None, kernels)
         c2 = c2 + uv_mean
-        res = round_residuals(uv, c2, r)
+        res = round_residuals(np.ascontiguousarray(uv), c2, r, kernels)
         centres = centroid + c2[:, 0:1] * e1 + c2[:, 1:2] * e2
     return _round_fit(kind, centres, r, normals, res, status, nit)
 
