@@ -44,6 +44,18 @@ def test_clearance_decides_at_the_stated_distance(machine):
         return bool(accessible(machine, rule, centres, pairs)[0][0, 0])
 
     assert not reachable(23.0) and reachable(21.0)
+    assert reachable(22.0) and not reachable(22.001)
+
+
+@pytest.mark.parametrize(("short_by_mm", "free"), [(1e-12, True), (1e-3, False)])
+def test_a_clearance_met_to_rounding_is_met(machine, short_by_mm, free):
+    """3 + 5 + 22 = 30 mm needed beside the shank: a stem short of it by rounding (1e-12 mm,
+    the kinematics' own error on a mm grid) does not block; short by 1 µm it does."""
+    centres = np.array([[0.0, 0.0, 75.0], [80.0, 30.0 - short_by_mm, 175.0]])
+    rule = AccessibilityRule(
+        check_travel=False, probe_radius_mm=3, stem_radius_mm=5, clearance_mm=22
+    )
+    assert bool(accessible(machine, rule, centres, np.array([[90.0, 0.0]]))[0][0, 0]) is free
 
 
 def test_travel_limits_refuse_readings_outside(machine):

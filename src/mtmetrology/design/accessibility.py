@@ -204,7 +204,10 @@ def accessible(
         d_ball = np.linalg.norm(rel - t[..., None] * u, axis=-1)
         need_stem = rule.probe_radius_mm + rule.stem_radius_mm + rule.clearance_mm
         need_ball = rule.probe_radius_mm + 0.5 * rule.ball_diameter_mm + rule.clearance_mm
-        clash = (d_stem < need_stem) | (d_ball < need_ball)
+        # a clearance met exactly is met: decided to 1 nm, not by the rounding of the
+        # kinematics (balls on a mm grid put stylus and stem exactly at the clearance)
+        touch = 1e-6
+        clash = (d_stem < need_stem - touch) | (d_ball < need_ball - touch)
         clash[:, np.arange(n), np.arange(n)] = False  # a ball is not its own obstacle
         ok &= ~np.any(clash, axis=2)
     return ok, q

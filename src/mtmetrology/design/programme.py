@@ -338,8 +338,8 @@ def evaluate_programme(
     >>> line = np.array([(b, 3 * b) for b in range(-90, 91, 15)], dtype=float)
     >>> free = AccessibilityRule(check_travel=False)
     >>> p = evaluate_programme(m, list("1234"), balls, line, rule=free)
-    >>> p.report.full_rank, p.n_measurements   # 11 fixed + 13 x 4, one hidden by a stem
-    (False, 62)
+    >>> p.report.full_rank, p.n_measurements   # 11 fixed + 13 x 4
+    (False, 63)
     """
     check_sigma(sigma_mm)
     bar = bar or ScaleBarPlacement()
