@@ -45,10 +45,10 @@ def _params(path, seed=1):
     return path
 
 
-def _json(args: list[str]) -> dict:
+def _json(args: list[str], json_output: bool = True) -> dict | None:
     result = runner.invoke(app, [str(a) for a in args])
     assert result.exit_code == 0, result.output
-    return json.loads(result.stdout)
+    return json.loads(result.stdout) if json_output else None
 
 
 def _plain(document: dict) -> dict:
@@ -599,7 +599,65 @@ def case_uncertainty_run(tmp_path):
     return cli, library.to_dict()
 
 
+def case_cmm_budget(tmp_path):
+    import yaml
+
+    from mtmetrology.cmm.budget import ballplate_budget_file
+
+    spec = {
+        "kind": "ballplate-budget",
+        "length_mm": 532.0,
+        "observed": {"value_mm": 532.01797, "s_um": 2.0, "n": 6},
+        "verification_um": 1.0,
+        "indication_resolution_um": 0.1,
+        "probe_reproducibility_um": 0.5,
+        "air": {"temperature_C": 20.6, "pressure_Pa": 101325.0, "humidity_percent": 51.0},
+        "hygrometer_U_percent": 1.1,
+        "humidity_resolution_percent": 1.0,
+        "barometer_U_Pa": 20.0,
+        "pressure_resolution_Pa": 1.0,
+        "air_thermometer_U_K": 0.02,
+        "air_thermometer_resolution_K": 0.01,
+        "misalignment_um": 50.0,
+        "part_temperature_C": 20.6,
+        "part_thermometer_U_K": 0.02,
+        "temperature_spread_K": 0.5,
+        "cte_per_K": 11.5e-6,
+        "cte_halfwidth_per_K": 1.0e-6,
+    }
+    path = tmp_path / "budget.yaml"
+    path.write_text(yaml.safe_dump(spec), encoding="utf-8")
+    cli = _json(["calibrate", "ballplate-budget", path, "-o", tmp_path / "out.json", "--json"])
+    return cli, ballplate_budget_file(path).to_dict()
+
+
+def case_machine_identifiability(tmp_path):
+    from mtmetrology.samba.identifiability import setup_identifiability
+
+    examples = Path(__file__).resolve().parents[2] / "examples" / "samba"
+    artefact, poses = examples / "artefact.yaml", tmp_path / "programme.csv"
+    _json(  # the example's probing programme as ball-centre indications (ball,X,Y,Z,B,C,S)
+        [
+            *("simulate", "samba", "--machine", "five-axis-wcbxfzyst", "--model", "13"),
+            *("--artefact", artefact, "--truth", examples / "truth.json"),
+            *("--balls", examples / "balls.yaml", "--poses", examples / "poses.csv"),
+            *("--seed", "1", "-o", poses),
+        ],
+        json_output=False,
+    )
+    cli = _json(
+        [
+            *("machine", "identifiability", "five-axis-wcbxfzyst", poses),
+            *("--artefact", artefact, "--sigma-um", "0.7", "--json"),
+        ]
+    )
+    library = setup_identifiability("five-axis-wcbxfzyst", poses, artefact=artefact, sigma_um=0.7)
+    return cli, library.to_dict()
+
+
 CASES = {
+    "calibrate ballplate-budget": case_cmm_budget,
+    "machine identifiability": case_machine_identifiability,
     "uncertainty run": case_uncertainty_run,
     "budget volumetric-map": case_volumetric_map,
     "cmm compare": case_cmm_compare,

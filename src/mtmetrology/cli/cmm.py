@@ -237,18 +237,15 @@ def budget_cmd(
     report_path: ReportOption = None,
 ) -> None:
     """Uncertainty budget of a ball-plate length (15 items, Edlén refractive index, GUF)."""
-    from mtmetrology.cmm.budget import ballplate_budget, cmm_statement, load_budget
+    from mtmetrology.cmm.budget import ballplate_budget_file
     from mtmetrology.units import from_internal
 
-    spec = load_budget(budget)
-    res = ballplate_budget(spec)
-    doc = {"kind": "ballplate-budget-result", "version": 1, **res.to_dict()}
-    if spec.specification is not None:
-        doc["statement"] = cmm_statement(spec).to_dict()
+    result = ballplate_budget_file(budget)
+    doc = result.to_dict()
     report = None
     if report_path is not None:
         report = cmm_report(ctx, f"Ball-plate length budget: {budget.name}", [budget])
-        add_cmm_result(report, res)
+        add_cmm_result(report, result)
 
     def messages() -> None:
         o = doc["outputs"][0]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Annotated
 
@@ -14,8 +13,6 @@ from mtmetrology.cli._common import (
     ReportOption,
     command_line,
     emit_result,
-    readings_from_table,
-    senses_from_table,
     user_errors,
 )
 from mtmetrology.errors import EXIT_INPUT, InputError, RankDeficientError
@@ -160,7 +157,8 @@ def check(machine_file: Annotated[Path, typer.Argument(help="Machine YAML file."
     console.print("valid")
 
 
-def _identifiability_report(diagnosis, setup, command, inputs):
+def _identifiability_report(result, command, inputs):
+    import mtmetrology.samba.report  # noqa: F401  (registers the SAMBA renderers)
     from mtmetrology.report import Report
     from mtmetrology.report.results import add_result
 
@@ -169,30 +167,7 @@ def _identifiability_report(diagnosis, setup, command, inputs):
         command=command,
         provenance={"inputs": [p for p in inputs if p is not None]},
     )
-    report.section("Set-up").table(["item", "value"], setup)
-    return add_result(report, diagnosis)
-
-
-def _styli(table, art, path) -> dict:
-    """``tools``/``tool_index`` of a programme with a ``tool`` column (several styli, their
-    vectors from the artefact's ``tools``), ``{}`` without one."""
-    if not table.has("tool"):
-        return {}
-    import numpy as np
-
-    listed = {t.id: t.vector_mm for t in (art.tools or [])} if art else {}
-    names = table.strings("tool")
-    bad = next((i for i, t in enumerate(names) if t not in listed), None)
-    if bad is not None:
-        raise InputError(
-            f"{path}, line {table.lines[bad]}: tool {names[bad]!r} is not in the artefact's "
-            f"tools ({', '.join(listed) or 'give --artefact with tools'})"
-        )
-    used = [t for t in listed if t in set(names)]
-    return {
-        "tools": np.array([listed[t] for t in used], dtype=float),
-        "tool_index": np.array([used.index(t) for t in names]),
-    }
+    return add_result(report, result)
 
 
 @app.command("identifiability")
@@ -239,64 +214,30 @@ def identifiability(
     """
     # here, not at the top: ``mtm machine list`` needs neither the identification nor
     # the CSV reader (pyarrow)
-    from mtmetrology.identification import (
-        BallCentreProblem,
-        ScaleBar,
-        analyse_identifiability,
-        senses_from_sequence,
-    )
-    from mtmetrology.io.tables import read_csv_table
-    from mtmetrology.kinematics.machine import Machine
-    from mtmetrology.samba.artefact import load_artefact
-    from mtmetrology.units import to_internal
+    from mtmetrology.samba.identifiability import setup_identifiability
 
-    if not (math.isfinite(sigma_um) and sigma_um > 0):
-        raise InputError(f"--sigma-um must be a positive number of µm, got {sigma_um}")
-    m = Machine.load(machine, model)
-    if add:
-        m = m.with_parameters([*m.parameter_names, *add])
-    table = read_csv_table(poses, required=["ball"])
-    q = readings_from_table(m, table)
-    senses = senses_from_table(m, table)
-    if senses is None and m.chain.has_reversal:
-        senses = senses_from_sequence(q)
-    art = load_artefact(artefact) if artefact else None
-    bars: list[ScaleBar] = art.scale_bars() if art else []
-    problem = BallCentreProblem(
-        m,
-        q,
-        table.strings("ball"),
-        senses=senses,
-        scale_bars=bars,
+    result = setup_identifiability(
+        machine,
+        poses,
+        model=model,
+        artefact=artefact,
+        add=add,
         estimate_tool=estimate_tool,
-        sigma=float(to_internal(sigma_um, "µm")),
-        **_styli(table, art, poses),
+        sigma_um=sigma_um,
     )
-    _, jac = problem.evaluate(problem.initial())
-    rep = analyse_identifiability(
-        jac, problem.names, n_measurements=len(table), report_names=m.parameter_names
-    )
+    rep = result.diagnosis
     deficient = not rep.full_rank and not allow_deficient
     report = None
     if report_path is not None:
-        setup = [
-            ["machine", f"{m.name}, model {m.model_name or 'custom'}"],
-            ["parameters", m.n_params],
-            ["balls", problem.n_balls],
-            ["indications", len(table)],
-            ["scale bars", len(bars)],
-            ["tool offset", "estimated" if estimate_tool else "known"],
-            ["indication σ (µm)", sigma_um],
-        ]
-        report = _identifiability_report(rep, setup, command_line(ctx), [poses, artefact])
+        report = _identifiability_report(result, command_line(ctx), [poses, artefact])
 
     def summary() -> None:
         console = Console()
         if not rep.full_rank:
             console.print(f"[bold red]rank deficient[/bold red]: {rep.message}")
         console.print(
-            f"{m.name} model {m.model_name or 'custom'}: {m.n_params} parameters, "
-            f"{problem.n_balls} balls, {len(table)} indications, {len(bars)} scale bar(s), "
+            f"{result.machine}: {result.n_params} parameters, {result.n_balls} balls, "
+            f"{result.n_indications} indications, {result.n_scale_bars} scale bar(s), "
             f"tool {'estimated' if estimate_tool else 'known'}, indication σ = {sigma_um:g} µm"
         )
         console.print(f"unknowns {rep.n_unknowns}, rank {rep.rank}")
@@ -326,7 +267,7 @@ def identifiability(
                 )
 
     emit_result(
-        {**rep.to_dict(), "sigma_um": sigma_um},
+        result.to_dict(),
         summary,
         output=None,
         report=report,

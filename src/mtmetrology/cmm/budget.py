@@ -35,23 +35,27 @@ JCGM 100:2008, §5.1.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from mtmetrology.cmm.notebook import CMMNotebookRepr
 from mtmetrology.cmm.statement import CMMStatement, SpecificationSpec
 from mtmetrology.errors import InputError
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError
 from mtmetrology.io.schema import describe_validation_error
-from mtmetrology.uncertainty import InputQuantity, InputSet, Normal, Rectangular, guf
+from mtmetrology.uncertainty import GUFResult, InputQuantity, InputSet, Normal, Rectangular, guf
 from mtmetrology.units import from_internal, to_internal
 
 __all__ = [
+    "BallPlateLengthBudget",
     "BudgetSpec",
     "ballplate_budget",
+    "ballplate_budget_file",
     "cmm_statement",
     "cosine_error",
     "edlen_refractivity",
@@ -255,3 +259,36 @@ def cmm_statement(spec) -> CMMStatement:
         u_E_um=float(np.sqrt(sum(v**2 for v in items.values()))),
         E_items_um=items,
     )
+
+
+@dataclass(frozen=True, eq=False)
+class BallPlateLengthBudget(CMMNotebookRepr):
+    """The ``mtm cmm budget`` result: a calibrated length's budget and, when the inputs
+    carry a specification, the CMM statement at that length.
+
+    Attributes
+    ----------
+    guf : GUFResult
+        :func:`ballplate_budget` of the inputs (one output ``l_x``, mm).
+    statement : CMMStatement or None
+        :func:`cmm_statement` (U, MPE, u(P), u(E) of eqs 3.10–3.13), None without a
+        ``specification`` section.
+    """
+
+    guf: GUFResult
+    statement: CMMStatement | None = None
+
+    def to_dict(self) -> dict:
+        """``ballplate-budget-result`` document: the GUF result's fields and ``statement``."""
+        doc = {"kind": "ballplate-budget-result", "version": 1, **self.guf.to_dict()}
+        if self.statement is not None:
+            doc["statement"] = self.statement.to_dict()
+        return doc
+
+
+def ballplate_budget_file(path: str | Path) -> BallPlateLengthBudget:
+    """The budget (and statement) of a ``ballplate-budget`` inputs file (what ``mtm cmm
+    budget`` computes); errors name the file and the field."""
+    spec = load_budget(path)
+    statement = cmm_statement(spec) if spec.specification is not None else None
+    return BallPlateLengthBudget(ballplate_budget(spec), statement)

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mtmetrology.cmm.budget import BallPlateLengthBudget
 from mtmetrology.cmm.calibrate import BallPlateCalibration
 from mtmetrology.cmm.compare import ModelComparison
 from mtmetrology.cmm.gp import GPErrorModel
@@ -128,6 +129,28 @@ def _correlation(covariance) -> np.ndarray:
     u = np.sqrt(np.diag(covariance))
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.nan_to_num(covariance / np.outer(u, u))
+
+
+@renders(BallPlateLengthBudget, "Ball-plate length budget")
+def _length_budget(rep: Report, b, **_) -> None:
+    """The GUF budget of the length, then the CMM statement at it (eqs 3.10–3.13)."""
+    add_result(rep, b.guf)
+    st = b.statement
+    if st is not None:
+        rep.section(
+            f"CMM statement at {st.length_mm:g} mm",
+            f"Expanded uncertainties at k = {st.k:g} (Salacheep (2016), eqs 3.10–3.13).",
+        )
+        rep.table(
+            ["quantity", "value (µm)"],
+            [
+                ["U of the CMM (specification)", f"{st.U_cmm_um:.3f}"],
+                ["U of the plate (certificate)", f"{st.U_plate_um:.3f}"],
+                ["MPE", f"{st.mpe_um:.3f}"],
+                ["U(P), eq. 3.12", format_uncertainty(st.U_P_um)],
+                ["U(E), eq. 3.13", format_uncertainty(st.U_E_um)],
+            ],
+        )
 
 
 @renders(BallPlateCalibration, "Ball-plate calibration of a CMM")

@@ -40,6 +40,7 @@ from mtmetrology.report.document import Report
 from mtmetrology.report.results import add_result, renders
 from mtmetrology.samba.calibrate import SambaCalibration
 from mtmetrology.samba.campaign_unexplained import ESTIMATOR, CampaignUnexplained
+from mtmetrology.samba.identifiability import SetupIdentifiability
 from mtmetrology.samba.uncertainty import SambaUncertainty
 from mtmetrology.samba.verify import LengthCheck
 from mtmetrology.units import from_internal
@@ -77,6 +78,12 @@ def _correlation(covariance) -> np.ndarray:
     u = np.sqrt(np.diag(cov))
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.nan_to_num(cov / np.outer(u, u))
+
+
+@renders(SetupIdentifiability, "Identifiability of a probing set-up")
+def _setup_identifiability(rep: Report, result, **_) -> None:
+    rep.section("Set-up").table(["item", "value"], result.setup_rows())
+    add_result(rep, result.diagnosis)
 
 
 @renders(SambaCalibration, "SAMBA calibration")
