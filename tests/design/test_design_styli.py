@@ -79,10 +79,8 @@ def test_a_second_stylus_never_raises_a_parameter_u():
         assert q["u_all"] <= q["u_one"] * (1 + 1e-9), q["name"]
 
 
-def test_several_styli_need_placed_balls_and_two_of_them(m14):
-    grid = (["a", "b"], np.array([[0.0, 40.0, 75.0], [80.0, 40.0, 100.0]]))
-    with pytest.raises(InputError, match="placed balls"):
-        plan_samba(m14, PAIRS, candidates=grid, n_balls=1, tools=STYLI)
+def test_several_styli_means_two_of_them(m14):
+    """(Step 1 with several styli: tests/design/test_design_step1_styli.py.)"""
     with pytest.raises(InputError, match="two or more styli"):
         plan_samba(m14, PAIRS, balls=BALLS, tools=STYLI[:1])
 

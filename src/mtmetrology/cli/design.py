@@ -80,7 +80,7 @@ def samba(
         typer.Option(
             "--tool",
             help="A stylus ID=x,y,z (mm); two or more: the programme is probed with each "
-            "(needs --balls).",
+            "(both the ball and the indexation choice).",
         ),
     ] = None,
     balls_from: Annotated[
@@ -161,9 +161,10 @@ def samba(
     `mtm simulate samba --poses PROGRAMME.csv --balls BALLS.yaml --artefact ARTEFACT.yaml`
     (with the files of --balls-out and --artefact-out) simulates the planned test.
 
-    With two or more --tool styli every row is probed with each (a tool column), and the
-    plan reports what the styli after the first buy: the parameters the first alone
-    confounds, the condition number and the predicted u with one stylus and with all.
+    With two or more --tool styli every row is probed with each (a tool column), balls
+    from --balls-from are chosen for the multi-stylus programme, and the plan reports
+    what the styli after the first buy: the parameters the first alone confounds, the
+    condition number and the predicted u with one stylus and with all.
     """
     from mtmetrology.design.accessibility import AccessibilityRule, load_accessibility_rule
     from mtmetrology.design.counts import COUNT_RULES

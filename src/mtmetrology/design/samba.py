@@ -12,11 +12,14 @@ Two DETMAX steps (Alami Mchichi 2018, §5.5, Fig. 5.3; digest 004 §3.9):
 The rows of a design and its predictions are those of
 :mod:`mtmetrology.design.programme`.
 
-With several styli (``tools``) step 2 chooses indexations for the programme probed with
-every stylus, and the design also evaluates the same indexations with the first stylus
-alone (:attr:`SambaDesign.one_stylus`): the parameters only the second stylus makes
-identifiable, and the condition number and predicted u before and after (Alami Mchichi
-(2018) Table 4.4).  Step 1 (ball choice) runs with one stylus only.
+With several styli (``tools``) both steps plan the programme probed with every stylus:
+step 1 scores each candidate ball with its rows probed by each stylus where every stylus
+reaches it (the rows and accessibility of :mod:`~mtmetrology.design.programme`), so the
+exchange maximises the criterion of the multi-stylus information matrix, and step 2
+chooses indexations likewise.  The design also evaluates the same balls and indexations
+with the first stylus alone (:attr:`SambaDesign.one_stylus`): the parameters only the
+second stylus makes identifiable, and the condition number and predicted u before and
+after (Alami Mchichi (2018) Table 4.4).
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mtmetrology.design.accessibility import AccessibilityRule, accessible
+from mtmetrology.design.accessibility import AccessibilityRule
 from mtmetrology.design.choices import SCALED_CRITERIA
 from mtmetrology.design.counts import (
     MINUTES_PER_MEASUREMENT,
@@ -58,7 +61,14 @@ from mtmetrology.kinematics.machine import Machine
 from mtmetrology.rng import SeedLike, chunk_generators
 from mtmetrology.units import from_internal
 
-__all__ = ["BallInformation", "SambaDesign", "choose_balls", "choose_indexations", "plan_samba"]
+__all__ = [
+    "BallInformation",
+    "SambaDesign",
+    "ball_information",
+    "choose_balls",
+    "choose_indexations",
+    "plan_samba",
+]
 
 
 @dataclass
@@ -310,6 +320,108 @@ def _check_machine(machine: Machine):
         raise InputError(f"machine {machine.name}: a SAMBA design needs rotary axes B and C")
 
 
+def ball_information(
+    machine: Machine,
+    candidate_ids,
+    candidate_centres: np.ndarray,
+    indexations_deg: np.ndarray,
+    *,
+    criterion: str = "O2",
+    bar: ScaleBarPlacement | None = None,
+    rule: AccessibilityRule | None = None,
+    sigma_mm: float = 0.001,
+    tools=None,
+) -> BallInformation:
+    """The step-1 search space: each candidate ball's information at the rich set.
+
+    Every candidate is probed at ``B = C = 0`` and at each indexation where accessible,
+    with each stylus of ``tools`` in turn (the rows of
+    :func:`~mtmetrology.design.programme.per_tool`), on top of the fixed rows (scale bar,
+    spindle indexing) probed with each stylus. The Gram matrix of a ball set ``S`` is
+    ``F(S) = J_0ᵀJ_0 + Σ_{c∈S} J_cᵀJ_c`` (rows weighted by 1/σ), assembled by
+    :class:`BallInformation` from per-candidate blocks.
+
+    Parameters
+    ----------
+    machine, candidate_ids, candidate_centres, indexations_deg, criterion, bar, rule, sigma_mm
+        As in :func:`choose_balls`.
+    tools : ndarray, shape (n_tools, 3), optional
+        Vectors of several styli (mm), each with its own three tool unknowns; a candidate
+        is probed at an indexation only where every stylus reaches it.
+
+    Returns
+    -------
+    BallInformation
+
+    Raises
+    ------
+    InputError
+        No candidate accessible at any candidate indexation.
+    """
+    _check_machine(machine)
+    check_sigma(sigma_mm)
+    bar = bar or ScaleBarPlacement()
+    rule = rule or AccessibilityRule()
+    ids = [str(i) for i in candidate_ids]
+    cent = np.asarray(candidate_centres, dtype=float)
+    mask = accessible_all(machine, rule, cent, indexations_deg, tools, obstacles=False)
+    if not mask.any():
+        raise InputError(
+            "no candidate ball is accessible at any candidate indexation: widen the travel, "
+            "lower stem_cone_deg/clearance_mm in the accessibility rule, or move the grid"
+        )
+    n_tools = 0 if tools is None else len(tools)
+    fixed_problem = programme_problem(
+        machine,
+        per_tool(fixed_programme_rows(bar, []), n_tools),
+        dict(zip(bar.ends, bar.centres_mm, strict=True)),
+        bar,
+        sigma_mm,
+        tools,
+    )
+    j0 = nominal_jacobian(fixed_problem)
+    p = machine.n_params
+    tool_names = [nm for nm in fixed_problem.names if nm.startswith("tool ")]
+    shared_names = [*machine.parameter_names, *tool_names] + [
+        f"ball {e} {c}" for e in bar.ends for c in "xyz"
+    ]
+    order0 = [fixed_problem.names.index(n) for n in shared_names]
+    j0 = j0[:, order0]
+    s = len(shared_names)
+    q = p + len(tool_names)  # shared unknowns a candidate's rows see
+    n = len(ids)
+    shared = np.zeros((n, s, s))
+    cross = np.zeros((n, s, 3))
+    own = np.zeros((n, 3, 3))
+    counts = np.zeros(n, dtype=int)
+    pairs = np.asarray(indexations_deg, dtype=float)
+    senses = approach_senses(len(pairs))
+    for i in range(n):
+        ok = np.flatnonzero(mask[:, i])
+        rows = ProgrammeRows(
+            [ids[i]] * (ok.size + 1),
+            np.r_[0.0, pairs[ok, 0]],
+            np.r_[0.0, pairs[ok, 1]],
+            np.zeros(ok.size + 1),
+            np.r_[1.0, senses[ok, 0]],
+            np.r_[1.0, senses[ok, 1]],
+        )
+        rows = per_tool(rows, n_tools)
+        prob = programme_problem(machine, rows, {ids[i]: cent[i]}, None, sigma_mm, tools)
+        j = nominal_jacobian(prob)
+        cols = [prob.names.index(nm) for nm in shared_names[:q]]
+        own_cols = [prob.names.index(f"ball {ids[i]} {c}") for c in "xyz"]
+        a = j[:, cols]
+        b = j[:, own_cols]
+        shared[i, :q, :q] = a.T @ a
+        cross[i, :q] = a.T @ b
+        own[i] = b.T @ b
+        counts[i] = len(rows.balls)
+    return BallInformation(
+        j0.T @ j0, shared, cross, own, criterion, measurement_count(0, 0), counts
+    )
+
+
 def choose_balls(
     machine: Machine,
     candidate_ids,
@@ -324,8 +436,12 @@ def choose_balls(
     starts: int = 8,
     seed: SeedLike = None,
     executor=None,
+    tools=None,
 ) -> tuple[list[str], np.ndarray, DetmaxResult]:
     """Step 1: the best ``n_balls`` of a candidate set for a fixed rich set of indexations.
+
+    DETMAX exchanges candidates to maximise the criterion of ``F(S)``
+    (:func:`ball_information`).
 
     Parameters
     ----------
@@ -347,12 +463,19 @@ def choose_balls(
         Standard uncertainty of one indication coordinate, mm.
     starts, seed, executor
         As in :func:`mtmetrology.design.detmax.detmax`.
+    tools : ndarray, shape (n_tools, 3), optional
+        Vectors of several styli (mm): every candidate is probed with each, so the balls
+        chosen are the best for the multi-stylus programme (as in step 2).
 
     Returns
     -------
     ids : list of str
     centres : ndarray, shape (n_balls, 3)
     search : DetmaxResult
+
+    References
+    ----------
+    Alami Mchichi, N. (2018), §5.5, Fig. 5.3 (DETMAX step 1); Mitchell (1974).
 
     Examples
     --------
@@ -370,67 +493,23 @@ def choose_balls(
     >>> ids
     ['d']
     """
-    _check_machine(machine)
-    check_sigma(sigma_mm)
-    bar = bar or ScaleBarPlacement()
-    rule = rule or AccessibilityRule()
     ids = [str(i) for i in candidate_ids]
-    cent = np.asarray(candidate_centres, dtype=float)
     if not 1 <= n_balls <= len(ids):
         raise InputError(f"--n-balls {n_balls} must be between 1 and the {len(ids)} candidates")
-    mask, _ = accessible(machine, rule, cent, indexations_deg, obstacles=False)
-    if not mask.any():
-        raise InputError(
-            "no candidate ball is accessible at any candidate indexation: widen the travel, "
-            "lower stem_cone_deg/clearance_mm in the accessibility rule, or move the grid"
-        )
-    fixed_problem = programme_problem(
+    space = ball_information(
         machine,
-        fixed_programme_rows(bar, []),
-        dict(zip(bar.ends, bar.centres_mm, strict=True)),
-        bar,
-        sigma_mm,
-    )
-    j0 = nominal_jacobian(fixed_problem)
-    p = machine.n_params
-    shared_names = [*machine.parameter_names, "tool x", "tool y", "tool z"] + [
-        f"ball {e} {c}" for e in bar.ends for c in "xyz"
-    ]
-    order0 = [fixed_problem.names.index(n) for n in shared_names]
-    j0 = j0[:, order0]
-    s = len(shared_names)
-    n = len(ids)
-    shared = np.zeros((n, s, s))
-    cross = np.zeros((n, s, 3))
-    own = np.zeros((n, 3, 3))
-    counts = np.zeros(n, dtype=int)
-    pairs = np.asarray(indexations_deg, dtype=float)
-    senses = approach_senses(len(pairs))
-    for i in range(n):
-        ok = np.flatnonzero(mask[:, i])
-        rows = ProgrammeRows(
-            [ids[i]] * (ok.size + 1),
-            np.r_[0.0, pairs[ok, 0]],
-            np.r_[0.0, pairs[ok, 1]],
-            np.zeros(ok.size + 1),
-            np.r_[1.0, senses[ok, 0]],
-            np.r_[1.0, senses[ok, 1]],
-        )
-        prob = programme_problem(machine, rows, {ids[i]: cent[i]}, None, sigma_mm)
-        j = nominal_jacobian(prob)
-        cols = [prob.names.index(nm) for nm in shared_names[: p + 3]]
-        own_cols = [prob.names.index(f"ball {ids[i]} {c}") for c in "xyz"]
-        a = j[:, cols]
-        b = j[:, own_cols]
-        shared[i, : p + 3, : p + 3] = a.T @ a
-        cross[i, : p + 3] = a.T @ b
-        own[i] = b.T @ b
-        counts[i] = ok.size + 1
-    space = BallInformation(
-        j0.T @ j0, shared, cross, own, criterion, measurement_count(0, 0), counts
+        ids,
+        candidate_centres,
+        indexations_deg,
+        criterion=criterion,
+        bar=bar,
+        rule=rule,
+        sigma_mm=sigma_mm,
+        tools=tools,
     )
     search = detmax(space, n_balls, starts=starts, seed=seed, executor=executor)
     chosen = search.best.members
+    cent = np.asarray(candidate_centres, dtype=float)
     return [ids[i] for i in chosen], cent[chosen], search
 
 
@@ -640,7 +719,8 @@ def plan_samba(
     tools : sequence of (id, (3,) array_like), optional
         Two or more styli (ids and nominal vectors, mm; the first is the reference):
         the programme is probed with each, and the design reports what the others buy
-        against the first alone (:meth:`SambaDesign.stylus_gain`).  Needs placed balls.
+        against the first alone (:meth:`SambaDesign.stylus_gain`).  Both steps use every
+        stylus.
 
     Returns
     -------
@@ -680,11 +760,6 @@ def plan_samba(
         tools = [(str(i), np.asarray(v, dtype=float)) for i, v in tools]
         if len(tools) < 2:
             raise InputError("--tool: give two or more styli, or none (the machine's tool)")
-        if candidates is not None:
-            raise InputError(
-                "several styli need placed balls (--balls): the ball choice (step 1) runs "
-                "with one stylus"
-            )
         vectors = np.array([v for _, v in tools])
     step_seeds = [np.random.SeedSequence(int(g.integers(2**63))) for g in chunk_generators(seed, 2)]
     balls_search = None
@@ -704,6 +779,7 @@ def plan_samba(
             starts=starts,
             seed=step_seeds[0],
             executor=executor,
+            tools=vectors,
         )
     else:
         ids, centres = [str(b) for b in balls[0]], np.asarray(balls[1], dtype=float)
