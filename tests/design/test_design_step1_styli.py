@@ -71,7 +71,7 @@ def test_step1_and_step2_with_two_styli_give_a_full_rank_plan(m14):
     assert [set(g) for g in err.value.confounded] == [{"E_AY1", "E_YY1"}]
 
 
-@pytest.mark.parametrize("criterion", ["D", "O2", "A"])
+@pytest.mark.parametrize("criterion", ["D", "O1", "O2", "A"])
 def test_one_stylus_step1_is_the_multi_stylus_path_with_one_tool(criterion):
     """No ``tools`` and the machine's own tool given as the one stylus build the same
     information bit for bit, so the one-stylus step 1 is unchanged (same balls, same
@@ -104,3 +104,42 @@ def test_cli_chooses_balls_with_two_styli(tmp_path):
     assert {b["id"] for b in doc["balls"]} <= planned
     assert doc["rank"] == doc["n_unknowns"]
     assert doc["stylus_gain"]["resolved"] == ["E_AY1", "E_YY1"]
+
+
+def test_step1_information_is_the_gram_matrix_of_the_two_stylus_programme(m14):
+    """F(S) that step 1 scores is JᵀJ of the identification Jacobian of the programme
+    (fixed rows, each ball at B = C = 0 and at every pair where both styli reach it, all
+    probed with each stylus): equal spectra after unit-diagonal scaling (which undoes any
+    column scaling of either)."""
+    from mtmetrology.design.criteria import scaled_spectrum
+    from mtmetrology.design.inputs import ScaleBarPlacement
+    from mtmetrology.design.programme import (
+        ProgrammeRows,
+        accessible_all,
+        approach_senses,
+        fixed_programme_rows,
+        nominal_jacobian,
+        per_tool,
+        programme_problem,
+    )
+
+    chosen = [3, 4]
+    space = ball_information(m14, IDS, CANDIDATES, PAIRS, criterion="D", rule=FREE, tools=VECTORS)
+    bar = ScaleBarPlacement()
+    mask = accessible_all(m14, FREE, CANDIDATES, PAIRS, VECTORS, obstacles=False)
+    senses = approach_senses(len(PAIRS))
+    parts = [fixed_programme_rows(bar, [IDS[i] for i in chosen])]
+    for i in chosen:
+        ok = np.flatnonzero(mask[:, i])
+        parts.append(
+            ProgrammeRows([IDS[i]] * ok.size, PAIRS[ok, 0], PAIRS[ok, 1], np.zeros(ok.size),
+                          senses[ok, 0], senses[ok, 1])
+        )  # fmt: skip
+    rows = per_tool(ProgrammeRows.concat(parts), 2)
+    centres = {IDS[i]: CANDIDATES[i] for i in chosen}
+    centres |= dict(zip(bar.ends, bar.centres_mm, strict=True))
+    jac = nominal_jacobian(programme_problem(m14, rows, centres, bar, 0.001, VECTORS))
+    assert space.measurements_fixed + space.measurements[chosen].sum() == len(rows.balls)
+    np.testing.assert_allclose(
+        scaled_spectrum(space.information(chosen)), scaled_spectrum(jac.T @ jac), rtol=1e-9
+    )

@@ -34,7 +34,6 @@ from mtmetrology.design.counts import (
     MINUTES_PER_MEASUREMENT,
     count_rule_for,
     indexation_count,
-    measurement_count,
 )
 from mtmetrology.design.criteria import (
     check_criterion,
@@ -371,9 +370,10 @@ def ball_information(
             "lower stem_cone_deg/clearance_mm in the accessibility rule, or move the grid"
         )
     n_tools = 0 if tools is None else len(tools)
+    fixed_rows = per_tool(fixed_programme_rows(bar, []), n_tools)
     fixed_problem = programme_problem(
         machine,
-        per_tool(fixed_programme_rows(bar, []), n_tools),
+        fixed_rows,
         dict(zip(bar.ends, bar.centres_mm, strict=True)),
         bar,
         sigma_mm,
@@ -417,9 +417,7 @@ def ball_information(
         cross[i, :q] = a.T @ b
         own[i] = b.T @ b
         counts[i] = len(rows.balls)
-    return BallInformation(
-        j0.T @ j0, shared, cross, own, criterion, measurement_count(0, 0), counts
-    )
+    return BallInformation(j0.T @ j0, shared, cross, own, criterion, len(fixed_rows.balls), counts)
 
 
 def choose_balls(
