@@ -268,9 +268,12 @@ def _design_report(design, command: str, inputs: list, doc: dict):
 
 
 def _print(doc: dict, output: Path) -> None:
+    from mtmetrology.formatting import format_uncertainty
+
     console = Console()
     console.print(
-        f"[bold]{doc['machine']}[/bold] model {doc['model']}: criterion {doc['criterion']}, "
+        f"[bold]{doc['machine']}[/bold] model {doc['model'] or 'custom'}: "
+        f"criterion {doc['criterion']}, "
         f"k = {doc['k']:g}, {doc['count_rule']} count rule ({doc['count_rule_reason']})"
     )
     bt = RichTable(title="master balls")
@@ -312,7 +315,7 @@ def _print(doc: dict, output: Path) -> None:
     for col in ("parameter", "u", "unit"):
         pt.add_column(col)
     for p in doc["parameters"]:
-        pt.add_row(p["name"], f"{p['u']:.3g}", p["unit"])
+        pt.add_row(p["name"], format_uncertainty(p["u"]), p["unit"])  # GUM 7.2.6
     console.print(pt)
     console.print(f"programme written to {output}")
 
