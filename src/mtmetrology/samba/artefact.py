@@ -76,6 +76,19 @@ class SambaArtefact(_Strict):
             raise ValueError(f"tool id(s) listed twice: {', '.join(twice)}")
         return self
 
+    def stylus_unknowns(self, names) -> dict:
+        """``tools``/``tool_index`` of an identification whose indications name their
+        stylus (``names``, one per indication): the listed tools that are used, in the
+        file's order, and each indication's index into them."""
+        import numpy as np
+
+        used = [t for t in self.tools or [] if t.id in set(names)]
+        ids = [t.id for t in used]
+        return {
+            "tools": np.array([t.vector_mm for t in used], dtype=float),
+            "tool_index": np.array([ids.index(t) for t in names]),
+        }
+
     def scale_bars(self) -> list[ScaleBar]:
         if self.scale_bar is None:
             return []

@@ -360,16 +360,8 @@ def separation_advice(groups) -> str:
 
 
 def _tools(records: SambaRecords, artefact: SambaArtefact) -> dict:
-    """``tools``/``tool_index`` of the problem when the records name a tool per indication
-    (the artefact's tools in their listed order, only those used)."""
-    if records.tools is None:
-        return {}
-    used = [t for t in artefact.tools if t.id in set(records.tools)]
-    ids = [t.id for t in used]
-    return {
-        "tools": np.array([t.vector_mm for t in used], dtype=float),
-        "tool_index": np.array([ids.index(t) for t in records.tools]),
-    }
+    """``tools``/``tool_index`` of the problem when the records name a tool per indication."""
+    return {} if records.tools is None else artefact.stylus_unknowns(records.tools)
 
 
 def calibrate(

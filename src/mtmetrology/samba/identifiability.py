@@ -87,19 +87,15 @@ def _styli(table, artefact, path) -> dict:
     vectors from the artefact's ``tools``), ``{}`` without one."""
     if not table.has("tool"):
         return {}
-    listed = {t.id: t.vector_mm for t in (artefact.tools or [])} if artefact else {}
     names = table.strings("tool")
+    listed = [t.id for t in (artefact.tools or [])] if artefact else []
     bad = next((i for i, t in enumerate(names) if t not in listed), None)
     if bad is not None:
         raise InputError(
             f"{path}, line {table.lines[bad]}: tool {names[bad]!r} is not in the artefact's "
             f"tools ({', '.join(listed) or 'give --artefact with tools'})"
         )
-    used = [t for t in listed if t in set(names)]
-    return {
-        "tools": np.array([listed[t] for t in used], dtype=float),
-        "tool_index": np.array([used.index(t) for t in names]),
-    }
+    return artefact.stylus_unknowns(names)
 
 
 def setup_identifiability(
