@@ -68,8 +68,9 @@ class ExportResult(NotebookRepr):
     notes : list of str
         What the user must know to load the tables (e.g. a Fanuc reference offset).
     at_points : dict or None
-        At the user's readings: ``r`` and ``U`` (k = 2), arrays (n, 3) in µm (in the
-        document: ``r_um``, ``U_um`` and their largest values).
+        At the user's readings: the residual ``r``, its ``U`` (k = 2) and the uncompensated
+        error ``e``, arrays (n, 3) in µm, and the ``senses`` of travel (in the document:
+        ``r_um``, ``U_um``, ``e_um``, ``senses`` and the largest values).
     """
 
     _renderer_module = "mtmetrology.export.report"
@@ -136,8 +137,11 @@ def _at_document(at: dict) -> dict:
         "points": int(length.size),
         "max_um": float(length.max()),
         "max_U_um": None if at["U"] is None else float(np.max(at["U"])),
+        "k": 2,
         "r_um": at["r"].tolist(),
         "U_um": None if at["U"] is None else at["U"].tolist(),
+        "e_um": at["e"].tolist(),
+        "senses": None if at.get("senses") is None else at["senses"].tolist(),
     }
 
 
@@ -230,14 +234,23 @@ def advise_pitch(fmt, machine, parameters, functions, bound_um: float, readings)
 def _at_arrays_from(doc: dict | None) -> dict | None:
     if doc is None:
         return None
-    u = doc["U_um"]
-    return {"r": np.array(doc["r_um"]), "U": None if u is None else np.array(u)}
+    u, senses = doc["U_um"], doc.get("senses")
+    return {
+        "r": np.array(doc["r_um"]),
+        "U": None if u is None else np.array(u),
+        "e": np.array(doc["e_um"]),
+        "senses": None if senses is None else np.array(senses),
+    }
 
 
-def _at_arrays(r: np.ndarray, u: np.ndarray | None) -> dict:
+def _at_arrays(r: np.ndarray, u: np.ndarray | None, e: np.ndarray, senses=None) -> dict:
+    """The residual r̂, its U (k = 2) and the uncompensated error e at the user's readings,
+    µm (n, 3); ``senses`` (n, n_axes) the sense of travel of each axis there."""
     return {
         "r": from_internal(r, "µm"),
         "U": None if u is None else from_internal(2 * u, "µm"),
+        "e": from_internal(e, "µm"),
+        "senses": None if senses is None else np.asarray(senses, float),
     }
 
 
@@ -350,7 +363,7 @@ def _export_grid(machine, source, pitch, points, region, per_axis, at) -> Export
     at_points = None
     if at is not None:
         tool_points = machine.forward(np.asarray(at, float))  # nominal tool points
-        at_points = _at_arrays(*grid.residual_grid(source, machine, field, tool_points)[:2])
+        at_points = _at_arrays(*grid.residual_grid(source, machine, field, tool_points))
     return ExportResult(
         "grid",
         name,
@@ -382,6 +395,7 @@ def export_compensation(
     bound_um: float | None = None,
     region: dict | None = None,
     at: np.ndarray | None = None,
+    at_senses: np.ndarray | None = None,
     reference: dict | None = None,
 ) -> ExportResult:
     """Control tables of one format and the residual error after the control applies them.
@@ -410,7 +424,11 @@ def export_compensation(
         covers; the box the travel reaches (or the source map's grid) otherwise.  A box
         outside it is refused.
     at : ndarray, shape (n, n_axes), optional
-        The user's readings (internal units): the residual and its U there as well.
+        The user's readings (internal units): the residual r̂, its U (k = 2) and the
+        uncompensated error e there as well (``at_points``).
+    at_senses : ndarray, shape (n, n_axes), optional
+        Sense of travel (+1 / −1) of each axis at the readings ``at`` (axis-table formats);
+        positive travel when omitted.
     reference : dict of axis to float, optional
         Reference position per axis (mm or degrees), a point of the table: a Fanuc table
         is zero there (the control's reference return absorbs the error at that point).
@@ -450,7 +468,10 @@ def export_compensation(
         summary["negative"] = _negative(model, tables, constants, readings)
     at_points = None
     if at is not None:
-        at_points = _at_arrays(*residual_check(model, tables, constants, np.asarray(at, float)))
+        at = np.asarray(at, float)
+        r_at, u_at = residual_check(model, tables, constants, at, at_senses)
+        e_at, _ = residual(model.machine, model.theta, None, [], at, at_senses)
+        at_points = _at_arrays(r_at, u_at, e_at, at_senses)
     rows = []
     for t in tables:
         lin = t.axis in LINEAR_AXES
