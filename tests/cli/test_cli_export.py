@@ -7,7 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from mtmetrology.cli import app
-from mtmetrology.export import linuxcnc
+from mtmetrology.export.emulation import emulate
 from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 
@@ -52,8 +52,8 @@ def test_export_writes_the_files_and_a_check_that_equals_the_library_result(para
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([*doc["files"], "check.json"])
     assert doc["residual"]["max_um"] < doc["residual"]["uncompensated_max_um"]
     assert doc["advisor"]["met"] and doc["advisor"]["interpolation_error_um"] <= 1
-    files = {p.name: p.read_text() for p in tmp_path.glob("*.comp")}
-    tables = linuxcnc.parse(files)
+    files = {p.name: p.read_text() for p in tmp_path.iterdir()}
+    tables = emulate("linuxcnc", files, Machine.load("three-axis-xfyz")).tables
     assert [t.function for t in tables] == ["E_XX", "E_YY", "E_ZZ"]
     assert all(
         t.positions.size == row["points"] for t, row in zip(tables, doc["tables"], strict=True)
@@ -136,8 +136,8 @@ def test_report_shows_the_tables_with_bands_and_the_residual_map(params, tmp_pat
     )
     assert res.exit_code == 0, res.output
     page = report.read_text()
-    # 18 tables in panels of 6, and the residual map
-    assert page.count("<svg") == 18 // 6 + 1
+    # 18 tables in panels of 6, and the residual maps of both senses of travel
+    assert page.count("<svg") == 18 // 6 + 2
     doc = json.loads((out / "check.json").read_text())
     assert (
         "Residual after the control applies the tables" in ExportResult.from_dict(doc)._repr_html_()

@@ -4,6 +4,7 @@ ISG_CSV and Etalon files of one model give the same tables."""
 import numpy as np
 
 from mtmetrology.export import etalon, isg
+from mtmetrology.export.emulation import emulate
 from mtmetrology.export.model import compensation_model
 from mtmetrology.kinematics import Machine
 
@@ -28,7 +29,10 @@ Gridpoints = {
 def test_the_documented_example_reads_as_errors_of_the_named_functions():
     """[C0B] is the location error E_C0B (rad), [EXY] the straightness E_XY over Y (mm);
     the control holds their negatives as corrections."""
-    tables, consts = etalon.parse({"volcomp.exc": DOCUMENTED})
+    m = Machine.load("three-axis-xfyz")
+    lis = "chain XYZ\nworkpiece_axes 1\nfile[0] volcomp.exc\nfile_format[0] ETALON_EXCHANGE\n"
+    emulated = emulate("etalon", {"volcomp.lis": lis, "volcomp.exc": DOCUMENTED}, m)
+    tables, consts = emulated.tables, emulated.constants
     assert consts == (("E_C0B", -0.000022355737), ("E_A0B", -0.000047622950))
     (table,) = tables
     assert (table.function, table.axis, table.output) == ("E_XY", "Y", "X")
@@ -43,8 +47,9 @@ def test_etalon_and_isg_csv_carry_the_same_model(make_set):
     tables = isg.build(cm)
     files = etalon.render(tables, cm)
     assert "file_format[0] ETALON_EXCHANGE" in files["volcomp.lis"].splitlines()
-    a_tables, a_consts = etalon.parse(files)
-    b_tables, b_consts = isg.parse(isg.render(tables, cm))
+    a = emulate("etalon", files, m)
+    b = emulate("isg", isg.render(tables, cm), m)
+    (a_tables, a_consts), (b_tables, b_consts) = (a.tables, a.constants), (b.tables, b.constants)
     assert [t.function for t in a_tables] == [t.function for t in b_tables]
     for a, b in zip(a_tables, b_tables, strict=True):
         np.testing.assert_allclose(a.forward, b.forward, atol=1e-12)

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from mtmetrology.export import linuxcnc
+from mtmetrology.export.emulation import emulate
 from mtmetrology.export.model import compensation_model
 from mtmetrology.export.workflow import export_compensation
 
@@ -39,5 +40,6 @@ def test_linuxcnc_reverse_column_carries_the_reversal(reversal_machine, make_set
     """The reverse column read back is the forward one plus 2 · E_XXb (corrections)."""
     ps = make_set(machine, {"E_XX1": 100.0, "E_XXb": 3.0})
     cm = compensation_model(machine, ps, pitch=20)
-    (back,) = linuxcnc.parse(linuxcnc.render(linuxcnc.build(cm, ["E_XX"]), cm))
+    files = linuxcnc.render(linuxcnc.build(cm, ["E_XX"]), cm)
+    (back,) = emulate("linuxcnc", files, machine).tables
     np.testing.assert_allclose(back.reverse - back.forward, 6e-3, atol=1e-9)

@@ -5,6 +5,7 @@ import pytest
 
 from mtmetrology.errors import InputError
 from mtmetrology.export import fanuc
+from mtmetrology.export.emulation import fanuc as fanuc_control
 from mtmetrology.export.model import compensation_model
 from mtmetrology.export.workflow import export_compensation
 from mtmetrology.kinematics import Machine
@@ -73,7 +74,9 @@ def test_fanuc_states_the_correction_left_to_the_reference_position(make_set):
     result = export_compensation(
         m, ps, "fanuc", pitch=10, functions=["E_XX"], reference={"X": -100.0}
     )
-    (note,) = result.notes
+    assert result.sign["established"] is False  # stated first, in words
+    sign, note = result.notes
+    assert sign == result.sign["statement"]
     assert note.startswith("E_XX: the correction at the reference position X = -100 mm (+10 µm)")
 
 
@@ -95,7 +98,7 @@ def test_fanuc_bidirectional_parameters_closed_form(reversal_machine, make_set):
     assert params["3605#0"] == 1
     assert params["3626"] == params["3622"] + 1  # 21 points each: 0–20, 21–41
     assert params["3627"] == 6
-    (back,) = fanuc.parse(files)
+    (back,) = fanuc_control.load(files, cm.reference)
     np.testing.assert_array_equal(back.forward, tables[0].forward)
     np.testing.assert_array_equal(back.reverse, tables[0].reverse)
     np.testing.assert_allclose(back.reverse - back.forward, 6e-3, atol=1e-12)
@@ -125,7 +128,7 @@ def test_magnification_divides_the_data_and_reads_back(make_set, magnification, 
     assert f"3623 X {magnification}" in lines and "3624 X 20000" in lines
     inc = [int(line.split()[1][1:]) for line in lines if line.startswith("N")]
     assert inc == [0] + [step] * 20
-    (back,) = fanuc.parse({"fanuc_pitch.txt": text})
+    (back,) = fanuc_control.load({"fanuc_pitch.txt": text}, cm.reference)
     np.testing.assert_allclose(back.forward, tables[0].forward, atol=1e-12)
     np.testing.assert_allclose(back.positions, tables[0].positions, atol=1e-9)
 
@@ -159,8 +162,8 @@ def test_parse_names_the_bad_line_and_the_missing_point(make_set):
     bad = lines.copy()
     bad[k] = "N10003 Px"
     with pytest.raises(InputError) as info:
-        fanuc.parse({"fanuc_pitch.txt": "\n".join(bad)})
+        fanuc_control.load({"fanuc_pitch.txt": "\n".join(bad)}, cm.reference)
     assert str(info.value) == f"fanuc_pitch.txt, line {k + 1}: cannot read 'N10003 Px'"
     with pytest.raises(InputError) as info:
-        fanuc.parse({"fanuc_pitch.txt": "\n".join(lines[:k] + lines[k + 1 :])})
+        fanuc_control.load({"fanuc_pitch.txt": "\n".join(lines[:k] + lines[k + 1 :])}, cm.reference)
     assert str(info.value) == "fanuc_pitch.txt: axis X: no value for point 3"

@@ -126,9 +126,13 @@ def _corrections(tables: list[ControlTable], q: np.ndarray, senses, cols) -> np.
     for (k, rule, period, _), members in groups.items():
         x = tables[members[0]].positions
         qk = q[:, k] if period is None else x[0] + np.mod(q[:, k] - x[0], period)
-        h = x[1] - x[0]
-        position = (qk - x[0]) / h
-        i = np.clip(np.floor(position).astype(np.intp), 0, x.size - 1)
+        h = np.diff(x)
+        if np.allclose(h, h[0], rtol=1e-12, atol=0.0):  # equally spaced: the index by arithmetic
+            position = (qk - x[0]) / h[0]
+            i = np.clip(np.floor(position).astype(np.intp), 0, x.size - 1)
+        else:
+            i = np.clip(np.searchsorted(x, qk, side="right") - 1, 0, x.size - 1)
+            position = i + (qk - x[i]) / np.append(h, 1.0)[i]
         both = senses is not None and any(
             not np.array_equal(tables[f].forward, tables[f].reverse) for f in members
         )
@@ -155,6 +159,7 @@ def residual(
     senses: np.ndarray | None = None,
     *,
     constants: tuple[tuple[str, float], ...] = (),
+    factors: np.ndarray | None = None,
     chunk: int = 65536,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Tool-point error left after the control applies ``tables`` (module notes).
@@ -174,6 +179,9 @@ def residual(
     constants : tuple of (name, correction)
         Location errors the control corrects (internal units), e.g. by a volumetric
         compensation; they enter through their own Jacobian columns.
+    factors : ndarray, shape (3,), optional
+        Per Cartesian component, what the control does with the tool-point correction:
+        1 (applied), −1 (negated, ISG ``negate``) or 0 (ISG ``set_to_zero``).
     chunk : int
         Poses per block (bounds memory: the Jacobian of a block is chunk × 3 × P).
 
@@ -194,10 +202,14 @@ def residual(
     if covariance is not None:
         w, v = np.linalg.eigh(covariance)
         factor = v * np.sqrt(np.clip(w, 0.0, None))  # U = F Fᵀ
-    names = [f"{t.function}0" for t in tables] + [name for name, _ in constants]
+    # tables of one function add up (an SSFK list and a volumetric table of one axis)
+    functions = list(dict.fromkeys(t.function for t in tables))
+    member = np.array([functions.index(t.function) for t in tables], dtype=np.intp)
+    names = [f"{f}0" for f in functions] + [name for name, _ in constants]
     fixed = np.array([value for _, value in constants])
     cols = [machine.axis_names.index(t.axis) for t in tables]
     applied = machine.with_parameters(names) if names else None
+    factors = np.ones(3) if factors is None else np.asarray(factors, dtype=float)
     for start in range(0, n, chunk):
         q = readings[start : start + chunk]
         s = None if senses is None else senses[start : start + chunk]
@@ -205,10 +217,11 @@ def residual(
         nominal = machine.forward(q)
         e = ev.position - nominal
         if applied is not None:
-            c = np.empty((len(names), q.shape[0]))  # (F, b): each parameter contiguous
-            c[: len(tables)] = _corrections(tables, q, s, cols)
-            c[len(tables) :] = fixed[:, None]
-            e += applied.forward(q, c.T) - nominal  # Σ_f S_f c_f (module notes)
+            c = np.zeros((len(names), q.shape[0]))  # (F, b): each parameter contiguous
+            if tables:
+                np.add.at(c, member, _corrections(tables, q, s, cols))
+            c[len(functions) :] = fixed[:, None]
+            e += factors * (applied.forward(q, c.T) - nominal)  # Σ_f S_f c_f (module notes)
         r[start : start + chunk] = e
         if factor is not None:
             jf = ev.d_params @ factor  # (b, 3, P)

@@ -15,19 +15,23 @@ compensation parameters*, …/tf5200_volumetric_comp_params/106040587486243723.h
 The values are those of ``volcomp.csv`` (:mod:`mtmetrology.export.isg`): errors in mm and
 rad, arguments in mm or degrees, ``negate 0`` in the ``.lis``; the tables, the location
 errors, the per-direction SSFK lists and the control's interpolation are the ISG kernel's.
+
+Semantics
+---------
+As :mod:`mtmetrology.export.isg`: the values are the ISO 230-1 errors the kernel corrects;
+the emulation the residual comes from is :mod:`mtmetrology.export.emulation.isg`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from mtmetrology.errors import InputError
 from mtmetrology.export import isg
 from mtmetrology.export.control import ControlTable
 from mtmetrology.export.model import CompensationModel
 from mtmetrology.kinematics.topology import LINEAR_AXES
 
-__all__ = ["build", "parse", "render"]
+__all__ = ["build", "render"]
 
 NAME = "etalon"
 FILE = "volcomp.exc"
@@ -56,45 +60,3 @@ def render(tables: list[ControlTable], model: CompensationModel) -> dict:
         f"file[0] {FILE}\nfile_format[0] ETALON_EXCHANGE",
     )
     return files
-
-
-def parse(files: dict) -> tuple[list[ControlTable], tuple[tuple[str, float], ...]]:
-    """Read ``volcomp.exc`` (and any ``ssfk_*.lis``) back: tables and location corrections.
-
-    Raises
-    ------
-    InputError
-        A line outside a block, a value that is not a number, an unclosed table.
-    """
-    tables, consts = [], []
-    name, rows = None, None
-    for k, raw in enumerate(files[FILE].splitlines(), start=1):
-        line = raw.split("//", 1)[0].strip()
-        if not line:
-            continue
-        try:
-            if line.startswith("[") and line.endswith("]"):
-                name = line[1:-1]
-            elif line.replace(" ", "").startswith("VALUE="):
-                consts.append((f"E_{name}", -float(line.split("=", 1)[1])))
-            elif line.replace(" ", "") == "Gridpoints={":
-                rows = []
-            elif line.startswith("}"):
-                a = np.array(rows, dtype=float)
-                axis = name[2]
-                q = a[:, 0] * (1.0 if axis in LINEAR_AXES else _DEG)
-                tables.append(ControlTable(f"E_{name[1:]}", q, -a[:, 1], -a[:, 1], "linear"))
-                rows = None
-            elif rows is not None:
-                argument, value = line.split()
-                rows.append((float(argument), float(value)))
-            else:
-                raise ValueError
-        except (ValueError, TypeError, IndexError):
-            raise InputError(f"{FILE}, line {k}: cannot read {raw!r}") from None
-    if rows is not None:
-        raise InputError(f"{FILE}: table [{name}] is not closed with '}}'")
-    ssfk = {n: t for n, t in files.items() if n.startswith("ssfk_")}
-    if ssfk:
-        tables += isg.parse({"volcomp.csv": "", **ssfk})[0]
-    return tables, tuple(consts)

@@ -32,6 +32,20 @@ one zero, the positive-direction value at the reference position, so 3627 carrie
 reversal there; the increments of the negative table accumulate from it.  We write 3627 in
 the units of the data (detection unit × 3623) and, as for the positive direction, model the
 increment as output when the axis passes its point.
+
+Semantics
+---------
+- **Value**: increments of the compensation per interval (B-63980EN/01 p. 100, "The
+  compensation value is output at the compensation position No. corresponding to each
+  section between the coordinates"), detection units × 3623; absolute value zero at the
+  reference position; constant between points; the extreme values held beyond them.
+- **Sign**: not fixed by a sentence of the parameter manual or of A-77810E that we could
+  cite.  The table holds corrections (the value added to the commanded position, −E), and
+  the export says "sign not established by the vendor's documentation", with the
+  verification procedure that settles it on the machine.
+- **Direction**: A-77810E table (a) (3605#0, 3626, 3627) as above.
+- The emulation the export's residual comes from is
+  :mod:`mtmetrology.export.emulation.fanuc`.
 """
 
 from __future__ import annotations
@@ -46,7 +60,7 @@ from mtmetrology.export.control import ControlTable
 from mtmetrology.export.model import CompensationModel, ErrorTable
 from mtmetrology.kinematics.topology import LINEAR_AXES
 
-__all__ = ["MAX_POINTS", "build", "increments", "parse", "reference_notes", "render"]
+__all__ = ["MAX_POINTS", "build", "increments", "reference_notes", "render"]
 
 NAME = "fanuc"
 #: Compensation points shared by all axes (FANUC Series 16/18: 1024, numbers 0–1023).
@@ -200,69 +214,3 @@ def render(tables: list[ControlTable], model: CompensationModel, *, magnificatio
             data += [f"N{10000 + number + k} P{v:d}" for k, v in enumerate(inc_rev)]
             number += t.positions.size
     return {"fanuc_pitch.txt": "\n".join(lines + data) + "\n"}
-
-
-def parse(files: dict) -> list[ControlTable]:
-    """Read the text of :func:`render` back: tables of absolute corrections.
-
-    Raises
-    ------
-    InputError
-        A malformed line or a point number outside 3621–3622.
-    """
-    text = files["fanuc_pitch.txt"]
-    params: dict[str, dict[str, int]] = {}
-    refpos: dict[str, float] = {}
-    values: dict[int, int] = {}
-    order: list[str] = []
-    for k, line in enumerate(text.splitlines(), start=1):
-        f = line.split()
-        try:
-            if line.startswith("; axis "):
-                axis = f[2].rstrip(":")
-                refpos[axis] = float(f[5])
-                order.append(axis)
-            elif line.startswith(";") or not f:
-                continue
-            elif line.startswith("N"):
-                values[int(f[0][1:]) - 10000] = int(f[1][1:])
-            else:
-                params.setdefault(f[1], {})[f[0]] = int(f[2])
-        except (ValueError, IndexError):
-            raise InputError(f"fanuc_pitch.txt, line {k}: cannot read {line!r}") from None
-    out = []
-    for axis in order:
-        p = params[axis]
-        linear = axis in LINEAR_AXES
-        unit = _UNIT["linear" if linear else "rotary"] * p["3623"]
-        lo, hi, ref = p["3621"], p["3622"], p["3620"]
-        absolute = _absolute(axis, values, lo, hi - lo + 1, ref - lo, 0)
-        reverse = absolute
-        if p.get("3605#0") == 1:  # negative direction: from 3626, zero-offset 3627
-            reverse = _absolute(axis, values, p["3626"], hi - lo + 1, ref - lo, p["3627"])
-        step = p["3624"] * _UNIT["linear" if linear else "rotary"]
-        start = refpos[axis] * (1.0 if linear else _DEG) - (ref - lo) * step
-        q = start + step * np.arange(hi - lo + 1)
-        period = p["3625"] * _UNIT["rotary"] if "3625" in p else None
-        out.append(
-            ControlTable(
-                f"E_{axis}{axis}",
-                q,
-                absolute * unit,
-                reverse * unit,
-                "staircase",
-                period,
-                ref - lo,
-            )
-        )
-    return out
-
-
-def _absolute(axis: str, values: dict, first: int, n: int, ref: int, at_ref: int) -> np.ndarray:
-    """Absolute values (units) of ``n`` points numbered from ``first``: the running sum of
-    the increments, ``at_ref`` at the reference point."""
-    missing = [k for k in range(first, first + n) if k not in values]
-    if missing:
-        raise InputError(f"fanuc_pitch.txt: axis {axis}: no value for point {missing[0]}")
-    run = np.cumsum([values[k] for k in range(first, first + n)])
-    return run - run[ref] + at_ref

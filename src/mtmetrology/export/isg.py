@@ -14,10 +14,27 @@ TF5200 *Volumetric compensation parameters*, P-VOLC-00012 ``file[j]`` and P-VOLC
 - the ``.lis`` configuration names the axes, the kinematic ``chain``, the number of
   ``workpiece_axes``, ``negate`` (negate the compensation values) and the files.
 
-The values written are the *errors* (ISO 230-1 names without ``E_``/underscores, lengths in
-mm, angles in rad, rotary arguments in degrees) and ``negate 0``: the control computes the
-tool-point error from them and corrects it.  This carries every error function and the
-location errors for one direction (the forward values).
+Semantics
+---------
+- **What a value means** (TF5280 overview): the compensation "is based on a parametric
+  machine model that is standardised to the standards DIN ISO 230-1/7"; "The purpose of
+  compensation is to balance out errors in tool positioning and orientation by correcting
+  the axis setpoints".  The values written are the ISO 230-1 *errors* (names without
+  ``E_``/underscores, lengths in mm, angles in rad, rotary arguments in degrees); the kernel
+  computes the tool-point error from them and corrects it.  This carries every error
+  function and the location errors for one direction (the forward values); linear
+  interpolation in the argument, no direction dependence.
+- **chain** (P-VOLC-00007): "The 6 axes available X, Y, Z, A, B and C can be used in any
+  order", example ``chain XYZCA``; **workpiece_axes** (P-VOLC-00008): "how many axes in the
+  kinematic chain lie on the workpiece side".  We write the machine's axes from the
+  workpiece to the tool (the topology string without W, F, T and the spindle) and their
+  count on the workpiece side.
+- **negate** (P-VOLC-00009): "the Cartesian axes for which the compensation value is to be
+  negated", a set of axis letters (``negate XY``), default "-".  The values are errors as
+  the kernel expects, so nothing is negated and no ``negate`` line is written.
+- **Axis lines**: ``X 1``, ``Y 2`` … as in the documentation's list example.
+- The emulation the export's residual comes from is
+  :mod:`mtmetrology.export.emulation.isg`.
 
 Per-direction tables: an axis's own positioning error with a reversal term (``E_XXb``) is
 written instead as a bilateral leadscrew error compensation list (SSFK, ``ssfk_x.lis``;
@@ -43,7 +60,7 @@ from mtmetrology.export.control import ControlTable
 from mtmetrology.export.model import CompensationModel, ErrorTable
 from mtmetrology.kinematics.topology import LINEAR_AXES
 
-__all__ = ["build", "parse", "render"]
+__all__ = ["build", "constants", "render"]
 
 NAME = "isg"
 _DEG = np.pi / 180.0
@@ -89,28 +106,6 @@ def _render_ssfk(t: ControlTable) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _parse_ssfk(name: str, text: str) -> ControlTable:
-    entries = {}
-    for k, line in enumerate(text.splitlines(), start=1):
-        if not line.strip() or line.startswith("#"):
-            continue
-        try:
-            key, value = line.split()
-            entries[key] = value if key == "kopf.log_achs_name" else int(value)
-        except ValueError:
-            raise InputError(f"{name}, line {k}: cannot read {line!r}") from None
-    axis = entries["kopf.log_achs_name"]
-    unit = _ssfk_unit(axis)
-    n = entries["kw.ssfk.kw_nr_max"]
-    try:
-        pos = np.array([entries[f"kw.ssfk.table[{k}].pos"] for k in range(n)]) * unit
-        neg = np.array([entries[f"kw.ssfk.table[{k}].neg"] for k in range(n)]) * unit
-    except KeyError as exc:
-        raise InputError(f"{name}: no entry {exc.args[0]}") from None
-    q = (entries["kw.ssfk.kw_startpos"] + entries["kw.ssfk.interval"] * np.arange(n)) * unit
-    return ControlTable(f"E_{axis}{axis}", q, -pos, -neg, "linear")
-
-
 def constants(model: CompensationModel) -> tuple[tuple[str, float], ...]:
     """The location errors the control corrects: (name, correction), internal units."""
     return tuple((name, -model.sign * v) for name, v in model.constants)
@@ -138,51 +133,16 @@ def render(tables: list[ControlTable], model: CompensationModel) -> dict:
         for k in range(q.size):
             lines.append(" ".join([f"{q[k] / s:.6f}", *(f"{-t.forward[k]:.9g}" for t in group)]))
     topo = model.machine.topology
+    # the chain from the workpiece to the tool: the topology string read from W to T
+    chain = "".join(a for a in topo.string if a in "XYZABC")
     lis = [
         "# mtmetrology export: ISG Volumetric Compensation list file",
-        *(f"{a.lower()} {i + 1}" for i, a in enumerate(model.machine.axis_names) if a != "S"),
-        f"chain {topo.string}",
-        f"workpiece_axes {len(topo.workpiece_axes)}",
-        "negate 0",
+        *(f"{a} {i + 1}" for i, a in enumerate(model.machine.axis_names) if a != "S"),
+        f"chain {chain}",
+        f"workpiece_axes {sum(a != 'S' for a in topo.workpiece_axes)}",
         "file[0] volcomp.csv",
         "file_format[0] ISG_CSV",
     ]
     files["volcomp.csv"] = "\n".join(lines) + "\n"
     files["volcomp.lis"] = "\n".join(lis) + "\n"
     return files
-
-
-def parse(files: dict) -> tuple[list[ControlTable], tuple[tuple[str, float], ...]]:
-    """Read ``volcomp.csv`` (and any ``ssfk_*.lis``) back: the tables and the
-    location-error corrections."""
-    blocks: list[list[list[str]]] = [[]]
-    for line in files["volcomp.csv"].splitlines():
-        if line.startswith("//") or not line.strip():
-            continue
-        if line.startswith("#"):
-            blocks.append([])
-        else:
-            blocks[-1].append(line.split())
-    tables, consts = [], ()
-    for k, block in enumerate(blocks):
-        if not block:
-            continue
-        header, rows = block[0], block[1:]
-        try:
-            data = np.array(rows, dtype=float)
-        except ValueError:
-            raise InputError(f"volcomp.csv, block {k}: a value is not a number") from None
-        if data.ndim != 2 or data.shape[1] != len(header):
-            raise InputError(f"volcomp.csv, block {k}: rows do not match the header {header}")
-        if header[0] in "XYZABC" and len(header[0]) == 1:
-            axis = header[0]
-            q = data[:, 0] * (1.0 if axis in LINEAR_AXES else _DEG)
-            for j, name in enumerate(header[1:], start=1):
-                c = -data[:, j]
-                tables.append(ControlTable(f"E_{name[1:]}", q, c, c, "linear"))
-        else:
-            consts = tuple((f"E_{n}", -float(v)) for n, v in zip(header, data[0], strict=True))
-    for name, text in sorted(files.items()):
-        if name.startswith("ssfk_"):
-            tables.append(_parse_ssfk(name, text))
-    return tables, consts

@@ -16,6 +16,24 @@ section "[JOINT_<num>] Sections", items ``COMP_FILE`` and ``COMP_FILE_TYPE``; lo
 
 A joint table compensates the joint's own position: the functions carried are the
 positioning errors ``E_XX``, ``E_YY``, ``E_ZZ``, ``E_AA``, ``E_BB``, ``E_CC``.
+
+Semantics
+---------
+Repository LinuxCNC/linuxcnc: ``src/emc/motion/control.c``, ``compute_screw_comp`` and the
+motor command ``motor_pos_cmd = pos_cmd + backlash_filt + motor_offset`` (the trim is
+*added to the commanded joint position*); ``src/emc/motion/usrmotintf.cc``,
+``usrmotLoadComp`` (type 0: ``fwd = nom - fwd``, the trim is nominal − actual).
+
+- **Value and sign**: ``COMP_FILE_TYPE = 1`` (written by default) holds the trims, the
+  corrections −E; type 0 the actual positions nominal + E.
+- **Unit**: machine units, mm (degrees on a rotary joint); positions from the joint's home.
+- **Interpolation**: linear between entries; **outside** the table the end trims are held.
+- **Direction**: the forward column while the commanded velocity is positive, the reverse
+  column while it is negative.
+- **No header line**: the loader stops silently at the first line that is not three
+  numbers, so the ``.comp`` files hold data lines only.
+- The emulation the export's residual comes from is
+  :mod:`mtmetrology.export.emulation.linuxcnc`.
 """
 
 from __future__ import annotations
@@ -30,7 +48,7 @@ from mtmetrology.export.control import ControlTable
 from mtmetrology.export.model import CompensationModel, ErrorTable
 from mtmetrology.kinematics.topology import LINEAR_AXES
 
-__all__ = ["MAX_POINTS", "build", "parse", "render"]
+__all__ = ["MAX_POINTS", "build", "render"]
 
 NAME = "linuxcnc"
 MAX_POINTS = 256
@@ -91,36 +109,3 @@ def render(tables: list[ControlTable], model: CompensationModel, *, file_type: i
         ]
     files["compensation.ini"] = "\n".join(ini) + "\n"
     return files
-
-
-def parse(files: dict, *, file_type: int = 1) -> list[ControlTable]:
-    """Read ``.comp`` texts back (file name -> text); the inverse of :func:`render`.
-
-    Raises
-    ------
-    InputError
-        A line that is not three numbers, positions not ascending, more than 256 lines.
-    """
-    out = []
-    for name, text in sorted(files.items()):
-        if not name.endswith(".comp"):
-            continue
-        axis = name[0].upper()
-        rows = []
-        for k, line in enumerate(text.splitlines(), start=1):
-            try:
-                rows.append([float(v) for v in line.split()])
-            except ValueError:
-                raise InputError(f"{name}, line {k}: not three numbers: {line!r}") from None
-            if len(rows[-1]) != 3:
-                raise InputError(f"{name}, line {k}: expected 'nominal forward reverse'")
-        a = np.array(rows)
-        check_points(NAME, name, len(a), MAX_POINTS, "lines per joint file")
-        if np.any(np.diff(a[:, 0]) <= 0):
-            raise InputError(f"{name}: nominal positions are not in ascending order")
-        s = _scale(axis)
-        fwd, rev = a[:, 1], a[:, 2]
-        if file_type == 0:
-            fwd, rev = a[:, 0] - fwd, a[:, 0] - rev
-        out.append(ControlTable(f"E_{axis}{axis}", a[:, 0] * s, fwd * s, rev * s, "linear"))
-    return out

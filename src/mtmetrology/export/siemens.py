@@ -3,17 +3,36 @@
 Format (SINUMERIK *Function Manual Extended Functions*, 03/2013, 6FC5397-1BP40-3BA1,
 K3 "Compensations", §4.4 "Interpolatory compensation"):
 
-- measuring-system error compensation, pp. 240–242: ``$AA_ENC_COMP[e,N,AX]`` value of
-  point N, ``$AA_ENC_COMP_STEP``, ``_MIN``, ``_MAX``, ``_IS_MODULO``; at most
-  MD38000 ``$MA_MM_ENC_COMP_MAX_POINTS`` points; the first and last values stay active
-  beyond the ends;
-- sag / angularity (cross) compensation, pp. 248–249: ``$AN_CEC[t,N]`` with
+- measuring-system error compensation, pp. 238–242: ``$AA_ENC_COMP[e,N,AX]`` value of
+  point N of encoder e of machine axis AX, ``$AA_ENC_COMP_STEP``, ``_MIN``, ``_MAX``,
+  ``_IS_MODULO``; at most MD38000 ``$MA_MM_ENC_COMP_MAX_POINTS`` points; the first and last
+  values stay active beyond the ends;
+- sag / angularity (cross) compensation, pp. 246–249: ``$AN_CEC[t,N]`` with
   ``_INPUT_AXIS`` (basic axis), ``_OUTPUT_AXIS`` (compensation axis), ``_STEP``, ``_MIN``,
   ``_MAX``, ``_DIRECTION`` (0 both, 1 positive, −1 negative travel of the basic axis; two
   tables make a direction-dependent compensation, example p. 264), ``_MULT_BY_TABLE``,
   ``_IS_MODULO``; at most MD18342 ``$MN_MM_CEC_MAX_POINTS`` points (828D: 200, fixed);
 - values in mm (degrees on a rotary axis), linear interpolation between equally spaced
-  points (p. 237), the value added to the axis position (a correction, −E).
+  points (p. 237).
+
+Semantics
+---------
+- **Sign of ``$AA_ENC_COMP``** (§4.4.2.1, p. 238): "The principle of the MSEC is to modify
+  the axis-specific position actual value by the assigned compensation value … A positive
+  compensation value causes the corresponding machine axis to move in the negative
+  direction."  The table holds the *error* E of the axis (+E moves the axis by −E).
+- **Sign of ``$AN_CEC``**: no sentence of K3 ties it to the motion of the compensation axis
+  (pp. 246–249 fix the axes, the setpoint input, the directions and the end values).  The
+  table holds +E as the MSEC does, and the export says "sign not established by the
+  vendor's documentation", with the verification procedure.
+- **Axis names**: the machine-axis names of K3's examples (``$AA_ENC_COMP[0,2,X1]``, p. 242;
+  ``$AN_CEC_INPUT_AXIS[0]=(AX2)``), ``X1``, ``Y1``, ``Z1`` … by default; ``axis_names`` maps
+  them to the machine's.
+- **Outside the table** the values of the first and last points stay active; no
+  direction dependence for the MSEC (its backlash is MD32450); ``_IS_MODULO`` on a rotary
+  axis of one revolution.
+- The emulation the export's residual comes from is
+  :mod:`mtmetrology.export.emulation.sinumerik`, written from the same sentences.
 
 Carried: positioning errors ``E_XX`` … through ``$AA_ENC_COMP`` (both directions equal) or
 two direction tables ``$AN_CEC``; straightness errors ``E_YX`` … through ``$AN_CEC`` with
@@ -22,7 +41,6 @@ input X and output Y.  Angular error functions cannot be carried: a table moves 
 
 from __future__ import annotations
 
-import re
 from collections.abc import Sequence
 
 import numpy as np
@@ -33,7 +51,7 @@ from mtmetrology.export.control import ControlTable
 from mtmetrology.export.model import CompensationModel, ErrorTable
 from mtmetrology.kinematics.topology import LINEAR_AXES
 
-__all__ = ["MAX_POINTS", "build", "parse", "render"]
+__all__ = ["MAX_POINTS", "build", "render"]
 
 NAME = "siemens"
 #: Default MD38000 / MD18342 (the 828D fixes 200 points per CEC table).
@@ -86,10 +104,18 @@ def _unit(axis: str) -> float:
     return 1.0 if axis in LINEAR_AXES else _DEG
 
 
-def render(tables: list[ControlTable], model: CompensationModel) -> dict:
-    """File name -> text: ``ENC_COMP.INI`` (positioning) and ``CEC.INI`` (cross tables)."""
+def render(
+    tables: list[ControlTable], model: CompensationModel, *, axis_names: dict | None = None
+) -> dict:
+    """File name -> text: ``ENC_COMP.INI`` (positioning) and ``CEC.INI`` (cross tables).
+
+    The tables hold corrections (what the axis must move); the files hold the errors, the
+    negated corrections (module Semantics).  ``axis_names`` maps the machine's axes to the
+    control's machine-axis names (``{"X": "X1", …}``, the default).
+    """
+    names = {a: f"{a}1" for a in model.machine.axis_names} | dict(axis_names or {})
     enc = ["%_N_AX_EEC_INI", "CHANDATA(1)"]
-    cec = ["%_N_NC_CEC_INI"]
+    cec = ["%_N_NC_CEC_INI", "CHANDATA(1)"]
     t_index = 0
     for t in tables:
         s = _unit(t.axis)
@@ -100,8 +126,8 @@ def render(tables: list[ControlTable], model: CompensationModel) -> dict:
             (t.positions[1] - t.positions[0]) / s,
         )
         if t.output == t.axis and np.array_equal(t.forward, t.reverse):
-            ax = t.axis
-            enc += [f"$AA_ENC_COMP[0,{k},{ax}]={v / s:.6f}" for k, v in enumerate(t.forward)]
+            ax = names[t.axis]
+            enc += [f"$AA_ENC_COMP[0,{k},{ax}]={-v / s:.6f}" for k, v in enumerate(t.forward)]
             enc += [
                 f"$AA_ENC_COMP_STEP[0,{ax}]={step:.6f}",
                 f"$AA_ENC_COMP_MIN[0,{ax}]={lo:.6f}",
@@ -110,12 +136,13 @@ def render(tables: list[ControlTable], model: CompensationModel) -> dict:
             ]
             continue
         directions = (0,) if np.array_equal(t.forward, t.reverse) else (1, -1)
+        out_unit = _unit(t.output)
         for d in directions:
             values = t.reverse if d < 0 else t.forward
-            cec += [f"$AN_CEC[{t_index},{k}]={v:.6f}" for k, v in enumerate(values)]
+            cec += [f"$AN_CEC[{t_index},{k}]={-v / out_unit:.6f}" for k, v in enumerate(values)]
             cec += [
-                f"$AN_CEC_INPUT_AXIS[{t_index}]={t.axis}",
-                f"$AN_CEC_OUTPUT_AXIS[{t_index}]={t.output}",
+                f"$AN_CEC_INPUT_AXIS[{t_index}]=({names[t.axis]})",
+                f"$AN_CEC_OUTPUT_AXIS[{t_index}]=({names[t.output]})",
                 f"$AN_CEC_STEP[{t_index}]={step:.6f}",
                 f"$AN_CEC_MIN[{t_index}]={lo:.6f}",
                 f"$AN_CEC_MAX[{t_index}]={hi:.6f}",
@@ -124,67 +151,9 @@ def render(tables: list[ControlTable], model: CompensationModel) -> dict:
                 f"$AN_CEC_IS_MODULO[{t_index}]={modulo}",
             ]
             t_index += 1
-    return {
-        "ENC_COMP.INI": "\n".join([*enc, "M17"]) + "\n",
-        "CEC.INI": "\n".join([*cec, "M17"]) + "\n",
-    }
-
-
-_ASSIGN = re.compile(r"^\$(A[AN]_(?:ENC_COMP|CEC)\w*)\[([^\]]*)\]=(\S+)$")
-
-
-def _grid(name: str, lo: float, hi: float, step: float, n: int, s: float) -> np.ndarray:
-    q = lo + step * np.arange(n)
-    if abs(q[-1] - hi) > 1e-6 * max(1.0, abs(hi)):
-        raise InputError(f"{name}: _MAX {hi:g} is not _MIN + (points − 1) · _STEP")
-    return q * s
-
-
-def parse(files: dict) -> list[ControlTable]:
-    """Read ``ENC_COMP.INI`` and ``CEC.INI`` texts back into tables (inverse of render)."""
-    enc: dict[str, dict] = {}
-    cec: dict[int, dict] = {}
-    for fname in ("ENC_COMP.INI", "CEC.INI"):
-        for k, line in enumerate(files.get(fname, "").splitlines(), start=1):
-            if not line.startswith("$"):
-                continue
-            m = _ASSIGN.match(line.strip())
-            if m is None:
-                raise InputError(f"{fname}, line {k}: cannot read {line!r}")
-            var, idx, value = m.group(1), m.group(2).split(","), m.group(3)
-            if var.startswith("AA_ENC_COMP"):
-                d = enc.setdefault(idx[-1], {"values": {}})
-                if var == "AA_ENC_COMP":
-                    d["values"][int(idx[1])] = float(value)
-                else:
-                    d[var[len("AA_ENC_COMP_") :]] = float(value)
-            else:
-                d = cec.setdefault(int(idx[0]), {"values": {}})
-                if var == "AN_CEC":
-                    d["values"][int(idx[1])] = float(value)
-                else:
-                    key = var[len("AN_CEC_") :]
-                    d[key] = value if key.endswith("AXIS") else float(value)
-    out = []
-    for axis, d in enc.items():
-        s = _unit(axis)
-        v = np.array([d["values"][k] for k in sorted(d["values"])]) * s
-        q = _grid(f"ENC_COMP {axis}", d["MIN"], d["MAX"], d["STEP"], v.size, s)
-        period = 2 * np.pi if d["IS_MODULO"] else None
-        out.append(ControlTable(f"E_{axis}{axis}", q, v, v, "linear", period))
-    pending: dict[str, dict] = {}
-    for _, d in sorted(cec.items()):
-        axis, output = d["INPUT_AXIS"], d["OUTPUT_AXIS"]
-        v = np.array([d["values"][k] for k in sorted(d["values"])])
-        q = _grid(f"CEC {axis}->{output}", d["MIN"], d["MAX"], d["STEP"], v.size, _unit(axis))
-        period = 2 * np.pi if d["IS_MODULO"] else None
-        entry = pending.setdefault(f"E_{output}{axis}", {"q": q, "period": period})
-        if d["DIRECTION"] == 0:
-            entry["fwd"] = entry["rev"] = v
-        elif d["DIRECTION"] > 0:
-            entry["fwd"] = v
-        else:
-            entry["rev"] = v
-    for f, e in pending.items():
-        out.append(ControlTable(f, e["q"], e["fwd"], e["rev"], "linear", e["period"]))
-    return out
+    files = {}
+    if len(enc) > 2:
+        files["ENC_COMP.INI"] = "\n".join([*enc, "M17"]) + "\n"
+    if t_index:
+        files["CEC.INI"] = "\n".join([*cec, "M17"]) + "\n"
+    return files

@@ -20,6 +20,12 @@ from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
 from mtmetrology.export import etalon, fanuc, grid, isg, linuxcnc, siemens
 from mtmetrology.export.control import ControlTable, residual
+from mtmetrology.export.emulation import (
+    SIGN_NOT_ESTABLISHED,
+    Emulation,
+    default_axis_names,
+    emulate,
+)
 from mtmetrology.export.model import CompensationModel, compensation_model
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -66,7 +72,12 @@ class ExportResult(NotebookRepr):
         The pitch advisor's answer: bound (µm), pitch, whether met, and why.
     provenance : dict
     notes : list of str
-        What the user must know to load the tables (e.g. a Fanuc reference offset).
+        What the user must know to load the tables (e.g. a Fanuc reference offset, a sign
+        the vendor's documentation does not establish).
+    sign : dict or None
+        What the vendors' documents establish of the sign: ``established``, ``statement``
+        and per file kind the ``value`` (error or correction), ``sign_established`` and the
+        ``source`` quoted (:mod:`mtmetrology.export.emulation`); None for the grid.
     at_points : dict or None
         At the user's readings: the residual ``r``, its ``U`` (k = 2) and the uncompensated
         error ``e``, arrays (n, 3) in µm, and the ``senses`` of travel (in the document:
@@ -86,6 +97,7 @@ class ExportResult(NotebookRepr):
     provenance: dict = field(default_factory=dict)
     at_points: dict | None = None
     notes: list = field(default_factory=list)
+    sign: dict | None = None
 
     def to_dict(self) -> dict:
         """The JSON document (``kind``, ``version``); file texts are not repeated."""
@@ -103,6 +115,7 @@ class ExportResult(NotebookRepr):
             "provenance": self.provenance,
             "at_points": None if self.at_points is None else _at_document(self.at_points),
             "notes": self.notes,
+            "sign": self.sign,
         }
 
     @classmethod
@@ -123,6 +136,7 @@ class ExportResult(NotebookRepr):
             doc.get("provenance", {}),
             _at_arrays_from(doc.get("at_points")),
             doc.get("notes", []),
+            doc.get("sign"),
         )
 
 
@@ -170,8 +184,19 @@ def _build(fmt: str, model: CompensationModel, functions):
     return module, tables, constants
 
 
+def _render(fmt: str, module, tables, model: CompensationModel, axis_names) -> dict:
+    if fmt == "siemens":
+        return module.render(tables, model, axis_names=axis_names)
+    return module.render(tables, model)
+
+
 def residual_check(
-    model: CompensationModel, tables, constants, readings: np.ndarray, senses=None
+    model: CompensationModel,
+    tables,
+    constants,
+    readings: np.ndarray,
+    senses=None,
+    factors=None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Residual r̂ and u (mm) at ``readings`` after the control applies ``tables``; travel
     in the positive direction of every axis unless ``senses`` (±1 per reading and axis)."""
@@ -180,7 +205,59 @@ def residual_check(
         p = model.parameters
         order = [p.names.index(n) for n in model.machine.parameter_names]
         cov = p.covariance[np.ix_(order, order)]
-    return residual(model.machine, model.theta, cov, tables, readings, senses, constants=constants)
+    return residual(
+        model.machine,
+        model.theta,
+        cov,
+        tables,
+        readings,
+        senses,
+        constants=constants,
+        factors=factors,
+    )
+
+
+def emulated_residual(
+    model: CompensationModel, emulated: Emulation, readings: np.ndarray, senses=None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Residual r̂ and u (mm) left by the control's emulation of the written files."""
+    return residual_check(
+        model, emulated.tables, emulated.constants, readings, senses, emulated.factors
+    )
+
+
+def _sign(emulated: Emulation) -> dict:
+    """What the vendors' documents establish of the sign of the written files."""
+    established = emulated.sign_established
+    return {
+        "established": established,
+        "statement": (
+            "sign established by the vendor's documentation"
+            if established
+            else SIGN_NOT_ESTABLISHED
+            + ": before production, run the verification procedure (--verify-program, then "
+            "mtm export check) to confirm the sign and size on the machine"
+        ),
+        "files": emulated.semantics,
+    }
+
+
+def _axis_names(fmt: str, machine: Machine, axis_names: dict | None) -> dict | None:
+    """Checked control axis names (Sinumerik machine-axis names)."""
+    if not axis_names:
+        return None
+    if fmt != "siemens":
+        raise InputError(f"--axis-names: format {fmt} names its axes itself (siemens only)")
+    out = default_axis_names(machine)
+    for axis, name in axis_names.items():
+        if axis not in out:
+            raise InputError(f"--axis-names: {axis!r} is not an axis of {machine.name}")
+        if not (isinstance(name, str) and name.isidentifier()):
+            raise InputError(f"--axis-names: {axis}={name!r} is not a machine-axis name")
+        out[axis] = name
+    if len(set(out.values())) != len(out):
+        raise InputError(f"--axis-names: two axes share a name ({out})")
+    return out
 
 
 def _interpolation_error(fmt, machine, parameters, functions, pitch, readings) -> float:
@@ -284,10 +361,10 @@ def _summary(model, readings, r, u, per_axis) -> dict:
     }
 
 
-def _negative(model, tables, constants, readings) -> dict:
-    """The check for travel in the negative direction of every axis (reversal terms)."""
+def _negative(model, emulated: Emulation, readings) -> dict:
+    """The check for travel in the negative direction of every axis."""
     senses = -np.ones_like(readings)
-    r, u = residual_check(model, tables, constants, readings, senses)
+    r, u = emulated_residual(model, emulated, readings, senses)
     e0, _ = residual(model.machine, model.theta, None, [], readings, senses)
     return {
         "max_um": float(from_internal(np.linalg.norm(r, axis=1).max(), "µm")),
@@ -397,6 +474,7 @@ def export_compensation(
     at: np.ndarray | None = None,
     at_senses: np.ndarray | None = None,
     reference: dict | None = None,
+    axis_names: dict | None = None,
 ) -> ExportResult:
     """Control tables of one format and the residual error after the control applies them.
 
@@ -432,6 +510,9 @@ def export_compensation(
     reference : dict of axis to float, optional
         Reference position per axis (mm or degrees), a point of the table: a Fanuc table
         is zero there (the control's reference return absorbs the error at that point).
+    axis_names : dict of axis to str, optional
+        Sinumerik: the control's machine-axis names (``{"X": "X1"}``, the default of K3's
+        examples).
 
     Returns
     -------
@@ -453,23 +534,26 @@ def export_compensation(
             f"format: {fmt} tabulates error functions of a parameter set; a volumetric map is "
             "exported by the grid format only"
         )
+    names = _axis_names(fmt, machine, axis_names)
     model = compensation_model(
         machine, parameters, pitch=pitch, points=points, axes=axes, reference=reference
     )
-    module, tables, constants = _build(fmt, model, functions)
-    files = module.render(tables, model)
-    carried = {t.function for t in tables} | {n for n, _ in constants}
+    module, tables, _ = _build(fmt, model, functions)
+    files = _render(fmt, module, tables, model, names)
+    # the residual is what the control, emulated from its vendor's document, does with the
+    # files: never the writer's own tables read back (a sign error shows as 2x the error)
+    emulated = emulate(fmt, files, model.machine, reference=model.reference, axis_names=names)
+    carried = {t.function for t in emulated.tables} | {n for n, _ in emulated.constants}
     not_carried = [t.function for t in model.tables if t.function not in carried]
     not_carried += [n for n, _ in model.constants if n not in carried]
     readings = check_readings(model.machine, check_per_axis)
-    r, u = residual_check(model, tables, constants, readings)
+    r, u = emulated_residual(model, emulated, readings)
     summary = _summary(model, readings, r, u, check_per_axis)
-    if any(p.kind == "reversal" for p in model.machine.parameters):
-        summary["negative"] = _negative(model, tables, constants, readings)
+    summary["negative"] = _negative(model, emulated, readings)
     at_points = None
     if at is not None:
         at = np.asarray(at, float)
-        r_at, u_at = residual_check(model, tables, constants, at, at_senses)
+        r_at, u_at = emulated_residual(model, emulated, at, at_senses)
         e_at, _ = residual(model.machine, model.theta, None, [], at, at_senses)
         at_points = _at_arrays(r_at, u_at, e_at, at_senses)
     rows = []
@@ -505,10 +589,11 @@ def export_compensation(
     advisor = None
     if bound_um is not None:
         advisor = advise_pitch(fmt, model.machine, parameters, functions, bound_um, readings)
+    sign = _sign(emulated)
     return ExportResult(
         fmt,
         model.machine.name,
-        model.machine.model_name,
+        parameters.model or machine.model_name,
         files,
         rows,
         not_carried,
@@ -516,6 +601,8 @@ def export_compensation(
         advisor,
         {"parameters": dict(parameters.provenance)},
         at_points,
-        (fanuc.reference_notes(model, tables) if fmt == "fanuc" else [])
+        ([] if sign["established"] else [sign["statement"]])
+        + (fanuc.reference_notes(model, tables) if fmt == "fanuc" else [])
         + _reversal_notes(model, tables, fmt),
+        sign,
     )
