@@ -156,6 +156,8 @@ def load(files: Mapping[str, str], axes: Mapping[str, str]) -> list[ControlTable
                         d[key] = _axis(key, value, axes, where)
                     else:
                         d[key] = float(value)
+            except InputError:
+                raise
             except (ValueError, IndexError):
                 raise InputError(f"{where}: cannot read {raw!r}") from None
     out = []
