@@ -43,3 +43,12 @@ def test_grid_report_draws_the_slice_and_its_uncertainty(make_set):
     assert sections["Residual after the control applies the tables"].count("figure") == 1
     piece = result.tables[0]["slice"]
     assert np.asarray(piece["length_um"]).shape == (len(piece["x_mm"]), len(piece["y_mm"]))
+
+
+def test_the_report_says_what_each_file_means_and_whether_its_sign_is_established(make_set):
+    m = Machine.load("three-axis-xfyz")
+    result = export_compensation(m, make_set(m, {"E_XX1": 10.0}), "fanuc", pitch=20)
+    rep = result_report(result)
+    (section,) = [s for s in rep._sections if s.heading == "What the files mean to the control"]
+    (table,) = [b for b in section.blocks if b.kind == "table"]
+    assert [tuple(row[:3]) for row in table.rows] == [("fanuc_pitch.txt", "correction", "no")]

@@ -129,7 +129,8 @@ def _render(rep, result, **_context) -> None:
     if result.not_carried:
         rep.text(f"Not carried by {result.format}: {', '.join(result.not_carried)}.")
     for note in result.notes:
-        rep.text(f"Note: {note}.")
+        if result.sign is None or note != result.sign["statement"]:  # stated above
+            rep.text(f"Note: {note}.")
     for t in result.tables:
         if "slice" in t:
             rep.figure(
@@ -147,10 +148,23 @@ def _render(rep, result, **_context) -> None:
             correction_profiles(drawn[start : start + PANELS]),
             caption="Corrections against axis position with ± U (k = 2).",
         )
+    if result.sign is not None:
+        rep.section(
+            "What the files mean to the control",
+            "The residual below is what the control, emulated from its vendor's document, "
+            f"does with the written files: {result.sign['statement']}.",
+        )
+        rep.table(
+            ["file", "the file holds", "sign established", "source"],
+            [
+                [f["file"], f["value"], "yes" if f["sign_established"] else "no", f["source"]]
+                for f in result.sign["files"]
+            ],
+        )
     rep.section(
         "Residual after the control applies the tables",
         "r = e(q; θ) + Σ S_f c_f(q; θ̂): the machine's error plus the corrections the "
-        "control interpolates; u(r)² = diag(J U Jᵀ).",
+        "emulated control applies from the files; u(r)² = diag(J U Jᵀ).",
     )
     rep.table(
         ["quantity", "value", "unit"],
