@@ -23,6 +23,7 @@ Exit codes of ``mtm`` (documented in ``mtm --help``):
 1     internal error (a bug: please report it; ``--debug`` shows the traceback)
 2     input error, rank deficiency, non-convergence, resource limit
 3     environment error (file system, scheduler, system tools)
+4     a check ran and did not confirm (``mtm export check``: the verdict is in its output)
 130   interrupted (Ctrl-C); nothing was written
 ====  ==========================================================
 """
@@ -34,6 +35,7 @@ __all__ = [
     "EXIT_INPUT",
     "EXIT_INTERNAL",
     "EXIT_INTERRUPTED",
+    "EXIT_NOT_CONFIRMED",
     "ConvergenceError",
     "EnvironmentFailure",
     "InputError",
@@ -45,6 +47,8 @@ __all__ = [
 EXIT_INTERNAL = 1
 EXIT_INPUT = 2
 EXIT_ENVIRONMENT = 3
+#: A verification that ran and whose verdict is not "confirmed" (not an error of the run).
+EXIT_NOT_CONFIRMED = 4
 EXIT_INTERRUPTED = 130
 
 

@@ -2,7 +2,8 @@
 
 Exit codes: 0 success, 1 internal error (a bug), 2 input error (also rank deficiency,
 non-convergence, resource limits), 3 environment error (file system, scheduler),
-130 interrupted (nothing written).  Errors are one line on stderr; ``--debug`` shows the
+4 a check that ran and did not confirm (``mtm export check``), 130 interrupted (nothing
+written).  Errors are one line on stderr; ``--debug`` shows the
 traceback.
 
 ``app`` is the whole command line.  :func:`build_app` builds it with only the command a
@@ -41,7 +42,8 @@ _HELP = (
     "mtmetrology: machine-tool and CMM metrology from the command line.\n\n"
     "Exit codes: 0 success, 1 internal error (a bug), 2 input error (also rank deficiency, "
     "non-convergence, resource limits), 3 environment error (file system, scheduler), "
-    "130 interrupted (nothing written)."
+    "4 a check that ran and did not confirm (mtm export check), 130 interrupted (nothing "
+    "written)."
 )
 
 #: Command name -> (module, attribute, whether it is a group of subcommands).
@@ -57,7 +59,7 @@ COMMANDS = {
     "task": ("mtmetrology.cli.task", "app", True),
     "demo": ("mtmetrology.cli.demo", "demo", False),
     "budget": ("mtmetrology.cli.budget", "app", True),
-    "export": ("mtmetrology.cli.export", "export", False),
+    "export": ("mtmetrology.cli.export", "app", True),
     "history": ("mtmetrology.cli.history", "app", True),
     "cmm": ("mtmetrology.cli.cmm_studies", "app", True),
     "validate": ("mtmetrology.cli.validate", "app", True),
