@@ -373,3 +373,31 @@ def test_check_refuses_a_bad_file_in_one_line(tmp_path):
     res = runner.invoke(app, ["export", "check", str(path)])
     assert res.exit_code == 2
     assert res.stderr.strip().startswith(f"error: {path}: missing column 'ry_um'")
+
+
+def test_siemens_axis_names_map_the_machine_axes_and_bad_names_are_refused(params, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    args = ["siemens", params, "--machine", "three-axis-xfyz", "--pitch", 20, "-o", out]
+    res = _run(*args, "--functions", "E_XX,E_YX", "--axis-names", "X=AX1,Y=AX2,Z=AX3")
+    assert res.exit_code == 0, res.output
+    enc = (out / "ENC_COMP.INI").read_text().splitlines()
+    cec = (out / "CEC.INI").read_text().splitlines()
+    assert enc[2].startswith("$AA_ENC_COMP[0,0,AX1]=")
+    assert "$AN_CEC_INPUT_AXIS[0]=(AX1)" in cec and "$AN_CEC_OUTPUT_AXIS[0]=(AX2)" in cec
+    doc = json.loads((out / "check.json").read_text())
+    default = tmp_path / "default"
+    default.mkdir()
+    args[-1] = default
+    assert _run(*args, "--functions", "E_XX,E_YX").exit_code == 0
+    # the emulated control reads the renamed axes as the same machine axes
+    assert doc["residual"] == json.loads((default / "check.json").read_text())["residual"]
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    args[-1] = bad
+    res = _run(*args, "--axis-names", "X=AX1,Y=AX1")
+    assert res.exit_code == 2
+    assert res.output.strip().splitlines()[-1].startswith("error: --axis-names: two axes share")
+    assert list(bad.iterdir()) == []
+    res = _run("linuxcnc", *args[1:], "--axis-names", "X=X1")
+    assert res.exit_code == 2 and "--axis-names" in res.output

@@ -62,8 +62,13 @@ FORMATS = {
         "Writes ENC_COMP.INI ($AA_ENC_COMP: positioning errors E_XX ...) and CEC.INI "
         "($AN_CEC: straightness, e.g. E_YX with input axis X and output axis Y; per direction "
         "when the model has a reversal term), with check.json. Angular error functions are "
-        "not carried. At most 200 points per table (MD38000 / MD18342 default).",
-        {"axes", "functions", "bound"},
+        "not carried. At most 200 points per table (MD38000 / MD18342 default). Axes are "
+        "named by their machine-axis names, X1, Y1, Z1 ... as in K3's examples; "
+        "--axis-names maps them (e.g. X=AX1,Y=AX2). The tables hold the errors +E: 'A "
+        "positive compensation value causes the corresponding machine axis to move in the "
+        "negative direction' (K3, 6FC5397-1BP40-3BA1, p. 238); the sign of $AN_CEC is not "
+        "stated by K3 and is flagged.",
+        {"axes", "functions", "bound", "axis_names"},
     ),
     "isg": (
         "ISG kernel volumetric compensation (VolComp, ISG_CSV format).\n\n"
@@ -92,6 +97,7 @@ FORMATS = {
 _SPECIFIC = {"axes": "--axes", "functions": "--functions", "bound": "--bound"} | {
     "reference": "--reference",
     "region": "--region",
+    "axis_names": "--axis-names",
 }
 _HEIDENHAIN = (
     "Heidenhain is not written: the syntax of its compensation tables and the sign of their "
@@ -160,6 +166,19 @@ def _per_axis(text: str | None, option: str, pair: bool) -> dict | None:
     return out
 
 
+def _axis_names(text: str | None) -> dict | None:
+    """``X=X1,Y=AX2`` -> {"X": "X1", "Y": "AX2"} (the library checks the names)."""
+    if not text:
+        return None
+    out = {}
+    for item in _split(text):
+        axis, sep, name = item.partition("=")
+        if not sep or not axis.strip() or not name.strip():
+            fail(f"--axis-names: {item!r} is not AXIS=NAME")
+        out[axis.strip().upper()] = name.strip()
+    return out
+
+
 def _source(path: Path, machine: Machine, fmt: str) -> ParameterSet | VolumetricMap:
     """The parameter set, or for the grid format also a volumetric map: a map document
     (kind volumetric-map) or a vendor grid CSV (x,y,z,ex,ey,ez[,ux,uy,uz]; errors)."""
@@ -223,6 +242,10 @@ def export_format(
         str | None,
         typer.Option("--reference", help="Reference position per axis, e.g. X=0,Y=0."),
     ] = None,
+    axis_names: Annotated[
+        str | None,
+        typer.Option("--axis-names", help="Control's machine-axis names, e.g. X=X1,Y=AX2."),
+    ] = None,
     at: Annotated[
         Path | None,
         typer.Option(
@@ -253,7 +276,7 @@ def export_format(
     fmt = ctx.info_name
     applies = FORMATS[fmt][1]
     given = {"axes": axes, "functions": functions, "bound": bound}
-    given |= {"reference": reference, "region": region}
+    given |= {"reference": reference, "region": region, "axis_names": axis_names}
     for name, value in given.items():
         if value is not None and name not in applies:
             fail(f"{_SPECIFIC[name]}: does not apply to the {fmt} format")
@@ -287,6 +310,7 @@ def export_format(
         bound_um=bound,
         region=_per_axis(region, "--region", pair=True),
         reference=_per_axis(reference, "--reference", pair=False),
+        axis_names=_axis_names(axis_names),
     )
     names = [*result.files, *verify_files, "check.json"]
     names += ["residual_at.csv"] if at is not None else []
