@@ -140,9 +140,13 @@ def test_budget_policies_and_reported_result():
     assert p3.u_p == pytest.approx(0.001)
     assert p3.U == pytest.approx(2 * math.sqrt(0.002**2 + 0.001**2 + 0.0005**2))
     assert p3.result == pytest.approx(10.002)
-    p04 = iso15530_3_budget(y, calibrated=cal, u_cal=ucal, policy="2004")
+    # four repeats: the ISO policies take them only as an allowed, recorded deviation
+    few = {"allow_few_repeats": True}
+    p04 = iso15530_3_budget(y, calibrated=cal, u_cal=ucal, policy="2004", **few)
     assert p04.U == pytest.approx(2 * math.sqrt(0.001**2 + 0.0005**2) + 0.002)
-    p11 = iso15530_3_budget(y, calibrated=cal, u_cal=ucal, policy="2011", u_b=0.0003)
+    assert p04.deviations == ("4 repeats, ISO 15530-3 requires at least 20",)
+    assert p3.deviations == ()
+    p11 = iso15530_3_budget(y, calibrated=cal, u_cal=ucal, policy="2011", u_b=0.0003, **few)
     assert p11.result == pytest.approx(10.0)
     assert p11.U == pytest.approx(2 * math.sqrt(0.001**2 + 0.0005**2 + 0.0003**2))
 
@@ -200,7 +204,9 @@ def test_cli_iso15530_3(tmp_path):
 
 
 def test_outputs_in_the_uncertainty_result_vocabulary():
-    b = iso15530_3_budget(_values(), calibrated=10.0, u_cal=0.0005, policy="2004")
+    b = iso15530_3_budget(
+        _values(), calibrated=10.0, u_cal=0.0005, policy="2004", allow_few_repeats=True
+    )
     out = b.to_dict()["outputs"][0]
     assert out["value"] == b.result and out["u"] == b.u and out["U"] == b.U
     assert out["k"] == pytest.approx(b.U / b.u) and out["k"] > 2.0  # |b| outside the root
