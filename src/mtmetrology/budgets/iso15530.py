@@ -180,6 +180,10 @@ def combine(
 ) -> tuple[float, float]:
     """Combined standard and expanded uncertainty of one characteristic.
 
+    u = √(u_cal² + u_p² + u_b² + u_w² + u_probe²) with u_b the policy's (0 under ``2004``,
+    |b| under ``paper003``); U = k·u, plus |b| under ``2004`` (ISO 15530-3:2004 and :2011,
+    clause 7; Mutilba et al., Eqs. 1–2).
+
     Parameters
     ----------
     policy : Policy
