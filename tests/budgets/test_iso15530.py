@@ -140,9 +140,13 @@ def test_budget_policies_and_reported_result():
     assert p3.u_p == pytest.approx(0.001)
     assert p3.U == pytest.approx(2 * math.sqrt(0.002**2 + 0.001**2 + 0.0005**2))
     assert p3.result == pytest.approx(10.002)
-    p04 = iso15530_3_budget(y, calibrated=cal, u_cal=ucal, policy="2004")
+    # four repeats: the ISO policies take them only as an allowed, recorded deviation
+    few = {"allow_few_repeats": True}
+    p04 = iso15530_3_budget(y, calibrated=cal, u_cal=ucal, policy="2004", **few)
     assert p04.U == pytest.approx(2 * math.sqrt(0.001**2 + 0.0005**2) + 0.002)
-    p11 = iso15530_3_budget(y, calibrated=cal, u_cal=ucal, policy="2011", u_b=0.0003)
+    assert p04.deviations == ("4 repeats, ISO 15530-3 requires at least 20",)
+    assert p3.deviations == ()
+    p11 = iso15530_3_budget(y, calibrated=cal, u_cal=ucal, policy="2011", u_b=0.0003, **few)
     assert p11.result == pytest.approx(10.0)
     assert p11.U == pytest.approx(2 * math.sqrt(0.001**2 + 0.0005**2 + 0.0003**2))
 
@@ -200,9 +204,101 @@ def test_cli_iso15530_3(tmp_path):
 
 
 def test_outputs_in_the_uncertainty_result_vocabulary():
-    b = iso15530_3_budget(_values(), calibrated=10.0, u_cal=0.0005, policy="2004")
+    b = iso15530_3_budget(
+        _values(), calibrated=10.0, u_cal=0.0005, policy="2004", allow_few_repeats=True
+    )
     out = b.to_dict()["outputs"][0]
     assert out["value"] == b.result and out["u"] == b.u and out["U"] == b.U
     assert out["k"] == pytest.approx(b.U / b.u) and out["k"] > 2.0  # |b| outside the root
     assert out["p"] == pytest.approx(0.9545, abs=1e-4)
     assert out["interval"] == [pytest.approx(b.result - b.U), pytest.approx(b.result + b.U)]
+
+
+def _twenty(series=None):
+    """20 repeats about 50.002 mm (sample s = 1 µm exactly: ±a alternating)."""
+    a = 0.001 * math.sqrt(19.0 / 20.0)
+    return 50.002 + a * np.tile([-1.0, 1.0], 10)
+
+
+@pytest.mark.parametrize("policy", ["2004", "2011"])
+def test_iso_policies_require_twenty_repeats(policy):
+    y = _twenty()
+    ok = iso15530_3_budget(y, calibrated=50.0, u_cal=0.0005, policy=policy)
+    assert ok.deviations == () and ok.u_p == pytest.approx(0.001)
+    with pytest.raises(InputError, match=r"19 repeats, .* at least 20 .*--allow-few-repeats"):
+        iso15530_3_budget(y[:19], calibrated=50.0, u_cal=0.0005, policy=policy)
+    series = np.array(["a"] * 11 + ["b"] * 9)
+    with pytest.raises(InputError, match="series 'b' has 9 cycles"):
+        iso15530_3_budget(y, calibrated=50.0, u_cal=0.0005, policy=policy, series=series)
+
+
+def test_few_repeats_allowed_are_recorded_and_read_back():
+    y = _twenty()[:5]
+    b = iso15530_3_budget(y, calibrated=50.0, u_cal=0.0005, policy="2011", allow_few_repeats=True)
+    assert b.deviations == ("5 repeats, ISO 15530-3 requires at least 20",)
+    doc = json.loads(json.dumps(b.to_dict()))
+    assert doc["deviations"] == list(b.deviations)
+    assert ISO15530Budget.from_dict(doc) == b
+    # the paper's policy with the sample s has no minimum beyond 2: nothing to record
+    assert iso15530_3_budget(y, calibrated=50.0, u_cal=0.0005).deviations == ()
+
+
+# µm or m for mm, also when the values sit a little below the factor 10³ (issue 30: x_cal
+# 50 mm, runs in µm about 50 010: a factor 1000.2 or, with another bias, 999.8)
+@pytest.mark.parametrize("factor", [1e3, 1e3 / 1.02, 1e-3, 1.02e-3])
+def test_repeats_in_another_unit_are_refused_naming_both(factor):
+    y = _twenty() * factor
+    with pytest.raises(InputError, match=r"runs: the repeats' mean .* and --calibrated \(50\)"):
+        iso15530_3_budget(y, calibrated=50.0, u_cal=0.0005, name="runs")
+
+
+def test_the_unit_check_leaves_form_and_position_near_zero_alone():
+    """A position of 3 µm calibrated, measured at 40 µm: both below 0.1 mm, same unit."""
+    y = 0.040 + 0.001 * np.tile([-1.0, 1.0], 10)
+    b = iso15530_3_budget(y, calibrated=0.003, u_cal=0.0005)
+    assert b.b == pytest.approx(0.037)
+    # at the limit: a factor 10^1.5 passes, a little more is refused
+    iso15530_3_budget(np.full(2, 0.1 * 10**1.5), calibrated=0.1, u_cal=0.0)
+    with pytest.raises(InputError, match="differ by a factor"):
+        iso15530_3_budget(np.full(2, 0.1 * 10**1.5 * 1.01), calibrated=0.1, u_cal=0.0)
+
+
+def test_a_part_outside_the_tolerance_is_non_conforming():
+    y = _twenty()  # b = +2 µm, u_p = 1 µm
+    t = Tolerance(50.0, -0.010, 0.010)
+    common = {"calibrated": 50.0, "u_cal": 0.0005, "policy": "2011", "tolerance": t}
+    out = iso15530_3_budget(y, part=np.array([50.0145, 50.0155]), **common)
+    assert out.part.bias_corrected and out.part.n == 2
+    assert out.part.result == pytest.approx(50.015 - 0.002)  # y − b
+    assert out.part.U == out.U == pytest.approx(2 * math.sqrt(0.001**2 + 0.0005**2))
+    assert out.part.decision.decision.value == "non-conformance"
+    assert out.decision is None  # the tolerance judges the part, not the reference
+    doc = json.loads(json.dumps(out.to_dict()))
+    assert doc["part"]["decision"]["decision"] == "non-conformance"
+    assert ISO15530Budget.from_dict(doc) == out
+    inside = iso15530_3_budget(y, part=np.array([50.004]), **common)
+    assert inside.part.decision.decision.value == "conformance"
+    # 2004 leaves b in the result and covers it by U
+    p04 = iso15530_3_budget(y, part=np.array([50.004]), **(common | {"policy": "2004"}))
+    assert not p04.part.bias_corrected and p04.part.result == pytest.approx(50.004)
+
+
+def test_part_readings_in_another_unit_are_refused():
+    with pytest.raises(InputError, match=r"--part p.csv: the readings' mean .* --calibrated"):
+        iso15530_3_budget(
+            _twenty(), calibrated=50.0, u_cal=0.0, part=np.array([50004.0]), part_name="p.csv"
+        )
+
+
+def test_u_w_from_inputs_enters_the_budget():
+    from mtmetrology.budgets.workpiece import WorkpieceVariation
+
+    w = WorkpieceVariation(alpha=11.5e-6, alpha_half_width=1e-6, temperature=23.0, form=0.002)
+    b = iso15530_3_budget(_twenty(), calibrated=50.0, u_cal=0.0005, policy="2011", workpiece=w)
+    assert b.workpiece.length == 50.0  # |x_cal| by default
+    u_w = math.hypot(50.0 * 3.0 * 1e-6 / math.sqrt(3.0), 0.002 / math.sqrt(12.0))
+    assert b.u_w == pytest.approx(u_w, rel=1e-12)
+    assert b.U == pytest.approx(2 * math.sqrt(0.001**2 + 0.0005**2 + u_w**2))
+    assert ISO15530Budget.from_dict(json.loads(json.dumps(b.to_dict()))) == b
+    with pytest.raises(InputError, match="--u-w: give u_w or its inputs"):
+        iso15530_3_budget(_twenty(), calibrated=50.0, u_cal=0.0, u_w=0.001, workpiece=w)

@@ -25,6 +25,28 @@ u_p (Eq. 3) is the sample standard deviation (n − 1) of the repeats, or, as IS
 is used in practice, the largest sample standard deviation over several series of at
 least 10 cycles each, 20 repeats at least in all (:class:`RepeatabilityMethod`).
 
+The measurement model of one characteristic (ISO 15530-3, clause 7), all contributions
+independent: y_part = y − b under ``2011`` (y under ``2004``/``paper003``, b then covered
+by U), with standard uncertainty
+
+    u = √(u_cal² + u_p² + u_b² + u_w² + u_probe²)     (u_b = 0 under 2004, |b| paper003)
+
+where u_w, the variation between the parts and the reference workpiece, may be given or
+evaluated from its inputs (:class:`~mtmetrology.budgets.workpiece.WorkpieceVariation`:
+u_w = (t − 20 °C)·u_α·l and the temperature and form terms).
+
+The standard's minimum, at least 20 repeats in series of at least 10 cycles, is enforced
+under the ``2004`` and ``2011`` policies and with ``max-over-series``; fewer repeats are
+accepted only when asked (``allow_few_repeats``), and the deviation is then recorded in
+the result (:attr:`ISO15530Budget.deviations`).  The repeats, the production part's
+readings and the calibrated value must be in the same unit (mm): magnitudes that differ
+by more than a factor √10³ (half of the three decades of a µm/mm or mm/m slip, on a log
+scale; magnitudes below 0.1 mm count as 0.1 mm, for form and position near zero) are
+refused, naming both.
+
+A production part's readings (``part``) give its result, the same U and the ISO 14253-1
+decision against the tolerance (:class:`PartResult`).
+
 The probing system's systematic error enters in quadrature (u_probe) only when it is
 above the threshold of the machine class (1 µm small, 3 µm large machine; Mutilba et al.,
 Section 3, step 6); below it the probe term is negligible and stated as such.
@@ -42,11 +64,13 @@ a VDI/VDE 2617-11 budget with a volumetric error map* (seed 003), Eqs. 1–3 and
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from mtmetrology.budgets.choices import Policy, RepeatabilityMethod
+from mtmetrology.budgets.repeats import repeat_shortfall, repeatability
+from mtmetrology.budgets.workpiece import WorkpieceVariation
 from mtmetrology.errors import InputError
 from mtmetrology.uncertainty.conformity import ConformityDecision, Tolerance, decide
 from mtmetrology.uncertainty.outputs import Output
@@ -54,12 +78,16 @@ from mtmetrology.units import from_internal, to_internal
 
 __all__ = [
     "BUDGET_KIND",
+    "ISO_POLICIES",
     "PROBE_THRESHOLD",
     "ISO15530Budget",
+    "PartResult",
     "budget_output",
+    "check_same_unit",
     "combine",
     "iso15530_3_budget",
     "probe_contribution",
+    "repeat_shortfall",
     "repeatability",
 ]
 
@@ -69,71 +97,53 @@ _VERSION = 1
 #: Probe systematic error below which the probe term is negligible, by machine class (mm).
 PROBE_THRESHOLD = {"small": to_internal(1.0, "µm"), "large": to_internal(3.0, "µm")}
 
-#: ISO 15530-3 usage of the repeatability: cycles per series and repeats in all.
-MIN_CYCLES_PER_SERIES = 10
-MIN_REPEATS = 20
+#: The policies of the standard's editions, which require its minimum of repeats.
+ISO_POLICIES = (Policy.ISO_2004, Policy.ISO_2011)
+#: Largest factor between the magnitudes of values in the same unit (module notes).
+UNIT_RATIO_LIMIT = 10.0**1.5
+#: Magnitudes below this (mm) count as it in the unit check: form, position near zero.
+_MAGNITUDE_FLOOR = 0.1
 
 
-def _nonnegative(value: float, name: str) -> float:
+def _finite(value: float, name: str) -> float:
     try:
         x = float(value)
     except (TypeError, ValueError):
         raise InputError(f"{name}: expected a number, got {value!r}") from None
-    if not math.isfinite(x) or x < 0:
+    if not math.isfinite(x):
+        raise InputError(f"{name}: expected a finite number, got {value!r}")
+    return x
+
+
+def _nonnegative(value: float, name: str) -> float:
+    x = _finite(value, name)
+    if x < 0:
         raise InputError(f"{name}: must be a finite number >= 0, got {value!r}")
     return x
 
 
-def repeatability(
-    values: np.ndarray,
-    series: np.ndarray | None = None,
-    method: RepeatabilityMethod | str = RepeatabilityMethod.SAMPLE,
-) -> float:
-    """u_p from repeated measurement cycles (Mutilba et al., Eq. 3).
+def check_same_unit(value: float, calibrated: float, what: str) -> None:
+    """Refuse values that cannot be in the same unit as the calibrated value (mm).
 
-    Parameters
-    ----------
-    values : (n,) array
-        One result per cycle.
-    series : (n,) array, optional
-        Series label of each value (a day, a re-clamping ...); one series without it.
-    method : RepeatabilityMethod
-        ``sample``: u_p = √(Σ(y_i − ȳ)² / (n − 1)) over all values (n ≥ 2).
-        ``max-over-series``: the largest such standard deviation over the series, each of
-        at least 10 cycles, at least 20 repeats in all (ISO 15530-3 usage).
-
-    Returns
-    -------
-    float
-        u_p, in the unit of ``values``.
+    A bias of an ISO 15530-3 budget is a small systematic error: a repeats' mean or a
+    part's reading whose magnitude differs from x_cal's by more than
+    :data:`UNIT_RATIO_LIMIT` (magnitudes below 0.1 mm counted as 0.1 mm) is a value in
+    another unit (µm, m), never a bias (issue 30: runs in µm against x_cal in mm gave
+    b = 4.996e7 µm).
 
     Raises
     ------
     InputError
-        Too few values for the method.
+        Naming ``what`` and ``--calibrated`` with both values.
     """
-    y = np.asarray(values, dtype=float).ravel()
-    method = RepeatabilityMethod(method)
-    if method is RepeatabilityMethod.SAMPLE:
-        if y.size < 2:
-            raise InputError(f"u_p: {y.size} repeated value(s), at least 2 needed")
-        return float(np.std(y, ddof=1))
-    labels = np.zeros(y.size, dtype=int) if series is None else np.asarray(series)
-    if y.size < MIN_REPEATS:
+    a = max(abs(value), _MAGNITUDE_FLOOR)
+    c = max(abs(calibrated), _MAGNITUDE_FLOOR)
+    ratio = max(a, c) / min(a, c)
+    if ratio > UNIT_RATIO_LIMIT:
         raise InputError(
-            f"u_p (max-over-series): {y.size} repeats, ISO 15530-3 usage needs at least "
-            f"{MIN_REPEATS}"
+            f"{what} ({value:g}) and --calibrated ({calibrated:g}) differ by a factor "
+            f"{ratio:.3g}: both must be in mm"
         )
-    worst = 0.0
-    for label in np.unique(labels):
-        s = y[labels == label]
-        if s.size < MIN_CYCLES_PER_SERIES:
-            raise InputError(
-                f"u_p (max-over-series): series {str(label)!r} has {s.size} cycles, at least "
-                f"{MIN_CYCLES_PER_SERIES} needed"
-            )
-        worst = max(worst, float(np.std(s, ddof=1)))
-    return worst
 
 
 def probe_contribution(probe_error: float, machine_class: str = "small") -> float:
@@ -169,6 +179,10 @@ def combine(
     k: float = 2.0,
 ) -> tuple[float, float]:
     """Combined standard and expanded uncertainty of one characteristic.
+
+    u = √(u_cal² + u_p² + u_b² + u_w² + u_probe²) with u_b the policy's (0 under ``2004``,
+    |b| under ``paper003``); U = k·u, plus |b| under ``2004`` (ISO 15530-3:2004 and :2011,
+    clause 7; Mutilba et al., Eqs. 1–2).
 
     Parameters
     ----------
@@ -238,6 +252,79 @@ def _um(x: float | None) -> float | None:
     return None if x is None else float(from_internal(x, "µm"))
 
 
+def _decision_from_dict(d: dict | None) -> ConformityDecision | None:
+    """The decision of a :meth:`ConformityDecision.to_dict`, taken again from its tolerance."""
+    if d is None:
+        return None
+    t = d["tolerance"]
+    return decide(
+        d["value"],
+        (d["uncertainty_below"], d["uncertainty_above"]),
+        Tolerance(t["nominal"], t["lower_deviation"], t["upper_deviation"]),
+        guard_band_factor=d["guard_band_factor"],
+        unit=d.get("unit"),
+    )
+
+
+@dataclass(frozen=True)
+class PartResult:
+    """A production part measured like the calibrated workpiece: its result and decision.
+
+    Attributes
+    ----------
+    name : str
+    n : int
+        Readings of the part (averaged).
+    mean : float
+        y, the mean of the readings (mm).
+    bias_corrected : bool
+        Whether b was subtracted (policy ``2011``; ``2004`` and ``paper003`` leave b in
+        the result and cover it by U).
+    result : float
+        y − b under ``2011``, else y (mm).
+    U : float
+        The budget's expanded uncertainty (mm): the task uncertainty of one measurement of
+        a part like the reference, so a conservative bound for a mean of readings.
+    decision : ConformityDecision or None
+        ISO 14253-1 decision of ``result`` ± U against the tolerance, if one was given.
+    """
+
+    name: str
+    n: int
+    mean: float
+    bias_corrected: bool
+    result: float
+    U: float
+    decision: ConformityDecision | None = None
+
+    def to_dict(self, u: float, k: float) -> dict:
+        """JSON form; ``u`` and ``k`` are the budget's (for the output record)."""
+        return {
+            "name": self.name,
+            "n": self.n,
+            "mean": self.mean,
+            "bias_corrected": self.bias_corrected,
+            "result": self.result,
+            "U": self.U,
+            "um": {"U": _um(self.U)},
+            "output": budget_output(self.name, self.result, u, self.U, k).to_dict(),
+            "decision": None if self.decision is None else self.decision.to_dict(),
+        }
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> PartResult:
+        """Read :meth:`to_dict`'s form back."""
+        return cls(
+            name=str(doc["name"]),
+            n=int(doc["n"]),
+            mean=float(doc["mean"]),
+            bias_corrected=bool(doc["bias_corrected"]),
+            result=float(doc["result"]),
+            U=float(doc["U"]),
+            decision=_decision_from_dict(doc.get("decision")),
+        )
+
+
 @dataclass(frozen=True)
 class ISO15530Budget:
     """An ISO 15530-3 task-uncertainty budget of one characteristic (lengths in mm).
@@ -269,10 +356,17 @@ class ISO15530Budget:
     result : float
         The reported measurement result: ȳ, or ȳ − b under ``2011``.
     decision : ConformityDecision or None
-        ISO 14253-1 decision of ``result`` ± U against the tolerance, if one was given.
+        ISO 14253-1 decision of the reference workpiece's ``result`` ± U against the
+        tolerance, when a tolerance and no part were given.
     name : str
         Name of the characteristic.
     provenance : dict
+    deviations : tuple of str
+        Deviations from ISO 15530-3 the user allowed (too few repeats), in words.
+    part : PartResult or None
+        The production part's result and decision.
+    workpiece : WorkpieceVariation or None
+        The inputs u_w was evaluated from (None when u_w was given).
     """
 
     policy: Policy
@@ -295,6 +389,9 @@ class ISO15530Budget:
     decision: ConformityDecision | None = None
     name: str = "characteristic"
     provenance: dict = field(default_factory=dict)
+    deviations: tuple[str, ...] = ()
+    part: PartResult | None = None
+    workpiece: WorkpieceVariation | None = None
 
     def to_dict(self) -> dict:
         """JSON form: values in mm, contributions and uncertainties also in µm."""
@@ -334,6 +431,9 @@ class ISO15530Budget:
             },
             "outputs": [budget_output(self.name, self.result, self.u, self.U, self.k).to_dict()],
             "decision": None if self.decision is None else self.decision.to_dict(),
+            "deviations": list(self.deviations),
+            "part": None if self.part is None else self.part.to_dict(self.u, self.k),
+            "workpiece": None if self.workpiece is None else self.workpiece.to_dict(),
             "provenance": dict(self.provenance),
         }
 
@@ -345,17 +445,7 @@ class ISO15530Budget:
         if doc.get("version") != _VERSION:
             raise InputError(f"budget: version {doc.get('version')!r} is not {_VERSION}")
         c = doc["contributions"]
-        decision = None
-        if doc.get("decision") is not None:
-            d = doc["decision"]
-            t = d["tolerance"]
-            decision = decide(
-                doc["result"],
-                doc["U"],
-                Tolerance(t["nominal"], t["lower_deviation"], t["upper_deviation"]),
-                guard_band_factor=d["guard_band_factor"],
-                unit=d.get("unit"),
-            )
+        part, workpiece = doc.get("part"), doc.get("workpiece")
         return cls(
             policy=Policy(doc["policy"]),
             repeatability_method=RepeatabilityMethod(doc["repeatability_method"]),
@@ -374,9 +464,12 @@ class ISO15530Budget:
             u=float(doc["u"]),
             U=float(doc["U"]),
             result=float(doc["result"]),
-            decision=decision,
+            decision=_decision_from_dict(doc.get("decision")),
             name=str(doc.get("name", "characteristic")),
             provenance=dict(doc.get("provenance", {})),
+            deviations=tuple(str(d) for d in doc.get("deviations", [])),
+            part=None if part is None else PartResult.from_dict(part),
+            workpiece=None if workpiece is None else WorkpieceVariation.from_dict(workpiece),
         )
 
 
@@ -396,20 +489,24 @@ def iso15530_3_budget(
     tolerance: Tolerance | None = None,
     name: str = "characteristic",
     provenance: dict | None = None,
+    allow_few_repeats: bool = False,
+    part: np.ndarray | None = None,
+    part_name: str = "part",
+    workpiece: WorkpieceVariation | None = None,
 ) -> ISO15530Budget:
     """ISO 15530-3 budget of one characteristic from repeated on-machine measurements.
 
     Parameters
     ----------
     values : (n,) array
-        Results of the repeated cycles (mm).
+        Results of the repeated cycles on the calibrated workpiece (mm).
     calibrated : float
         x_cal, the calibrated value of the same characteristic (mm).
     u_cal, u_w, u_b : float
         Standard uncertainties (mm, ≥ 0): calibration, workpiece variation, bias estimate
         (``2011`` only).
     series : (n,) array, optional
-        Series labels for ``max-over-series``.
+        Series labels (``max-over-series``, and the minimum of cycles per series).
     policy, repeatability_method
         See :class:`Policy` and :func:`repeatability`.
     probe_error, machine_class
@@ -417,21 +514,36 @@ def iso15530_3_budget(
     k : float
         Coverage factor.
     tolerance : Tolerance, optional
-        Specification; the ISO 14253-1 decision of the reported result ± U is attached.
+        Specification; the ISO 14253-1 decision of the part's result ± U (of the reference
+        workpiece's result without ``part``) is attached.
+    allow_few_repeats : bool
+        Proceed with fewer repeats than ISO 15530-3 requires (policies ``2004``/``2011``,
+        ``max-over-series``): the shortfall is recorded in ``deviations``.
+    part : (m,) array, optional
+        Readings of a production part measured like the workpiece (mm); their mean gives
+        the part's result (:class:`PartResult`).
+    part_name : str
+        Name of the part in the result.
+    workpiece : WorkpieceVariation, optional
+        The inputs u_w is evaluated from (instead of ``u_w``); its length defaults to
+        |x_cal|.
 
     Returns
     -------
     ISO15530Budget
-        b = ȳ − x_cal; u and U by :func:`combine`.
+        b = ȳ − x_cal; u and U by :func:`combine`; the part's result and decision.
 
     Raises
     ------
     InputError
-        Negative or non-finite uncertainty, too few repeats, unknown policy.
+        Negative or non-finite uncertainty, too few repeats for the policy (unless
+        allowed), repeats or part readings not in the unit of x_cal, both ``u_w`` and
+        ``workpiece``, unknown policy.
     """
     y = np.asarray(values, dtype=float).ravel()
     if not np.all(np.isfinite(y)):
         raise InputError("values: every repeated result must be a finite number")
+    calibrated = _finite(calibrated, "--calibrated")
     policy = Policy(policy)
     method = RepeatabilityMethod(repeatability_method)
     u_cal = _nonnegative(u_cal, "u_cal")
@@ -439,20 +551,56 @@ def iso15530_3_budget(
     u_b = _nonnegative(u_b, "u_b")
     if policy is not Policy.ISO_2011 and u_b > 0:
         raise InputError(f"u_b: only the 2011 policy takes an uncertainty of b (policy {policy})")
-    u_p = repeatability(y, series, method)
+    if workpiece is not None:
+        if u_w > 0:
+            raise InputError("--u-w: give u_w or its inputs (--alpha, --form ...), not both")
+        if workpiece.length is None:
+            workpiece = replace(workpiece, length=abs(calibrated))
+        u_w = workpiece.u()
+    deviations: list[str] = []
+    if policy in ISO_POLICIES or method is RepeatabilityMethod.MAX_OVER_SERIES:
+        shortfall = repeat_shortfall(y.size, series)
+        if shortfall and not allow_few_repeats:
+            raise InputError(
+                f"{name}: {'; '.join(shortfall)} (policy {policy}, --u-p {method}); "
+                "--allow-few-repeats proceeds and records the deviation"
+            )
+        deviations = shortfall
+    u_p = repeatability(y, series, method, allow_few_repeats=allow_few_repeats)
     mean = float(np.mean(y))
-    b = mean - float(calibrated)
+    check_same_unit(mean, calibrated, f"{name}: the repeats' mean")
+    b = mean - calibrated
     u_probe = probe_contribution(probe_error, machine_class)
     u, expanded = combine(policy, b=b, u_p=u_p, u_cal=u_cal, u_w=u_w, u_b=u_b, u_probe=u_probe, k=k)
-    result = mean - b if policy is Policy.ISO_2011 else mean
+    corrected = policy is Policy.ISO_2011
+    result = mean - b if corrected else mean
     used_b = {Policy.ISO_2004: 0.0, Policy.ISO_2011: u_b, Policy.PAPER_003: abs(b)}[policy]
-    decision = None if tolerance is None else decide(result, expanded, tolerance, unit="mm")
+    part_result = None
+    if part is not None:
+        readings = np.asarray(part, dtype=float).ravel()
+        if readings.size == 0 or not np.all(np.isfinite(readings)):
+            raise InputError(f"{part_name}: the part's readings must be finite numbers")
+        y_part = float(np.mean(readings))
+        check_same_unit(y_part, calibrated, f"--part {part_name}: the readings' mean")
+        value = y_part - b if corrected else y_part
+        part_result = PartResult(
+            name=part_name,
+            n=int(readings.size),
+            mean=y_part,
+            bias_corrected=corrected,
+            result=value,
+            U=expanded,
+            decision=None if tolerance is None else decide(value, expanded, tolerance, unit="mm"),
+        )
+    decision = None
+    if tolerance is not None and part is None:
+        decision = decide(result, expanded, tolerance, unit="mm")
     return ISO15530Budget(
         policy=policy,
         repeatability_method=method,
         n=int(y.size),
         mean=mean,
-        calibrated=float(calibrated),
+        calibrated=calibrated,
         b=b,
         u_p=u_p,
         u_cal=u_cal,
@@ -468,4 +616,7 @@ def iso15530_3_budget(
         decision=decision,
         name=name,
         provenance=dict(provenance or {}),
+        deviations=tuple(deviations),
+        part=part_result,
+        workpiece=workpiece,
     )

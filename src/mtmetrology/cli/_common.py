@@ -11,6 +11,10 @@ line on stderr and a documented exit code (:mod:`mtmetrology.errors`):
   atomically, so this is true);
 - anything else is a bug -> ``internal error: ...``, exit 1.
 
+Every ``float`` option of every command refuses NaN and ±inf at the door, through one
+rule (:func:`finite_number`, attached by :class:`MtmGroup`): ``error: --calibrated: expected
+a finite number, got nan``, exit 2, before the command reads a file.
+
 ``mtm --debug`` (or ``MTM_DEBUG=1``) lets the traceback through instead.
 """
 
@@ -56,6 +60,7 @@ __all__ = [
     "ParamsOnlyOption",
     "describe_failure",
     "fail",
+    "finite_number",
     "interrupt_reported",
     "interrupted_message",
     "print_json",
@@ -123,8 +128,53 @@ def describe_failure(err: BaseException, outputs_before: int = 0) -> tuple[str, 
     )
 
 
+def _option_name(param) -> str:
+    """The name a user types for ``param``: its long option (``--u-cal``, not ``-u``)."""
+    opts = list(getattr(param, "opts", None) or [])
+    return next((o for o in opts if o.startswith("--")), opts[0] if opts else param.name)
+
+
+def finite_number(ctx: typer.Context, param, value: float | None) -> float | None:
+    """The check of every ``float`` option of ``mtm``: NaN and ±inf are refused.
+
+    Typer accepts ``nan`` and ``inf`` as floats; no option of ``mtm`` means either, and a
+    NaN let through becomes a printed ``U nan`` (issue 30).  Raised as
+    :class:`InputError`, so the refusal is one line naming the option, exit 2.
+
+    Raises
+    ------
+    InputError
+        ``value`` is NaN or infinite.
+    """
+    if value is not None and not math.isfinite(value):
+        raise InputError(f"{_option_name(param)}: expected a finite number, got {value}")
+    return value
+
+
+def _chain(first: Callable, then: Callable | None) -> Callable:
+    if then is None:
+        return first
+    return lambda ctx, param, value: then(ctx, param, first(ctx, param, value))
+
+
+def refuse_non_finite(command) -> None:
+    """Attach :func:`finite_number` to every ``float`` parameter of ``command`` and of its
+    subcommands (before the parameter's own callback, if it has one)."""
+    for param in command.params:
+        descriptor = getattr(param, "type_descriptor", None)
+        if descriptor is not None and descriptor.annotation is float:
+            param.callback = _chain(finite_number, param.callback)
+    for sub in getattr(command, "commands", {}).values():
+        refuse_non_finite(sub)
+
+
 class MtmGroup(TyperGroup):
-    """The ``mtm`` command group: every failure leaves through :func:`describe_failure`."""
+    """The ``mtm`` command group: every failure leaves through :func:`describe_failure`,
+    and every ``float`` option refuses NaN and ±inf (:func:`refuse_non_finite`)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        refuse_non_finite(self)
 
     def invoke(self, ctx: typer.Context):
         debug = bool(ctx.params.get("debug")) or os.environ.get("MTM_DEBUG", "") not in ("", "0")

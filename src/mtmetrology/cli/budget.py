@@ -21,11 +21,23 @@ app = typer.Typer(help="Task-uncertainty budgets of on-machine measurements.", n
 
 ISO_HELP = """ISO 15530-3 budget of one characteristic from repeated cycles.
 
-RUNS.csv: value[,series], one row per measurement cycle (mm); series labels the series
-for --u-p max-over-series (each ≥ 10 cycles, ≥ 20 repeats in all).  b = mean − VALUE.
-Uncertainties in µm.  --policy 2004: U = k·√(u_cal²+u_p²+u_w²) + |b|; 2011: b corrected,
-U = k·√(u_cal²+u_p²+u_b²+u_w²); paper003 (default): u_b = |b| inside the root.  The
-probe error enters in quadrature above 1 µm (small machine) or 3 µm (large).
+RUNS.csv: value[,series], one row per measurement cycle on the calibrated workpiece (mm);
+series labels the series.  b = mean − VALUE.  Uncertainties in µm.  --policy 2004:
+U = k·√(u_cal²+u_p²+u_w²) + |b|; 2011: b corrected, U = k·√(u_cal²+u_p²+u_b²+u_w²);
+paper003 (default): u_b = |b| inside the root.  The probe error enters in quadrature
+above 1 µm (small machine) or 3 µm (large).
+
+The policies 2004 and 2011, and --u-p max-over-series, need the standard's 20 repeats in
+series of at least 10 cycles; --allow-few-repeats proceeds with fewer, says so and records
+the deviation in the result.  Repeats, part readings and VALUE must all be in mm.
+
+--part READINGS.csv (value, mm): a production part measured the same way; its result
+(y − b under 2011, y otherwise) ± U, and with --tolerance the ISO 14253-1 decision on it.
+
+u_w from its inputs instead of --u-w: --alpha and --alpha-half-width (µm/(m·K)),
+--temperature (°C) and --u-temperature (K), --length (mm, default |VALUE|), --form (µm,
+peak to valley): u_w = √(L²·[(T − 20 °C)²·u_α² + α²·u_T² + u_α²·u_T²] + F²/12),
+u_α = a_α/√3 (ISO 15530-3, clause 7).
 """
 
 
@@ -46,6 +58,54 @@ def _um(value: float, option: str) -> float:
     return float(to_internal(value, "µm"))
 
 
+def _workpiece(alpha, half_width, temperature, u_temperature, length, form):
+    """The u_w inputs of the options, or None when none is given."""
+    given = (alpha, half_width, temperature, u_temperature, length, form)
+    if all(v is None for v in given):
+        return None
+    from mtmetrology.budgets.workpiece import WorkpieceVariation
+    from mtmetrology.units import to_internal
+
+    def per_kelvin(value):  # µm/(m·K): the ratio µm/m per kelvin
+        return 0.0 if value is None else float(to_internal(value, "µm/m"))
+
+    return WorkpieceVariation(
+        length=length,
+        alpha=per_kelvin(alpha),
+        alpha_half_width=per_kelvin(half_width),
+        temperature=temperature,
+        u_temperature=0.0 if u_temperature is None else u_temperature,
+        form=0.0 if form is None else _um(form, "--form"),
+    )
+
+
+def _iso_lines(budget, doc: dict) -> list[str]:
+    """The console and report lines of the part, the u_w inputs and the decision."""
+    from mtmetrology.formatting import format_uncertainty
+
+    lines = []
+    if budget.workpiece is not None:
+        w = doc["workpiece"]
+        terms = ", ".join(f"{n} {format_uncertainty(v)}" for n, v in w["um"].items())
+        lines.append(f"u_w from inputs (µm): {terms}; {w['formula']}")
+    if budget.part is not None:
+        part = budget.part
+        how = "y − b" if part.bias_corrected else "y, b not corrected"
+        lines.append(
+            f"production part {part.name}: {part.n} reading(s), mean {part.mean:.6f} mm, result "
+            f"({how}) {part.result:.6f} mm ± {format_uncertainty(doc['um']['U'])} µm "
+            f"(k = {budget.k:g})"
+        )
+        if part.decision is not None:
+            lines.append(f"decision (ISO 14253-1) on {part.name}: {part.decision.decision}")
+    elif budget.decision is not None:
+        lines.append(
+            f"decision (ISO 14253-1) on the reference workpiece's result: "
+            f"{budget.decision.decision} (--part judges a production part)"
+        )
+    return lines
+
+
 @app.command("iso15530-3", help=ISO_HELP)
 @user_errors
 def iso15530_3(
@@ -63,14 +123,44 @@ def iso15530_3(
     u_p_method: Annotated[
         RepeatabilityMethod, typer.Option("--u-p", help="u_p: sample s or max over series.")
     ] = RepeatabilityMethod.SAMPLE,
+    allow_few_repeats: Annotated[
+        bool,
+        typer.Option(
+            "--allow-few-repeats",
+            help="Proceed with fewer than 20 repeats / 10 cycles a series; recorded.",
+        ),
+    ] = False,
     probe_u: Annotated[float, typer.Option("--probe-u", help="Probe systematic error (µm).")] = 0.0,
     machine_class: Annotated[
         str, typer.Option("--machine-class", help="small (1 µm) or large (3 µm) probe threshold.")
     ] = "small",
     k: Annotated[float, typer.Option("--k", help="Coverage factor.")] = 2.0,
+    part: Annotated[
+        Path | None,
+        typer.Option("--part", help="READINGS.csv: value (mm) of a production part."),
+    ] = None,
     tolerance: Annotated[
         str | None,
         typer.Option("--tolerance", help="NOMINAL,LOWER,UPPER (mm): ISO 14253-1 decision."),
+    ] = None,
+    alpha: Annotated[
+        float | None, typer.Option("--alpha", help="u_w: expansion coefficient α (µm/(m·K)).")
+    ] = None,
+    alpha_half_width: Annotated[
+        float | None,
+        typer.Option("--alpha-half-width", help="u_w: half-width of α between parts (µm/(m·K))."),
+    ] = None,
+    temperature: Annotated[
+        float | None, typer.Option("--temperature", help="u_w: part temperature T (°C).")
+    ] = None,
+    u_temperature: Annotated[
+        float | None, typer.Option("--u-temperature", help="u_w: standard uncertainty of T (K).")
+    ] = None,
+    length: Annotated[
+        float | None, typer.Option("--length", help="u_w: length L (mm), default |x_cal|.")
+    ] = None,
+    form: Annotated[
+        float | None, typer.Option("--form", help="u_w: form deviation F, peak to valley (µm).")
     ] = None,
     json: Annotated[bool, typer.Option("--json", help="Print the JSON document.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
@@ -81,13 +171,15 @@ def iso15530_3(
     from mtmetrology.io import check_output, read_csv_table
     from mtmetrology.uncertainty.conformity import Tolerance
 
-    if output is not None:
-        check_output(output, [runs])
-    if report_path is not None:
-        check_output(report_path, [runs])
+    inputs = [runs] if part is None else [runs, part]
+    for target in (output, report_path):
+        if target is not None:
+            check_output(target, inputs)
     tol = None if tolerance is None else Tolerance.parse(tolerance)
+    workpiece = _workpiece(alpha, alpha_half_width, temperature, u_temperature, length, form)
     table = read_csv_table(runs, required=["value"])
     series = table.strings("series") if table.has("series") else None
+    readings = None if part is None else read_csv_table(part, required=["value"]).floats("value")
     budget = iso15530_3_budget(
         table.floats("value"),
         calibrated=calibrated,
@@ -102,9 +194,14 @@ def iso15530_3(
         k=k,
         tolerance=tol,
         name=runs.stem,
-        provenance={"runs": str(runs)},
+        provenance={"runs": str(runs)} | ({} if part is None else {"part": str(part)}),
+        allow_few_repeats=allow_few_repeats,
+        part=readings,
+        part_name="part" if part is None else part.name,
+        workpiece=workpiece,
     )
     doc = budget.to_dict()
+    extra = _iso_lines(budget, doc)
     report = None
     if report_path is not None:
         um = doc["um"]
@@ -112,13 +209,14 @@ def iso15530_3(
         report = _report(
             ctx,
             f"ISO 15530-3 budget: {runs.name}",
-            [runs],
+            inputs,
             ["quantity", "µm"],
             [[n, um[n]] for n in names],
             f"Policy {budget.policy.value}, n = {budget.n}, k = {budget.k:g}; mean "
             f"{budget.mean:.6f} mm, calibrated {budget.calibrated:.6f} mm, result "
-            f"{budget.result:.6f} mm"
-            + ("" if budget.decision is None else f"; decision {budget.decision.decision.value}"),
+            f"{budget.result:.6f} mm. "
+            + " ".join(f"{line}." for line in extra)
+            + "".join(f" Deviation from ISO 15530-3: {d}." for d in budget.deviations),
         )
 
     def summary() -> None:
@@ -133,10 +231,22 @@ def iso15530_3(
         for name in ("u_b", "u_p", "u_cal", "u_w", "u_probe", "u", "U"):
             typer.echo(f"  {name:<8} {format_uncertainty(um[name])}")
         typer.echo(f"  result {budget.result:.6f} mm ± {format_uncertainty(um['U'])} µm")
-        if budget.decision is not None:
-            typer.echo(f"  decision (ISO 14253-1): {budget.decision.decision.value}")
+        for line in extra:
+            typer.echo(f"  {line}")
 
-    emit_result(doc, summary, output=output, report=report, report_path=report_path, as_json=json)
+    def messages() -> None:
+        for deviation in budget.deviations:
+            typer.echo(f"warning: deviation from ISO 15530-3 (recorded): {deviation}", err=True)
+
+    emit_result(
+        doc,
+        summary,
+        output=output,
+        report=report,
+        report_path=report_path,
+        as_json=json,
+        messages=messages,
+    )
 
 
 MAP_HELP = f"""VDI/VDE 2617-11 budget of a feature with a volumetric error map.

@@ -99,7 +99,8 @@ def calibrate_multilateration_file(
         parse_spec`); the weights are 1/u(ℓ).
     mc : int
         Monte Carlo trials checking the map uncertainty at 27 points of the measured
-        volume (:func:`~mtmetrology.multilateration.workflow.map_monte_carlo`); 0: none.
+        volume (:func:`~mtmetrology.multilateration.workflow.map_monte_carlo`); 0: none,
+        else at least 2.
     seed : int, optional
         Seed of the check.
 
@@ -108,8 +109,8 @@ def calibrate_multilateration_file(
     MultilaterationResult
         With ``map_check`` when ``mc`` > 0.
     """
-    if mc < 0:
-        raise InputError(f"--mc must be >= 0 trials, got {mc}")
+    if mc < 0 or mc == 1:  # one draw has no standard deviation: a NaN uncertainty
+        raise InputError(f"--mc must be 0 (no check) or at least 2 trials, got {mc}")
     record = read_lengths(lengths, machine)
     result = calibrate_multilateration(
         machine, record, spec=parse_spec(noise), provenance={"lengths": str(lengths)}
