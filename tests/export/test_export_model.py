@@ -62,3 +62,11 @@ def test_bad_grids_are_refused_naming_the_field(kwargs, field):
     m = Machine.load("three-axis-xfyz")
     with pytest.raises(InputError, match=f"^{field}: "):
         axis_grid(m, "X", **kwargs)
+
+
+def test_a_reference_on_an_axis_the_machine_does_not_have_is_refused(make_set):
+    """Issue 32: ``--reference Q=0`` was silently ignored."""
+    m = Machine.load("three-axis-xfyz")
+    with pytest.raises(InputError) as info:
+        compensation_model(m, make_set(m, {}), pitch=20, reference={"Q": 0.0})
+    assert str(info.value) == "--reference: Q is not an axis of three-axis-xfyz (XYZ)"

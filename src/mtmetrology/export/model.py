@@ -329,6 +329,11 @@ def compensation_model(
         bad = [a for a in wanted if a not in m.axis_names]
         if bad:
             raise InputError(f"axes: {bad[0]} is not an axis of {m.name} ({''.join(m.axis_names)})")
+    for axis in reference or {}:
+        if axis not in m.axis_names or axis == "S":
+            raise InputError(
+                f"--reference: {axis} is not an axis of {m.name} ({''.join(m.axis_names)})"
+            )
     sides = _sides(m)
     tables = []
     refs = {}
