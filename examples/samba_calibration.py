@@ -239,6 +239,7 @@ def _gauge_block(ctx: DemoContext, preset: str, shown: dict, seed: int) -> None:
             GAUGE_LENGTH_MM,
             tip_radius=m.tip_radius,
             u_length=GAUGE_U_MM,
+            parameter_covariance=pset.covariance,
         )
     doc = check.to_dict()
     ctx.write_json(doc, "gauge", "length-check.json")

@@ -204,3 +204,70 @@ def test_a_run_without_uncertainty_is_refused(tmp_path):
     stored = add_result(engine, document, MACHINE)
     with pytest.raises(InputError, match=r"run 1: parameter E_A0B: no uncertainty to certify"):
         calibration_certificate(stored, laboratory="L", email="e", country="DE")
+
+
+def _record_of(n: int, tmp_path, seed: int = 11):
+    """A recorded calibration of the first n parameters with a full covariance."""
+    rng = np.random.default_rng(seed)
+    names = MACHINE.parameter_names[:n]
+    scales = MACHINE.parameter_scales[:n]
+    a = rng.normal(size=(n, n))
+    covariance = (a @ a.T / n + np.eye(n)) * np.outer(scales, scales) * 0.3**2
+    pset = ParameterSet(
+        names,
+        rng.normal(0, 5, n) * scales,
+        MACHINE.parameter_units[:n],
+        covariance,
+        machine=MACHINE.name,
+    )
+    engine = open_history(tmp_path / f"h{n}.sqlite")
+    return add_result(engine, pset.to_document(), MACHINE)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 13])
+@pytest.mark.parametrize("k", [2.0, 3.0])
+def test_the_ellipsoidal_region_states_k_and_p_consistent_for_its_dimension(n, k, tmp_path):
+    """JCGM 102 6.5.2.3: the region of n parameters holds them with p = P(χ²_n ≤ k²). Read
+    from the XML: the region's p is the certificate's (2 Φ(k) − 1) and its k is the one of n
+    dimensions (4.76 for 13 parameters and k = 2, not 2)."""
+    from scipy.stats import chi2, norm
+
+    path = tmp_path / "cert.xml"
+    path.write_bytes(_certificate(_record_of(n, tmp_path), k=k).to_xml())
+    listed = etree.parse(str(path)).find(".//si:realListXMLList", NS)
+    region = listed.find("si:ellipsoidalRegionXMLList", NS)
+    dimension = len(region.findall("si:covarianceMatrix/si:column", NS))
+    k_region = float(region.find("si:coverageFactor", NS).text)
+    p_region = float(region.find("si:coverageProbability", NS).text)
+    p_stated = float(listed.find("si:expandedUncXMLList/si:coverageProbabilityXMLList", NS).text)
+    assert dimension == n
+    assert chi2.cdf(k_region**2, n) == pytest.approx(p_region, abs=1e-6)
+    assert p_region == pytest.approx(2 * norm.cdf(k) - 1, abs=1e-12) == p_stated
+    if n == 1:
+        assert k_region == pytest.approx(k, rel=1e-9)
+    if n == 13 and k == 2.0:
+        assert k_region == pytest.approx(4.76, abs=0.005)  # the issue's figure
+
+
+def test_the_json_form_states_the_region(record):
+    region = _certificate(record).to_dict()["region"]
+    assert region["dimension"] == 13
+    assert region["coverage_probability"] == pytest.approx(0.954499736, abs=1e-9)
+    assert region["coverage_factor"] == pytest.approx(4.76, abs=0.005)  # issue 30: 4.76
+
+
+def test_a_certificate_asymmetric_by_rounding_reads_symmetric_beyond_is_refused(record, tmp_path):
+    root = etree.fromstring(_certificate(record).to_xml())
+    columns = root.findall(".//si:covarianceMatrix/si:column", NS)
+    entry = columns[0].findall("si:covariance", NS)[5].find("si:value", NS)  # C[5, 0]
+    largest = max(abs(float(v.text)) for v in root.iterfind(".//si:covarianceMatrix//si:value", NS))
+    original = float(entry.text)
+    path = tmp_path / "cert.xml"
+    entry.text = repr(original + 3e-10 * largest)  # rounding: accepted, symmetrised
+    path.write_bytes(etree.tostring(root))
+    covariance = np.array(read_certificate(path).covariance)
+    np.testing.assert_array_equal(covariance, covariance.T)
+    entry.text = repr(original + 1e-6 * largest)
+    path.write_bytes(etree.tostring(root))
+    with pytest.raises(InputError, match=r"cert\.xml: si:ellipsoidalRegionXMLList/si:cov"):
+        read_certificate(path)

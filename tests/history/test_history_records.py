@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 from datetime import UTC, datetime
 
+import numpy as np
 import pytest
 
 from mtmetrology.errors import InputError
@@ -99,3 +100,19 @@ def test_list_filters_and_export_rows(history_url, make_calibration):
     assert [row["E_X0C [µm]"] for row in rows] == [1.0, 2.0, 3.0]
     with pytest.raises(InputError, match="machine 'nope': not in the history"):
         export_rows(engine, "nope")
+
+
+def test_a_recorded_covariance_asymmetric_by_rounding_comes_back_exactly_symmetric():
+    """document_covariance applies the one reader rule (mtmetrology.io.covariance)."""
+    from mtmetrology.history.records import document_covariance
+    from mtmetrology.io.files import InputFileError
+
+    doc = {
+        "parameters": [{"name": "E_X0C", "unit": "µm"}, {"name": "E_A0B", "unit": "µrad"}],
+        "covariance": {"names": ["E_X0C", "E_A0B"], "matrix": [[0.25, 1e-7], [1e-7 + 3e-16, 1]]},
+    }
+    c = document_covariance(doc, ["E_A0B", "E_X0C"])
+    np.testing.assert_array_equal(c, c.T)
+    doc["covariance"]["matrix"][1][0] = 1e-7 + 1e-6
+    with pytest.raises(InputFileError, match=r"^run 4: covariance\.matrix: covariance matrix"):
+        document_covariance(doc, ["E_X0C", "E_A0B"], "run 4")

@@ -329,7 +329,8 @@ def test_the_covariance_is_reordered_and_converted(machine):
         ),
         (
             {"names": ["E_X0C", "E_A0B"], "matrix": [[1, 1e-3], [1.001e-3, 1]]},
-            "covariance matrix is not symmetric",
+            "covariance.matrix: covariance matrix is not symmetric (max |C − Cᵀ| = 1e-06, "
+            "above 1e-09 × max |C| = 1e-09)",
         ),
         (
             {"names": ["E_X0C", "E_A0B"], "matrix": [[1, 0], [0, -1e-6]]},
@@ -345,6 +346,34 @@ def test_a_covariance_symmetric_to_rounding_is_accepted(machine):
     block = {"names": ["E_X0C", "E_A0B"], "matrix": [[1, 0.5], [0.5 * (1 + 1e-12), 1]]}
     pset = ParameterSet.from_document(_with_covariance(block), machine)
     assert pset.covariance[0, 0] == pytest.approx(1e-6, rel=1e-15)
+
+
+def test_a_covariance_asymmetric_by_rounding_of_small_entries_reads_back_symmetric(
+    machine, tmp_path
+):
+    """Issue 30: entries near 1e-7 whose mirrors differ by 3e-16 (elementwise 3e-9
+    relative, refused by the old rtol=1e-9 rule) are read, exactly symmetric; the file
+    written again is exactly symmetric."""
+    block = {
+        "names": ["E_X0C", "E_A0B"],
+        "matrix": [[0.25, 1.234e-7], [1.234e-7 + 3e-16, 0.04]],
+    }
+    pset = ParameterSet.from_document(_with_covariance(block), machine, "t.json")
+    np.testing.assert_array_equal(pset.covariance, pset.covariance.T)
+    assert pset.covariance[0, 1] == pytest.approx((1.234e-7 + 1.5e-16) * 1e-9, rel=1e-12)
+    pset.save(tmp_path / "again.json")
+    matrix = np.array(json.loads((tmp_path / "again.json").read_text())["covariance"]["matrix"])
+    np.testing.assert_array_equal(matrix, matrix.T)
+    # a relative asymmetry of 1e-6 of the largest entry is refused, naming file and field
+    block["matrix"][1][0] = 1.234e-7 + 1e-6 * 0.25
+    message = _refusal(_with_covariance(block), machine)
+    assert message.startswith("p.json: covariance.matrix: covariance matrix is not symmetric")
+
+
+def test_the_writer_writes_an_exactly_symmetric_matrix(machine):
+    cov = np.array([[0.48e-3**2, 1e-10], [1e-10 * (1 + 1e-13), 0.86e-6**2]])
+    matrix = np.array(_two(machine, covariance=cov).to_document()["covariance"]["matrix"])
+    np.testing.assert_array_equal(matrix, matrix.T)
 
 
 def test_a_calibrated_tool_round_trips_and_is_put_on_the_machine(machine, tmp_path):

@@ -74,7 +74,10 @@ def test_cli_thermal_correction_and_tip_sphere_shift_each_error_exactly(tmp_path
     ]
     np.testing.assert_allclose(shift, 300.0 * 10.8e-6 * 2.0 * 1e3, rtol=1e-9)
     assert warm["thermal"]["contributions_mm"]["temperature"] == pytest.approx(1.62e-3)
-    assert warm["u_error_um"] == pytest.approx(np.hypot(0.25 * (1 + 21.6e-6), 1.62), rel=1e-9)
+    assert warm["u_gauge_um"] == pytest.approx(np.hypot(0.25 * (1 + 21.6e-6), 1.62), rel=1e-9)
+    # no --params: no calibration part, every pair's u(e) is the gauge's
+    assert warm["calibration_in_u"] is False
+    assert {p["u_error_um"] for p in warm["pairs"]} == {warm["u_gauge_um"]}
     pts = _sphere_points(np.array([10.0, 20.0, 30.0]), 9.525 + 2.9625)
     lines = ["x,y,z", *(",".join(f"{v:.9f}" for v in p) for p in pts)]
     (tmp_path / "sphere.csv").write_text("\n".join(lines) + "\n")
@@ -88,7 +91,7 @@ def test_cli_thermal_correction_and_tip_sphere_shift_each_error_exactly(tmp_path
         [p["error_nominal_um"] for p in plain["pairs"]],
         atol=1e-5,
     )
-    assert tip["u_error_um"] == pytest.approx(np.hypot(0.25, 0.25), rel=1e-9)
+    assert tip["u_gauge_um"] == pytest.approx(np.hypot(0.25, 0.25), rel=1e-9)
 
 
 def test_cli_tip_sphere_without_diameter_exits_2(tmp_path):

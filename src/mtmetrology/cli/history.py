@@ -446,6 +446,13 @@ def _print_certificate(cert) -> None:
         f"{cert.begin.isoformat()} to {cert.end.isoformat()}; U = k u with "
         f"k = {cert.coverage_factor:g}, p = {cert.coverage_probability:.4f}"
     )
+    region = cert.region
+    if region.dimension > 1:
+        typer.echo(
+            f"  ellipsoidal region of the {region.dimension} quantities jointly: "
+            f"k = {region.coverage_factor:.3g}, p = {region.coverage_probability:.4f} "
+            "(JCGM 102 6.5.2.3)"
+        )
     values, u, _ = cert.internal()
     for name, si, value, s in zip(cert.names, cert.units, values, u, strict=True):
         unit = _DISPLAY[si]

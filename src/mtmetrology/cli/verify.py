@@ -28,7 +28,9 @@ Each pair's length is the distance of the two stylus centres (forward kinematics
 the nominal model and of the compensated model RESULT.json) less the tip diameter;
 its error is length - L. Reports each pair's nominal and compensated error and their
 mean, RMS, standard deviation, range and largest magnitude (µm); --json prints the
-length-check document, -o writes it.
+length-check document, -o writes it. u(e) of each compensated error holds the gauge's
+u (--u-length, thermal, tip) and the calibration's, g U_θ gᵀ from the covariance of
+RESULT.json.
 """
 
 
@@ -92,7 +94,14 @@ def length(
         raise InputError("--tip-sphere and --sphere-diameter go together")
     if tip_sphere is not None and tip_radius_mm is not None:
         raise InputError("give --tip-radius-mm or --tip-sphere, not both")
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+
     m, theta = machine_with_parameters(machine, params)
+    # U_θ of the set, in its parameter order: the order machine_for gave m
+    covariance = (
+        None if params is None else ParameterSet.load(params, Machine.load(machine)).covariance
+    )
     data = read_length_readings(readings, m)
     thermal = None
     if temperature_c is not None:
@@ -117,6 +126,7 @@ def length(
         u_length=u_length,
         thermal=thermal,
         u_tip_diameter=u_tip,
+        parameter_covariance=covariance,
     )
     doc = check.to_dict()
     report = None
@@ -142,8 +152,21 @@ def length(
             )
         if doc["u_tip_diameter_mm"] is not None:
             typer.echo(f"  tip radius {doc['tip_radius_mm']:.5f} mm from the reference sphere")
-        if doc["u_error_um"] is not None:
-            typer.echo(f"  u(e) of each error = {format_uncertainty(doc['u_error_um'])} µm")
+        u_errors = [p["u_error_um"] for p in doc["pairs"] if p["u_error_um"] is not None]
+        if u_errors:
+            gauge = doc["u_gauge_um"] or 0.0
+            calibration = (
+                "the calibration's U_θ per pair"
+                if doc["calibration_in_u"]
+                else "no calibration part: the parameter set has no covariance"
+                if params is not None
+                else "no calibration part: no --params"
+            )
+            low, high = format_uncertainty(min(u_errors)), format_uncertainty(max(u_errors))
+            typer.echo(
+                f"  u(e) of the compensated errors {low if low == high else f'{low} to {high}'} "
+                f"µm (gauge {format_uncertainty(gauge)} µm; {calibration})"
+            )
 
     emit_result(doc, summary, output=output, report=report, report_path=report_path, as_json=json)
 

@@ -39,6 +39,7 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from mtmetrology.io.covariance import symmetric, symmetric_covariance
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError
 from mtmetrology.io.schema import describe_validation_error
@@ -105,8 +106,10 @@ class BallPlate(_Strict):
             c = np.asarray(self.covariance_mm2, dtype=float)
             if c.shape != (n, n):
                 raise ValueError(f"covariance_mm2 must be {n}x{n} (3 per ball)")
-            if not np.allclose(c, c.T, rtol=1e-9, atol=0.0):
-                raise ValueError("covariance_mm2 is not symmetric")
+            try:
+                c = symmetric_covariance(c, "covariance_mm2")
+            except InputFileError as err:
+                raise ValueError(str(err)) from None
             if np.linalg.eigvalsh(c).min() <= 0:
                 raise ValueError("covariance_mm2 is not positive definite")
         return self
@@ -124,7 +127,7 @@ class BallPlate(_Strict):
     def covariance(self) -> np.ndarray:
         """Covariance of the stacked coordinates, shape (3n, 3n), mm²."""
         if self.covariance_mm2 is not None:
-            return np.asarray(self.covariance_mm2, dtype=float)
+            return symmetric(self.covariance_mm2)  # checked by _check
         return np.eye(3 * len(self.balls)) * self.u_mm**2
 
 

@@ -11,7 +11,12 @@ The measurement result is one ``si:realListXMLList``: the parameter names
 (``labelXMLList``), values and units in coherent SI units (``\\metre``, ``\\radian``,
 ``\\one``), the expanded uncertainties ``U_i = k u_i`` with their coverage factor and
 coverage probability, and the covariance matrix of the parameters
-(``ellipsoidalRegionXMLList``, in the products of the units).
+(``ellipsoidalRegionXMLList``, in the products of the units). The ellipsoidal region
+covers the n parameters jointly: it states the certificate's p and the coverage factor
+of n dimensions, ``p = P(χ²_n ≤ k_n²)`` (JCGM 102:2011, 6.5.2.3;
+:func:`mtmetrology.uncertainty.regions.normal_region_coverage`), not the one-parameter k.
+The covariance is written exactly symmetric and read by the one rule of every covariance
+reader (:func:`mtmetrology.io.covariance.symmetric_covariance`).
 """
 
 from __future__ import annotations
@@ -25,10 +30,11 @@ from pathlib import Path
 
 import numpy as np
 from lxml import etree
-from scipy.stats import norm
 
 from mtmetrology.errors import InputError
 from mtmetrology.history.records import RunRecord, document_covariance
+from mtmetrology.io.covariance import symmetric, symmetric_covariance
+from mtmetrology.uncertainty.regions import RegionCoverage, normal_region_coverage
 from mtmetrology.units import from_internal, parse_unit, to_internal
 
 __all__ = [
@@ -88,8 +94,9 @@ def validate_certificate(tree: etree._ElementTree, source: str = "certificate") 
 
 
 def coverage_probability(k: float) -> float:
-    """Coverage probability of ``y ± k u`` for a normal distribution, ``p = 2 Φ(k) − 1``."""
-    return float(2.0 * norm.cdf(k) - 1.0)
+    """Coverage probability of ``y ± k u`` for a normal distribution, ``p = 2 Φ(k) − 1``
+    (:func:`~mtmetrology.uncertainty.regions.normal_region_coverage` with n = 1)."""
+    return normal_region_coverage(1, k=k).coverage_probability
 
 
 def _product_unit(a: str, b: str) -> str:
@@ -118,7 +125,9 @@ class CalibrationCertificate:
     Measurement model: the certificate states, for each quantity, the value ``y_i``, the
     expanded uncertainty ``U_i = k u_i`` (coverage probability ``p = 2 Φ(k) − 1`` for a
     normal distribution) and the covariance ``cov(y_i, y_j)`` of the quantities; values in
-    coherent SI units (``units``: m, rad, 1).
+    coherent SI units (``units``: m, rad, 1). The n quantities' joint ellipsoidal region
+    (:attr:`region`) has the same p and the coverage factor ``k_n`` with
+    ``p = P(χ²_n ≤ k_n²)`` (JCGM 102:2011, 6.5.2.3).
 
     Attributes
     ----------
@@ -160,6 +169,12 @@ class CalibrationCertificate:
     coverage_factor: float
     coverage_probability: float
 
+    @property
+    def region(self) -> RegionCoverage:
+        """The ellipsoidal region of all n quantities: the certificate's p, k for n
+        dimensions (:func:`~mtmetrology.uncertainty.regions.normal_region_coverage`)."""
+        return normal_region_coverage(len(self.names), p=self.coverage_probability)
+
     def internal(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Values, standard uncertainties and covariance in internal units (mm, rad, 1)."""
         f = np.array([to_internal(1.0, unit) for unit in self.units])
@@ -170,7 +185,8 @@ class CalibrationCertificate:
         )
 
     def to_dict(self) -> dict:
-        """The JSON form (``kind: calibration-certificate``, version 1)."""
+        """The JSON form (``kind: calibration-certificate``, version 1); ``region`` is the
+        joint ellipsoidal region (:attr:`region`, derived: :meth:`from_dict` ignores it)."""
         return {
             "kind": "calibration-certificate",
             "version": 1,
@@ -190,6 +206,7 @@ class CalibrationCertificate:
             "covariance": [list(row) for row in self.covariance],
             "coverage_factor": self.coverage_factor,
             "coverage_probability": self.coverage_probability,
+            "region": self.region.to_dict(),
         }
 
     @classmethod
@@ -305,14 +322,17 @@ def _certificate_element(cert: CalibrationCertificate):
     _sub(expanded, _s("distributionXMLList"), "normal")
     region = _sub(listed, _s("ellipsoidalRegionXMLList"))
     matrix = _sub(region, _s("covarianceMatrix"))
+    covariance = symmetric(cert.covariance)
     for j, column_unit in enumerate(d_units):
         column = _sub(matrix, _s("column"))
         for i, row_unit in enumerate(d_units):
             entry = _sub(column, _s("covariance"))
-            _sub(entry, _s("value"), repr(float(cert.covariance[i][j])))
+            _sub(entry, _s("value"), repr(float(covariance[i, j])))
             _sub(entry, _s("unit"), _product_unit(row_unit, column_unit))
-    _sub(region, _s("coverageFactor"), repr(float(cert.coverage_factor)))
-    _sub(region, _s("coverageProbability"), repr(float(cert.coverage_probability)))
+    # the joint region of n quantities: k of n dimensions for the certificate's p
+    joint = cert.region
+    _sub(region, _s("coverageFactor"), repr(joint.coverage_factor))
+    _sub(region, _s("coverageProbability"), repr(joint.coverage_probability))
     _sub(region, _s("distribution"), "normal")
     return root
 
@@ -338,7 +358,8 @@ def calibration_certificate(
         Its ISO 3166-1 alpha-2 country code (two capital letters).
     coverage_factor : float
         ``k`` of the expanded uncertainties ``U = k u``, ``k >= 1``; the coverage probability
-        stated is ``p = 2 Φ(k) − 1`` (normal distribution).
+        stated is ``p = 2 Φ(k) − 1`` (normal distribution). The ellipsoidal region of the
+        n parameters states the same p with its own ``k_n``, ``p = P(χ²_n ≤ k_n²)``.
 
     Returns
     -------
@@ -372,7 +393,7 @@ def calibration_certificate(
             raise InputError(f"{source}: parameter {p['name']!r}: a D-SI label has no spaces")
         si_units.append(_SI_UNITS[dimension][0])
     internal = np.array([to_internal(p["value"], p["unit"]) for p in record.parameters])
-    covariance = document_covariance(record.result, names)
+    covariance = document_covariance(record.result, names, source)
     if covariance is None:
         missing = [p["name"] for p in record.parameters if p["u"] is None]
         if missing:
@@ -426,14 +447,18 @@ def read_certificate(path: str | Path) -> CalibrationCertificate:
     The file is validated against the shipped XSDs. Standard uncertainties are
     ``u_i = U_i / k_i`` (``expandedUncXMLList``; ``coverage_factor`` and
     ``coverage_probability`` of the result are the first quantity's); the covariance is the
-    ``ellipsoidalRegionXMLList`` matrix when present, else ``diag(u²)``. Values are
-    converted to coherent SI units (m, rad, 1) by :mod:`mtmetrology.units`.
+    ``ellipsoidalRegionXMLList`` matrix when present (symmetric to 1e-9 of its largest
+    entry, then symmetrised: :func:`mtmetrology.io.covariance.symmetric_covariance`), else
+    ``diag(u²)``; the region's own k and p are not read (:attr:`CalibrationCertificate.region`
+    derives them from p and n). Values are converted to coherent SI units (m, rad, 1) by
+    :mod:`mtmetrology.units`.
 
     Raises
     ------
     InputError
         Naming the file and the element: not XML, not a valid DCC, no list of real values,
-        units other than length, angle or one, inconsistent list lengths.
+        units other than length, angle or one, inconsistent list lengths, an asymmetric
+        covariance matrix.
     """
     source = str(path)
     try:
@@ -499,6 +524,9 @@ def read_certificate(path: str | Path) -> CalibrationCertificate:
                         f"{_product_unit(d_units[i], d_units[j])!r}"
                     )
                 covariance[i, j] = float(_text(entry, "si:value", source)) * f[i] * f[j]
+        covariance = symmetric_covariance(
+            covariance, f"{source}: si:ellipsoidalRegionXMLList/si:covarianceMatrix"
+        )
     core = root.find("dcc:administrativeData/dcc:coreData", _NS)
     contact = root.find("dcc:administrativeData/dcc:calibrationLaboratory/dcc:contact", _NS)
     item = root.find("dcc:administrativeData/dcc:items/dcc:item/dcc:name/dcc:content", _NS)

@@ -24,6 +24,7 @@ import mtmetrology
 from mtmetrology.errors import InputError
 from mtmetrology.history import schema
 from mtmetrology.history.database import canonical_sha256, writer
+from mtmetrology.io.covariance import symmetric_covariance
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import KIND as PARAMETER_SET
 from mtmetrology.kinematics.parameter_set import RESULT_KINDS, ParameterSet
@@ -524,16 +525,24 @@ def parameter_series(
     return [r[0] for r in rows], [_utc(r[1]) for r in rows], rows[0][2], values, u
 
 
-def document_covariance(doc: dict, names: list[str]) -> np.ndarray | None:
+def document_covariance(
+    doc: dict, names: list[str], source: str = "recorded calibration"
+) -> np.ndarray | None:
     """A recorded document's parameter covariance (internal units) in ``names``' order: its
     ``covariance`` block (in the units listed with the parameters), else diag(u²), else
-    None."""
+    None.
+
+    The block is checked and symmetrised by the one rule of every covariance reader
+    (:func:`mtmetrology.io.covariance.symmetric_covariance`: ``max |C − Cᵀ| ≤ 1e-9 max |C|``,
+    then ``(C + Cᵀ)/2``); an asymmetric one raises InputFileError naming ``source``.
+    """
     declared = {e["name"]: parse_unit(e["unit"]).factor for e in doc["parameters"]}
     block = doc.get("covariance")
     if block is not None:
         position = [block["names"].index(n) for n in names]
         f = np.array([declared[n] for n in names])
-        return np.asarray(block["matrix"], dtype=float)[np.ix_(position, position)] * np.outer(f, f)
+        matrix = symmetric_covariance(block["matrix"], f"{source}: covariance.matrix")
+        return matrix[np.ix_(position, position)] * np.outer(f, f)
     entries = {e["name"]: e for e in doc["parameters"]}
     if all("u" in entries[n] for n in names):
         return np.diag([(entries[n]["u"] * declared[n]) ** 2 for n in names])
@@ -546,7 +555,7 @@ def run_covariances(engine: Engine, ids: list[int], names: list[str]) -> list[np
     cal = schema.CalibrationRun
     with Session(engine) as session:
         documents = dict(session.execute(select(cal.id, cal.result).where(cal.id.in_(ids))).all())
-    return [document_covariance(documents[i], names) for i in ids]
+    return [document_covariance(documents[i], names, f"run {i}") for i in ids]
 
 
 def export_rows(engine: Engine, machine: str, *, since: datetime | None = None) -> list[dict]:

@@ -10,7 +10,9 @@ The file form follows ARCHITECTURE.md::
      "provenance": {...}}
 
 Values are converted to internal units on reading (µm -> mm, µrad -> rad, µm/m -> 1)
-and back on writing; a unit whose dimension does not fit the parameter is an error.
+and back on writing; a unit whose dimension does not fit the parameter is an error. The
+covariance is accepted when symmetric to 1e-9 of its largest entry and symmetrised
+(:mod:`mtmetrology.io.covariance`); it is written exactly symmetric.
 
 Reading is strict, because a parameter set moves a machine: ``kind`` must be
 ``parameter-set`` (or a calibration result that embeds one, :data:`RESULT_KINDS`, whose
@@ -32,6 +34,7 @@ import yaml
 
 from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
+from mtmetrology.io.covariance import symmetric, symmetric_covariance
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError, atomic_write
 from mtmetrology.kinematics.machine import Machine
@@ -171,7 +174,7 @@ class ParameterSet(NotebookRepr):
         if self.covariance is not None:
             doc["covariance"] = {
                 "names": list(self.names),
-                "matrix": (self.covariance / np.outer(f, f)).tolist(),
+                "matrix": (symmetric(self.covariance) / np.outer(f, f)).tolist(),
             }
         if self.tool is not None:
             doc["tool_mm"] = [float(v) for v in self.tool]
@@ -342,8 +345,8 @@ class ParameterSet(NotebookRepr):
                 raise InputFileError(f"{source}: covariance.matrix row {i} must have {n} entries")
             for j, v in enumerate(row):
                 mat[i, j] = _number(v, f"{source}: covariance.matrix[{i}][{j}]")
-        if not np.allclose(mat, mat.T, rtol=1e-9, atol=0):
-            raise InputFileError(f"{source}: covariance matrix is not symmetric")
+        # symmetric to 1e-9 of its largest entry, then exactly (mtmetrology.io.covariance)
+        mat = symmetric_covariance(mat, f"{source}: covariance.matrix")
         order = [cnames.index(nm) for nm in names]
         mat = mat[np.ix_(order, order)]
         if np.linalg.eigvalsh(mat).min() < -1e-9 * np.abs(mat).max():

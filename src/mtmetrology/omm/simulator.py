@@ -64,6 +64,7 @@ import numpy as np
 from scipy.linalg import block_diag
 
 from mtmetrology.errors import InputError
+from mtmetrology.io.covariance import symmetric_covariance
 from mtmetrology.kinematics.chain import ChainEvaluation
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.rng import SeedLike, as_generator, chunk_generators
@@ -450,12 +451,12 @@ def _sampled_population_covariance(machine, q, delta, sigma, v, senses, linear, 
 
 
 def check_psd(matrix, shape: tuple[int, ...], what: str) -> np.ndarray:
-    """A finite, symmetric, positive semidefinite (stack of) covariance matrix, or InputError."""
+    """A finite, symmetric (to 1e-9 of its largest entry, then symmetrised), positive
+    semidefinite (stack of) covariance matrix, or InputError."""
     m = np.asarray(matrix, float)
     if m.shape != shape or not np.all(np.isfinite(m)):
         raise InputError(f"{what}: expected finite values of shape {shape}, got {m.shape}")
-    if not np.allclose(m, np.swapaxes(m, -1, -2), rtol=1e-10, atol=0):
-        raise InputError(f"{what}: not symmetric")
+    m = symmetric_covariance(m, what)  # the one symmetry rule of mtmetrology.io.covariance
     low = np.linalg.eigvalsh(m).min(axis=-1)
     scale = np.abs(m).max(axis=(-1, -2))
     if np.any(low < -1e-10 * np.maximum(scale, np.finfo(float).tiny)):

@@ -22,6 +22,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, ValidationError
 
 from mtmetrology.errors import InputError
+from mtmetrology.io.covariance import symmetric_covariance
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.schema import describe_validation_error
 from mtmetrology.units import to_internal
@@ -57,9 +58,7 @@ def load_unexplained_covariance(path: str | Path) -> np.ndarray:
     rows = doc.covariance
     if len(rows) != 3 or any(len(r) != 3 for r in rows):
         raise InputError(f"{path}: covariance must be a symmetric 3×3 matrix (µm²)")
-    c = np.array(rows, dtype=float)
-    if not np.array_equal(c, c.T):
-        raise InputError(f"{path}: covariance must be a symmetric 3×3 matrix (µm²)")
+    c = symmetric_covariance(np.array(rows, dtype=float), f"{path}: covariance")
     low = float(np.linalg.eigvalsh(c)[0])
     if low < -1e-12 * np.abs(c).max():
         raise InputError(

@@ -310,7 +310,7 @@ def _length(rep: Report, check, **_) -> None:
         [[name, *(f"{doc[name][s]:.3g}" for s in stats)] for name in ("nominal", "compensated")],
         caption="errors in µm",
     )
-    if doc["thermal"] is not None or doc["u_error_um"] is not None:
+    if doc["thermal"] is not None or doc["u_error_max_um"] is not None:
         t = doc["thermal"]
         rows = [["reference length L_T (mm)", f"{doc['reference_length_mm']:.6f}"]]
         if t is not None:
@@ -331,17 +331,27 @@ def _length(rep: Report, check, **_) -> None:
                     format_uncertainty(1e3 * doc["u_tip_diameter_mm"]),
                 ]
             )
-        if doc["u_error_um"] is not None:
-            rows.append(["u(e) of each error (µm)", format_uncertainty(doc["u_error_um"])])
+        if doc["u_gauge_um"] is not None:
+            rows.append(["u of the gauge, u_g (µm)", format_uncertainty(doc["u_gauge_um"])])
+        if doc["u_error_max_um"] is not None:
+            rows.append(["largest u(e) (µm)", format_uncertainty(doc["u_error_max_um"])])
         rep.table(
             ["reference", "value"],
             rows,
-            caption="L_T = L20 (1 + α (T − 20 °C)); u(e)² = u²(L_T) + u²(d_tip).",
+            caption="L_T = L20 (1 + α (T − 20 °C)); u(e_i)² = u_g² + g_i U_θ g_iᵀ, "
+            "u_g² = u²(L_T) + u²(d_tip), g_i = ∂ℓ_i/∂θ"
+            + ("" if doc["calibration_in_u"] else " (no U_θ given: the gauge's part only)")
+            + ".",
         )
     rep.table(
-        ["pair", "error, nominal (µm)", "error, compensated (µm)"],
+        ["pair", "error, nominal (µm)", "error, compensated (µm)", "u(e) (µm)"],
         [
-            [p["pair"], f"{p['error_nominal_um']:.3g}", f"{p['error_compensated_um']:.3g}"]
+            [
+                p["pair"],
+                f"{p['error_nominal_um']:.3g}",
+                f"{p['error_compensated_um']:.3g}",
+                "" if p["u_error_um"] is None else format_uncertainty(p["u_error_um"]),
+            ]
             for p in doc["pairs"]
         ],
     )

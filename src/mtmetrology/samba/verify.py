@@ -22,7 +22,21 @@ the reference is ``L_T = L₂₀ (1 + α (T − 20 °C))`` with α its expansion
 ``u²(L_T) = (1 + αΔT)² u²(L₂₀) + (L₂₀ ΔT)² u²(α) + (L₂₀ α)² u²(T)``: the sensitivity to T
 is L₂₀ α, 5.4 µm/°C on 500 mm (JCGM 100:2008, 5.1.2). The tip radius may come from a
 calibration on a reference sphere (:func:`mtmetrology.fitting.effective_tip_diameter`),
-whose u(d_tip) enters every length: ``u²(e) = u²(L_T) + u²(d_tip)``.
+whose u(d_tip) enters every length.
+
+Measurement model of the compensated length error of pair i (JCGM 100:2008, 5.1.2 and
+5.2.2): the readings q_a, q_b are compensated with the calibration's estimate θ̂, whose
+covariance U_θ is the calibration's, so::
+
+    e_i = ‖p(q_b,i; θ̂) − p(q_a,i; θ̂)‖ − d_tip − L_T
+    u²(e_i) = u²(L_T) + u²(d_tip) + g_i U_θ g_iᵀ,
+    g_i = ∂ℓ_i/∂θ = n_iᵀ (J(q_b,i; θ̂) − J(q_a,i; θ̂)),   n_i = (p_b − p_a)/‖p_b − p_a‖
+
+with J = ∂p/∂θ the machine's parameter Jacobian. The gauge part ``u_g² = u²(L_T) + u²(d_tip)``
+is the same for every pair; the calibration part differs by pair (the indexation). The
+errors of two pairs share both, ``cov(e_i, e_j) = u_g² + g_i U_θ g_jᵀ``, so their mean and
+RMS are not averages of independent values. The check's own probing repeatability is not
+part of u(e): the scatter of e over the pairs shows it.
 
 READINGS CSV: ``pair,end,X,Y,Z,B,C[,S]`` (mm, degrees), ``end`` ``a`` or ``b``, one row
 per end and pair.
@@ -55,6 +69,7 @@ __all__ = [
     "LengthCheck",
     "LengthReadings",
     "error_statistics",
+    "length_sensitivities",
     "read_length_readings",
     "simulate_length_check",
     "simulate_length_readings",
@@ -216,6 +231,11 @@ class LengthCheck(SambaNotebookRepr):
         Calibrated length, its standard uncertainty (or None) and the tip radius, mm.
     nominal, compensated : (n,) ndarray
         Measured lengths with the nominal and the compensated model, mm.
+    thermal : ThermalReference or None
+    u_tip_diameter : float or None
+    u_calibration : (n,) ndarray or None
+        ``sqrt(g_i U_θ g_iᵀ)`` of each pair's compensated length (module notes), mm; None
+        without the calibration's covariance.
     """
 
     pairs: tuple[str, ...]
@@ -226,6 +246,7 @@ class LengthCheck(SambaNotebookRepr):
     compensated: np.ndarray = field(repr=False)
     thermal: ThermalReference | None = None
     u_tip_diameter: float | None = None
+    u_calibration: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def reference_length(self) -> float:
@@ -233,12 +254,22 @@ class LengthCheck(SambaNotebookRepr):
         return self.length if self.thermal is None else self.thermal.length
 
     @property
-    def u_error(self) -> float | None:
-        """u(e) of every length error from the reference and the tip: ``sqrt(u²(L_T) +
-        u²(d_tip))``, mm; None when neither is stated."""
+    def u_gauge(self) -> float | None:
+        """The gauge's part of u(e), the same for every pair: ``sqrt(u²(L_T) + u²(d_tip))``,
+        mm; None when neither is stated."""
         parts = [self.u_length if self.thermal is None else self.thermal.u, self.u_tip_diameter]
         known = [p for p in parts if p is not None]
         return float(np.sqrt(sum(p**2 for p in known))) if known else None
+
+    @property
+    def u_error(self) -> np.ndarray | None:
+        """u(e_i) of each compensated length error, ``sqrt(u_g² + g_i U_θ g_iᵀ)`` (module
+        notes), mm, shape (n,); None when neither the gauge's u nor U_θ is known."""
+        if self.u_gauge is None and self.u_calibration is None:
+            return None
+        gauge = 0.0 if self.u_gauge is None else self.u_gauge
+        calibration = 0.0 if self.u_calibration is None else self.u_calibration
+        return np.sqrt(gauge**2 + calibration**2) * np.ones(len(self.pairs))
 
     @property
     def errors_nominal(self) -> np.ndarray:
@@ -249,9 +280,19 @@ class LengthCheck(SambaNotebookRepr):
         return self.compensated - self.reference_length
 
     def to_dict(self) -> dict:
-        """The ``length-check`` document: per pair and summary statistics, µm."""
+        """The ``length-check`` document: per pair and summary statistics, µm.
+
+        ``u_gauge_um`` is the gauge's part of u(e); each pair's ``u_calibration_um`` and
+        ``u_error_um`` (None when unknown) and ``u_error_max_um``, the largest, include the
+        calibration's U_θ when ``calibration_in_u`` is true.
+        """
         en = from_internal(self.errors_nominal, "µm")
         ec = from_internal(self.errors_compensated, "µm")
+
+        def um(values, i):
+            return None if values is None else float(from_internal(values[i], "µm"))
+
+        u_error = self.u_error
         return {
             "kind": "length-check",
             "version": 1,
@@ -261,9 +302,13 @@ class LengthCheck(SambaNotebookRepr):
             "u_tip_diameter_mm": self.u_tip_diameter,
             "thermal": None if self.thermal is None else self.thermal.to_dict(),
             "reference_length_mm": self.reference_length,
-            "u_error_um": None
-            if self.u_error is None
-            else float(from_internal(self.u_error, "µm")),
+            "u_gauge_um": None
+            if self.u_gauge is None
+            else float(from_internal(self.u_gauge, "µm")),
+            "calibration_in_u": self.u_calibration is not None,
+            "u_error_max_um": None
+            if u_error is None
+            else float(from_internal(u_error.max(), "µm")),
             "pairs": [
                 {
                     "pair": p,
@@ -271,6 +316,8 @@ class LengthCheck(SambaNotebookRepr):
                     "length_compensated_mm": float(self.compensated[i]),
                     "error_nominal_um": float(en[i]),
                     "error_compensated_um": float(ec[i]),
+                    "u_calibration_um": um(self.u_calibration, i),
+                    "u_error_um": um(u_error, i),
                 }
                 for i, p in enumerate(self.pairs)
             ],
@@ -289,8 +336,13 @@ def verify_length(
     u_length: float | None = None,
     thermal: ThermalReference | None = None,
     u_tip_diameter: float | None = None,
+    parameter_covariance: np.ndarray | None = None,
 ) -> LengthCheck:
-    """Length errors of the nominal and the compensated machine model.
+    """Length errors of the nominal and the compensated machine model, with u(e).
+
+    Measurement model (module notes): ``e_i = ℓ_i(θ̂) − L_T`` and
+    ``u²(e_i) = u²(L_T) + u²(d_tip) + g_i U_θ g_iᵀ`` with ``g_i = ∂ℓ_i/∂θ`` at θ̂ from the
+    machine's parameter Jacobian (JCGM 100:2008, 5.1.2; Alami Mchichi (2018) eq. 6.17).
 
     Parameters
     ----------
@@ -311,10 +363,20 @@ def verify_length(
     u_tip_diameter : float, optional
         Standard uncertainty of the effective tip diameter (from a reference-sphere
         calibration), mm.
+    parameter_covariance : (n_params, n_params) ndarray, optional
+        U_θ of ``params`` (internal units, ``machine.parameter_names`` order): the
+        calibration that compensated the readings. None: u(e) holds the gauge alone and
+        the document says so (``calibration_in_u`` false).
 
     Returns
     -------
     LengthCheck
+
+    Raises
+    ------
+    InputFileError
+        A length that is not positive, a negative tip radius, a covariance without
+        ``params`` or of the wrong shape.
 
     Examples
     --------
@@ -338,6 +400,18 @@ def verify_length(
 
     nominal = lengths(None)
     compensated = nominal if params is None else lengths(params)
+    u_calibration = None
+    if parameter_covariance is not None:
+        if params is None:
+            raise InputFileError("a parameter covariance needs the parameters it belongs to")
+        u_theta = np.asarray(parameter_covariance, dtype=float)
+        if u_theta.shape != (machine.n_params, machine.n_params):
+            raise InputFileError(
+                f"the parameter covariance must be {machine.n_params}x{machine.n_params} "
+                f"(the machine's parameters), got {u_theta.shape}"
+            )
+        g = length_sensitivities(machine, params, readings)
+        u_calibration = np.sqrt(np.maximum(np.einsum("ip,pq,iq->i", g, u_theta, g), 0.0))
     return LengthCheck(
         readings.pairs,
         float(length),
@@ -347,7 +421,24 @@ def verify_length(
         compensated,
         thermal,
         u_tip_diameter,
+        u_calibration,
     )
+
+
+def length_sensitivities(
+    machine: Machine, params: np.ndarray, readings: LengthReadings
+) -> np.ndarray:
+    """G: ∂ℓ_i/∂θ of each pair's compensated length, shape (n_pairs, n_params).
+
+    ``g_i = n_iᵀ (J(q_b,i; θ) − J(q_a,i; θ))`` with ``n_i`` the unit vector from the
+    stylus centre at end a to the one at end b and J = ∂p/∂θ (:meth:`Machine.jacobian`);
+    the tip diameter does not depend on θ. mm per internal parameter unit.
+    """
+    pa = machine.evaluate(readings.end_a, params, d_params=True)
+    pb = machine.evaluate(readings.end_b, params, d_params=True)
+    d = pb.position - pa.position
+    n = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    return np.einsum("ik,ikp->ip", n, pb.d_params - pa.d_params)
 
 
 def simulate_length_readings(

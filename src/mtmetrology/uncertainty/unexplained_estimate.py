@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mtmetrology.errors import InputError
+from mtmetrology.io.covariance import symmetric
 from mtmetrology.units import from_internal, to_internal
 
 __all__ = ["UnexplainedCovariance", "estimate_unexplained_covariance"]
@@ -100,7 +101,8 @@ class UnexplainedCovariance:
             "kind": KIND,
             "version": 1,
             "unit": "µm²",
-            "covariance": _um2(self.covariance).tolist(),
+            # exactly symmetric: the eigenvalue clipping leaves rounding asymmetry
+            "covariance": _um2(symmetric(self.covariance)).tolist(),
             "source": self.source,
             "estimate": {
                 "estimator": "Σ r rᵀ / ν − Σ_v, ν = n − p/3 (− 1 if centred); "

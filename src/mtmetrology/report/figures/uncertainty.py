@@ -235,7 +235,7 @@ def coverage_ellipses(
     >>> len(fig.axes)
     3
     """
-    from scipy import stats
+    from mtmetrology.uncertainty.regions import normal_region_coverage
 
     y = np.asarray(mean, dtype=float)
     cov = np.asarray(covariance, dtype=float)
@@ -244,7 +244,7 @@ def coverage_ellipses(
         raise ValueError("coverage ellipses need m >= 2 names, an (m,) mean and (m, m) covariance")
     units = list(units) if units is not None else [""] * m
     pairs = [(i, j) for i in range(m) for j in range(i + 1, m)][:max_pairs]
-    k = float(np.sqrt(stats.chi2.ppf(p, 2)))
+    k = normal_region_coverage(2, p=p).coverage_factor  # JCGM 102 6.5.2.3, n = 2
     ncols = min(3, len(pairs))
     nrows = -(-len(pairs) // ncols)
     fig = new_figure(3.3 * ncols, 3.1 * nrows)
