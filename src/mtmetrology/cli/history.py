@@ -397,6 +397,14 @@ def drift(
         float, typer.Option("--reliability", help="In-tolerance probability at the due date.")
     ] = 0.95,
     since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    rw_prior: Annotated[
+        str,
+        typer.Option(
+            "--rw-prior",
+            help="Prior of the random-walk variance, which is marginalised: reference (no "
+            "scale assumed; conservative with few runs) or half-cauchy (scale: u per interval).",
+        ),
+    ] = "reference",
     db: Db = None,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="DRIFT.json.")] = None,
     json: Annotated[bool, typer.Option("--json", help="Print DRIFT.json.")] = False,
@@ -413,16 +421,21 @@ def drift(
         mpe=mpe,
         reliability=reliability,
         since=_date(since, "--since"),
+        prior=rw_prior,
     )
     document = result.to_dict()
 
     def summary() -> None:
         per_year = 365.25
+        lo, hi = (v * per_year for v in result.slope_interval)
         typer.echo(
             f"{result.parameter}: {result.level:.4f} {result.unit} on "
-            f"{result.last_date:%Y-%m-%d}; slope {result.slope * per_year:.3g} ± "
-            f"{result.u_slope * per_year:.2g} {result.unit}/year; random walk "
-            f"{math.sqrt(result.random_walk_variance * per_year):.2g} {result.unit}/√year"
+            f"{result.last_date:%Y-%m-%d}; slope {result.slope * per_year:.3g} "
+            f"{result.unit}/year, u {result.u_slope * per_year:.2g}, "
+            f"{100 * result.coverage_probability:.4g} % interval [{lo:.3g}, {hi:.3g}]; random "
+            f"walk {math.sqrt(result.random_walk_variance * per_year):.2g} {result.unit}/√year "
+            f"(estimate; marginalised under the {result.prior} prior, mean "
+            f"{math.sqrt(result.random_walk_variance_mean * per_year):.2g})"
         )
         if result.mpe is not None:
             due = "beyond the horizon" if result.due_date is None else f"{result.due_date:%Y-%m-%d}"

@@ -235,9 +235,13 @@ def parameter_drift(
     mpe: float | None = None,
     reliability: float = 0.95,
     since: datetime | None = None,
+    prior: str = "reference",
 ) -> DriftResult:
     """The drift model of one parameter over a machine's calibrations and its due date
     (:func:`mtmetrology.history.drift.fit_drift`; each run's u is its measurement
-    uncertainty; ``mpe`` in the parameter's customary unit)."""
+    uncertainty; ``mpe`` in the parameter's customary unit; ``prior`` of the random-walk
+    variance, which is marginalised)."""
     _, dates, unit, values, u = parameter_series(engine, machine, parameter, since=since)
-    return fit_drift(parameter, unit, dates, values, u, mpe=mpe, reliability=reliability)
+    return fit_drift(
+        parameter, unit, dates, values, u, mpe=mpe, reliability=reliability, prior=prior
+    )
