@@ -192,15 +192,15 @@ def model_adequacy(
     shown = f"p = {p:.2g}" if p > 0.0 else "p < 1e-300"
     test = f"variance factor s² = {s2:.3g} (χ² = {chi2:.4g}, ν = {dof}, {shown}"
     if not significant:
-        message = f"the residuals agree with the model and the stated noise: {test} ≥ {alpha:g})"
+        message = f"the residuals agree with the model and the stated noise: {test}; α = {alpha:g})"
     elif scaled:
         message = (
-            f"the residuals contradict the model or the stated noise: {test} < {alpha:g}); "
+            f"the residuals contradict the model or the stated noise: {test}; α = {alpha:g}); "
             f"the covariance is scaled by s² (uncertainties × {np.sqrt(factor):.3g})"
         )
     else:
         message = (
-            f"the residuals contradict the model or the stated noise: {test} < {alpha:g}); "
+            f"the residuals contradict the model or the stated noise: {test}; α = {alpha:g}); "
             "the a-priori covariance is kept as asked, so the uncertainties are optimistic "
             f"by a factor of about {np.sqrt(s2):.3g}"
         )

@@ -85,6 +85,7 @@ def calibrate_multilateration_file(
     noise: str = "0.2um+0.3um/m",
     mc: int = 0,
     seed: int | None = None,
+    adequacy: str = "scale",
 ) -> MultilaterationResult:
     """Identify the machine's errors from a LENGTHS.csv of a sequential multilateration.
 
@@ -102,6 +103,9 @@ def calibrate_multilateration_file(
         volume (:func:`~mtmetrology.multilateration.workflow.map_monte_carlo`); 0: none.
     seed : int, optional
         Seed of the check.
+    adequacy : {"scale", "a-priori"}
+        The identification engine's model-adequacy rule (``"a-priori"``:
+        ``--keep-a-priori-covariance``); the check draws the noise the covariance stands for.
 
     Returns
     -------
@@ -112,7 +116,11 @@ def calibrate_multilateration_file(
         raise InputError(f"--mc must be >= 0 trials, got {mc}")
     record = read_lengths(lengths, machine)
     result = calibrate_multilateration(
-        machine, record, spec=parse_spec(noise), provenance={"lengths": str(lengths)}
+        machine,
+        record,
+        spec=parse_spec(noise),
+        provenance={"lengths": str(lengths)},
+        adequacy=adequacy,
     )
     if not mc:
         return result
