@@ -297,6 +297,21 @@ ParamsOnlyOption = Annotated[
     str | None,
     typer.Option("--params-only", help="Identify only these parameters (E_X0C,E_A0C,...)."),
 ]
+KeepAPrioriOption = Annotated[
+    bool,
+    typer.Option(
+        "--keep-a-priori-covariance",
+        help="Keep the covariance of the stated noise even when the residuals contradict it "
+        "(chi-squared p < 0.01); by default it is then scaled by the variance factor s².",
+    ),
+]
+
+
+def adequacy_rule(keep_a_priori: bool) -> str:
+    """The identification engine's adequacy rule for ``--keep-a-priori-covariance``."""
+    return "a-priori" if keep_a_priori else "scale"
+
+
 ReportOption = Annotated[
     Path | None,
     typer.Option(

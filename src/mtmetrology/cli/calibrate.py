@@ -11,9 +11,11 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from mtmetrology.cli._common import (
     ArtefactOption,
     ErrorModelOption,
+    KeepAPrioriOption,
     MachineOption,
     ParamsOnlyOption,
     ReportOption,
+    adequacy_rule,
     command_line,
     emit_result,
     fail,
@@ -49,6 +51,11 @@ the normal distribution for p = 0.95) in the console, RESULT.json and the report
 
 A rank-deficient test is refused, naming the confounded parameters and what to add;
 --min-norm returns the minimum-norm solution instead, flagged in the result.
+
+When the residuals contradict the model or the stated noise (chi-squared p < 0.01) the
+output says so and the covariance (and the GUF/Monte Carlo inputs) is scaled by the
+variance factor s², unless --keep-a-priori-covariance; RESULT.json records the test
+(adequacy) and the residual RMS by ball and stylus (residual_patterns).
 """
 
 
@@ -196,6 +203,7 @@ def samba(
     min_norm: Annotated[
         bool, typer.Option("--min-norm", help="Minimum-norm solution if rank deficient.")
     ] = False,
+    keep_a_priori: KeepAPrioriOption = False,
     json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
     report_path: ReportOption = None,
@@ -273,6 +281,7 @@ def samba(
             estimate_tool=estimate_tool,
             tool_prior=tool_prior,
             minimum_norm=min_norm,
+            adequacy=adequacy_rule(keep_a_priori),
         )
     except ConvergenceError as err:
         fail(str(err))
@@ -393,6 +402,13 @@ def _summary(doc: dict, output: Path | None) -> None:
             v["nominal_model"]["max_um"],
         )
     )
+    typer.echo(f"model adequacy: {doc['adequacy']['message']}")
+    if doc["adequacy"]["significant"]:
+        worst = max(doc["residual_patterns"]["ball"], key=lambda g: g["rms_weighted"])
+        typer.echo(
+            f"  largest residual rms at ball {worst['group']}: {worst['rms_µm']:.2g} µm "
+            f"({worst['rms_weighted']:.2g} × the stated noise)"
+        )
     if "uncertainty" in doc and "validation" in doc["uncertainty"]:
         typer.echo(doc["uncertainty"]["validation"]["message"])
     if output is not None:

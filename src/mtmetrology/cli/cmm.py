@@ -16,8 +16,10 @@ from typing import Annotated
 import typer
 
 from mtmetrology.cli._common import (
+    KeepAPrioriOption,
     MachineOption,
     ReportOption,
+    adequacy_rule,
     command_line,
     emit_result,
     machine_with_parameters,
@@ -122,6 +124,7 @@ def calibrate_ballplate_cmd(
     ] = ",".join(AUTO_CANDIDATES),
     sigma_um: SigmaOpt = 0.5,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the U2/U3 sample points.")] = 0,
+    keep_a_priori: KeepAPrioriOption = False,
     json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
     report_path: ReportOption = None,
     history: HistoryOption = False,
@@ -132,7 +135,9 @@ def calibrate_ballplate_cmd(
     centres (the certificate enters with its uncertainty). The datum (terms left out) is
     chosen by rank and reported; a set-up that cannot see the model is refused with the
     unobservable combinations named. Writes a ballplate-calibration result (a parameter set
-    for `mtm predict --params`) with U1/U2/U3 from the full covariance.
+    for `mtm predict --params`) with U1/U2/U3 from the full covariance, scaled by the
+    variance factor s² when the residuals contradict the model or --sigma-um (chi-squared
+    p < 0.01; --keep-a-priori-covariance keeps it); residual RMS by position and stylus.
     """
     from mtmetrology.cmm.requests import calibrate_ballplate_files
     from mtmetrology.kinematics.machine import Machine
@@ -150,6 +155,7 @@ def calibrate_ballplate_cmd(
         candidates=[c.strip() for c in candidates.split(",") if c.strip()],
         sigma=sigma,
         seed=seed,
+        adequacy=adequacy_rule(keep_a_priori),
     )
     cal, selection = request.calibration, request.selection
     doc = request.to_dict()
@@ -168,12 +174,13 @@ def calibrate_ballplate_cmd(
         u = cal.summary
         if not cal.identification.success:
             typer.echo(f"warning: {cal.identification.message}", err=True)
-        p_chi2 = doc["fit"]["chi2_p_value"]
-        if p_chi2 is not None and p_chi2 < 0.01:
+        adequacy = doc["adequacy"]
+        if adequacy["significant"]:
+            worst = max(doc["residual_patterns"]["probe"], key=lambda g: g["rms_weighted"])
             typer.echo(
-                f"warning: variance factor {doc['fit']['variance_factor']:.3g} (chi-square "
-                f"p = {p_chi2:.2g}): the model or --sigma-um does not explain the residuals, "
-                "so the uncertainties are optimistic; try --model auto or a larger --sigma-um",
+                f"warning: {adequacy['message']}; largest residual rms at stylus "
+                f"{worst['group']} ({worst['rms_µm']:.2g} µm)"
+                + ("" if model == "auto" else "; compare models with --model auto"),
                 err=True,
             )
         typer.echo(

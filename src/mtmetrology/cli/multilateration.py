@@ -9,8 +9,10 @@ import typer
 
 from mtmetrology.cli._common import (
     ErrorModelOption,
+    KeepAPrioriOption,
     MachineOption,
     ReportOption,
+    adequacy_rule,
     command_line,
     emit_result,
     user_errors,
@@ -40,6 +42,9 @@ Unknowns: the error model's parameters, each station's centre and dead path.  We
 parameter covariance is (JᵀJ)⁻¹.  A set-up that cannot see a parameter is refused with
 the unobservable combinations named (a reflector on the spindle axis only cannot see
 the yaws of the axes that carry the tool: measure with laterally offset tools).
+When the residuals contradict --noise or the model (chi-squared p < 0.01) the output
+says so and the covariance is scaled by the variance factor s² (unless
+--keep-a-priori-covariance); the residual RMS by station and by tool shows where.
 -o writes MAP.json: the parameter set with covariance (stations in its provenance), for
 --params of other commands.  --mc N checks the map uncertainty at 27 points of the
 measured volume by N Monte Carlo re-solves.
@@ -113,6 +118,7 @@ def calibrate_multilateration_cmd(
         int, typer.Option("--mc", help="Monte Carlo trials checking the map uncertainty.")
     ] = 0,
     seed: Annotated[int | None, typer.Option("--seed", help="Seed of --mc.")] = None,
+    keep_a_priori: KeepAPrioriOption = False,
     json: Annotated[bool, typer.Option("--json", help="Print the JSON document.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="MAP.json.")] = None,
     report_path: ReportOption = None,
@@ -127,7 +133,9 @@ def calibrate_multilateration_cmd(
         if target is not None:
             check_output(target, [lengths])
     m = Machine.load(machine, model)
-    result = calibrate_multilateration_file(lengths, m, noise=noise, mc=mc, seed=seed)
+    result = calibrate_multilateration_file(
+        lengths, m, noise=noise, mc=mc, seed=seed, adequacy=adequacy_rule(keep_a_priori)
+    )
     doc = result.to_dict()
     check = result.map_check
     report = None
@@ -148,15 +156,21 @@ def calibrate_multilateration_cmd(
                 for s, u in zip(result.stations, result.station_u, strict=True)
             ],
         )
+        add_result(report, result.adequacy, patterns=result.residual_patterns)
         add_result(report, result.parameters)
 
     def summary() -> None:
         prov = doc["provenance"]
-        factor = result.variance_factor
         typer.echo(f"multilateration of {m.name}: {result.n_lengths} lengths, {result.message}")
+        typer.echo(f"  residual rms {prov['residual_rms_um']:.3f} µm; {result.adequacy.message}")
+        worst = max(result.residual_patterns["station"], key=lambda g: g["rms_weighted"])
         typer.echo(
-            f"  residual rms {prov['residual_rms_um']:.3f} µm, variance factor "
-            f"{'-' if factor is None else f'{factor:.3f}'}"
+            "  residual rms by station: "
+            + ", ".join(
+                f"{g['group']} {format_uncertainty(g['rms_µm'])} µm"
+                for g in prov["residual_patterns"]["station"]
+            )
+            + f" (largest weighted rms {worst['rms_weighted']:.2g} at {worst['group']})"
         )
         for s, u in zip(result.stations, result.station_u, strict=True):
             pos = ", ".join(f"{v:.4f}" for v in s.position)

@@ -15,8 +15,10 @@ import typer
 
 from mtmetrology.cli._common import (
     ErrorModelOption,
+    KeepAPrioriOption,
     MachineOption,
     ReportOption,
+    adequacy_rule,
     command_line,
     emit_result,
     user_errors,
@@ -95,19 +97,26 @@ def calibrate_tracker(
     model: ErrorModelOption = None,
     angle_urad: NoiseOption = 20.0,
     conditions: Annotated[Path | None, typer.Option("--conditions", help=CONDITIONS_HELP)] = None,
+    keep_a_priori: KeepAPrioriOption = False,
     json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
     report_path: ReportOption = None,
 ) -> None:
     """Identify the error functions (with covariance) and the tracker pose; name what the
-    set-up cannot see and what to add."""
+    set-up cannot see and what to add.  When the residuals contradict the noise model
+    (chi-squared p < 0.01) the output says so and the covariance is scaled by s² (unless
+    --keep-a-priori-covariance)."""
     from mtmetrology.kinematics.machine import Machine
     from mtmetrology.tracker import calibrate, files, read_measurements
 
     m = Machine.load(machine, model)
     meas = read_measurements(measurements)
     cal = calibrate(
-        m, meas, noise=files.noise(angle_urad), conditions=files.load_conditions(conditions)
+        m,
+        meas,
+        noise=files.noise(angle_urad),
+        conditions=files.load_conditions(conditions),
+        adequacy=adequacy_rule(keep_a_priori),
     )
     doc = cal.to_dict()
     report = None

@@ -17,6 +17,10 @@ uncertainty a poor set-up has (digest of Salacheep 2016, §2.12, T16).
   measured region (the bounding box of the indications), per axis;
 - U3: the same over the whole working volume (the axis travels).
 
+When the residuals contradict the model or σ (chi-squared p < 0.01) the covariance, hence
+U1–U3, is scaled by the variance factor s² (the identification engine's adequacy rule,
+:mod:`mtmetrology.identification.adequacy`; ``adequacy="a-priori"`` keeps it).
+
 Examples
 --------
 A virtual CMM with a 20 µrad squareness error (X to Y), a 3 x 3 plate in three positions
@@ -73,6 +77,7 @@ from mtmetrology.cmm.models import (
 from mtmetrology.cmm.notebook import CMMNotebookRepr
 from mtmetrology.cmm.problem import BallPlateProblem, kabsch
 from mtmetrology.errors import RankDeficientError
+from mtmetrology.identification.adequacy import residual_patterns
 from mtmetrology.identification.diagnostics import analyse_identifiability
 from mtmetrology.identification.solver import IdentificationResult, levenberg_marquardt
 from mtmetrology.kinematics.compensation import compensation_covariance
@@ -156,6 +161,19 @@ class BallPlateCalibration(CMMNotebookRepr):
         """Compensated stylus-centre coordinates (n, 3), mm."""
         return self.machine.forward(readings, self.theta, tool=tools)
 
+    def residual_patterns(self) -> dict:
+        """RMS of the indication residuals by plate position and by stylus, per axis (µm)
+        (:func:`~mtmetrology.identification.adequacy.residual_patterns`)."""
+        prob, res = self.problem, self.identification
+        n = len(prob.readings)
+        weighted = res.residuals[: 3 * n].reshape(n, 3)
+        rec = prob.records
+        return residual_patterns(
+            weighted * prob.sigma,
+            {"position": rec.positions, "probe": rec.probes},
+            weighted=weighted,
+        )
+
     def to_document(self, model_selection: dict | None = None) -> dict:
         """The result JSON: a parameter set (``kind: ballplate-calibration``) and more."""
         from scipy import stats  # here, not at the top: importing it takes 0.5 s
@@ -209,6 +227,10 @@ class BallPlateCalibration(CMMNotebookRepr):
         doc["poses"] = poses
         doc["balls"] = balls
         doc["uncertainty"] = self.summary
+        if res.adequacy is not None:
+            doc["adequacy"] = res.adequacy.to_dict()
+        # the residual RMS by plate position and by stylus: where the model misses
+        doc["residual_patterns"] = self.residual_patterns()
         if model_selection is not None:
             doc["model_selection"] = model_selection
         return doc
@@ -252,6 +274,7 @@ def calibrate_ballplate(
     basis: str | None = None,
     prefer=(),
     seed=0,
+    adequacy: str = "scale",
 ) -> BallPlateCalibration:
     """Identify the CMM's error parameters, plate poses and ball centres.
 
@@ -273,6 +296,10 @@ def calibrate_ballplate(
         Terms the datum keeps first (:func:`~mtmetrology.cmm.models.choose_datum`).
     seed : int or Generator
         For the random points of U2 and U3.
+    adequacy : {"scale", "a-priori"}
+        The identification engine's model-adequacy rule: when the residuals contradict the
+        model or σ (chi-squared p < 0.01) the covariance (and U1–U3) is scaled by s²
+        (``"scale"``) or kept (``"a-priori"``).
 
     Returns
     -------
@@ -290,6 +317,7 @@ def calibrate_ballplate(
     # ~10³ x 10² matrices: one BLAS thread is fastest and does not oversubscribe shared cores
     with threadpool_limits(1):
         res = levenberg_marquardt(problem, report_names=machine.parameter_names)
+    res = res.with_adequacy(adequacy)
     pset = res.parameter_set(machine, {"method": "ball-plate calibration", "model": choice.name})
     summary = _summary(
         machine, pset.values, pset.covariance, res, problem, probes, as_generator(seed)

@@ -178,6 +178,8 @@ def _calibration(rep: Report, cal, *, model_selection: dict | None = None, **_) 
             ["χ² p-value", "—" if fit["chi2_p_value"] is None else f"{fit['chi2_p_value']:.3g}"],
         ],
     )
+    if cal.identification.adequacy is not None:
+        add_result(rep, cal.identification.adequacy, patterns=doc["residual_patterns"])
     if model_selection is not None:
         _model_selection(rep, model_selection)
     pset = cal.parameters

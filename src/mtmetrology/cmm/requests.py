@@ -48,6 +48,7 @@ def calibrate_ballplate_files(
     candidates=AUTO_CANDIDATES,
     sigma: float = 0.5e-3,
     seed: int = 0,
+    adequacy: str = "scale",
 ) -> BallPlateRequest:
     """Identify a CMM's error functions from ball-plate files (kinematic model).
 
@@ -67,6 +68,9 @@ def calibrate_ballplate_files(
         Standard deviation of a reading, mm (> 0).
     seed : int
         Seed of the U2/U3 sample points.
+    adequacy : {"scale", "a-priori"}
+        The identification engine's model-adequacy rule for the calibration
+        (``"a-priori"``: ``--keep-a-priori-covariance``).
 
     Returns
     -------
@@ -91,5 +95,7 @@ def calibrate_ballplate_files(
         choice = parse_model(selection["chosen"])
     else:
         choice = parse_model(model, degrees)
-    cal = calibrate_ballplate(m, rec, pl, pr, model=choice, sigma=sigma, seed=seed)
+    cal = calibrate_ballplate(
+        m, rec, pl, pr, model=choice, sigma=sigma, seed=seed, adequacy=adequacy
+    )
     return BallPlateRequest(cal, selection)

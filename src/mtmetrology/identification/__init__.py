@@ -7,6 +7,11 @@ uncertainty engine.
 """
 
 from mtmetrology._lazy import lazy_exports
+from mtmetrology.identification.adequacy import (
+    ModelAdequacy,
+    model_adequacy,
+    residual_patterns,
+)
 from mtmetrology.identification.datum import Datum, choose_datum
 from mtmetrology.identification.diagnostics import (
     IdentifiabilityReport,
@@ -44,12 +49,15 @@ __all__ = [
     "IdentifiabilityReport",
     "IdentificationError",
     "IdentificationResult",
+    "ModelAdequacy",
     "NullDirection",
     "ScaleBar",
     "analyse_identifiability",
     "choose_datum",
     "levenberg_marquardt",
+    "model_adequacy",
     "observability_indices",
+    "residual_patterns",
     "senses_from_sequence",
     *_UNCERTAINTY,
 ]

@@ -14,9 +14,13 @@ that names the unidentifiable combinations, unless the minimum-norm solution is 
 for explicitly (then it is flagged in the result).  The covariance of the estimate is
 ``(JᵀJ)⁻¹`` of the weighted problem (the weights carry the input uncertainties; Sepahi
 Boroujeni (2021), eq. 5-6); the a-posteriori variance factor ``s² = ‖r‖²/(m − n)`` is
-reported beside it when the problem has redundancy (m > n).  The SVD of the last accepted
-iterate serves the step, the rank, the condition number, the observability indices and the
-covariance: it is computed once per accepted point, never again for the diagnostics.
+reported beside it when the problem has redundancy (m > n).
+:meth:`IdentificationResult.with_adequacy` applies the one model-adequacy rule of every
+application (:mod:`mtmetrology.identification.adequacy`: the chi-squared test of the
+residuals, the covariance scaled by s² when they contradict the stated noise).  The SVD
+of the last accepted iterate serves the step, the rank, the condition number, the
+observability indices and the covariance: it is computed once per accepted point, never
+again for the diagnostics.
 
 References
 ----------
@@ -30,12 +34,13 @@ Montréal, Ch. 5.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError, RankDeficientError
+from mtmetrology.identification.adequacy import SIGNIFICANCE, ModelAdequacy, model_adequacy
 from mtmetrology.identification.diagnostics import IdentifiabilityReport, analyse_identifiability
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -79,6 +84,10 @@ class IdentificationResult(NotebookRepr):
         True when a rank-deficient problem was solved by its minimum-norm solution.
     diagnostics : IdentifiabilityReport
         Rank, condition numbers, observability indices, null directions at the estimate.
+    adequacy : ModelAdequacy or None
+        The chi-squared test of the residuals and the covariance factor it led to, once
+        :meth:`with_adequacy` has applied the rule (None before: ``covariance`` is then the
+        a-priori one).
     """
 
     names: tuple[str, ...]
@@ -95,6 +104,7 @@ class IdentificationResult(NotebookRepr):
     status: int
     minimum_norm: bool
     diagnostics: IdentifiabilityReport = field(repr=False)
+    adequacy: ModelAdequacy | None = None
 
     @property
     def success(self) -> bool:
@@ -112,6 +122,36 @@ class IdentificationResult(NotebookRepr):
         """Square roots of the diagonal of :attr:`covariance`, internal units."""
         return np.sqrt(np.diag(self.covariance))
 
+    def with_adequacy(
+        self, rule: str = "scale", alpha: float = SIGNIFICANCE
+    ) -> IdentificationResult:
+        """The result with the model-adequacy rule applied (the one rule of every application).
+
+        ``s² = ‖r‖²/ν``, ν = m − rank, ``p = P(χ²_ν ≥ ‖r‖²)``; when ``p < alpha`` and
+        ``rule == "scale"`` the covariance is multiplied by s² (Birge ratio squared,
+        :func:`~mtmetrology.identification.adequacy.model_adequacy`).
+
+        Parameters
+        ----------
+        rule : {"scale", "a-priori"}
+        alpha : float
+
+        Returns
+        -------
+        IdentificationResult
+            With :attr:`adequacy` set and the covariance scaled when the rule says so.
+
+        Raises
+        ------
+        InputError
+            An unknown rule or a bad alpha; the rule applied twice.
+        """
+        if self.adequacy is not None:
+            raise InputError("the model-adequacy rule has already been applied to this result")
+        chi2 = float(self.residuals @ self.residuals)
+        found = model_adequacy(chi2, self.dof, rule=rule, alpha=alpha)
+        return replace(self, covariance=self.covariance * found.factor, adequacy=found)
+
     def parameter_set(self, machine: Machine, provenance: dict | None = None) -> ParameterSet:
         """The machine's error parameters with their covariance (nuisance unknowns dropped).
 
@@ -128,7 +168,11 @@ class IdentificationResult(NotebookRepr):
             self.estimate[idx],
             machine.parameter_units,
             self.covariance[np.ix_(idx, idx)],
-            {"identification": self.message, **(provenance or {})},
+            {
+                "identification": self.message,
+                **({} if self.adequacy is None else {"adequacy": self.adequacy.to_dict()}),
+                **(provenance or {}),
+            },
             machine=machine.name,
             model=machine.model_name,
         )

@@ -85,6 +85,7 @@ def calibrate_multilateration_file(
     noise: str = "0.2um+0.3um/m",
     mc: int = 0,
     seed: int | None = None,
+    adequacy: str = "scale",
 ) -> MultilaterationResult:
     """Identify the machine's errors from a LENGTHS.csv of a sequential multilateration.
 
@@ -103,6 +104,9 @@ def calibrate_multilateration_file(
         else at least 2.
     seed : int, optional
         Seed of the check.
+    adequacy : {"scale", "a-priori"}
+        The identification engine's model-adequacy rule (``"a-priori"``:
+        ``--keep-a-priori-covariance``); the check draws the noise the covariance stands for.
 
     Returns
     -------
@@ -113,7 +117,11 @@ def calibrate_multilateration_file(
         raise InputError(f"--mc must be 0 (no check) or at least 2 trials, got {mc}")
     record = read_lengths(lengths, machine)
     result = calibrate_multilateration(
-        machine, record, spec=parse_spec(noise), provenance={"lengths": str(lengths)}
+        machine,
+        record,
+        spec=parse_spec(noise),
+        provenance={"lengths": str(lengths)},
+        adequacy=adequacy,
     )
     if not mc:
         return result

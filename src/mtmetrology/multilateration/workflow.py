@@ -31,6 +31,7 @@ import numpy as np
 
 from mtmetrology.errors import InputError
 from mtmetrology.identification import levenberg_marquardt
+from mtmetrology.identification.adequacy import ModelAdequacy, residual_patterns
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.multilateration.problem import LASERTRACER_SPEC, LengthProblem
@@ -142,7 +143,8 @@ class MultilaterationResult:
     Attributes
     ----------
     parameters : ParameterSet
-        Error parameters with covariance (internal units; the GUF of the least squares).
+        Error parameters with covariance (internal units; the GUF of the least squares,
+        scaled by s² when the residuals contradict the spec: :attr:`adequacy`).
     stations : tuple of Station
         Estimated station centres and dead paths.
     station_u : (n_stations, 4) ndarray
@@ -160,6 +162,12 @@ class MultilaterationResult:
     map_check : MapMonteCarlo or None
         The Monte Carlo check of the map uncertainty, when one was run (its document is
         ``provenance.map_monte_carlo``).
+    adequacy : ModelAdequacy or None
+        The engine's chi-squared test of the residuals and the covariance factor applied
+        (:mod:`mtmetrology.identification.adequacy`).
+    residual_patterns : dict
+        RMS of the length residuals by station and by tool
+        (:func:`~mtmetrology.identification.adequacy.residual_patterns`).
     """
 
     parameters: ParameterSet
@@ -172,6 +180,13 @@ class MultilaterationResult:
     diagnostics: dict = field(repr=False)
     message: str = ""
     map_check: MapMonteCarlo | None = None
+    adequacy: ModelAdequacy | None = None
+    residual_patterns: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def covariance_factor(self) -> float:
+        """Factor the a-priori covariance was scaled by (1 when it was not)."""
+        return 1.0 if self.adequacy is None else self.adequacy.factor
 
     def to_dict(self) -> dict:
         """The MAP.json form: a parameter-set document whose provenance holds the set-up."""
@@ -197,7 +212,10 @@ class MultilaterationResult:
             ],
             "diagnostics": self.diagnostics,
             "message": self.message,
+            "residual_patterns": self.residual_patterns,
         }
+        if self.adequacy is not None:
+            doc["provenance"]["adequacy"] = self.adequacy.to_dict()
         if self.map_check is not None:
             doc["provenance"]["map_monte_carlo"] = self.map_check.to_dict()
         return doc
@@ -227,6 +245,8 @@ class MultilaterationResult:
             prov["variance_factor"],
             prov["diagnostics"],
             prov.get("message", ""),
+            adequacy=None if "adequacy" not in prov else ModelAdequacy.from_dict(prov["adequacy"]),
+            residual_patterns=dict(prov.get("residual_patterns", {})),
         )
 
 
@@ -259,6 +279,7 @@ def calibrate_multilateration(
     *,
     spec: tuple[float, float] = LASERTRACER_SPEC,
     provenance: dict | None = None,
+    adequacy: str = "scale",
 ) -> MultilaterationResult:
     """Identify the machine's active error parameters, the stations and dead paths.
 
@@ -271,6 +292,12 @@ def calibrate_multilateration(
     spec : (a, b)
         Standard uncertainty of a length u = a + b·L (mm, dimensionless); default the
         LaserTRACER NG U(k = 2) = 0.2 µm + 0.3 µm/m.
+    provenance : dict, optional
+        Recorded with the parameter set.
+    adequacy : {"scale", "a-priori"}
+        The engine's model-adequacy rule: when the residuals contradict the spec (chi-squared
+        p < 0.01) the covariance is scaled by s² (``"scale"``) or kept (``"a-priori"``);
+        :meth:`~mtmetrology.identification.IdentificationResult.with_adequacy`.
 
     Returns
     -------
@@ -292,6 +319,7 @@ def calibrate_multilateration(
     solved = levenberg_marquardt(problem, report_names=machine.parameter_names)
     if not solved.success:
         raise InputError(f"multilateration: the identification did not converge ({solved.message})")
+    solved = solved.with_adequacy(adequacy)
     pset = solved.parameter_set(machine, provenance)
     _, centres, dead = problem.split(solved.estimate)
     u = solved.standard_uncertainty[machine.n_params :].reshape(-1, 4)
@@ -300,6 +328,10 @@ def calibrate_multilateration(
         for name, c, d in zip(problem.station_ids, centres, dead, strict=True)
     )
     raw = solved.residuals * problem.sigma()
+    tool_ids = [",".join(f"{v:g}" for v in t) for t in record.tools]
+    patterns = residual_patterns(
+        raw, {"station": record.stations, "tool": tool_ids}, weighted=solved.residuals
+    )
     return MultilaterationResult(
         pset,
         stations,
@@ -310,6 +342,8 @@ def calibrate_multilateration(
         solved.variance_factor,
         solved.diagnostics.to_dict(),
         solved.message,
+        adequacy=solved.adequacy,
+        residual_patterns=patterns,
     )
 
 
@@ -374,6 +408,8 @@ def map_monte_carlo(
         The lengths identified (their positions and tools; the noise is drawn about the
         fitted lengths).
     result : MultilaterationResult
+        When its covariance was scaled by the adequacy rule, the noise is drawn with the
+        spec's u times s, the noise that covariance stands for.
     points : (m, 3) ndarray
         Nominal positions (mm) where the map's uncertainty is checked.
     trials : int
@@ -403,10 +439,13 @@ def map_monte_carlo(
         ]
     )
     r_hat, jac = problem.evaluate(x_hat)
-    u = problem.sigma()
+    fitted = record.lengths + r_hat * problem.sigma()  # lengths the estimate predicts
+    # the noise the covariance stands for: the spec, times s when the adequacy rule scaled
+    # the covariance by s² (the weights, hence the Jacobian, follow)
+    scale = np.sqrt(result.covariance_factor)
+    u, jac = problem.sigma() * scale, jac / scale
     ev = m.evaluate(record.readings, theta, tool=record.tools, d_params=True)
     pos0, g_rows = ev.position, ev.d_params.reshape(-1, m.n_params)  # (n, 3), (3n, p)
-    fitted = record.lengths + r_hat * u  # lengths the estimate predicts
     p = m.n_params
     st = problem.station_index
     pts = np.asarray(points, dtype=float).reshape(-1, 3)

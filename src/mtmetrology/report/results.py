@@ -28,6 +28,7 @@ from mtmetrology.formatting import (
     format_uncertainty,
     format_value,
 )
+from mtmetrology.identification.adequacy import ModelAdequacy
 from mtmetrology.identification.diagnostics import IdentifiabilityReport
 from mtmetrology.identification.solver import IdentificationResult
 from mtmetrology.kinematics.compensation import Compensation, correction_statistics
@@ -267,6 +268,49 @@ def _identifiability(rep: Report, d, **_) -> None:
     )
 
 
+def _rms(v) -> str:
+    return "—" if v is None else format_uncertainty(float(v))
+
+
+@renders(ModelAdequacy, "Model adequacy")
+def _adequacy(rep: Report, result, patterns: dict | None = None, **_) -> None:
+    """The chi-squared test of the residuals in words and numbers, then the residual RMS by
+    group (``patterns`` of :func:`mtmetrology.identification.residual_patterns`): where the
+    model misses, a group's weighted RMS stands well above 1."""
+    rep.section("Model adequacy", result.message)
+    rep.table(
+        ["quantity", "value"],
+        [
+            ["variance factor s² = χ²/ν", "—" if result.variance_factor is None
+             else f"{result.variance_factor:.3g}"],
+            ["degrees of freedom ν = m − rank", result.dof],
+            ["p = P(χ²_ν ≥ χ²)", "—" if result.p_value is None
+             else "< 1e-300" if result.p_value == 0 else f"{result.p_value:.2g}"],
+            ["significance level", result.alpha],
+            ["rule", result.rule],
+            ["covariance scaled", "yes" if result.scaled else "no"],
+            ["covariance factor", f"{result.factor:.3g}"],
+        ],
+    )  # fmt: skip
+    for name, groups in (patterns or {}).items():
+        if name == "component":
+            continue
+        unit = next((k[4:] for k in groups[0] if k.startswith("rms_") and k != "rms_weighted"), "")
+        key = f"rms_{unit}"
+        vector = f"{key}_components" in groups[0]
+        weighted = "rms_weighted" in groups[0]
+        columns = [name, "n", f"RMS ({unit})"]
+        columns += [f"RMS {c} ({unit})" for c in "xyz"] if vector else []
+        columns += ["weighted RMS (1 = stated noise)"] if weighted else []
+        rows = []
+        for g in groups:
+            row = [g["group"], g["n"], _rms(g[key])]
+            row += [_rms(v) for v in g[f"{key}_components"]] if vector else []
+            row += [f"{g['rms_weighted']:.3g}"] if weighted else []
+            rows.append(row)
+        rep.table(columns, rows, caption=f"Residual RMS by {name}")
+
+
 @renders(IdentificationResult, "Identification")
 def _identification(rep: Report, result, **_) -> None:
     rep.section("Identification", result.message)
@@ -283,6 +327,8 @@ def _identification(rep: Report, result, **_) -> None:
             ["rms weighted residual", float(np.sqrt(np.mean(result.residuals**2)))],
         ],
     )
+    if result.adequacy is not None:
+        _adequacy(rep, result.adequacy)
     u = result.standard_uncertainty
     rep.table(
         ["unknown", "estimate", "u"],

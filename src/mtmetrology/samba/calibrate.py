@@ -13,7 +13,11 @@ parameters the result carries what a calibration engineer reads (Alami Mchichi (
   mean and maximum of its norm;
 - the same norms for the *nominal model*: the set-up unknowns alone fitted with every
   machine error held at zero, i.e. the volumetric error the calibration removes;
-- rank, condition numbers and observability indices O1–O5 of the Jacobian.
+- rank, condition numbers and observability indices O1–O5 of the Jacobian;
+- the model adequacy (the identification engine's rule,
+  :mod:`mtmetrology.identification.adequacy`): when the residuals contradict the model or
+  σ (chi-squared p < 0.01) the covariance is scaled by s², and the residual RMS by ball
+  and by stylus shows where the model misses.
 
 A rank-deficient problem is refused (:class:`~mtmetrology.errors.RankDeficientError`)
 naming the confounded combinations and what measurement would separate them, unless the
@@ -40,6 +44,7 @@ from mtmetrology.identification import (
     BallCentreProblem,
     IdentificationResult,
     levenberg_marquardt,
+    residual_patterns,
 )
 from mtmetrology.kinematics.conventions import describe_parameters
 from mtmetrology.kinematics.machine import Machine
@@ -127,6 +132,21 @@ class SambaCalibration(SambaNotebookRepr):
     @property
     def minimum_norm(self) -> bool:
         return self.identification.minimum_norm
+
+    @property
+    def covariance_factor(self) -> float:
+        """Factor the adequacy rule scaled the a-priori covariance by (1 when it did not)."""
+        a = self.identification.adequacy
+        return 1.0 if a is None else a.factor
+
+    def residual_patterns(self) -> dict:
+        """RMS of the unexplained volumetric error by ball and by stylus (when the records
+        name several), per axis, µm (:func:`~mtmetrology.identification.residual_patterns`)."""
+        groups = {"ball": self.records.balls}
+        if self.records.tools is not None:
+            groups["stylus"] = self.records.tools
+        vectors = self.residual_vectors
+        return residual_patterns(vectors, groups, weighted=vectors / self.problem.sigma)
 
     @property
     def residual_vectors(self) -> np.ndarray:
@@ -301,6 +321,9 @@ class SambaCalibration(SambaNotebookRepr):
             "unexplained": {"mean_um": float(norms.mean()), "max_um": float(norms.max())},
             "nominal_model": {"mean_um": float(nominal.mean()), "max_um": float(nominal.max())},
         }
+        doc["residual_patterns"] = self.residual_patterns()
+        if ident.adequacy is not None:
+            doc["adequacy"] = ident.adequacy.to_dict()
         if uncertainty is not None:
             doc["uncertainty"] = uncertainty.to_dict()
         return doc
@@ -373,6 +396,7 @@ def calibrate(
     estimate_tool: bool = False,
     tool_prior=None,
     minimum_norm: bool = False,
+    adequacy: str = "scale",
 ) -> SambaCalibration:
     """Identify a machine's errors from SAMBA records.
 
@@ -397,6 +421,10 @@ def calibrate(
     minimum_norm : bool
         Solve a rank-deficient problem by its minimum-norm solution (flagged) instead of
         refusing it.
+    adequacy : {"scale", "a-priori"}
+        The identification engine's model-adequacy rule: when the residuals contradict the
+        model or σ (chi-squared p < 0.01) the covariance is scaled by s² (``"scale"``) or
+        kept (``"a-priori"``).
 
     Returns
     -------
@@ -450,6 +478,7 @@ def calibrate(
             "look for gross errors in the records (a wrong ball id, a reading of another "
             "probing)"
         )
+    result = result.with_adequacy(adequacy)
     nominal_problem = BallCentreProblem(
         machine.with_parameters([]),
         records.readings,

@@ -111,6 +111,8 @@ def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
             ["nominal-model volumetric error, max (µm)", f"{vol['nominal_model']['max_um']:.3g}"],
         ],
     )
+    if cal.identification.adequacy is not None:
+        add_result(rep, cal.identification.adequacy, patterns=doc["residual_patterns"])
     rep.section(
         "Error parameters",
         f"{len(doc['parameters'])} parameters; covariance from {doc['covariance_source']}.",

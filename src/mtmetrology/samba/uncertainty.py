@@ -259,9 +259,21 @@ def evaluate_uncertainty(
     executor=None,
     p: float = 0.95,
 ) -> SambaUncertainty:
-    """GUF, MCM or both (``method``), and the validation when both ran."""
+    """GUF, MCM or both (``method``), and the validation when both ran.
+
+    When the calibration's covariance was scaled by the adequacy rule (s², the residuals
+    contradicting the stated noise), every input covariance is scaled by s² too: the
+    measurement model is that of the identification with the inputs' u times s.
+    """
     if method not in ("guf", "mcm", "both"):
         raise InputError(f"uncertainty method must be none, guf, mcm or both, got {method!r}")
+    factor = calibration.covariance_factor
+    if factor != 1.0:
+        # the adequacy rule scaled the covariance by s²: propagate the inputs that covariance
+        # stands for, every u times s (Birge), so that GUF, MCM and validation agree with it
+        inputs = InputSet.from_covariance(
+            inputs.names, inputs.estimate, inputs.covariance * factor, units=inputs.units
+        )
     model = uncertainty_model(calibration)
     g = identification_guf(model, inputs, p) if method in ("guf", "both") else None
     mc = None

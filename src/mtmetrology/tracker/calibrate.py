@@ -12,7 +12,9 @@ CTEs and the recorded temperatures (eqs 7–13).  Inputs and their uncertainties
 - the pose: an unknown, identified with θ (its uncertainty enters through the joint
   covariance).
 
-The covariance of θ and the pose is ``(JᵀJ)⁻¹`` of the whitened problem; only the
+The covariance of θ and the pose is ``(JᵀJ)⁻¹`` of the whitened problem, scaled by the
+variance factor s² when the residuals contradict the noise model (the identification
+engine's adequacy rule, :mod:`mtmetrology.identification.adequacy`); only the
 parameters of the datum the set-up can see are identified, the others are named with
 what to add to see them.
 """
@@ -23,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mtmetrology.identification.adequacy import ModelAdequacy, residual_patterns
 from mtmetrology.identification.datum import Datum
 from mtmetrology.identification.solver import levenberg_marquardt
 from mtmetrology.kinematics.machine import Machine
@@ -103,6 +106,10 @@ class TrackerCalibration:
         Status of the solve (:mod:`mtmetrology.optimize`).
     message : str
     provenance : dict
+    adequacy : ModelAdequacy or None
+        The chi-squared test of the whitened residuals and the covariance factor applied.
+    residual_patterns : dict
+        RMS of the residuals by tool and per tracker-frame component.
     """
 
     parameters: ParameterSet
@@ -117,6 +124,8 @@ class TrackerCalibration:
     status: int
     message: str
     provenance: dict = field(default_factory=dict)
+    adequacy: ModelAdequacy | None = None
+    residual_patterns: dict = field(default_factory=dict)
 
     @property
     def success(self) -> bool:
@@ -132,6 +141,8 @@ class TrackerCalibration:
             f"{self.mean_distance_final * um:.1f} µm after compensation",
             f"  residuals: mean {res.mean():.1f} µm, max {res.max():.1f} µm",
         ]
+        if self.adequacy is not None:
+            lines.append(f"  {self.adequacy.message}")
         for s in self.suggestions:
             if s["identifiable_then"]:
                 lines.append(f"  add {s['add']}: also {', '.join(s['identifiable_then'])}")
@@ -161,8 +172,11 @@ class TrackerCalibration:
                 "status": self.status,
                 "message": self.message,
                 "calibration_provenance": self.provenance,
+                "residual_patterns": self.residual_patterns,
             }
         )
+        if self.adequacy is not None:
+            doc["adequacy"] = self.adequacy.to_dict()
         return doc
 
     @classmethod
@@ -185,6 +199,8 @@ class TrackerCalibration:
             int(doc["status"]),
             doc["message"],
             dict(doc.get("calibration_provenance", {})),
+            None if "adequacy" not in doc else ModelAdequacy.from_dict(doc["adequacy"]),
+            dict(doc.get("residual_patterns", {})),
         )
 
 
@@ -199,6 +215,7 @@ def calibrate(
     noise: TrackerNoise | None = None,
     conditions: MachineConditions | None = None,
     limits: TrackerLimits | None = None,
+    adequacy: str = "scale",
 ) -> TrackerCalibration:
     """Identify the error functions and the tracker pose from tracker readings.
 
@@ -214,6 +231,10 @@ def calibrate(
         thermal correction); 11.5 µm/(m·K) and eq. 10 by default.
     limits : TrackerLimits, optional
         Readings beyond them are refused.
+    adequacy : {"scale", "a-priori"}
+        The identification engine's model-adequacy rule: when the whitened residuals
+        contradict the noise model (chi-squared p < 0.01) the covariance is scaled by s²
+        (``"scale"``) or kept (``"a-priori"``).
 
     Returns
     -------
@@ -243,11 +264,16 @@ def calibrate(
     )
     problem = TrackerProblem(identified, q, tools, measured, whitening(cov), start)
     result = levenberg_marquardt(problem, report_names=identified.parameter_names)
+    result = result.with_adequacy(adequacy)
     n = identified.n_params
     pose = TrackerPose.from_vector(result.estimate[n:])
     predicted, _ = problem.model(result.estimate, jacobian=False)
     mesh_points = np.unique(measurements.readings, axis=0)
     provenance = {"measurements": measurements.provenance, "noise": noise.to_dict()}
+    tool_ids = [",".join(f"{v:g}" for v in t) for t in tools]
+    patterns = residual_patterns(
+        measured - predicted, {"tool": tool_ids}, weighted=result.residuals.reshape(-1, 3)
+    )
     return TrackerCalibration(
         parameters=result.parameter_set(identified, {"method": "tracker volumetric verification"}),
         pose=pose,
@@ -261,4 +287,6 @@ def calibrate(
         status=result.status,
         message=result.message,
         provenance=provenance,
+        adequacy=result.adequacy,
+        residual_patterns=patterns,
     )

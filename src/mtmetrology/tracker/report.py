@@ -25,6 +25,10 @@ def calibration_report(cal, command: str, inputs: list[Path]) -> Report:
         "Laser-tracker calibration", command=command, provenance={"inputs": list(inputs)}
     )
     report.section("Identification", cal.summary())
+    if cal.adequacy is not None:
+        from mtmetrology.report.results import add_result
+
+        add_result(report, cal.adequacy, patterns=cal.residual_patterns)
     p = cal.parameters
     f = p.scales()
     u = p.standard_uncertainty
