@@ -44,7 +44,8 @@ def test_simulate_then_calibrate_writes_a_parameter_set_predict_reads(measuremen
     assert doc["datum"]["rank"] == 53 and doc["datum"]["n_unknowns"] == 57
     assert len(doc["residuals_um"]) == 225
     pset = ParameterSet.load(tmp_path / "r.json", Machine.load(MACHINE))
-    assert pset.covariance.shape == (47, 47)
+    # the 47 of the datum and E_CZ0, the tool's yaw the three lateral tools expose
+    assert pset.covariance.shape == (48, 48) and pset.names[-1] == "E_CZ0"
 
 
 def _refused(res, tmp_path, first_words):

@@ -158,6 +158,8 @@ def calibrate_multilateration_cmd(
             f"  residual rms {prov['residual_rms_um']:.3f} µm, variance factor "
             f"{'-' if factor is None else f'{factor:.3f}'}"
         )
+        if result.setup_terms.candidates:
+            typer.echo(f"  constants of the tool-side axes: {result.setup_terms.message}")
         for s, u in zip(result.stations, result.station_u, strict=True):
             pos = ", ".join(f"{v:.4f}" for v in s.position)
             u_um = format_uncertainty(from_internal(u[:3].max(), "µm"))

@@ -7,7 +7,13 @@ uncertainty engine.
 """
 
 from mtmetrology._lazy import lazy_exports
-from mtmetrology.identification.datum import Datum, choose_datum
+from mtmetrology.identification.datum import (
+    Datum,
+    SetupTerms,
+    choose_datum,
+    constant_rotation_candidates,
+    exposed_terms,
+)
 from mtmetrology.identification.diagnostics import (
     IdentifiabilityReport,
     NullDirection,
@@ -46,8 +52,11 @@ __all__ = [
     "IdentificationResult",
     "NullDirection",
     "ScaleBar",
+    "SetupTerms",
     "analyse_identifiability",
     "choose_datum",
+    "constant_rotation_candidates",
+    "exposed_terms",
     "levenberg_marquardt",
     "observability_indices",
     "senses_from_sequence",

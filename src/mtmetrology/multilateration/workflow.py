@@ -31,6 +31,7 @@ import numpy as np
 
 from mtmetrology.errors import InputError
 from mtmetrology.identification import levenberg_marquardt
+from mtmetrology.identification.datum import SetupTerms, exposed_terms
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.multilateration.problem import LASERTRACER_SPEC, LengthProblem
@@ -160,6 +161,9 @@ class MultilaterationResult:
     map_check : MapMonteCarlo or None
         The Monte Carlo check of the map uncertainty, when one was run (its document is
         ``provenance.map_monte_carlo``).
+    setup_terms : SetupTerms
+        The constants the model leaves out that the set-up exposes (added to
+        ``parameters``) and those it absorbs (``provenance.setup_terms``).
     """
 
     parameters: ParameterSet
@@ -172,6 +176,7 @@ class MultilaterationResult:
     diagnostics: dict = field(repr=False)
     message: str = ""
     map_check: MapMonteCarlo | None = None
+    setup_terms: SetupTerms = field(default_factory=SetupTerms)
 
     def to_dict(self) -> dict:
         """The MAP.json form: a parameter-set document whose provenance holds the set-up."""
@@ -197,6 +202,7 @@ class MultilaterationResult:
             ],
             "diagnostics": self.diagnostics,
             "message": self.message,
+            "setup_terms": self.setup_terms.to_dict(),
         }
         if self.map_check is not None:
             doc["provenance"]["map_monte_carlo"] = self.map_check.to_dict()
@@ -227,6 +233,9 @@ class MultilaterationResult:
             prov["variance_factor"],
             prov["diagnostics"],
             prov.get("message", ""),
+            setup_terms=(
+                SetupTerms.from_dict(prov["setup_terms"]) if "setup_terms" in prov else SetupTerms()
+            ),
         )
 
 
@@ -275,6 +284,13 @@ def calibrate_multilateration(
     Returns
     -------
     MultilaterationResult
+        The parameters are the machine's and the constants the set-up exposes: a
+        constant rotation of the tool-side axes moves each reflector t by ε × t, one shift
+        of every point (absorbed by the station centres) with one reflector, a different
+        one per reflector with several laterally offset reflectors; those the rank check
+        (:func:`~mtmetrology.identification.datum.exposed_terms`) finds outside the span
+        of the model's and the stations' columns are added and named
+        (:attr:`MultilaterationResult.setup_terms`).
 
     Raises
     ------
@@ -286,9 +302,20 @@ def calibrate_multilateration(
         the spindle axis only; a second, laterally offset tool recovers it).
     """
     _check_record(machine, record, spec)
-    problem = LengthProblem(
-        machine, record.readings, record.tools, record.stations, record.lengths, spec
-    )
+
+    def problem_of(m: Machine) -> LengthProblem:
+        r = record
+        return LengthProblem(m, r.readings, r.tools, r.stations, r.lengths, spec)
+
+    def jacobian_of(m: Machine) -> np.ndarray:
+        p = problem_of(m)
+        return p.evaluate(p.initial())[1]
+
+    stations_names = problem_of(machine).names[machine.n_params :]
+    terms = exposed_terms(jacobian_of, machine, stations_names)
+    if terms.added:
+        machine = machine.with_parameters([*machine.parameter_names, *terms.added])
+    problem = problem_of(machine)
     solved = levenberg_marquardt(problem, report_names=machine.parameter_names)
     if not solved.success:
         raise InputError(f"multilateration: the identification did not converge ({solved.message})")
@@ -310,6 +337,7 @@ def calibrate_multilateration(
         solved.variance_factor,
         solved.diagnostics.to_dict(),
         solved.message,
+        setup_terms=terms,
     )
 
 
