@@ -44,7 +44,8 @@ def test_simulate_then_calibrate_writes_a_parameter_set_predict_reads(measuremen
     assert doc["datum"]["rank"] == 53 and doc["datum"]["n_unknowns"] == 57
     assert len(doc["residuals_um"]) == 225
     pset = ParameterSet.load(tmp_path / "r.json", Machine.load(MACHINE))
-    assert pset.covariance.shape == (47, 47)
+    # the 47 of the datum and E_CZ0, the tool's yaw the three lateral tools expose
+    assert pset.covariance.shape == (48, 48) and pset.names[-1] == "E_CZ0"
 
 
 def _refused(res, tmp_path, first_words):
@@ -152,3 +153,84 @@ def test_conditions_file_is_read_and_a_bad_key_named(tmp_path):
     assert res.exit_code == 2
     assert res.output.strip().startswith(f"error: {bad}: cte: unknown key")
     assert not (tmp_path / "n.csv").exists()
+
+
+def test_noise_options_set_the_weights_and_bad_values_are_refused(measurements, tmp_path):
+    """Issue 30: --range-noise A,B (µm, µm/m), --angle-urad, --angle-spread, --smr reach the
+    noise model the calibration weights with; the source's values otherwise."""
+    res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--json",
+              "--range-noise", "1.5,0.4", "--angle-urad", 5, "--angle-spread", 0,
+              "--smr", 2)  # fmt: skip
+    assert res.exit_code == 0, res.output
+    noise = json.loads(res.stdout)["calibration_provenance"]["noise"]
+    assert noise["u_range_constant_um"] == pytest.approx(1.5)
+    assert noise["u_range_per_length_um_per_m"] == pytest.approx(0.4)
+    assert noise["u_angle_urad"] == pytest.approx(5.0)
+    assert noise["u_angle_spread_urad"] == 0.0
+    assert noise["u_smr_um"] == pytest.approx(2.0)
+    default = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--json")
+    noise = json.loads(default.stdout)["calibration_provenance"]["noise"]
+    assert (noise["u_range_constant_um"], noise["u_angle_spread_urad"]) == (4.0, 3.0)
+    for option, value in (("--range-noise", "1.5"), ("--range-noise", "1,-2"),
+                          ("--angle-spread", "nan"), ("--smr", "-1")):  # fmt: skip
+        out = tmp_path / "r.json"
+        res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, option, value,
+                  "-o", out)  # fmt: skip
+        _refused(res, tmp_path, f"error: {option} must be")
+
+
+def test_tool_ids_give_the_offsets_of_a_tool_column(measurements, tmp_path):
+    """A MEASUREMENTS file with a 'tool' id column instead of the offsets, and --tool
+    ID=x,y,z for each: the same calibration as the file with the offsets written out."""
+    lines = measurements.read_text().splitlines()
+    ids = {"0,0,-100": "T1", "100,0,-100": "T2", "0,100,-100": "T3"}
+    rows = ["point,X,Y,Z,tool,range,azimuth,elevation,T_X,T_Y,T_Z"]
+    for line in lines[1:]:
+        c = line.split(",")
+        key = ",".join(f"{float(v):g}" for v in c[4:7])
+        rows.append(",".join([*c[:4], ids[key], *c[7:]]))
+    by_id = tmp_path / "ids.csv"
+    by_id.write_text("\n".join(rows) + "\n")
+    tools = ["--tool", "T1=0,0,-100", "--tool", "T2=100,0,-100", "--tool", "T3=0,100,-100"]
+    res = mtm("calibrate", "tracker", by_id, "--machine", MACHINE, "--json", *tools)
+    assert res.exit_code == 0, res.output
+    ref = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--json")
+    got, want = json.loads(res.stdout), json.loads(ref.stdout)
+    assert got["parameters"] == want["parameters"]
+    res = mtm("calibrate", "tracker", by_id, "--machine", MACHINE, *tools[:4])
+    assert res.exit_code == 2
+    assert res.output.strip().startswith(f"error: {by_id}, line ")
+    assert "tool 'T3' has no offset" in res.output
+    res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--tool", "T1=0,0")
+    assert res.exit_code == 2 and res.output.startswith("error: --tool must be ID=x,y,z")
+
+
+def test_known_pose_fixed_or_as_prior(measurements, tmp_path):
+    """--pose: fixed (not identified, zero covariance) or, with the six u_* fields, a prior
+    (the identified pose's u is then below the prior's)."""
+    fields = "D_mm: -563.52\nL_mm: 194.37\nH_mm: 677.78\nalpha_deg: 0.0339\n"
+    fields += "beta_deg: 0.0343\ndelta_deg: 59.4652\n"
+    fixed = tmp_path / "pose.yaml"
+    fixed.write_text("kind: tracker-pose\nversion: 1\n" + fields)
+    res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--pose", fixed,
+              "--json")  # fmt: skip
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["pose_source"] == "fixed" and doc["pose"]["D_mm"] == -563.52
+    assert all(v == 0.0 for v in doc["pose_u"].values())
+    prior = tmp_path / "prior.yaml"
+    u = "u_D_mm: 0.01\nu_L_mm: 0.01\nu_H_mm: 0.01\nu_alpha_deg: 1e-4\nu_beta_deg: 1e-4\n"
+    prior.write_text("kind: tracker-pose\nversion: 1\n" + fields + u + "u_delta_deg: 1e-4\n")
+    res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--pose", prior,
+              "--json")  # fmt: skip
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["pose_source"] == "prior"
+    assert 0 < doc["pose_u"]["D_mm"] <= 0.01 and 0 < doc["pose_u"]["delta_deg"] <= 1e-4
+    prior.write_text("kind: tracker-pose\nversion: 1\n" + fields + u)
+    res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--pose", prior)
+    assert res.exit_code == 2
+    assert res.output.strip() == (
+        f"error: {prior}: u_delta_deg: a pose prior needs all of u_D_mm, u_L_mm, u_H_mm, "
+        "u_alpha_deg, u_beta_deg, u_delta_deg"
+    )

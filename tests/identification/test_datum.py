@@ -49,3 +49,38 @@ def test_full_rank_keeps_all_and_says_so():
 def test_wrong_shape_refused():
     with pytest.raises(ValueError, match="expected"):
         choose_datum(np.zeros((5, 3)), ["E_XX1"], nuisance=["D"])
+
+
+def test_constant_rotation_candidates_nearest_the_tool_first_without_those_in_the_model():
+    from mtmetrology.identification.datum import constant_rotation_candidates
+    from mtmetrology.kinematics import Machine
+
+    three = Machine.load("three-axis-xfyz")
+    assert constant_rotation_candidates(three) == (
+        "E_AZ0", "E_BZ0", "E_CZ0", "E_AY0", "E_BY0", "E_CY0",
+    )  # fmt: skip
+    with_yaw = three.with_parameters([*three.parameter_names, "E_CZ0"])
+    assert "E_CZ0" not in constant_rotation_candidates(with_yaw)
+    five = Machine.load("five-axis-wcbxfzyst")  # tool branch Z, Y, S: the spindle first
+    assert constant_rotation_candidates(five)[:3] == ("E_AS0", "E_BS0", "E_CS0")
+
+
+def test_exposed_terms_adds_what_leaves_the_span_and_names_what_absorbs_the_rest():
+    """A machine with one parameter and one nuisance unknown; three candidate constants with
+    columns c1 = a + 2·ν (absorbed by a and ν), c2 independent (added), c3 = c2 (absorbed by
+    the candidate added before it)."""
+    from mtmetrology.identification.datum import SetupTerms, exposed_terms
+    from mtmetrology.kinematics import Machine
+
+    m = Machine.load("three-axis-xfyz").with_parameters(["E_XX1"])
+    a, nu, c2 = np.eye(4)[:, 0], np.eye(4)[:, 1], np.eye(4)[:, 2]
+
+    def jacobian_of(big):
+        assert big.parameter_names == ("E_XX1", "E_AZ0", "E_BZ0", "E_CZ0")
+        return np.column_stack([a, a + 2 * nu, c2, c2, nu])
+
+    terms = exposed_terms(jacobian_of, m, ["nu"], candidates=["E_AZ0", "E_BZ0", "E_CZ0"])
+    assert terms.added == ("E_BZ0",)
+    assert terms.absorbed == (("E_AZ0", ("E_XX1", "nu")), ("E_CZ0", ("E_BZ0",)))
+    assert SetupTerms.from_dict(terms.to_dict()) == terms
+    assert terms.to_dict()["added"] == ["E_BZ0"]

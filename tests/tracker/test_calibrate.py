@@ -17,9 +17,9 @@ from mtmetrology.tracker import (
     parse_mesh,
     simulate,
 )
-from mtmetrology.tracker.model import datum, suggestions
+from mtmetrology.tracker.model import datum, setup_terms, suggestions
 from mtmetrology.tracker.setup import measurement_points
-from mtmetrology.units import to_internal
+from mtmetrology.units import from_internal, to_internal
 
 from .conftest import THREE_TOOLS
 
@@ -91,10 +91,14 @@ def test_zero_noise_identification_recovers_observable_errors_exactly(
     meas = simulate(machine, truth, pose, mesh, THREE_TOOLS, noise=SILENT, conditions=exact, seed=1)
     cal = calibrate(machine, meas, noise=TrackerNoise(u_smr=1e-6))
     assert cal.success
-    assert cal.parameters.names == d.kept
+    # three lateral tools expose the tool's constant yaw (issue 30): identified, here zero
+    assert cal.setup_terms.added == ("E_CZ0",)
+    assert cal.parameters.names == (*d.kept, "E_CZ0")
     idx = [machine.parameter_names.index(n) for n in d.kept]
     scale = machine.parameter_scales[idx]
-    np.testing.assert_allclose(cal.parameters.values / scale, truth[idx] / scale, atol=1e-5)
+    values = cal.parameters.values
+    assert abs(values[-1]) < 1e-5 * to_internal(1.0, "µrad")
+    np.testing.assert_allclose(values[:-1] / scale, truth[idx] / scale, atol=1e-5)
     np.testing.assert_allclose(cal.pose.vector, pose.vector, atol=1e-8)
     assert cal.mean_distance_final < 1e-8
     assert cal.mean_distance_initial > 0.005
@@ -147,3 +151,29 @@ def test_pose_inside_workspace_and_beyond_limits_are_refused(machine, mesh):
     above = TrackerPose.from_customary(-600.0, 300.0, 2000.0, 0, 0, 0)
     with pytest.raises(InputError, match=r"^measurement point \d+: elevation -\d+\.\d+° beyond"):
         simulate(machine, np.zeros(machine.n_params), above, mesh, ONE_TOOL)
+
+
+def test_lateral_tools_expose_a_constant_tool_rotation_and_it_is_identified(machine, mesh, pose):
+    """Issue 30: a constant rotation of the spindle side (E_AZ0, E_BZ0, E_CZ0 = 20, −15,
+    25 µrad, outside the preset's model) seen with three laterally offset tools of equal
+    length.  The rank check adds the tool's yaw E_CZ0 (each lateral tool moves by
+    ε × t differently) and names E_AZ0 and E_BZ0 as absorbed (pose, squareness and the
+    Z straightness over three Z levels), E_CY0 as the same column as E_CZ0: the zero-noise
+    residuals fall to the rounding level and E_CZ0 comes back; with one tool along Z nothing
+    is exposed (the shift ε × t is one translation of the pose)."""
+    tilted = machine.with_parameters([*machine.parameter_names, "E_AZ0", "E_BZ0", "E_CZ0"])
+    truth = np.r_[np.zeros(machine.n_params), 20.0, -15.0, 25.0] * to_internal(1.0, "µrad")
+    exact = MachineConditions(u_sensor=0.0)
+    meas = simulate(tilted, truth, pose, mesh, THREE_TOOLS, noise=SILENT, conditions=exact, seed=5)
+    cal = calibrate(machine, meas, noise=TrackerNoise(u_smr=1e-6))
+    assert cal.setup_terms.added == ("E_CZ0",)
+    absorbed = dict(cal.setup_terms.absorbed)
+    assert set(absorbed) == {"E_AZ0", "E_BZ0", "E_AY0", "E_BY0", "E_CY0"}
+    assert absorbed["E_CY0"] == ("E_CZ0",)
+    assert cal.to_dict()["setup_terms"]["added"] == ["E_CZ0"]
+    assert from_internal(np.linalg.norm(cal.residuals, axis=1).max(), "µm") <= 1e-3
+    yaw = cal.parameters.values[cal.parameters.names.index("E_CZ0")]
+    assert from_internal(yaw, "µrad") == pytest.approx(25.0, abs=1e-4)
+    q, t = measurement_points(mesh, ONE_TOOL)
+    one = setup_terms(machine, datum(machine, q, t, pose), q, t, pose)
+    assert one.added == () and len(one.absorbed) == 6

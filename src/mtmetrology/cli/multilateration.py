@@ -172,6 +172,8 @@ def calibrate_multilateration_cmd(
             )
             + f" (largest weighted rms {worst['rms_weighted']:.2g} at {worst['group']})"
         )
+        if result.setup_terms.candidates:
+            typer.echo(f"  constants of the tool-side axes: {result.setup_terms.message}")
         for s, u in zip(result.stations, result.station_u, strict=True):
             pos = ", ".join(f"{v:.4f}" for v in s.position)
             u_um = format_uncertainty(from_internal(u[:3].max(), "µm"))

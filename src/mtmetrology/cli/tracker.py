@@ -42,6 +42,36 @@ TOOLS_HELP = (
 NoiseOption = Annotated[
     float, typer.Option("--angle-urad", help="Angular noise level of the tracker, µrad.")
 ]
+RangeNoiseOption = Annotated[
+    str | None,
+    typer.Option(
+        "--range-noise",
+        help="Range noise A,B: u_r = A + B·r with A in µm and B in µm/m (standard "
+        "uncertainties); 4,0.8 (the source's tracker) if omitted.",
+    ),
+]
+SpreadOption = Annotated[
+    float | None,
+    typer.Option(
+        "--angle-spread",
+        help="Standard deviation of the angular level itself, µrad (the level is drawn once "
+        "per verification); 3 if omitted.",
+    ),
+]
+SmrOption = Annotated[
+    float | None,
+    typer.Option("--smr", help="Isotropic SMR-centring standard uncertainty, µm; 0 if omitted."),
+]
+KNOWN_POSE_HELP = (
+    "POSE.yaml: a known tracker pose (kind tracker-pose, the fields of simulate's --pose, "
+    "in the machine frame of the model: see the tracker docs). Fixed; a prior when it also "
+    "gives u_D_mm, u_L_mm, u_H_mm, u_alpha_deg, u_beta_deg, u_delta_deg (standard "
+    "uncertainties). Identified with the errors if omitted."
+)
+TOOL_ID_HELP = (
+    "ID=x,y,z: the offset (mm) of tool ID for the rows of MEASUREMENTS.csv whose 'tool' "
+    "column reads ID (in place of their tool_x, tool_y, tool_z). Repeatable."
+)
 
 
 CONDITIONS_HELP = (
@@ -64,6 +94,9 @@ def simulate_tracker(
     pose: Annotated[Path | None, typer.Option("--pose", help=POSE_HELP)] = None,
     tools: Annotated[Path | None, typer.Option("--tools", help=TOOLS_HELP)] = None,
     angle_urad: NoiseOption = 20.0,
+    range_noise: RangeNoiseOption = None,
+    angle_spread: SpreadOption = None,
+    smr: SmrOption = None,
     conditions: Annotated[Path | None, typer.Option("--conditions", help=CONDITIONS_HELP)] = None,
     seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
 ) -> None:
@@ -80,7 +113,7 @@ def simulate_tracker(
         files.load_pose(pose),
         parse_mesh(mesh, m),
         files.load_tools(tools),
-        noise=files.noise(angle_urad),
+        noise=files.noise(angle_urad, range_noise, angle_spread, smr),
         conditions=files.load_conditions(conditions),
         seed=seed,
     )
@@ -96,6 +129,11 @@ def calibrate_tracker(
     machine: MachineOption,
     model: ErrorModelOption = None,
     angle_urad: NoiseOption = 20.0,
+    range_noise: RangeNoiseOption = None,
+    angle_spread: SpreadOption = None,
+    smr: SmrOption = None,
+    tool: Annotated[list[str] | None, typer.Option("--tool", help=TOOL_ID_HELP)] = None,
+    pose: Annotated[Path | None, typer.Option("--pose", help=KNOWN_POSE_HELP)] = None,
     conditions: Annotated[Path | None, typer.Option("--conditions", help=CONDITIONS_HELP)] = None,
     keep_a_priori: KeepAPrioriOption = False,
     json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
@@ -103,19 +141,23 @@ def calibrate_tracker(
     report_path: ReportOption = None,
 ) -> None:
     """Identify the error functions (with covariance) and the tracker pose; name what the
-    set-up cannot see and what to add.  When the residuals contradict the noise model
-    (chi-squared p < 0.01) the output says so and the covariance is scaled by s² (unless
-    --keep-a-priori-covariance)."""
+    set-up cannot see and what to add, and the constants it exposes (added).  When the
+    residuals contradict the noise model (chi-squared p < 0.01) the output says so and the
+    covariance is scaled by s² (unless --keep-a-priori-covariance)."""
     from mtmetrology.kinematics.machine import Machine
     from mtmetrology.tracker import calibrate, files, read_measurements
 
     m = Machine.load(machine, model)
-    meas = read_measurements(measurements)
+    noise = files.noise(angle_urad, range_noise, angle_spread, smr)
+    known, known_cov = files.load_known_pose(pose)
+    meas = read_measurements(measurements, files.parse_tools(tool))
     cal = calibrate(
         m,
         meas,
-        noise=files.noise(angle_urad),
+        noise=noise,
         conditions=files.load_conditions(conditions),
+        pose=known,
+        pose_covariance=known_cov,
         adequacy=adequacy_rule(keep_a_priori),
     )
     doc = cal.to_dict()
@@ -144,6 +186,9 @@ def verify_tracker(
     tools: Annotated[Path | None, typer.Option("--tools", help=TOOLS_HELP)] = None,
     trials: Annotated[int, typer.Option("--trials", help="Simulated verifications.")] = 1000,
     angle_urad: NoiseOption = 20.0,
+    range_noise: RangeNoiseOption = None,
+    angle_spread: SpreadOption = None,
+    smr: SmrOption = None,
     conditions: Annotated[Path | None, typer.Option("--conditions", help=CONDITIONS_HELP)] = None,
     seed: Annotated[int | None, typer.Option("--seed", help="Random seed.")] = None,
     json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
@@ -165,7 +210,7 @@ def verify_tracker(
         parse_mesh(mesh, m),
         files.load_tools(tools),
         trials=trials,
-        noise=files.noise(angle_urad),
+        noise=files.noise(angle_urad, range_noise, angle_spread, smr),
         conditions=files.load_conditions(conditions),
         seed=seed,
     )

@@ -12,7 +12,13 @@ from mtmetrology.identification.adequacy import (
     model_adequacy,
     residual_patterns,
 )
-from mtmetrology.identification.datum import Datum, choose_datum
+from mtmetrology.identification.datum import (
+    Datum,
+    SetupTerms,
+    choose_datum,
+    constant_rotation_candidates,
+    exposed_terms,
+)
 from mtmetrology.identification.diagnostics import (
     IdentifiabilityReport,
     NullDirection,
@@ -52,8 +58,11 @@ __all__ = [
     "ModelAdequacy",
     "NullDirection",
     "ScaleBar",
+    "SetupTerms",
     "analyse_identifiability",
     "choose_datum",
+    "constant_rotation_candidates",
+    "exposed_terms",
     "levenberg_marquardt",
     "model_adequacy",
     "observability_indices",

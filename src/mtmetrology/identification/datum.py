@@ -13,6 +13,15 @@ The same function serves every topology and model; the bridge CMM's
 :func:`mtmetrology.cmm.models.choose_datum` is the special case of its own reference
 set-up.
 
+Set-up-aware model terms (:func:`exposed_terms`): a model may leave out constants because
+"they are absorbed by the tool offset and the instrument pose".  Whether they are depends on
+the set-up: a constant rotation ε of the tool-side axes moves a tool tip at tool vector t by
+ε × t, a common translation when there is one tool (absorbed by an instrument position or a
+tool offset unknown) but a different one for each of several laterally offset tools.  The
+check is the same rank test: the candidate columns against the model's columns and the
+nuisance columns; a candidate with a component outside their span is exposed by the set-up
+and is added to the model, the others are named with what absorbs them.
+
 References
 ----------
 Å. Björck, *Numerical Methods for Least Squares Problems*, SIAM, 1996, §2.7 (rank-revealing
@@ -23,12 +32,25 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mtmetrology.kinematics.parameters import parse_parameter
 
-__all__ = ["Datum", "choose_datum", "degree_order"]
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from mtmetrology.kinematics.machine import Machine
+
+__all__ = [
+    "Datum",
+    "SetupTerms",
+    "choose_datum",
+    "constant_rotation_candidates",
+    "degree_order",
+    "exposed_terms",
+]
 
 
 @dataclass(frozen=True)
@@ -169,3 +191,118 @@ def choose_datum(
         basis.shape[1],
         n + len(nuisance),
     )
+
+
+@dataclass(frozen=True)
+class SetupTerms:
+    """Constants a model leaves out as absorbed, checked on one set-up (:func:`exposed_terms`).
+
+    Attributes
+    ----------
+    candidates : tuple of str
+        The constants checked, in the order they were taken.
+    added : tuple of str
+        Those the set-up exposes: added to the identified model.
+    absorbed : tuple of (str, tuple of str)
+        The others, each with the model parameters and nuisance unknowns that absorb it
+        (empty: the set-up does not see it at all).
+    """
+
+    candidates: tuple[str, ...] = ()
+    added: tuple[str, ...] = ()
+    absorbed: tuple[tuple[str, tuple[str, ...]], ...] = ()
+
+    @property
+    def message(self) -> str:
+        if not self.candidates:
+            return "no constant left out of the model"
+        absorbed = [f"{n} ~ {' + '.join(p)}" if p else f"{n} (not seen)" for n, p in self.absorbed]
+        parts = []
+        if self.added:
+            parts.append(f"added (exposed by the set-up): {', '.join(self.added)}")
+        if absorbed:
+            parts.append(f"absorbed: {'; '.join(absorbed)}")
+        return "; ".join(parts)
+
+    def to_dict(self) -> dict:
+        return {
+            "candidates": list(self.candidates),
+            "added": list(self.added),
+            "absorbed": [{"name": n, "absorbed_by": list(p)} for n, p in self.absorbed],
+            "message": self.message,
+        }
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> SetupTerms:
+        absorbed = tuple((d["name"], tuple(d["absorbed_by"])) for d in doc["absorbed"])
+        return cls(tuple(doc["candidates"]), tuple(doc["added"]), absorbed)
+
+
+def constant_rotation_candidates(machine: Machine) -> tuple[str, ...]:
+    """The degree-0 angular error motions of the tool-side axes the model does not have.
+
+    ``E_AZ0, E_BZ0, E_CZ0, E_AY0, …`` (the axis nearest the tool first, so that a constant
+    rotation of the tool is named on the axis that carries it): the constants a preset
+    leaves out as absorbed by the tool offset and the instrument pose.
+    """
+    have = set(machine.parameter_names)
+    return tuple(
+        name
+        for axis in reversed(machine.topology.tool_axes)
+        for name in (f"E_{c}{axis}0" for c in "ABC")
+        if name not in have
+    )
+
+
+def exposed_terms(
+    jacobian_of: Callable[[Machine], np.ndarray],
+    machine: Machine,
+    nuisance: Sequence[str],
+    *,
+    candidates: Sequence[str] | None = None,
+    rtol: float = 1e-7,
+) -> SetupTerms:
+    """Which left-out constants a set-up exposes, by rank (module notes).
+
+    Parameters
+    ----------
+    jacobian_of : callable
+        ``jacobian_of(m)`` → the set-up's identification Jacobian, shape (rows,
+        ``m.n_params + len(nuisance)``), for a machine ``m`` with more active parameters
+        (the application's own Jacobian: tracker points, interferometer lengths, ...).
+    machine : Machine
+        The model as identified (its active parameters: the datum).
+    nuisance : sequence of str
+        Names of the nuisance unknowns (instrument pose, station centres, tool offsets),
+        the last columns of the Jacobian.
+    candidates : sequence of str, optional
+        Constants to check; :func:`constant_rotation_candidates` by default.
+    rtol : float
+        As in :func:`choose_datum`.
+
+    Returns
+    -------
+    SetupTerms
+        ``added``: candidates whose columns have a component outside the span of the
+        model's and the nuisance columns (and of the candidates added before them).
+
+    Notes
+    -----
+    :func:`choose_datum` with the model's parameters taken as nuisance (always kept,
+    first), then the candidates in the order given.
+    """
+    cands = tuple(constant_rotation_candidates(machine) if candidates is None else candidates)
+    if not cands:
+        return SetupTerms()
+    n, k = machine.n_params, len(cands)
+    big = machine.with_parameters([*machine.parameter_names, *cands])
+    jac = np.asarray(jacobian_of(big), dtype=float)
+    cols = np.concatenate([jac[:, n : n + k], jac[:, :n], jac[:, n + k :]], axis=1)
+    d = choose_datum(
+        cols,
+        cands,
+        nuisance=[*machine.parameter_names, *nuisance],
+        rtol=rtol,
+        order=cands.index,
+    )
+    return SetupTerms(cands, d.kept, d.dropped)

@@ -32,6 +32,7 @@ import numpy as np
 from mtmetrology.errors import InputError
 from mtmetrology.identification import levenberg_marquardt
 from mtmetrology.identification.adequacy import ModelAdequacy, residual_patterns
+from mtmetrology.identification.datum import SetupTerms, exposed_terms
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.multilateration.problem import LASERTRACER_SPEC, LengthProblem
@@ -168,6 +169,9 @@ class MultilaterationResult:
     residual_patterns : dict
         RMS of the length residuals by station and by tool
         (:func:`~mtmetrology.identification.adequacy.residual_patterns`).
+    setup_terms : SetupTerms
+        The constants the model leaves out that the set-up exposes (added to
+        ``parameters``) and those it absorbs (``provenance.setup_terms``).
     """
 
     parameters: ParameterSet
@@ -187,6 +191,8 @@ class MultilaterationResult:
     def covariance_factor(self) -> float:
         """Factor the a-priori covariance was scaled by (1 when it was not)."""
         return 1.0 if self.adequacy is None else self.adequacy.factor
+
+    setup_terms: SetupTerms = field(default_factory=SetupTerms)
 
     def to_dict(self) -> dict:
         """The MAP.json form: a parameter-set document whose provenance holds the set-up."""
@@ -213,6 +219,7 @@ class MultilaterationResult:
             "diagnostics": self.diagnostics,
             "message": self.message,
             "residual_patterns": self.residual_patterns,
+            "setup_terms": self.setup_terms.to_dict(),
         }
         if self.adequacy is not None:
             doc["provenance"]["adequacy"] = self.adequacy.to_dict()
@@ -247,6 +254,9 @@ class MultilaterationResult:
             prov.get("message", ""),
             adequacy=None if "adequacy" not in prov else ModelAdequacy.from_dict(prov["adequacy"]),
             residual_patterns=dict(prov.get("residual_patterns", {})),
+            setup_terms=(
+                SetupTerms.from_dict(prov["setup_terms"]) if "setup_terms" in prov else SetupTerms()
+            ),
         )
 
 
@@ -302,6 +312,13 @@ def calibrate_multilateration(
     Returns
     -------
     MultilaterationResult
+        The parameters are the machine's and the constants the set-up exposes: a
+        constant rotation of the tool-side axes moves each reflector t by ε × t, one shift
+        of every point (absorbed by the station centres) with one reflector, a different
+        one per reflector with several laterally offset reflectors; those the rank check
+        (:func:`~mtmetrology.identification.datum.exposed_terms`) finds outside the span
+        of the model's and the stations' columns are added and named
+        (:attr:`MultilaterationResult.setup_terms`).
 
     Raises
     ------
@@ -313,9 +330,20 @@ def calibrate_multilateration(
         the spindle axis only; a second, laterally offset tool recovers it).
     """
     _check_record(machine, record, spec)
-    problem = LengthProblem(
-        machine, record.readings, record.tools, record.stations, record.lengths, spec
-    )
+
+    def problem_of(m: Machine) -> LengthProblem:
+        r = record
+        return LengthProblem(m, r.readings, r.tools, r.stations, r.lengths, spec)
+
+    def jacobian_of(m: Machine) -> np.ndarray:
+        p = problem_of(m)
+        return p.evaluate(p.initial())[1]
+
+    stations_names = problem_of(machine).names[machine.n_params :]
+    terms = exposed_terms(jacobian_of, machine, stations_names)
+    if terms.added:
+        machine = machine.with_parameters([*machine.parameter_names, *terms.added])
+    problem = problem_of(machine)
     solved = levenberg_marquardt(problem, report_names=machine.parameter_names)
     if not solved.success:
         raise InputError(f"multilateration: the identification did not converge ({solved.message})")
@@ -344,6 +372,7 @@ def calibrate_multilateration(
         solved.message,
         adequacy=solved.adequacy,
         residual_patterns=patterns,
+        setup_terms=terms,
     )
 
 

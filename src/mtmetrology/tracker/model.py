@@ -33,11 +33,25 @@ from dataclasses import dataclass
 import numpy as np
 
 from mtmetrology.errors import InputError
-from mtmetrology.identification.datum import Datum, choose_datum
+from mtmetrology.identification.datum import (
+    Datum,
+    SetupTerms,
+    choose_datum,
+    constant_rotation_candidates,
+    exposed_terms,
+)
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.tracker import TrackerPose, euler_angles, euler_matrix
 
-__all__ = ["POSE_NAMES", "TrackerProblem", "datum", "mean_distance", "register", "suggestions"]
+__all__ = [
+    "POSE_NAMES",
+    "TrackerProblem",
+    "datum",
+    "mean_distance",
+    "register",
+    "setup_terms",
+    "suggestions",
+]
 
 #: Names of the pose unknowns: position along machine x, y, z (mm), Euler angles (rad).
 POSE_NAMES = ("D", "L", "H", "alpha", "beta", "delta")
@@ -102,7 +116,13 @@ class TrackerProblem:
     weights : (n, 3, 3) ndarray
         ``L_i⁻¹`` of the point covariances.
     start : TrackerPose
-        Starting pose (the registration).
+        Starting pose (the registration), or the known pose.
+    pose_fixed : bool
+        The pose is known exactly: not an unknown (``start`` is used as it is).
+    pose_prior : (6, 6) ndarray or None
+        ``L⁻¹`` of the covariance of a known pose ``start`` used as a prior: six more
+        residuals ``L⁻¹·(x_pose − start)`` (a pseudo-observation of the pose, the Bayesian
+        reading of a Gaussian prior in least squares).
     """
 
     machine: Machine
@@ -111,57 +131,117 @@ class TrackerProblem:
     measured: np.ndarray
     weights: np.ndarray
     start: TrackerPose
+    pose_fixed: bool = False
+    pose_prior: np.ndarray | None = None
 
     @property
     def names(self) -> tuple[str, ...]:
-        return (*self.machine.parameter_names, *POSE_NAMES)
+        return (*self.machine.parameter_names, *(() if self.pose_fixed else POSE_NAMES))
 
     @property
     def n_rows(self) -> int:
-        return self.measured.size
+        return self.measured.size + (6 if self.pose_prior is not None else 0)
 
     @property
     def residual_rounding(self) -> float:
         return float(np.finfo(float).eps * np.abs(self.measured).max() * np.abs(self.weights).max())
 
     def initial(self) -> np.ndarray:
-        return np.concatenate([np.zeros(self.machine.n_params), self.start.vector])
+        pose = () if self.pose_fixed else self.start.vector
+        return np.concatenate([np.zeros(self.machine.n_params), pose])
+
+    def pose_of(self, x: np.ndarray) -> TrackerPose:
+        """The pose at the unknowns ``x`` (the known one when it is fixed)."""
+        if self.pose_fixed:
+            return self.start
+        return TrackerPose.from_vector(x[self.machine.n_params :])
 
     def model(self, x: np.ndarray, jacobian: bool = True):
         """Predicted tracker-frame points (n, 3) and ∂/∂x (n, 3, n_unknowns)."""
         n = self.machine.n_params
-        pose = TrackerPose.from_vector(x[n:])
+        pose = self.pose_of(x)
         ev = self.machine.evaluate(self.readings, x[:n], tool=self.tools, d_params=jacobian)
         p = pose.to_tracker(ev.position)
         if not jacobian:
             return p, None
         d_theta = np.einsum("ji,njk->nik", pose.rotation, ev.d_params)
+        if self.pose_fixed:
+            return p, d_theta
         return p, np.concatenate([d_theta, pose.jacobian(ev.position)], axis=-1)
 
     def evaluate(self, x: np.ndarray, jacobian: bool = True):
         p, jac = self.model(x, jacobian)
         r = np.einsum("nij,nj->ni", self.weights, p - self.measured).ravel()
-        if not jacobian:
-            return r, None
-        return r, np.einsum("nij,njk->nik", self.weights, jac).reshape(r.size, -1)
+        if jacobian:
+            jac = np.einsum("nij,njk->nik", self.weights, jac).reshape(r.size, -1)
+        if self.pose_prior is not None:
+            n = self.machine.n_params
+            r = np.concatenate([r, self.pose_prior @ (x[n:] - self.start.vector)])
+            if jacobian:
+                jac = np.vstack([jac, np.hstack([np.zeros((6, n)), self.pose_prior])])
+        return r, jac
 
 
-def _setup_jacobian(machine: Machine, readings, tools, pose: TrackerPose) -> np.ndarray:
+def _setup_jacobian(
+    machine: Machine, readings, tools, pose: TrackerPose, fixed_pose: bool = False
+) -> np.ndarray:
     ev = machine.evaluate(readings, tool=tools, d_params=True)
     d_theta = np.einsum("ji,njk->nik", pose.rotation, ev.d_params)
+    if fixed_pose:
+        return d_theta.reshape(-1, d_theta.shape[-1])
     jac = np.concatenate([d_theta, pose.jacobian(ev.position)], axis=-1)
     return jac.reshape(-1, jac.shape[-1])
 
 
-def datum(machine: Machine, readings, tools, pose: TrackerPose, rtol: float = 1e-7) -> Datum:
+def datum(
+    machine: Machine,
+    readings,
+    tools,
+    pose: TrackerPose,
+    rtol: float = 1e-7,
+    fixed_pose: bool = False,
+) -> Datum:
     """What a set-up can identify: the generic datum choice on its Jacobian.
+
+    With ``fixed_pose`` the pose is known and not a nuisance unknown (a pose known only
+    to its prior uncertainty is still one: the datum is what the readings alone see).
 
     The paper's mesh with one tool offset along Z and the 21-function model: rank 42 of 57
     (E_CY1–3 and E_CZ1–3 not seen; E_ZZ3 ~ E_ZZ1 with three Z levels; E_XZ2 ~ E_BZ2 and
     E_YZ2 ~ E_AZ2 through the tool length; the Z-axis tilts ~ squareness + pose).
     """
-    jac = _setup_jacobian(machine, readings, tools, pose)
-    return choose_datum(jac, machine.parameter_names, nuisance=POSE_NAMES, rtol=rtol)
+    jac = _setup_jacobian(machine, readings, tools, pose, fixed_pose)
+    nuisance = () if fixed_pose else POSE_NAMES
+    return choose_datum(jac, machine.parameter_names, nuisance=nuisance, rtol=rtol)
+
+
+def setup_terms(
+    machine: Machine,
+    base: Datum,
+    readings,
+    tools,
+    pose: TrackerPose,
+    rtol: float = 1e-7,
+    fixed_pose: bool = False,
+) -> SetupTerms:
+    """The constants of the tool-side axes this set-up exposes beyond the datum ``base``.
+
+    The degree-0 angular terms the model leaves out
+    (:func:`~mtmetrology.identification.datum.constant_rotation_candidates`) checked by rank
+    against the datum's and the pose's columns
+    (:func:`~mtmetrology.identification.datum.exposed_terms`).  With one tool along Z they
+    are all absorbed (a constant rotation ε moves the tip by the constant ε × t, a shift of
+    the pose); with laterally offset tools on the paper's three Z levels the tool's yaw
+    E_CZ0 is exposed (E_AZ0 and E_BZ0 stay absorbed by the pose, the squarenesses and Z's
+    cubic straightness, a line on three levels), on five Z levels its pitch and roll too.
+    """
+    return exposed_terms(
+        lambda m: _setup_jacobian(m, readings, tools, pose, fixed_pose),
+        machine.with_parameters(base.kept),
+        () if fixed_pose else POSE_NAMES,
+        candidates=constant_rotation_candidates(machine),
+        rtol=rtol,
+    )
 
 
 def suggestions(

@@ -120,20 +120,59 @@ class TrackerMeasurements:
             write_columns(fh, cols, decimals=9)
 
 
-def read_measurements(path: str | Path) -> TrackerMeasurements:
-    """Read a MEASUREMENTS CSV; a missing column, a non-number or NaN names file and line."""
-    table = read_csv_table(path, COLUMNS[1:], min_rows=4)
-    col = {c: table.floats(c) for c in COLUMNS[1:]}
+def read_measurements(
+    path: str | Path, tools: dict[str, np.ndarray] | None = None
+) -> TrackerMeasurements:
+    """Read a MEASUREMENTS CSV; a missing column, a non-number or NaN names file and line.
+
+    Parameters
+    ----------
+    path : path-like
+    tools : dict of str to (3,) array, optional
+        Tool offsets (mm) by id (``mtm calibrate tracker --tool ID=x,y,z``): the rows of
+        the file's ``tool`` column with that id take it, in place of their ``tool_x``,
+        ``tool_y``, ``tool_z`` (which a file with a ``tool`` column may leave out).
+
+    Raises
+    ------
+    InputError
+        A tool id with no offset (neither given nor in the file), tools given for a file
+        without a ``tool`` column, or a cell that is not a number.
+    """
+    by_id = dict(tools or {})
+    fixed = [c for c in COLUMNS[1:] if not c.startswith("tool_")]
+    table = read_csv_table(path, fixed, min_rows=4)
+    has_xyz = table.has("tool_x") or not table.has("tool")  # else: a missing column, named
+    col = {c: table.floats(c) for c in (COLUMNS[1:] if has_xyz else fixed)}
     sph = np.column_stack(
         [col["range"], to_internal(col["azimuth"], "°"), to_internal(col["elevation"], "°")]
     )
     readings = np.column_stack([col["X"], col["Y"], col["Z"]])
-    tools = np.column_stack([col["tool_x"], col["tool_y"], col["tool_z"]])
     temps = np.column_stack([col["T_X"], col["T_Y"], col["T_Z"]])
+    if has_xyz:
+        tool_rows = np.column_stack([col["tool_x"], col["tool_y"], col["tool_z"]])
+    else:
+        tool_rows = np.full((len(table), 3), np.nan)
+    if table.has("tool"):
+        for i, name in enumerate(table.strings("tool")):
+            if name in by_id:
+                tool_rows[i] = by_id[name]
+            elif not has_xyz:
+                raise InputError(
+                    f"{path}, line {table.lines[i]}: tool {name!r} has no offset; give it "
+                    f"with --tool {name}=x,y,z"
+                )
+        unused = sorted(set(by_id) - set(table.strings("tool")))
+        if unused:
+            raise InputError(f"--tool {unused[0]}: no row of {path} uses this tool id")
+    elif by_id:
+        raise InputError(
+            f"--tool {next(iter(by_id))}: {path} has no 'tool' column of tool ids to match"
+        )
     bad = np.flatnonzero(sph[:, 0] <= 0)
     if bad.size:
         raise InputError(f"{path}, data row {bad[0] + 1}: column 'range' must be > 0")
-    return TrackerMeasurements(readings, tools, sph, temps, {"source": str(path)})
+    return TrackerMeasurements(readings, tool_rows, sph, temps, {"source": str(path)})
 
 
 def geometric_draws(
