@@ -171,12 +171,14 @@ def test_noise_options_set_the_weights_and_bad_values_are_refused(measurements, 
     default = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--json")
     noise = json.loads(default.stdout)["calibration_provenance"]["noise"]
     assert (noise["u_range_constant_um"], noise["u_angle_spread_urad"]) == (4.0, 3.0)
-    for option, value in (("--range-noise", "1.5"), ("--range-noise", "1,-2"),
-                          ("--angle-spread", "nan"), ("--smr", "-1")):  # fmt: skip
+    for option, value, words in (("--range-noise", "1.5", "must be"),
+                                 ("--range-noise", "1,-2", "must be"),
+                                 ("--angle-spread", "nan", ": expected a finite number"),
+                                 ("--smr", "-1", "must be")):  # fmt: skip
         out = tmp_path / "r.json"
         res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, option, value,
                   "-o", out)  # fmt: skip
-        _refused(res, tmp_path, f"error: {option} must be")
+        _refused(res, tmp_path, f"error: {option}{'' if words[0] == ':' else ' '}{words}")
 
 
 def test_tool_ids_give_the_offsets_of_a_tool_column(measurements, tmp_path):

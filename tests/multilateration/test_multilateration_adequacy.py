@@ -57,7 +57,9 @@ def _held_out(rng, theta, result):
     """Error of the compensation at one random point: ê − e and its covariance G Σ Gᵀ."""
     point = rng.uniform([800.0, 100.0, 100.0], [1200.0, 500.0, 300.0], (1, 3))
     q = M.inverse(point, np.zeros((1, 3)))
-    ev = M.evaluate(q, result.parameters.values, d_params=True)
+    # the identified model: the preset's plus the constants the reflector offsets expose
+    m = result.parameters.machine_for(M)
+    ev = m.evaluate(q, result.parameters.vector_for(m), d_params=True)
     miss = (M.forward(q, theta) - ev.position)[0]
     g = ev.d_params[0]
     return miss, g @ result.parameters.covariance @ g.T
@@ -100,7 +102,8 @@ def test_a_priori_option_keeps_the_covariance_and_the_document_says_so():
     )  # fmt: skip
     doc = kept.to_dict()["provenance"]["adequacy"]
     assert doc["rule"] == "a-priori" and doc["significant"] and not doc["scaled"]
-    assert doc["factor"] == 1.0 and doc["dof"] == len(record.lengths) - (M.n_params + 16)
+    unknowns = len(kept.parameters.names) + 16  # the model (with the exposed constants), stations
+    assert doc["factor"] == 1.0 and doc["dof"] == len(record.lengths) - unknowns
     assert doc["variance_factor"] == pytest.approx(scaled.variance_factor, rel=1e-12)
     patterns = scaled.to_dict()["provenance"]["residual_patterns"]
     assert [g["group"] for g in patterns["station"]] == ["S1", "S2", "S3", "S4"]

@@ -342,7 +342,10 @@ def calibrate(
     provenance = {"measurements": measurements.provenance, "noise": noise.to_dict()}
     tool_ids = [",".join(f"{v:g}" for v in t) for t in tools]
     patterns = residual_patterns(
-        measured - predicted, {"tool": tool_ids}, weighted=result.residuals.reshape(-1, 3)
+        measured - predicted,
+        {"tool": tool_ids},
+        # the whitened residuals of the points (a pose prior appends its own six rows)
+        weighted=result.residuals[: measured.size].reshape(-1, 3),
     )
     parameters = result.parameter_set(identified, {"method": "tracker volumetric verification"})
     points, point_cov = compensation_covariance(
