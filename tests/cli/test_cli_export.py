@@ -338,7 +338,7 @@ def _filled(template: str, column_value) -> str:
 def test_verify_program_then_check(params, tmp_path, case, reading, code):
     """--verify-program writes the programme and the template; `mtm export check` on the
     filled template prints the library's comparison and exits 0 only when confirmed."""
-    from mtmetrology.export.verification import compare_readings
+    from mtmetrology.export.verification_check import compare_readings
 
     out = tmp_path / "out"
     res = _run(

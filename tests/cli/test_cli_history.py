@@ -77,7 +77,8 @@ def test_bad_inputs_are_one_line_and_exit_2_with_nothing_written(tmp_path):
         (("history", "add", unknown, "--db", db), f"error: {unknown}: kind: 'fit-result'"),
         (
             ("history", "add", paths[0], "--machine", "three-axis-xfyz", "--db", db),
-            f"error: {paths[0]}: parameters[0]: E_A0B refers to axis B",
+            f"error: {paths[0]}: made for machine 'five-axis-wcbxfzyst', not 'three-axis-xfyz' "
+            "(parameters[0]: E_A0B refers to axis B",
         ),
         (
             ("history", "list", "--db", "postgresql://u@127.0.0.1:1/x"),

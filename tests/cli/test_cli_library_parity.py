@@ -655,7 +655,47 @@ def case_machine_identifiability(tmp_path):
     return cli, library.to_dict()
 
 
+def case_export_verify(tmp_path):
+    """``mtm export siemens --verify-program``: check.json is the library's export, and the
+    template holds the library's prediction at the check points."""
+    from mtmetrology.export.verification import TEMPLATE, export_with_verification
+
+    params = _params(tmp_path / "params.json")
+    out = tmp_path / "out"
+    cli = _json(
+        [
+            *("export", "siemens", params, "--machine", MACHINE.name, "--pitch", "20"),
+            *("--verify-program", "--verify-positions", "3", "-o", out, "--json"),
+        ]
+    )
+    library, files = export_with_verification(
+        MACHINE, ParameterSet.load(params, MACHINE), "siemens", verify_positions=3, pitch=20
+    )
+    # the same rows; the first comment line carries the time of writing
+    written = (out / TEMPLATE).read_text().splitlines()
+    assert written[1:] == files[TEMPLATE].splitlines()[1:]
+    return cli, library.to_dict()
+
+
+def case_export_check(tmp_path):
+    """``mtm export check`` on a filled template is :func:`compare_readings`."""
+    from mtmetrology.export.verification_check import compare_readings
+
+    path = tmp_path / "readings.csv"
+    path.write_text(
+        "point,axis,rx_um,ry_um,rz_um,Ux_um,Uy_um,Uz_um,ex_um,ey_um,ez_um,mx_um,my_um,mz_um\n"
+        "X01+,X,0.5,0,0,1.0,,,-20.0,0,0,0.9,,\n"
+        "X02+,X,-0.4,0,0,1.0,,,15.0,0,0,-0.1,,\n"
+        "Y01-,Y,0.2,0.3,0,1.0,1.0,,4.0,-12.0,0,,0.1,\n",
+        encoding="utf-8",
+    )
+    cli = _json(["export", "check", path, "--u-reading", "0.3", "--json"])
+    return cli, compare_readings(path, 0.3).to_dict()
+
+
 CASES = {
+    "export siemens --verify-program": case_export_verify,
+    "export check": case_export_check,
     "calibrate ballplate-budget": case_cmm_budget,
     "machine identifiability": case_machine_identifiability,
     "uncertainty run": case_uncertainty_run,

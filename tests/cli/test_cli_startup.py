@@ -27,7 +27,12 @@ PROBE = (
 )
 #: Subcommand lines whose help shows a constant of the library (criteria, default duration,
 #: fewest targets per coefficient): read from light modules, not from the numpy ones.
-SUBCOMMAND_HELP = [["design", "samba", "--help"], ["repeatability", "fit", "--help"]]
+SUBCOMMAND_HELP = [
+    ["design", "samba", "--help"],
+    ["repeatability", "fit", "--help"],
+    ["export", "siemens", "--help"],
+    ["export", "check", "--help"],
+]
 LINES = (
     [["--help"], ["machine", "list"]]
     + [[c, "--help"] for c in [*COMMANDS, *SHARED_GROUPS]]

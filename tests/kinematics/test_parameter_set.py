@@ -140,3 +140,27 @@ def test_duplicate_keys_are_refused(tmp_path, machine):
     (tmp_path / "p.json").write_text(text)
     with pytest.raises(InputFileError, match="'value' appears twice"):
         ParameterSet.load(tmp_path / "p.json", machine)
+
+
+def test_a_set_of_another_machine_is_refused_naming_both_machines_first():
+    """Issue 29: a Legendre set of three-axis-xfyz (E_XX1 in µm) read for the five-axis
+    machine (E_XX1 in µm/m) was refused with a unit message; the unit mismatch comes from
+    the other machine, and the refusal says that first."""
+    five = Machine.load("five-axis-wcbxfzyst")
+    doc = {
+        "kind": "parameter-set",
+        "version": 1,
+        "machine": "three-axis-xfyz",
+        "model": "21-legendre",
+        "parameters": [{"name": "E_XX1", "value": 10.0, "unit": "µm"}],
+    }
+    with pytest.raises(InputFileError) as err:
+        ParameterSet.from_document(doc, five, "p.json")
+    assert str(err.value).startswith(
+        "p.json: made for machine 'three-axis-xfyz', not 'five-axis-wcbxfzyst' "
+        "(parameters[0] (E_XX1): unit 'µm' does not fit"
+    )
+    doc["parameters"] = [{"name": "E_XX1", "value": 10.0, "unit": "µm/m"}]
+    doc["machine"] = "five-axis-wcbxfzyst"
+    del doc["model"]
+    assert ParameterSet.from_document(doc, five, "p.json").names == ("E_XX1",)

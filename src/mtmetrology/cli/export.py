@@ -431,7 +431,7 @@ def check(
 
     Exit code 0 when confirmed, 4 otherwise (the verdict is in the output).
     """
-    from mtmetrology.export.verification import compare_readings
+    from mtmetrology.export.verification_check import compare_readings
     from mtmetrology.io.files import check_output
 
     if output is not None:

@@ -242,6 +242,15 @@ class ParameterSet(NotebookRepr):
                 f"(here {machine.name!r})"
             )
         names, values, units, factors = [], [], [], []
+
+        def misfit(detail: str) -> InputFileError:
+            # A set made for another machine fails first on an axis or a unit: say so.
+            if doc["machine"] == machine.name:
+                return InputFileError(f"{source}: {detail}")
+            return InputFileError(
+                f"{source}: made for machine {doc['machine']!r}, not {machine.name!r} ({detail})"
+            )
+
         entries = doc.get("parameters")
         if not isinstance(entries, list) or not entries:
             raise InputFileError(f"{source}: parameters: must be a non-empty list")
@@ -259,8 +268,8 @@ class ParameterSet(NotebookRepr):
             except ParameterNameError as err:
                 raise InputFileError(f"{where}: {err}") from None
             if p.axis not in machine.topology.axes:
-                raise InputFileError(
-                    f"{where}: {p.name} refers to axis {p.axis}, not in {machine.name}"
+                raise misfit(
+                    f"parameters[{k}]: {p.name} refers to axis {p.axis}, not in {machine.name}"
                 )
             expected = machine.unit_of(p)
             if not isinstance(e["unit"], str):
@@ -270,8 +279,8 @@ class ParameterSet(NotebookRepr):
             except UnitError as err:
                 raise InputFileError(f"{where} ({p.name}): {err}") from None
             if declared.dimension != parse_unit(expected).dimension:
-                raise InputFileError(
-                    f"{where} ({p.name}): unit {e['unit']!r} does not fit this parameter "
+                raise misfit(
+                    f"parameters[{k}] ({p.name}): unit {e['unit']!r} does not fit this parameter "
                     f"(expected a unit like {expected!r})"
                 )
             value = _number(e["value"], f"{where} ({p.name}): value")
