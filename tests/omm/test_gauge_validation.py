@@ -280,6 +280,47 @@ def test_pooling_command_matches_the_library(tmp_path):
         assert r.exit_code == 2 and not out.exists(), r.output
 
 
+def test_pooling_command_names_a_failed_fit_and_leaves_it_out(tmp_path):
+    """Two 12-point sets at general poses and one on a great circle of the sphere (its
+    fit cannot converge): ``mtm validate pooling --k 1`` lists each draw of the circle
+    under ``failed_fits`` by its file, warns on stderr naming it, and states coverage and
+    mean U over the other draws (the JSON on stdout stays the data)."""
+    from mtmetrology.omm.repeatability import sphere_normal
+
+    rng = np.random.default_rng(0)
+    delta = rng.normal(size=13) * MACHINE.parameter_scales * 10
+    paths = []
+    for name, polar in (("a", rng.uniform(0, 1.3, 12)), ("b", rng.uniform(0, 1.3, 12))):
+        pts = [0, 0, 50.0] + 10.0 * sphere_normal(polar, rng.uniform(0, 6.3, 12))
+        paths.append(tmp_path / f"{name}.csv")
+        _write_side(paths[-1], MACHINE.inverse(pts, np.array([0, 0, 0, 0.3, 1.0, 0.0]), delta))
+    circle = [0, 0, 50.0] + 10.0 * sphere_normal(np.full(12, np.pi / 2), rng.uniform(0, 6.3, 12))
+    readings = MACHINE.inverse(circle, np.array([0, 0, 0, 0.2, 0.5, 0.0]), delta)
+    readings[:, :3] += rng.normal(0.0, 0.5e-3, (12, 3))
+    paths.append(tmp_path / "circle.csv")
+    _write_side(paths[-1], readings)
+    replace(ParameterSet.zeros(MACHINE), values=delta, covariance=U_THETA).save(
+        tmp_path / "params.json"
+    )
+    args = [
+        "validate", "pooling", *map(str, paths), "--machine", "five-axis-wcbxfzyst",
+        "--params", str(tmp_path / "params.json"), "--diameter-mm", "20",
+        "--diameter-u-um", "0.5", "--tip-diameter", "0", "--draws", "12",
+        "--points-per-draw", "12", "--seed", "4", "--k", "1", "--json",
+    ]  # fmt: skip
+    r = CliRunner().invoke(app, args)
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    failed = doc["failed_fits"]
+    assert failed and {tuple(f["sets"]) for f in failed} == {("circle.csv",)}
+    row = doc["outputs"][0]["per_k"][0]
+    assert row["fits_used"] == 12 - len(failed) > 0
+    assert row["mean_U"] < 1e-3  # mm (0.095 µm here): the good draws only
+    warned = [ln for ln in r.stderr.splitlines() if "circle.csv" in ln]
+    assert len(warned) == len(failed)
+    assert r.stderr.splitlines()[0].startswith(f"warning: {len(failed)} draw(s) excluded")
+
+
 def test_cov_e_estimated_from_samba_residuals_restores_the_coverage(tmp_path):
     """cov(e) estimated from one virtual SAMBA test with a known unmodelled error
     (:mod:`test_unexplained_estimate`, ν ≈ 101) in the budget of 12 campaigns of 6 × 6

@@ -23,6 +23,7 @@ from mtmetrology.cli._common import (
     emit_result,
     user_errors,
 )
+from mtmetrology.cli._progress import progress_bar
 from mtmetrology.errors import InputError
 
 app = typer.Typer(help="Validate uncertainty statements against calibrated artefacts.")
@@ -212,40 +213,59 @@ def pooling(
     except ValueError:
         raise InputError(f"--k: expected integers separated by commas, got {k!r}") from None
     um = float(to_internal(1.0, "µm"))
-    result = pooling_from_files(
-        sets,
-        machine_name,
-        params,
-        diameter_mm,
-        float(to_internal(diameter_u_um, "µm")),
-        sphericity=None if sphericity_um is None else sphericity_um * um,
-        sphericity_uncertainty=sphericity_u_um * um,
-        expansion_coefficient=cte,
-        expansion_coefficient_uncertainty=cte_u,
-        temperature_difference=delta_t,
-        temperature_difference_uncertainty=delta_t_u,
-        repeatability=repeatability,
-        unexplained=unexplained,
-        tip_diameter=tip_diameter,
-        k_values=k_values,
-        draws=draws,
-        points_per_draw=points_per_draw,
-        p=p,
-        seed=seed,
-    )
+    with progress_bar("pooling draws") as progress:
+        result = pooling_from_files(
+            sets,
+            machine_name,
+            params,
+            diameter_mm,
+            float(to_internal(diameter_u_um, "µm")),
+            sphericity=None if sphericity_um is None else sphericity_um * um,
+            sphericity_uncertainty=sphericity_u_um * um,
+            expansion_coefficient=cte,
+            expansion_coefficient_uncertainty=cte_u,
+            temperature_difference=delta_t,
+            temperature_difference_uncertainty=delta_t_u,
+            repeatability=repeatability,
+            unexplained=unexplained,
+            tip_diameter=tip_diameter,
+            k_values=k_values,
+            draws=draws,
+            points_per_draw=points_per_draw,
+            p=p,
+            seed=seed,
+            progress=progress,
+        )
     doc = result.to_dict()
     report = None
     if report_path is not None:
         report = _pooling_report(doc, command_line(ctx), [*sets, params])
 
     def summary() -> None:
+        from mtmetrology.formatting import format_uncertainty
+
         for out in doc["outputs"]:
             typer.echo(f"{out['name']} (reference {out['reference']['value']:.5f} mm):")
             for row in out["per_k"]:
+                used = f"{row['fits_used']} of {doc['draws']} draws"
+                if row["coverage"] is None:
+                    typer.echo(f"  k = {row['k']:>2}: no draw could be fitted ({used})")
+                    continue
                 typer.echo(
                     f"  k = {row['k']:>2}: coverage {100 * row['coverage']:5.1f} %, mean U "
-                    f"{row['mean_U'] / um:.3g} µm"
+                    f"{format_uncertainty(row['mean_U'] / um)} µm (p = {doc['p']:g}; {used})"
                 )
+
+    def messages() -> None:
+        failed = result.failed
+        if failed:
+            typer.echo(
+                f"warning: {len(failed)} draw(s) excluded, their sphere fit failed "
+                "(not averaged into coverage or U):",
+                err=True,
+            )
+            for fit in failed:
+                typer.echo(f"  {fit.describe()}", err=True)
 
     emit_result(
         doc,
@@ -254,10 +274,12 @@ def pooling(
         report=report,
         report_path=report_path,
         as_json=json_output,
+        messages=messages,
     )
 
 
 def _pooling_report(doc: dict, command: str, inputs: list[Path]):
+    from mtmetrology.formatting import format_uncertainty
     from mtmetrology.report import Report
     from mtmetrology.units import to_internal
 
@@ -271,16 +293,30 @@ def _pooling_report(doc: dict, command: str, inputs: list[Path]):
     )
     for out in doc["outputs"]:
         rep.table(
-            ["output", "k", "coverage", "mean value (mm)", "mean U (µm)"],
+            ["output", "k", "fits used", "coverage", "mean value (mm)", "mean U (µm)"],
             [
                 [
                     out["name"],
                     row["k"],
-                    f"{100 * row['coverage']:.1f} %",
-                    f"{row['mean_value']:.5f}",
-                    f"{row['mean_U'] / um:.3g}",
+                    f"{row['fits_used']} of {doc['draws']}",
+                    *(
+                        ["no fit", "", ""]
+                        if row["coverage"] is None
+                        else [
+                            f"{100 * row['coverage']:.1f} %",
+                            f"{row['mean_value']:.5f}",
+                            format_uncertainty(row["mean_U"] / um),
+                        ]
+                    ),
                 ]
                 for row in out["per_k"]
             ],
+            caption=f"U for p = {doc['p']:g} (k_p from the GUF); failed fits excluded.",
+        )
+    if doc["failed_fits"]:
+        rep.table(
+            ["k", "draw", "pooled sets", "why the fit failed"],
+            [[f["k"], f["draw"], " + ".join(f["sets"]), f["reason"]] for f in doc["failed_fits"]],
+            caption="Draws excluded from the coverage and the means: their sphere fit failed.",
         )
     return rep

@@ -13,6 +13,15 @@ shows as soon as two poses are mixed: in the thesis the sphericity coverage fell
 100 % at k = 1 to 9 % at k = 2, while the diameter held 100 % up to k = 3 and 95 % at
 k = 7.
 
+A draw whose sphere cannot be fitted is a failed fit, not a measurement: its points are
+(nearly) coplanar — e.g. 25 points drawn from the equators of poses that share the C
+axis — so the fit raises (:class:`~mtmetrology.fitting.validation.FitError`), or the
+least-squares sphere of its compensated points does not converge (the iteration limit,
+a rank-deficient step: :class:`mtmetrology.optimize.Status` ≤ 0), or y or U is not
+finite. Such a draw would state a diameter millimetres off with U of metres; it is
+excluded from the coverage and the means of its k, counted, and named in the result
+(:class:`FailedFit`: k, draw, the pooled sets, the reason).
+
 References
 ----------
 Sepahi Boroujeni, S. (2021). *Uncertainty of Form and Size Measurement with On-Machine
@@ -21,19 +30,51 @@ Tool Metrology*. PhD thesis, Polytechnique Montréal, §6.4 (eq. 6-16) and §6.5
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from mtmetrology.errors import InputError
+from mtmetrology.fitting.batch import fit_spheres
 from mtmetrology.fitting.composite import CombinedFeature
+from mtmetrology.fitting.validation import FitError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.omm.reference import ReferenceValue, coverage_probability
 from mtmetrology.omm.task import task_uncertainty
+from mtmetrology.optimize import STATUS_MESSAGES, Status
 from mtmetrology.rng import SeedLike, chunk_generators
 
-__all__ = ["PoolingResult", "pooling_experiment"]
+__all__ = ["FailedFit", "PoolingResult", "pooling_experiment"]
+
+
+@dataclass(frozen=True)
+class FailedFit:
+    """A draw excluded from the pooling test because its fit failed (module notes).
+
+    Attributes
+    ----------
+    k : int
+        Number of pooled sets.
+    draw : int
+        Draw number within that k, from 1.
+    sets : tuple of str
+        Names of the pooled sets (their files, or ``set 1`` …).
+    reason : str
+        What failed: the fit's error or its solver status.
+    """
+
+    k: int
+    draw: int
+    sets: tuple[str, ...]
+    reason: str
+
+    def to_dict(self) -> dict:
+        return {"k": self.k, "draw": self.draw, "sets": list(self.sets), "reason": self.reason}
+
+    def describe(self) -> str:
+        """One line: ``k = 2, draw 7 (a.csv + b.csv): reason``."""
+        return f"k = {self.k}, draw {self.draw} ({' + '.join(self.sets)}): {self.reason}"
 
 
 @dataclass(frozen=True)
@@ -51,17 +92,20 @@ class PoolingResult:
     reference_value, reference_uncertainty : (m,) ndarray
         y_cal and u_cal of each output.
     values, expanded_uncertainty : (K, draws, m) ndarray
-        y and U of every draw.
+        y and U of every draw; NaN for a draw whose fit failed.
     coverage : (K, m) ndarray
-        Mean over the draws of eq. 6-16 (the delivered coverage probability).
+        Mean over the draws of eq. 6-16 (the delivered coverage probability), failed fits
+        excluded; NaN when every draw of a k failed.
     mean_expanded_uncertainty, mean_value : (K, m) ndarray
-        Means of U and y over the draws.
+        Means of U and y over the draws whose fit succeeded (NaN when none did).
     points_per_draw : int
     p : float
         Coverage probability the intervals were stated for.
     source : dict or None
         The files of the request, recorded as ``source`` in the document
         (:func:`~mtmetrology.omm.validation_request.pooling_from_files`).
+    failed : tuple of FailedFit
+        The draws excluded because their fit failed, in order.
     """
 
     k: np.ndarray
@@ -77,14 +121,27 @@ class PoolingResult:
     points_per_draw: int
     p: float
     source: dict | None = None
+    failed: tuple[FailedFit, ...] = ()
 
     @property
     def draws(self) -> int:
         """Draws per k."""
         return self.values.shape[1]
 
+    @property
+    def fits_used(self) -> np.ndarray:
+        """(K,) number of draws of each k whose fit succeeded (the coverage's denominator)."""
+        return np.array([self.draws - sum(f.k == k for f in self.failed) for k in self.k])
+
     def to_dict(self) -> dict:
-        """An ``omm-pooling-test`` document: per output, per k, coverage, mean y, mean U."""
+        """An ``omm-pooling-test`` document: per output, per k, coverage, mean y, mean U over
+        the draws whose fit succeeded (``fits_used``; null when none did), and the failed
+        fits (``failed_fits``), each named."""
+
+        def number(v) -> float | None:
+            return float(v) if np.isfinite(v) else None
+
+        used = self.fits_used
         outputs = []
         for j, name in enumerate(self.output_names):
             outputs.append(
@@ -98,9 +155,10 @@ class PoolingResult:
                     "per_k": [
                         {
                             "k": int(k),
-                            "coverage": float(self.coverage[i, j]),
-                            "mean_value": float(self.mean_value[i, j]),
-                            "mean_U": float(self.mean_expanded_uncertainty[i, j]),
+                            "fits_used": int(used[i]),
+                            "coverage": number(self.coverage[i, j]),
+                            "mean_value": number(self.mean_value[i, j]),
+                            "mean_U": number(self.mean_expanded_uncertainty[i, j]),
                         }
                         for i, k in enumerate(self.k)
                     ],
@@ -114,6 +172,7 @@ class PoolingResult:
             "draws": self.draws,
             "points_per_draw": self.points_per_draw,
             "outputs": outputs,
+            "failed_fits": [f.to_dict() for f in self.failed],
         }
         if self.source is not None:
             doc["source"] = dict(self.source)
@@ -152,6 +211,8 @@ def pooling_experiment(
     points_per_draw: int = 25,
     p: float = 0.95,
     seed: SeedLike = None,
+    set_names: Sequence[str] | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> PoolingResult:
     """Coverage of task-uncertainty intervals on draws pooled from several poses.
 
@@ -189,10 +250,17 @@ def pooling_experiment(
     seed : int, SeedSequence or Generator, optional
         Each k draws from its own stream of one SeedSequence, so a k's result does not
         depend on which other k are asked for.
+    set_names : sequence of str, optional
+        A name for each point set (its file), for the failed fits; default ``set 1`` ….
+    progress : callable, optional
+        ``progress(done, total)`` after each draw (total = number of k × draws), for a
+        progress display; the result does not depend on it.
 
     Returns
     -------
     PoolingResult
+        Draws whose fit failed (module notes) excluded from the coverage and the means
+        and listed in ``failed``.
 
     Raises
     ------
@@ -210,8 +278,8 @@ def pooling_experiment(
 
         p_i = Φ((y_i + U_i − y_cal)/u_cal) − Φ((y_i − U_i − y_cal)/u_cal)
 
-    is averaged over the draws. With k = 1 and ``points_per_draw`` equal to the set size
-    every draw of a set is that set.
+    is averaged over the draws whose fit succeeded. With k = 1 and ``points_per_draw``
+    equal to the set size every draw of a set is that set.
 
     Examples
     --------
@@ -274,16 +342,20 @@ def pooling_experiment(
         )
     y_cal = np.array([float(r[0]) for r in refs])
     u_cal = np.array([float(r[1]) for r in refs])
+    names = [f"set {i + 1}" for i in range(n_sets)] if set_names is None else list(set_names)
+    if len(names) != n_sets:
+        raise InputError(f"set_names: {len(names)} given for {n_sets} point sets")
     readings = np.concatenate(sets)  # (N, n_axes), all sets stacked
     labels = np.repeat(np.arange(n_sets), [len(s) for s in sets])
     v_all = _reading_covariances(reading_covariance, sets, machine.n_axes)
-    values = np.empty((ks.size, int(draws), m_out))
-    big_u = np.empty_like(values)
+    values = np.full((ks.size, int(draws), m_out), np.nan)
+    big_u = np.full_like(values, np.nan)
+    failed = []
     streams = chunk_generators(seed, n_sets + 1)  # stream k for k sets, whatever else is asked
     for i, k in enumerate(ks):
         picks = _draw_indices(labels, n_sets, k, int(draws), int(points_per_draw), streams[k])
         for d, idx in enumerate(picks):
-            res = task_uncertainty(
+            reason, res = _draw_uncertainty(
                 machine,
                 readings[idx],
                 parameters,
@@ -292,15 +364,21 @@ def pooling_experiment(
                 reading_covariance=None if v_all is None else v_all[idx],
                 unexplained_covariance=unexplained_covariance,
                 p=p,
-            ).guf
-            values[i, d], big_u[i, d] = res.estimate, res.expanded_uncertainty
-    coverage = np.stack(
-        [
-            coverage_probability(values[..., j], big_u[..., j], y_cal[j], u_cal[j]).mean(axis=1)
-            for j in range(m_out)
-        ],
-        axis=-1,
-    )
+            )
+            if reason is None:
+                values[i, d], big_u[i, d] = res.estimate, res.expanded_uncertainty
+            else:
+                pooled = tuple(names[s] for s in np.unique(labels[idx]))
+                failed.append(FailedFit(int(k), d + 1, pooled, reason))
+            if progress is not None:
+                progress(i * int(draws) + d + 1, ks.size * int(draws))
+    # eq. 6-16 of each draw (NaN where the fit failed), averaged over the others
+    ok = np.isfinite(values[..., 0])
+    per_draw = np.full_like(values, np.nan)
+    if ok.any():
+        for j in range(m_out):
+            per_draw[ok, j] = coverage_probability(values[ok, j], big_u[ok, j], y_cal[j], u_cal[j])
+    coverage = _mean_or_nan(per_draw)
     return PoolingResult(
         ks,
         feature.output_names,
@@ -310,11 +388,44 @@ def pooling_experiment(
         values,
         big_u,
         coverage,
-        big_u.mean(axis=1),
-        values.mean(axis=1),
+        _mean_or_nan(big_u),
+        _mean_or_nan(values),
         int(points_per_draw),
         float(p),
+        failed=tuple(failed),
     )
+
+
+def _mean_or_nan(a: np.ndarray) -> np.ndarray:
+    """(K, m) mean over axis 1 of the finite entries (NaN marks failed fits), NaN if none."""
+    ok = np.isfinite(a)
+    count = ok.sum(axis=1)
+    total = np.where(ok, a, 0.0).sum(axis=1)
+    return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+
+
+def _draw_uncertainty(machine, readings, parameters, covariance, feature, **kw):
+    """``(None, GUF result)`` of one draw, or ``(reason, None)`` when its fit failed.
+
+    Failed: the fit raises (coplanar points …), the least-squares sphere of the
+    compensated points stops without converging (Status ≤ 0, the convergence test of
+    :func:`mtmetrology.fitting.batch.fit_spheres`), or y or U is not finite.
+    """
+    try:
+        result = task_uncertainty(machine, readings, parameters, covariance, feature, **kw)
+        fit = fit_spheres(result.points[None])
+    except FitError as err:
+        return str(err), None
+    if fit.status[0] <= 0:
+        why = STATUS_MESSAGES[Status(int(fit.status[0]))]
+        return (
+            f"the least-squares sphere did not converge: {why} ({int(fit.nit[0])} iterations)",
+            None,
+        )
+    guf = result.guf
+    if not (np.all(np.isfinite(guf.estimate)) and np.all(np.isfinite(guf.expanded_uncertainty))):
+        return "the value or its U is not finite", None
+    return None, guf
 
 
 def _reading_covariances(given, sets, n_axes: int) -> np.ndarray | None:

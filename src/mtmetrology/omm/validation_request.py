@@ -18,6 +18,7 @@ Tool Metrology*. PhD thesis, Polytechnique Montréal, §6.4 (eqs. 6-16 to 6-19),
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
@@ -187,6 +188,7 @@ def pooling_from_files(
     points_per_draw: int = 25,
     p: float = 0.95,
     seed: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> PoolingResult:
     """Coverage of sphere diameter (and sphericity) intervals on draws pooled from k sets.
 
@@ -217,13 +219,14 @@ def pooling_from_files(
         ``repeatability-model`` JSON; the unexplained-volumetric-error document (µm²).
     tip_diameter : float, mm, optional
         Effective tip diameter (default: the machine's).
-    k_values, draws, points_per_draw, p, seed
+    k_values, draws, points_per_draw, p, seed, progress
         As :func:`~mtmetrology.omm.pooling.pooling_experiment`.
 
     Returns
     -------
     PoolingResult
-        With ``source`` naming the files.
+        With ``source`` naming the files; a draw whose sphere fit failed is excluded and
+        named by its files in ``failed``.
 
     Raises
     ------
@@ -268,5 +271,7 @@ def pooling_from_files(
         points_per_draw=points_per_draw,
         p=p,
         seed=seed,
+        set_names=[Path(path).name for path in sets],
+        progress=progress,
     )
     return replace(result, source={"sets": [str(s) for s in sets], "params": str(params)})

@@ -1,0 +1,46 @@
+"""The progress bar of long commands (mtmetrology.cli._progress): drawn on a terminal
+only, and only once the run has lasted 2 s."""
+
+from __future__ import annotations
+
+import io
+
+from rich.console import Console
+
+from mtmetrology.cli._progress import progress_bar
+
+
+class _Clock:
+    def __init__(self):
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def _console(terminal: bool) -> tuple[Console, io.StringIO]:
+    out = io.StringIO()
+    return Console(file=out, force_terminal=terminal, width=80), out
+
+
+def test_on_a_terminal_the_bar_appears_after_two_seconds_only():
+    console, out = _console(terminal=True)
+    clock = _Clock()
+    with progress_bar("pooling draws", console=console, clock=clock) as progress:
+        clock.now += 1.9
+        progress(1, 10)
+        assert out.getvalue() == ""  # a short run prints nothing
+        clock.now += 0.2
+        progress(2, 10)
+        progress(10, 10)
+    assert "pooling draws" in out.getvalue() and "10/10" in out.getvalue()
+
+
+def test_not_on_a_terminal_nothing_is_drawn_however_long():
+    console, out = _console(terminal=False)
+    clock = _Clock()
+    with progress_bar("pooling draws", console=console, clock=clock) as progress:
+        for i in range(1, 11):
+            clock.now += 5.0
+            progress(i, 10)
+    assert out.getvalue() == ""
