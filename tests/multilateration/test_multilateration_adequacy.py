@@ -16,6 +16,8 @@ the weights.  Each virtual set-up draws fresh machine errors and fresh length no
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from scipy import stats
@@ -24,6 +26,7 @@ from mtmetrology.kinematics import Machine
 from mtmetrology.multilateration.problem import parse_spec
 from mtmetrology.multilateration.requests import pose_grid, reflector_tools
 from mtmetrology.multilateration.workflow import (
+    MultilaterationResult,
     Station,
     calibrate_multilateration,
     map_monte_carlo,
@@ -105,6 +108,8 @@ def test_a_priori_option_keeps_the_covariance_and_the_document_says_so():
     unknowns = len(kept.parameters.names) + 16  # the model (with the exposed constants), stations
     assert doc["factor"] == 1.0 and doc["dof"] == len(record.lengths) - unknowns
     assert doc["variance_factor"] == pytest.approx(scaled.variance_factor, rel=1e-12)
+    back = MultilaterationResult.from_dict(json.loads(json.dumps(scaled.to_dict())), M)
+    assert back.adequacy == scaled.adequacy and back.covariance_factor == scaled.adequacy.factor
     patterns = scaled.to_dict()["provenance"]["residual_patterns"]
     assert [g["group"] for g in patterns["station"]] == ["S1", "S2", "S3", "S4"]
     assert len(patterns["tool"]) == 3
