@@ -218,3 +218,29 @@ def test_held_out_lengths_u_covers_95_percent_with_the_matching_noise(machine, m
     assert lo_count <= np.sum(np.abs(z) <= 2.0) <= hi_count
     low, high = stats.chi2.interval(0.99, n_setups)
     assert low <= np.sum(z**2) <= high
+
+
+def test_summary_figures_say_what_the_residuals_are(machine, mesh, pose):
+    """Issue 30: the residuals against noisy readings are the readings' noise: their RMS is
+    the noise model's √(mean tr Σ_i) reduced by the redundancy (√((m − n)/m) ≈ 0.96 here),
+    stated beside them; the compensation's own size and its u are separate fields."""
+    noise = TrackerNoise(to_internal(1.0, "µm"), to_internal(0.5, "µm/m"),
+                         to_internal(10.0, "µrad"), 0.0)  # fmt: skip
+    exact = MachineConditions(u_sensor=0.0)
+    truth = np.zeros(machine.n_params)
+    truth[machine.parameter_names.index("E_XX1")] = to_internal(30.0, "µm")
+    meas = simulate(machine, truth, pose, mesh, THREE_TOOLS, noise=noise, conditions=exact,
+                    seed=7)  # fmt: skip
+    cal = calibrate(machine, meas, noise=noise, conditions=exact)
+    doc = cal.to_dict()
+    rms = np.sqrt(np.mean(np.sum(np.square(doc["residuals_um"]), axis=1)))
+    m, n = cal.residuals.size, len(cal.parameters.names) + 6
+    assert 0.85 < rms / (doc["noise_rms_um"] * np.sqrt((m - n) / m)) < 1.15
+    assert 0 < doc["compensated_u_mean_um"] < doc["noise_rms_um"]
+    # without noise: X's positioning error of 30 µm (Legendre degree 1, |P1| = 1, 0.5, 0,
+    # 0.5, 1 over the five X levels) moves the points by 30 µm · 0.6 = 18 µm on average
+    meas = simulate(machine, truth, pose, mesh, THREE_TOOLS, noise=SILENT, conditions=exact)
+    silent = calibrate(machine, meas, noise=TrackerNoise(u_smr=1e-6), conditions=exact)
+    assert from_internal(silent.correction_mean, "µm") == pytest.approx(18.0, rel=1e-6)
+    back = TrackerCalibration.from_dict(doc, machine)
+    assert back.noise_rms == pytest.approx(cal.noise_rms, rel=1e-12)
