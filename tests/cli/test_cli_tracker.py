@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 from mtmetrology.cli import app
 from mtmetrology.kinematics import Machine
+from mtmetrology.kinematics.lengths import pair_lengths
 from mtmetrology.kinematics.parameter_set import ParameterSet
 
 runner = CliRunner()
@@ -204,7 +206,7 @@ def test_tool_ids_give_the_offsets_of_a_tool_column(measurements, tmp_path):
     assert res.output.strip().startswith(f"error: {by_id}, line ")
     assert "tool 'T3' has no offset" in res.output
     res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--tool", "T1=0,0")
-    assert res.exit_code == 2 and res.output.startswith("error: --tool must be ID=x,y,z")
+    assert res.exit_code == 2 and res.output.startswith("error: --tool T1")
 
 
 def test_known_pose_fixed_or_as_prior(measurements, tmp_path):
@@ -236,3 +238,38 @@ def test_known_pose_fixed_or_as_prior(measurements, tmp_path):
         f"error: {prior}: u_delta_deg: a pose prior needs all of u_D_mm, u_L_mm, u_H_mm, "
         "u_alpha_deg, u_beta_deg, u_delta_deg"
     )
+
+
+def test_verify_lengths_from_a_tracker_calibration(measurements, tmp_path):
+    """``mtm verify lengths``: each pair's length with the calibrated errors and u(L), U at
+    k = 2 (the library's numbers); a reference gives e and E_n; no covariance is refused."""
+    res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "-o", tmp_path / "r.json")
+    assert res.exit_code == 0, res.output
+    pairs = tmp_path / "pairs.csv"
+    pairs.write_text(
+        "pair,end,X,Y,Z\nx,a,800,300,300\nx,b,1200,300,300\nd,a,850,150,250\nd,b,1150,450,350\n"
+    )
+    (tmp_path / "ref.csv").write_text("pair,length_mm,u_um\nx,400.0,0.5\nd,435.89,0.5\n")
+    res = mtm("verify", "lengths", pairs, "--machine", MACHINE, "--params", tmp_path / "r.json",
+              "--reference", tmp_path / "ref.csv", "--json")  # fmt: skip
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["kind"] == "length-prediction" and doc["k"] == 2.0
+    assert [p["pair"] for p in doc["pairs"]] == ["x", "d"]
+    m = Machine.load(MACHINE)
+    pset = ParameterSet.load(tmp_path / "r.json", m)
+    mm = pset.machine_for(m)
+    q = np.array([[800, 300, 300], [1200, 300, 300], [850, 150, 250], [1150, 450, 350.0]])
+    want = pair_lengths(mm, pset.vector_for(mm), pset.covariance, q[::2], q[1::2])
+    for row, length, u in zip(doc["pairs"], want.predicted, want.u, strict=True):
+        assert row["length_mm"] == pytest.approx(length, rel=1e-12)
+        assert row["U_um"] == pytest.approx(2e3 * u, rel=1e-9)
+        assert row["error_um"] == pytest.approx(1e3 * (length - row["reference_mm"]), rel=1e-9)
+    bare = tmp_path / "bare.yaml"
+    bare.write_text(
+        "kind: parameter-set\nversion: 1\nmachine: three-axis-xfyz\n"
+        "parameters:\n  - {name: E_XX1, value: 5.0, unit: µm}\n"
+    )
+    res = mtm("verify", "lengths", pairs, "--machine", MACHINE, "--params", bare)
+    assert res.exit_code == 2
+    assert res.output.strip() == f"error: {bare}: no covariance; u(L) needs the calibration's U_θ"

@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from mtmetrology.errors import InputError
+from mtmetrology.kinematics.lengths import pair_lengths
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.tracker import TrackerNoise, TrackerPose, cartesian
 from mtmetrology.tracker import (
@@ -177,3 +179,68 @@ def test_lateral_tools_expose_a_constant_tool_rotation_and_it_is_identified(mach
     q, t = measurement_points(mesh, ONE_TOOL)
     one = setup_terms(machine, datum(machine, q, t, pose), q, t, pose)
     assert one.added == () and len(one.absorbed) == 6
+
+
+def test_held_out_lengths_u_covers_95_percent_with_the_matching_noise(machine, mesh, pose):
+    """Issue 30: a modern tracker (u_r = 1 µm + 0.5 µm/m, 10 µrad, no level spread) given to
+    the calibration as simulated (``--range-noise 1,0.5 --angle-urad 10 --angle-spread 0``);
+    60 virtual set-ups of the three-tool mesh, each with fresh errors (5–20 µm or µrad on
+    the datum's parameters and the tool's constant yaw E_CZ0) and fresh noise, and one
+    held-out pair of random positions each (with one of the three tools): |L̂ − L| ≤ 2·u(L)
+    (u(L) = √(g U_θ gᵀ), both ends' correlation kept) in a count inside the binomial(60,
+    0.95) central 99 % region (53..60; it fails when u is half the truth), and Σ z² inside
+    the central 99 % region of χ²(60) (it fails when u is twice the truth, e.g. with the
+    source's 4 µm + 0.8 µm/m weights, or without the correlation of the two ends)."""
+    n_setups = 60
+    q, t = measurement_points(mesh, THREE_TOOLS)
+    tilted = machine.with_parameters([*datum(machine, q, t, pose).kept, "E_CZ0"])
+    noise = TrackerNoise(to_internal(1.0, "µm"), to_internal(0.5, "µm/m"),
+                         to_internal(10.0, "µrad"), 0.0)  # fmt: skip
+    exact_temperatures = MachineConditions(u_sensor=0.0)
+    lo, hi = np.array([800.0, 100.0, 200.0]), np.array([1200.0, 500.0, 400.0])
+    z = np.empty(n_setups)
+    for k in range(n_setups):
+        rng = np.random.default_rng(1000 + k)
+        size = tilted.n_params
+        truth = rng.uniform(5, 20, size) * rng.choice([-1, 1], size) * tilted.parameter_scales
+        meas = simulate(tilted, truth, pose, mesh, THREE_TOOLS, noise=noise,
+                        conditions=exact_temperatures, seed=rng)  # fmt: skip
+        cal = calibrate(machine, meas, noise=noise, conditions=exact_temperatures)
+        m = cal.parameters.machine_for(machine)
+        qa, qb = rng.uniform(lo, hi, (2, 1, 3))
+        tool = THREE_TOOLS[k % 3]  # the pair measured with one of the tools
+        theta = cal.parameters.vector_for(m)
+        pred = pair_lengths(m, theta, cal.parameters.covariance, qa, qb, tool=tool)
+        ends = [tilted.forward(end, truth, tool=tool) for end in (qa, qb)]
+        true_length = np.linalg.norm(ends[1] - ends[0])
+        z[k] = (pred.predicted[0] - true_length) / pred.u[0]
+    lo_count, hi_count = stats.binom.interval(0.99, n_setups, 0.95)
+    assert lo_count <= np.sum(np.abs(z) <= 2.0) <= hi_count
+    low, high = stats.chi2.interval(0.99, n_setups)
+    assert low <= np.sum(z**2) <= high
+
+
+def test_summary_figures_say_what_the_residuals_are(machine, mesh, pose):
+    """Issue 30: the residuals against noisy readings are the readings' noise: their RMS is
+    the noise model's √(mean tr Σ_i) reduced by the redundancy (√((m − n)/m) ≈ 0.96 here),
+    stated beside them; the compensation's own size and its u are separate fields."""
+    noise = TrackerNoise(to_internal(1.0, "µm"), to_internal(0.5, "µm/m"),
+                         to_internal(10.0, "µrad"), 0.0)  # fmt: skip
+    exact = MachineConditions(u_sensor=0.0)
+    truth = np.zeros(machine.n_params)
+    truth[machine.parameter_names.index("E_XX1")] = to_internal(30.0, "µm")
+    meas = simulate(machine, truth, pose, mesh, THREE_TOOLS, noise=noise, conditions=exact,
+                    seed=7)  # fmt: skip
+    cal = calibrate(machine, meas, noise=noise, conditions=exact)
+    doc = cal.to_dict()
+    rms = np.sqrt(np.mean(np.sum(np.square(doc["residuals_um"]), axis=1)))
+    m, n = cal.residuals.size, len(cal.parameters.names) + 6
+    assert 0.85 < rms / (doc["noise_rms_um"] * np.sqrt((m - n) / m)) < 1.15
+    assert 0 < doc["compensated_u_mean_um"] < doc["noise_rms_um"]
+    # without noise: X's positioning error of 30 µm (Legendre degree 1, |P1| = 1, 0.5, 0,
+    # 0.5, 1 over the five X levels) moves the points by 30 µm · 0.6 = 18 µm on average
+    meas = simulate(machine, truth, pose, mesh, THREE_TOOLS, noise=SILENT, conditions=exact)
+    silent = calibrate(machine, meas, noise=TrackerNoise(u_smr=1e-6), conditions=exact)
+    assert from_internal(silent.correction_mean, "µm") == pytest.approx(18.0, rel=1e-6)
+    back = TrackerCalibration.from_dict(doc, machine)
+    assert back.noise_rms == pytest.approx(cal.noise_rms, rel=1e-12)

@@ -21,6 +21,7 @@ from mtmetrology.cli._common import (
     adequacy_rule,
     command_line,
     emit_result,
+    parse_tools,
     user_errors,
 )
 from mtmetrology.errors import InputError
@@ -150,7 +151,7 @@ def calibrate_tracker(
     m = Machine.load(machine, model)
     noise = files.noise(angle_urad, range_noise, angle_spread, smr)
     known, known_cov = files.load_known_pose(pose)
-    meas = read_measurements(measurements, files.parse_tools(tool))
+    meas = read_measurements(measurements, parse_tools(tool))
     cal = calibrate(
         m,
         meas,

@@ -171,6 +171,64 @@ def length(
     emit_result(doc, summary, output=output, report=report, report_path=report_path, as_json=json)
 
 
+LENGTHS_HELP = """Lengths between pairs of positions predicted by a calibration, with u(L).
+
+READINGS.csv (mm, degrees): pair,end,X,Y,Z[,B,C,S], end a or b: the two commanded
+positions of each pair. Each length is L = |p(b) - p(a)| of the tool tip with the
+calibrated errors (RESULT.json: a parameter set with its covariance, e.g. of mtm
+calibrate tracker or multilateration), and u(L)^2 = g U_θ g^T with g = dL/dθ (both ends
+share θ: their correlation is kept; readings taken as exact). U = 2 u(L) (k = 2).
+--reference REF.csv (pair,length_mm,u_um) adds each pair's error L - L_ref and
+E_n = |e| / (2 sqrt(u(L)^2 + u_ref^2)).
+"""
+
+
+@app.command("lengths", help=LENGTHS_HELP)
+@user_errors
+def lengths(
+    readings: Annotated[Path, typer.Argument(help="READINGS.csv: pair,end,X,Y,Z[,B,C,S].")],
+    machine: MachineOption,
+    params: Annotated[
+        Path, typer.Option("--params", help="RESULT.json or a parameter set with covariance.")
+    ],
+    tool: Annotated[
+        str | None, typer.Option("--tool", help="Tool vector x,y,z, mm (the machine's if omitted).")
+    ] = None,
+    reference: Annotated[
+        Path | None, typer.Option("--reference", help="REF.csv: pair,length_mm,u_um.")
+    ] = None,
+    json: Annotated[bool, typer.Option("--json", help="Print the JSON document.")] = False,
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
+) -> None:
+    from mtmetrology.cli._common import vector_option
+    from mtmetrology.io import InputFileError
+    from mtmetrology.kinematics.lengths import pair_lengths, read_reference_lengths
+    from mtmetrology.kinematics.machine import Machine
+    from mtmetrology.kinematics.parameter_set import ParameterSet
+    from mtmetrology.samba import read_length_readings
+
+    base = Machine.load(machine)
+    pset = ParameterSet.load(params, base)
+    if pset.covariance is None:
+        raise InputFileError(f"{params}: no covariance; u(L) needs the calibration's U_θ")
+    m = pset.machine_for(base)
+    data = read_length_readings(readings, m)
+    ref = (None, None) if reference is None else read_reference_lengths(reference, data.pairs)
+    result = pair_lengths(
+        m,
+        pset.vector_for(m),
+        pset.covariance,
+        data.end_a,
+        data.end_b,
+        tool=None if tool is None else vector_option(tool, "--tool"),
+        names=data.pairs,
+        reference=ref[0],
+        u_reference=ref[1],
+    )
+    emit_result(result.to_dict(), result.summary(), output=output, report=None,
+                report_path=None, as_json=json)  # fmt: skip
+
+
 # laser-tracker verification (mtmetrology.cli.tracker): its commands join this group
 from mtmetrology.cli.tracker import verify_app as _tracker_app  # noqa: E402
 

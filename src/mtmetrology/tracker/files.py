@@ -29,7 +29,6 @@ __all__ = [
     "load_pose",
     "load_tools",
     "noise",
-    "parse_tools",
     "true_errors",
 ]
 
@@ -130,32 +129,6 @@ def noise(
             raise InputError(f"{option} must be a finite number >= 0 ({unit}), got {value}")
         kwargs[field] = float(to_internal(value, unit))
     return replace(default, **kwargs)
-
-
-def parse_tools(specs: list[str] | None) -> dict[str, np.ndarray]:
-    """``--tool ID=x,y,z`` (mm, repeatable) → {id: (3,) offset}.
-
-    Raises
-    ------
-    InputError
-        Naming the option and the text: not ``ID=x,y,z`` with three finite numbers, or an
-        id given twice.
-    """
-    out: dict[str, np.ndarray] = {}
-    for text in specs or ():
-        name, sep, rest = str(text).partition("=")
-        try:
-            xyz = np.array([float(v) for v in rest.split(",")])
-        except ValueError:
-            xyz = np.array([])
-        if not sep or not name.strip() or xyz.shape != (3,) or not np.all(np.isfinite(xyz)):
-            raise InputError(
-                f"--tool must be ID=x,y,z with three finite numbers (mm), got {text!r}"
-            )
-        if name.strip() in out:
-            raise InputError(f"--tool {name.strip()}: given twice")
-        out[name.strip()] = xyz
-    return out
 
 
 #: Standard uncertainties of a known pose used as a prior (``tracker-pose`` document).

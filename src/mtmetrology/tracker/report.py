@@ -42,8 +42,9 @@ def calibration_report(cal, command: str, inputs: list[Path]) -> Report:
         ["add", "rank then", "identifiable then"],
         [[s["add"], s["rank"], ", ".join(s["identifiable_then"]) or "-"] for s in cal.suggestions],
     )
+    report.section("Constants the set-up exposes", cal.setup_terms.message)
     pose = cal.pose.to_dict()
-    report.section("Tracker pose")
+    report.section(f"Tracker pose ({cal.pose_source})")
     report.table(["component", "value"], [[k, v] for k, v in pose.items()])
     return report
 
