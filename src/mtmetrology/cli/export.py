@@ -94,7 +94,10 @@ FORMATS = {
     ),
 }
 #: Options that apply to some formats only (the parameter names of :func:`export_format`).
-_SPECIFIC = {"axes": "--axes", "functions": "--functions", "bound": "--bound"} | {
+_SPECIFIC = {
+    "axes": "--axes",
+    "functions": "--functions",
+    "bound": "--bound",
     "reference": "--reference",
     "region": "--region",
     "axis_names": "--axis-names",
@@ -267,6 +270,8 @@ def export_format(
     as_json: Annotated[bool, typer.Option("--json", help="Print the check JSON.")] = False,
     report_path: ReportOption = None,
 ) -> None:
+    """Every format's command: the format is the name it was called by (its help is the
+    format's, :data:`FORMATS`)."""
     from mtmetrology.export.manifest import MANIFEST, commit_output, plan_output
     from mtmetrology.export.verification import DIALECTS, TEMPLATE, export_with_verification
     from mtmetrology.io import read_csv_table, write_columns
@@ -285,7 +290,8 @@ def export_format(
     if check_per_axis < 2:
         fail(f"--check-per-axis: {check_per_axis} < 2")
     inputs = [params] + ([at] if at is not None else [])
-    if report_path is not None:
+    inside = report_path is not None and report_path.resolve().parent == output.resolve()
+    if report_path is not None and (output.is_dir() or not inside):
         check_output(report_path, inputs)
     plan_output(output, (), force=force)  # refused before the work; again with the names
     m = Machine.load(machine)
@@ -314,7 +320,7 @@ def export_format(
     )
     names = [*result.files, *verify_files, "check.json"]
     names += ["residual_at.csv"] if at is not None else []
-    if report_path is not None and report_path.resolve().parent == output.resolve():
+    if inside:
         names.append(report_path.name)  # a report inside the directory is this run's file
     plan = plan_output(output, names, force=force)
     if not plan.create:

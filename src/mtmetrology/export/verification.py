@@ -150,7 +150,10 @@ def _middle(machine: Machine, axis: str) -> float:
 
 
 def plan_checks(
-    machine: Machine, axes: Sequence[str] | None = None, positions: int = 5, overrun_mm=5.0
+    machine: Machine,
+    axes: Sequence[str] | None = None,
+    positions: int = 5,
+    overrun_mm: float = 5.0,
 ) -> CheckPlan:
     """The check points: ``positions`` equally spaced positions on each checked axis,
     from ``low + overrun`` to ``high − overrun``, approached in the positive then in the
@@ -236,13 +239,30 @@ def _words(names: Sequence[str], values: Sequence[float]) -> str:
 
 
 def programme(
-    plan: CheckPlan, fmt: str, files: Sequence[str] = (), *, feed=1000.0, dwell_s=4.0
+    plan: CheckPlan,
+    fmt: str,
+    files: Sequence[str] = (),
+    *,
+    feed: float = 1000.0,
+    dwell_s: float = 4.0,
 ) -> tuple[str, str]:
     """The NC programme of the check, in the dialect of ``fmt`` (:data:`DIALECTS`).
 
     Straight ``G01`` moves at ``feed`` (mm/min) in absolute machine-axis positions (the
     readings of the template), a dwell of ``dwell_s`` seconds at each check point, named in
     the comment before it.
+
+    Parameters
+    ----------
+    plan : CheckPlan
+    fmt : str
+        The export format: its control's dialect.
+    files : sequence of str
+        The table files, named in the header.
+    feed : float
+        Feed rate, mm/min.
+    dwell_s : float
+        Dwell at each check point, s.
 
     Returns
     -------
@@ -302,6 +322,23 @@ def template(
     uncompensated error ``ex_um ey_um ez_um``, then the empty columns the user fills:
     ``mx_um my_um mz_um`` (measured deviation, actual − target) and ``u_reading_um`` (the
     standard uncertainty of a reading, µm; or ``mtm export check --u-reading``).
+
+    Parameters
+    ----------
+    plan : CheckPlan
+    at_points : dict
+        ``r``, ``U`` (or None), ``e``: arrays (n, 3) in µm at the plan's points, as
+        :func:`export_compensation` returns them.
+    fmt : str
+    files : sequence of str
+        The table files, named in the header.
+    when : str
+        Time stamp of the header.
+
+    Returns
+    -------
+    str
+        The CSV text.
     """
     cols = [k for k, a in enumerate(plan.axis_names) if a != "S"]
     names = [plan.axis_names[k] for k in cols]
