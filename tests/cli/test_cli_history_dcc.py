@@ -172,3 +172,23 @@ def test_a_ball_plate_certificate_sets_the_centres_and_their_covariance(tmp_path
     plate.write_text(plate.read_text().replace("'02'", "'09'"))
     r = _mtm("history", "dcc-import", xml, "--ball-plate", plate, "-o", out)
     assert r.exit_code == 2 and "ball '09': no quantity '09_x'" in r.stderr
+
+
+def test_dcc_command_states_the_13_parameter_region_with_its_own_k(tmp_path):
+    """``mtm history dcc``: the ellipsoidalRegionXMLList of the 13 parameters states
+    p = 2 Φ(2) − 1 with k = sqrt(χ²_13⁻¹(p)) ≈ 4.76 (was k = 2, which covers 0.9 %)."""
+    from lxml import etree
+    from scipy.stats import chi2
+
+    db, _, _ = _recorded(tmp_path)
+    cert = tmp_path / "c.xml"
+    r = _mtm("history", "dcc", "1", "-o", cert, "--db", db, *ISSUER)
+    assert r.exit_code == 0, r.output
+    ns = {"si": "https://ptb.de/si"}
+    region = etree.parse(str(cert)).find(".//si:ellipsoidalRegionXMLList", ns)
+    k = float(region.find("si:coverageFactor", ns).text)
+    p = float(region.find("si:coverageProbability", ns).text)
+    assert len(region.findall("si:covarianceMatrix/si:column", ns)) == 13
+    assert p == pytest.approx(coverage_probability(2.0), abs=1e-12)
+    assert chi2.cdf(k**2, 13) == pytest.approx(p, abs=1e-6)
+    assert k == pytest.approx(4.76, abs=0.005)

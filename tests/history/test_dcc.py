@@ -271,3 +271,19 @@ def test_a_certificate_asymmetric_by_rounding_reads_symmetric_beyond_is_refused(
     path.write_bytes(etree.tostring(root))
     with pytest.raises(InputError, match=r"cert\.xml: si:ellipsoidalRegionXMLList/si:cov"):
         read_certificate(path)
+
+
+def test_the_writer_writes_the_covariance_exactly_symmetric(record):
+    cert = _certificate(record)
+    c = np.array(cert.covariance)
+    c[4, 1] *= 1 + 1e-12  # the rounding a computation leaves
+    lopsided = CalibrationCertificate(**{**cert.__dict__, "covariance": tuple(map(tuple, c))})
+    root = etree.fromstring(lopsided.to_xml())
+    columns = root.findall(".//si:covarianceMatrix/si:column", NS)
+    written = np.array(
+        [
+            [float(e.find("si:value", NS).text) for e in col.findall("si:covariance", NS)]
+            for col in columns
+        ]
+    )
+    np.testing.assert_array_equal(written, written.T)

@@ -121,6 +121,29 @@ def test_result_file_round_trip_and_predict_reads_it(machine, mesh, pose, observ
     assert pset.names == cal.parameters.names
 
 
+def test_a_result_asymmetric_by_rounding_reads_back_exactly_symmetric(
+    machine, mesh, pose, observable_truth
+):
+    """Issue 30: a tracker result whose covariance entries near 1e-7 differ from their
+    mirrors by 3e-16 (the old elementwise rtol=1e-9 refused it by chance) reads back, both
+    covariances exactly symmetric; and what it writes is exactly symmetric."""
+    truth, _ = observable_truth
+    cal = calibrate(machine, simulate(machine, truth, pose, mesh, THREE_TOOLS, seed=2))
+    doc = cal.to_dict()
+    for matrix in (doc["covariance"]["matrix"], doc["pose_covariance_mm_rad"]):
+        np.testing.assert_array_equal(np.array(matrix), np.array(matrix).T)
+    c = np.array(doc["covariance"]["matrix"])
+    c[0, 5], c[5, 0] = 1.2e-7, 1.2e-7 + 3e-16  # still PSD here (the reader checks it)
+    assert not np.allclose(c, c.T, rtol=1e-9, atol=0)
+    doc["covariance"]["matrix"] = c.tolist()
+    pc = np.array(doc["pose_covariance_mm_rad"])
+    pc[1, 0] += 1e-12 * np.abs(pc).max()
+    doc["pose_covariance_mm_rad"] = pc.tolist()
+    back = TrackerCalibration.from_dict(doc, machine)
+    np.testing.assert_array_equal(back.parameters.covariance, back.parameters.covariance.T)
+    np.testing.assert_array_equal(back.pose_covariance, back.pose_covariance.T)
+
+
 def test_cte_uncertainty_eq10_is_5_77e_4_not_the_printed_0_0006():
     """Eq. 10: u(α) = 0.002/(2√3) = 5.7735e-4 µm/(mm·K); the paper prints 0.0006 (rounded)."""
     u = cte_uncertainty(11.5e-6) / to_internal(1.0, "µm/mm")

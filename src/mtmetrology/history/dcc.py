@@ -14,7 +14,7 @@ coverage probability, and the covariance matrix of the parameters
 (``ellipsoidalRegionXMLList``, in the products of the units). The ellipsoidal region
 covers the n parameters jointly: it states the certificate's p and the coverage factor
 of n dimensions, ``p = P(χ²_n ≤ k_n²)`` (JCGM 102:2011, 6.5.2.3;
-:func:`mtmetrology.uncertainty.regions.normal_region_coverage`), not the one-parameter k.
+:func:`mtmetrology.uncertainty.normal_coverage.normal_region_coverage`), not the one-parameter k.
 The covariance is written exactly symmetric and read by the one rule of every covariance
 reader (:func:`mtmetrology.io.covariance.symmetric_covariance`).
 """
@@ -34,7 +34,7 @@ from lxml import etree
 from mtmetrology.errors import InputError
 from mtmetrology.history.records import RunRecord, document_covariance
 from mtmetrology.io.covariance import symmetric, symmetric_covariance
-from mtmetrology.uncertainty.regions import RegionCoverage, normal_region_coverage
+from mtmetrology.uncertainty.normal_coverage import RegionCoverage, normal_region_coverage
 from mtmetrology.units import from_internal, parse_unit, to_internal
 
 __all__ = [
@@ -95,7 +95,7 @@ def validate_certificate(tree: etree._ElementTree, source: str = "certificate") 
 
 def coverage_probability(k: float) -> float:
     """Coverage probability of ``y ± k u`` for a normal distribution, ``p = 2 Φ(k) − 1``
-    (:func:`~mtmetrology.uncertainty.regions.normal_region_coverage` with n = 1)."""
+    (:func:`~mtmetrology.uncertainty.normal_coverage.normal_region_coverage` with n = 1)."""
     return normal_region_coverage(1, k=k).coverage_probability
 
 
@@ -172,7 +172,7 @@ class CalibrationCertificate:
     @property
     def region(self) -> RegionCoverage:
         """The ellipsoidal region of all n quantities: the certificate's p, k for n
-        dimensions (:func:`~mtmetrology.uncertainty.regions.normal_region_coverage`)."""
+        dimensions (:func:`~mtmetrology.uncertainty.normal_coverage.normal_region_coverage`)."""
         return normal_region_coverage(len(self.names), p=self.coverage_probability)
 
     def internal(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

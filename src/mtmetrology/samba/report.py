@@ -345,14 +345,15 @@ def _length(rep: Report, check, **_) -> None:
             + ("" if doc["calibration_in_u"] else " (no U_θ given: the gauge's part only)")
             + ".",
         )
+    with_u = doc["u_error_max_um"] is not None  # a u(e) column when there is one to show
     rep.table(
-        ["pair", "error, nominal (µm)", "error, compensated (µm)", "u(e) (µm)"],
+        ["pair", "error, nominal (µm)", "error, compensated (µm)", *(["u(e) (µm)"] * with_u)],
         [
             [
                 p["pair"],
                 f"{p['error_nominal_um']:.3g}",
                 f"{p['error_compensated_um']:.3g}",
-                "" if p["u_error_um"] is None else format_uncertainty(p["u_error_um"]),
+                *([format_uncertainty(p["u_error_um"])] * with_u),
             ]
             for p in doc["pairs"]
         ],

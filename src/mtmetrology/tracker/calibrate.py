@@ -34,6 +34,7 @@ from mtmetrology.formatting import format_uncertainty
 from mtmetrology.identification.adequacy import ModelAdequacy, residual_patterns
 from mtmetrology.identification.datum import Datum, SetupTerms
 from mtmetrology.identification.solver import levenberg_marquardt
+from mtmetrology.io.covariance import symmetric, symmetric_covariance
 from mtmetrology.kinematics.compensation import compensation_covariance
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -206,7 +207,7 @@ class TrackerCalibration:
                         strict=True,
                     )
                 ),
-                "pose_covariance_mm_rad": self.pose_covariance.tolist(),
+                "pose_covariance_mm_rad": symmetric(self.pose_covariance).tolist(),
                 "datum": self.datum.to_dict(),
                 "suggestions": self.suggestions,
                 "residuals_um": from_internal(self.residuals, "µm").tolist(),
@@ -238,7 +239,9 @@ class TrackerCalibration:
         return cls(
             pset,
             TrackerPose.from_dict(doc["pose"]),
-            np.asarray(doc["pose_covariance_mm_rad"], float),
+            symmetric_covariance(
+                doc["pose_covariance_mm_rad"], "tracker calibration: pose_covariance_mm_rad"
+            ),
             Datum.from_dict(doc["datum"]),
             list(doc["suggestions"]),
             _to_mm(doc["residuals_um"]),

@@ -16,6 +16,8 @@
 - :mod:`~mtmetrology.uncertainty.stability` — its numerical tolerances and stability
   tests (JCGM 101 7.9);
 - :mod:`~mtmetrology.uncertainty.regions` — coverage intervals and regions;
+- :mod:`~mtmetrology.uncertainty.normal_coverage` — k and p of the region of n normal
+  quantities, p = P(χ²_n ≤ k²), for every region stated;
 - :mod:`~mtmetrology.uncertainty.validation` — GUF validated by Monte Carlo;
 - :mod:`~mtmetrology.uncertainty.executors` — in-process, process pool, Dask;
 - :mod:`~mtmetrology.uncertainty.modelfile` — measurement models in YAML;

@@ -21,7 +21,6 @@ import numpy as np
 __all__ = [
     "Histogram",
     "PairwiseAreas",
-    "RegionCoverage",
     "SmallestRegion",
     "coverage_index",
     "coverage_intervals",
@@ -31,7 +30,6 @@ __all__ = [
     "intervals_and_histograms",
     "normal_ellipsoidal_coverage_factor",
     "normal_rectangular_coverage_factor",
-    "normal_region_coverage",
     "pairwise_areas",
     "rectangle_area",
     "rectangular_coverage_factor",
@@ -395,100 +393,13 @@ def rectangular_coverage_factor(
     return float(np.partition(distance, q - 1)[q - 1])
 
 
-@dataclass(frozen=True)
-class RegionCoverage:
-    """Coverage factor and coverage probability of the hyper-ellipsoidal region of n
-    normal quantities, consistent for n: ``p = P(χ²_n ≤ k²)`` (:func:`normal_region_coverage`).
-
-    Attributes
-    ----------
-    dimension : int
-        Number n of quantities the region covers jointly.
-    coverage_factor : float
-        k: the region is ``(y − ŷ)ᵀ U_y⁻¹ (y − ŷ) ≤ k²``.
-    coverage_probability : float
-        p, the probability that the region holds the quantities.
-    """
-
-    dimension: int
-    coverage_factor: float
-    coverage_probability: float
-
-    def to_dict(self) -> dict:
-        """``dimension``, ``coverage_factor``, ``coverage_probability``, ``distribution``."""
-        return {
-            "dimension": self.dimension,
-            "coverage_factor": self.coverage_factor,
-            "coverage_probability": self.coverage_probability,
-            "distribution": "normal",
-        }
-
-
-def normal_region_coverage(
-    n: int, *, p: float | None = None, k: float | None = None
-) -> RegionCoverage:
-    """k for a coverage probability p, or p for a coverage factor k, of n normal quantities.
-
-    The one function for every coverage region of several quantities that mtmetrology
-    states (GUF results, the DCC's ``ellipsoidalRegionXMLList``, ellipse plots): the region
-    ``(y − ŷ)ᵀ U_y⁻¹ (y − ŷ) ≤ k²`` of an n-variate normal output holds it with probability
-
-        p = P(χ²_n ≤ k²),        k = sqrt(χ²_n⁻¹(p))
-
-    (JCGM 102:2011, 6.5.2.3 and 6.5.3). For n = 1 it is the interval y ± k u with
-    p = 2 Φ(k) − 1; for n = 13 the one-parameter k = 2 covers 0.9 % and p = 0.9545 needs
-    k = 4.76.
-
-    Parameters
-    ----------
-    n : int
-        Number of quantities, >= 1.
-    p : float, optional
-        Coverage probability, 0 < p < 1.
-    k : float, optional
-        Coverage factor, > 0. Give exactly one of ``p`` and ``k``.
-
-    Returns
-    -------
-    RegionCoverage
-
-    Raises
-    ------
-    ValueError
-        n < 1, neither or both of p and k, p outside (0, 1), k not a positive number.
-
-    Notes
-    -----
-    Sepahi Boroujeni (2021), Table 5-3 and Ch. 7: k = 1.96, 2.4477, 3.5485, 4.7289 for
-    n = 1, 2, 6, 13 and p = 0.95.
-
-    Examples
-    --------
-    >>> r = normal_region_coverage(13, p=0.9545)
-    >>> round(r.coverage_factor, 2)
-    4.76
-    >>> round(normal_region_coverage(1, k=2.0).coverage_probability, 4)
-    0.9545
-    """
-    from scipy import stats  # here, not at the top: importing it takes 0.5 s
-
-    if isinstance(n, bool) or int(n) != n or int(n) < 1:
-        raise ValueError(f"n must be a positive number of quantities, got {n}")
-    n = int(n)
-    if (p is None) == (k is None):
-        raise ValueError("give exactly one of the coverage probability p and the factor k")
-    if p is not None:
-        p = _check_probability(p)
-        return RegionCoverage(n, float(np.sqrt(stats.chi2.ppf(p, n))), p)
-    k = float(k)
-    if not (math.isfinite(k) and k > 0):
-        raise ValueError(f"k must be a positive number, got {k}")
-    return RegionCoverage(n, k, float(stats.chi2.cdf(k * k, n)))
-
-
 def normal_ellipsoidal_coverage_factor(m: int, p: float = 0.95) -> float:
     """k_p = sqrt(χ²_m(p)) of the hyper-ellipsoid of an m-variate normal output: the
-    ``coverage_factor`` of :func:`normal_region_coverage` (JCGM 102:2011, 6.5.2.3)."""
+    ``coverage_factor`` of
+    :func:`~mtmetrology.uncertainty.normal_coverage.normal_region_coverage` (JCGM 102:2011,
+    6.5.2.3)."""
+    from mtmetrology.uncertainty.normal_coverage import normal_region_coverage
+
     if int(m) < 1:
         raise ValueError(f"m must be a positive number of outputs, got {m}")
     return normal_region_coverage(int(m), p=p).coverage_factor

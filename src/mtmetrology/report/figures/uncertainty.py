@@ -235,7 +235,7 @@ def coverage_ellipses(
     >>> len(fig.axes)
     3
     """
-    from mtmetrology.uncertainty.regions import normal_region_coverage
+    from mtmetrology.uncertainty.normal_coverage import normal_region_coverage
 
     y = np.asarray(mean, dtype=float)
     cov = np.asarray(covariance, dtype=float)
