@@ -173,8 +173,9 @@ class TrackerCalibration:
         if self.correction_mean is not None and self.compensated_u_mean is not None:
             u = format_uncertainty(self.compensated_u_mean * um)
             lines.append(
-                f"  compensation moves the measured points by {self.correction_mean * um:.1f} µm "
-                f"on average; u of a compensated point {u} µm (k = 1, from U_θ)"
+                f"  the compensated model differs from the nominal by "
+                f"{self.correction_mean * um:.1f} µm on average at the measured points; "
+                f"u of a compensated point {u} µm (k = 1, from U_θ)"
             )
         for s in self.suggestions:
             if s["identifiable_then"]:
