@@ -328,7 +328,9 @@ def calibrate(
         pose=problem.pose_of(result.estimate),
         pose_covariance=np.zeros((6, 6)) if fixed else result.covariance[n:, n:],
         datum=chosen,
-        suggestions=suggestions(machine, mesh_points, np.unique(tools, axis=0), start, chosen),
+        suggestions=suggestions(
+            machine, mesh_points, np.unique(tools, axis=0), start, chosen, fixed
+        ),
         residuals=measured - predicted,
         mean_distance_initial=mean_distance(start.to_machine(measured), nominal),
         mean_distance_final=mean_distance(measured, predicted),
