@@ -267,3 +267,26 @@ def test_summary_figures_say_what_the_residuals_are(machine, mesh, pose):
     assert from_internal(silent.correction_mean, "µm") == pytest.approx(18.0, rel=1e-6)
     back = TrackerCalibration.from_dict(doc, machine)
     assert back.noise_rms == pytest.approx(cal.noise_rms, rel=1e-12)
+
+
+def test_known_pose_fixed_or_as_prior_limits(machine, mesh, pose):
+    """A known pose as a prior of huge variance gives the identified solution; a prior of
+    vanishing variance holds the pose at the given one; a fixed pose is not an unknown (zero
+    covariance) and then no pose absorbs the tool's constant pitch and roll either: the rank
+    check adds E_AZ0 and E_BZ0 beside E_CZ0."""
+    meas = simulate(machine, np.zeros(machine.n_params), pose, mesh, THREE_TOOLS, seed=3)
+    free = calibrate(machine, meas)
+    wide = calibrate(machine, meas, pose=pose, pose_covariance=np.diag([1e6] * 3 + [1.0] * 3))
+    assert wide.pose_source == "prior" and wide.parameters.names == free.parameters.names
+    scale = np.abs(free.parameters.values).max()
+    np.testing.assert_allclose(wide.parameters.values, free.parameters.values, atol=1e-6 * scale)
+    tight = np.diag([1e-14] * 3 + [1e-18] * 3)  # 0.1 nm, 1 nrad
+    held = calibrate(machine, meas, pose=pose, pose_covariance=tight)
+    np.testing.assert_allclose(held.pose.vector, pose.vector, atol=1e-6)
+    fixed = calibrate(machine, meas, pose=pose)
+    assert fixed.pose_source == "fixed"
+    np.testing.assert_array_equal(fixed.pose.vector, pose.vector)
+    assert not fixed.pose_covariance.any()
+    assert fixed.setup_terms.added == ("E_AZ0", "E_BZ0", "E_CZ0")
+    with pytest.raises(InputError, match=r"^pose covariance: not positive definite"):
+        calibrate(machine, meas, pose=pose, pose_covariance=-np.eye(6))

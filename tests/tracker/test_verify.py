@@ -58,6 +58,8 @@ def test_zero_noise_batched_identification_recovers_observable_truth(machine, me
                seed=2)  # fmt: skip
     # what remains is the second-order term the linear-in-θ model leaves out (≈ 0.01 µm here)
     assert r.max_final.max() < 2 * r.linearisation_error < 2e-5  # mm
+    # the lateral tools expose the tool's constant yaw: identified as by calibrate (issue 30)
+    assert r.kept == (*kept, "E_CZ0")
 
 
 def test_held_out_coverage_is_consistent_with_95_percent(machine, mesh, pose):

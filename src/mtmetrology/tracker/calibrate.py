@@ -185,8 +185,9 @@ class TrackerCalibration:
         if self.correction_mean is not None and self.compensated_u_mean is not None:
             u = format_uncertainty(self.compensated_u_mean * um)
             lines.append(
-                f"  compensation moves the measured points by {self.correction_mean * um:.1f} µm "
-                f"on average; u of a compensated point {u} µm (k = 1, from U_θ)"
+                f"  the compensated model differs from the nominal by "
+                f"{self.correction_mean * um:.1f} µm on average at the measured points; "
+                f"u of a compensated point {u} µm (k = 1, from U_θ)"
             )
         for s in self.suggestions:
             if s["identifiable_then"]:
@@ -359,7 +360,9 @@ def calibrate(
         pose=problem.pose_of(result.estimate),
         pose_covariance=np.zeros((6, 6)) if fixed else result.covariance[n:, n:],
         datum=chosen,
-        suggestions=suggestions(machine, mesh_points, np.unique(tools, axis=0), start, chosen),
+        suggestions=suggestions(
+            machine, mesh_points, np.unique(tools, axis=0), start, chosen, fixed
+        ),
         residuals=measured - predicted,
         mean_distance_initial=mean_distance(start.to_machine(measured), nominal),
         mean_distance_final=mean_distance(measured, predicted),

@@ -245,7 +245,12 @@ def setup_terms(
 
 
 def suggestions(
-    machine: Machine, mesh: np.ndarray, tools: np.ndarray, pose: TrackerPose, base: Datum
+    machine: Machine,
+    mesh: np.ndarray,
+    tools: np.ndarray,
+    pose: TrackerPose,
+    base: Datum,
+    fixed_pose: bool = False,
 ) -> list[dict]:
     """What to add to a set-up to see what it cannot: a second, lateral tool offset; more Z
     levels (every quarter of the Z travel); both.  Each entry names the parameters the
@@ -267,7 +272,7 @@ def suggestions(
     for what, (m, t) in options.items():
         q = np.repeat(m, len(t), axis=0)
         tt = np.tile(t, (len(m), 1))
-        d = datum(machine, q, tt, pose)
+        d = datum(machine, q, tt, pose, fixed_pose=fixed_pose)
         gained = [n for n in base.dropped_names if n not in d.dropped_names]
         out.append({"add": what, "rank": d.rank, "identifiable_then": gained})
     return out

@@ -54,7 +54,7 @@ from mtmetrology.kinematics.tracker import (
 from mtmetrology.optimize import chord_batch
 from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.tracker.calibrate import corrected_readings, point_covariances
-from mtmetrology.tracker.model import datum, tracker_points, whitening
+from mtmetrology.tracker.model import datum, setup_terms, tracker_points, whitening
 from mtmetrology.tracker.setup import MachineConditions, check_pose, measurement_points
 from mtmetrology.tracker.simulate import effective_readings, geometric_draws
 from mtmetrology.units import from_internal, to_internal
@@ -76,7 +76,9 @@ class TrackerVerification:
         Commanded points (each with its tool offset, ``tools``).
     tools : (n, 3) ndarray
     kept, dropped : tuple of str
-        The datum identified in every verification and the parameters it cannot see.
+        The datum identified in every verification (with the constants the set-up
+        exposes, :func:`~mtmetrology.tracker.model.setup_terms`) and the parameters it
+        cannot see.
     mean_initial, mean_final : (K,) ndarray
         Eq. 27 per verification: mean |initial error| and mean |final error| over the mesh.
     max_final : (K,) ndarray
@@ -276,9 +278,14 @@ def verify(
     nominal = machine.forward(q, tool=t)
     check_pose(pose, machine, nominal, limits)
     chosen = datum(machine, q, t, pose)
-    ident = machine.with_parameters(chosen.kept)
-    keep = [machine.parameter_names.index(n) for n in chosen.kept]
-    n_id = ident.n_params
+    # the constants the set-up exposes are identified, as by calibrate (zero in the truth)
+    added = setup_terms(machine, chosen, q, t, pose).added
+    if added:
+        machine = machine.with_parameters([*machine.parameter_names, *added])
+        theta = np.concatenate([theta, np.zeros(len(added))])
+    identified = (*chosen.kept, *added)
+    keep = [machine.parameter_names.index(n) for n in identified]
+    n_id = len(keep)
 
     # truth and nominal sensitivities, once
     ev = machine.evaluate(q, theta, tool=t, d_params=True, d_axes=True)
@@ -378,7 +385,7 @@ def verify(
     return TrackerVerification(
         mesh=q,
         tools=t,
-        kept=chosen.kept,
+        kept=identified,
         dropped=chosen.dropped_names,
         mean_initial=np.concatenate(out["mi"]),
         mean_final=np.concatenate(out["mf"]),
