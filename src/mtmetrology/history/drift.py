@@ -378,11 +378,11 @@ def fit_drift(
     if len(y) < 4:
         raise InputError(f"{parameter}: a drift model needs at least 4 calibrations, got {len(y)}")
     if prior not in PRIORS:
-        raise InputError(f"prior {prior!r}: use one of {', '.join(PRIORS)}")
+        raise InputError(f"--rw-prior {prior!r}: use one of {', '.join(PRIORS)}")
     if prior == "reference" and len(y) < 5:
         raise InputError(
             f"{parameter}: with the reference prior the slope's uncertainty is unbounded from "
-            f"{len(y)} calibrations (at least 5 are needed); or state the half-cauchy prior"
+            f"{len(y)} calibrations (at least 5 are needed), or state --rw-prior half-cauchy"
         )
     if np.any(~np.isfinite(u)) or np.any(u <= 0):
         raise InputError(
