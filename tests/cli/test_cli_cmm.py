@@ -152,7 +152,7 @@ def test_auto_model_reports_scores(files):
     assert res.exit_code == 0, res.output
     sel = json.loads(out.read_text())["model_selection"]
     assert [s["model"] for s in sel["scores"]] == ["seed", "full-1"]
-    assert all(len(s["rms_um"]) == 4 for s in sel["scores"])  # one fold per position
+    assert all(len(s["rms_um"]) == 4 for s in sel["scores"])  # held-out RMS per position
     assert sel["chosen"] in {s["model"] for s in sel["scores"] if s["eligible"]}
     # the console reports every candidate's score and AIC (issue 18 §3), as in the JSON
     lines = {ln.split()[0]: ln for ln in res.stderr.splitlines() if ln.startswith("  ")}
@@ -160,6 +160,24 @@ def test_auto_model_reports_scores(files):
         line = lines[s["model"]]
         assert f"held-out median {s['median_rms_um']:.3g} µm, AIC {s['aic']:.1f}" in line
         assert ("[chosen" in line) == (s["model"] == sel["chosen"])
+
+
+def test_auto_with_a_too_small_sigma_does_not_advise_auto(files):
+    """Issue 30: σ stated 10x too small makes every candidate's χ² significant; the warning
+    after ``--model auto`` points to what the user has not tried (more candidates, σ)."""
+    out = files["dir"] / "auto-small-sigma.json"
+    res = _calibrate(
+        files, files["records"], out, "--model", "auto", "--candidates", "seed,full-1",
+        "--sigma-um", "0.05",
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    doc = json.loads(out.read_text())
+    assert doc["fit"]["chi2_p_value"] < 0.01
+    warning = [ln for ln in res.stderr.splitlines() if ln.startswith("warning: variance")]
+    assert len(warning) == 1
+    assert "--model auto" not in warning[0] and "--candidates" in warning[0]
+    plain = _calibrate(files, files["records"], out, "--sigma-um", "0.05")
+    assert any("try --model auto" in ln for ln in plain.stderr.splitlines())
 
 
 def test_gp_fit_predict_and_predict_with_gp_file(files):

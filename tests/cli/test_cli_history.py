@@ -136,6 +136,63 @@ def test_trend_with_mpe_writes_drift_due_date_and_the_report(tmp_path):
     assert "<svg" in html.read_text()
 
 
+def _weekly(tmp_path, values, u=0.5):
+    """A history database with one calibration a week whose E_X0C is ``values`` (µm)."""
+    db = tmp_path / "w.sqlite"
+    j = MACHINE.parameter_names.index("E_X0C")
+    scales = MACHINE.parameter_scales
+    for k, v in enumerate(values):
+        row = np.zeros(13)
+        row[j] = v
+        path = tmp_path / f"w{k}.json"
+        ParameterSet(
+            MACHINE.parameter_names,
+            row * scales,
+            MACHINE.parameter_units,
+            np.diag((u * scales) ** 2),
+            machine=MACHINE.name,
+            model="13",
+        ).save(path)
+        day = (date(2026, 3, 2) + timedelta(days=7 * k)).isoformat()
+        assert _mtm("history", "add", path, "--db", db, "--date", day).exit_code == 0
+    return db
+
+
+def test_drift_marginalises_the_random_walk_under_the_stated_prior(tmp_path):
+    """``mtm history drift --rw-prior`` is the library's fit_drift(prior=...) (same numbers
+    in DRIFT.json), the slope's interval holds the slope, and with 4 runs the reference
+    prior is refused (exit 2, one line naming --rw-prior) while half-cauchy answers."""
+    from datetime import datetime
+
+    from mtmetrology.history import fit_drift
+
+    values = [0.0, 0.9, 1.1, 2.4, 2.6, 3.9]
+    db = _weekly(tmp_path, values)
+    dates = [datetime(2026, 3, 2) + timedelta(days=7 * k) for k in range(len(values))]
+    for prior in ("reference", "half-cauchy"):
+        out = tmp_path / f"{prior}.json"
+        r = _mtm("history", "drift", "E_X0C", "--db", db, "--rw-prior", prior, "-o", out)
+        assert r.exit_code == 0, r.output
+        doc = json.loads(out.read_text())
+        lib = fit_drift("E_X0C", "µm", dates, values, np.full(len(values), 0.5), prior=prior)
+        assert doc["prior"] == prior
+        assert doc["slope_per_day"] == pytest.approx(lib.slope, rel=1e-6)
+        assert doc["slope_interval_per_day"] == pytest.approx(list(lib.slope_interval), rel=1e-6)
+        lo, hi = doc["slope_interval_per_day"]
+        assert lo < doc["slope_per_day"] < hi
+    (tmp_path / "few").mkdir()
+    few = _weekly(tmp_path / "few", values[:4])
+    r = _mtm("history", "drift", "E_X0C", "--db", few)
+    assert r.exit_code == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--rw-prior half-cauchy" in lines[0]
+    assert (
+        _mtm("history", "drift", "E_X0C", "--db", few, "--rw-prior", "half-cauchy").exit_code == 0
+    )
+    r = _mtm("history", "drift", "E_X0C", "--db", db, "--rw-prior", "flat")
+    assert r.exit_code == 2 and r.stderr.strip().startswith("error: --rw-prior 'flat'")
+
+
 def test_task_uncertainty_takes_the_long_term_covariance_from_the_history(tmp_path, monkeypatch):
     """``mtm task uncertainty --long-term history:MACHINE`` gives the same result as the
     COV.json written by ``mtm history covariance`` (one statistic, two routes)."""

@@ -10,7 +10,7 @@ from scipy import stats
 
 from mtmetrology.errors import InputError
 from mtmetrology.history import DriftResult, fit_drift
-from mtmetrology.history.drift import kalman_filter
+from mtmetrology.history.drift import _reference_prior, kalman_filter
 
 START = datetime(2026, 1, 5, 7, 0)
 
@@ -147,6 +147,31 @@ def test_due_date_uses_the_marginalised_uncertainty():
     assert fit.due_date < plug_due
     before, at = fit.exceedance_probability([fit.due_date - timedelta(days=1), fit.due_date])
     assert before <= 0.05 < at
+
+
+def test_reference_prior_equals_the_restricted_fisher_information():
+    """π(q) = √(½ tr((P_R C)²)) computed in the eigenbasis equals the direct K x K formula
+    (irregular dates, unequal u), and the filter's likelihood differences between two q
+    equal those of the restricted likelihood −½(log|V| + log|XᵀV⁻¹X| + yᵀP_R y)."""
+    rng = np.random.default_rng(3)
+    t = np.r_[0.0, np.cumsum(rng.uniform(3, 20, 9))]
+    u = rng.uniform(0.2, 0.8, 10)
+    y = 0.05 * t + rng.normal(0, 0.5, 10)
+    q = np.array([0.0, 1e-3, 0.03, 1.0])
+    c = np.minimum.outer(t, t)
+    x = np.column_stack([np.ones(10), t])
+    direct, restricted = [], []
+    for qq in q:
+        v_inv = np.linalg.inv(np.diag(u**2) + qq * c)
+        m = x.T @ v_inv @ x
+        p = v_inv - v_inv @ x @ np.linalg.solve(m, x.T @ v_inv)
+        direct.append(np.sqrt(0.5 * np.trace(p @ c @ p @ c)))
+        restricted.append(
+            -0.5 * (-np.linalg.slogdet(v_inv)[1] + np.linalg.slogdet(m)[1] + y @ p @ y)
+        )
+    np.testing.assert_allclose(_reference_prior(t, u, q), direct, rtol=1e-9)
+    loglik = kalman_filter(t, y, u, q)[2]
+    np.testing.assert_allclose(np.diff(loglik), np.diff(restricted), rtol=1e-9, atol=1e-9)
 
 
 def test_missing_uncertainty_and_too_few_runs_are_refused():

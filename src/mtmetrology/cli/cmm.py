@@ -110,8 +110,8 @@ def calibrate_ballplate_cmd(
         typer.Option(
             "--model",
             help="seed (the source's Chebyshev model), full-<d> (21 functions, degree <= d), "
-            "or auto (lowest AIC among the candidates whose leave-one-position-out held-out "
-            "RMS is within 1.25x the best).",
+            "or auto (lowest median held-out RMS over folds that hold out a block of balls "
+            "in every plate position; lowest AIC when no fair comparison is possible).",
         ),
     ] = "seed",
     degrees: Annotated[
@@ -179,8 +179,13 @@ def calibrate_ballplate_cmd(
             worst = max(doc["residual_patterns"]["probe"], key=lambda g: g["rms_weighted"])
             typer.echo(
                 f"warning: {adequacy['message']}; largest residual rms at stylus "
-                f"{worst['group']} ({worst['rms_µm']:.2g} µm)"
-                + ("" if model == "auto" else "; compare models with --model auto"),
+                f"{worst['group']} ({worst['rms_µm']:.2g} µm); "
+                + (
+                    "compare models with --model auto"
+                    if selection is None
+                    else "no candidate explains them: give more --candidates (higher degrees) "
+                    "or a larger --sigma-um"
+                ),
                 err=True,
             )
         typer.echo(
@@ -211,26 +216,30 @@ def _print_selection(selection: dict) -> None:
     """Every candidate's held-out scores, AIC and flags (standard error, like the summary)."""
     typer.echo(f"model selection: {selection['method']}", err=True)
     for s in selection["scores"]:
-        folds = ", ".join(
-            f"{p} {'rank deficient' if v is None else f'{v:.3g}'}"
-            + (" absurd" if st == "absurd" else "")
-            for p, v, st in zip(selection["positions"], s["rms_um"], s["status"], strict=True)
+        if not s["full_rank"]:
+            typer.echo(f"  {s['model']:<7} not identifiable from these records", err=True)
+            continue
+        per_position = ", ".join(
+            f"{p} {'—' if v is None else f'{v:.3g}'}"
+            for p, v in zip(selection["positions"], s["rms_um"], strict=True)
         )
         score = "not scored" if s["median_rms_um"] is None else f"{s['median_rms_um']:.3g} µm"
-        aic = "—" if s["aic"] is None else f"{s['aic']:.1f}"
         flags = [
             f
             for f, on in (
                 ("chosen", s["model"] == selection["chosen"]),
-                ("eligible", s["eligible"] and s["model"] != selection["chosen"]),
-                ("ABSURD fold", s["absurd"]),
+                (
+                    f"identifiable in {s['identifiable_folds']} of {len(selection['folds'])} folds",
+                    s["identifiable_folds"] < len(selection["folds"]),
+                ),
             )
             if on
         ]
         typer.echo(
-            f"  {s['model']:<7} held-out median {score}, AIC {aic}"
+            f"  {s['model']:<7} held-out median {score}, AIC {s['aic']:.1f}, BIC "
+            f"{s['bic']:.1f}"
             + (f" [{', '.join(flags)}]" if flags else "")
-            + f"; folds: {folds}",
+            + ("" if s["median_rms_um"] is None else f"; by position: {per_position}"),
             err=True,
         )
 

@@ -68,6 +68,17 @@ def _one_machine(engine, machine: str | None) -> str:
     return names[0]
 
 
+#: Prior of the drift model's random-walk variance (mtmetrology.history.drift, PRIORS).
+RwPrior = Annotated[
+    str,
+    typer.Option(
+        "--rw-prior",
+        help="Prior of the random-walk variance, which is marginalised: reference (no scale "
+        "assumed; conservative with few runs) or half-cauchy (scale: u per interval).",
+    ),
+]
+
+
 @app.command("add")
 @user_errors
 def add(
@@ -221,6 +232,7 @@ def trend(
     reliability: Annotated[
         float, typer.Option("--reliability", help="In-tolerance probability at the due date.")
     ] = 0.95,
+    rw_prior: RwPrior = "reference",
     db: Db = None,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="TREND.json.")] = None,
     report_path: ReportOption = None,
@@ -236,7 +248,7 @@ def trend(
     drifted = None
     if mpe is not None:
         drifted = parameter_drift(
-            engine, name, parameter, mpe=mpe, reliability=reliability, since=when
+            engine, name, parameter, mpe=mpe, reliability=reliability, since=when, prior=rw_prior
         )
     document = result.to_dict()
     if drifted is not None:
@@ -397,14 +409,7 @@ def drift(
         float, typer.Option("--reliability", help="In-tolerance probability at the due date.")
     ] = 0.95,
     since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
-    rw_prior: Annotated[
-        str,
-        typer.Option(
-            "--rw-prior",
-            help="Prior of the random-walk variance, which is marginalised: reference (no "
-            "scale assumed; conservative with few runs) or half-cauchy (scale: u per interval).",
-        ),
-    ] = "reference",
+    rw_prior: RwPrior = "reference",
     db: Db = None,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="DRIFT.json.")] = None,
     json: Annotated[bool, typer.Option("--json", help="Print DRIFT.json.")] = False,

@@ -3,7 +3,8 @@
 - :mod:`~mtmetrology.cmm.files` — plate, probe-set, plate-position files; records CSV;
 - :mod:`~mtmetrology.cmm.problem` — the ball-plate observation model (errors, poses, balls);
 - :mod:`~mtmetrology.cmm.models` — seed and full 21-function models, datum chosen by rank;
-- :mod:`~mtmetrology.cmm.calibrate` — identification, U1/U2/U3, leave-one-position-out;
+- :mod:`~mtmetrology.cmm.calibrate` — identification, U1/U2/U3, model selection
+  (cross-validation on blocks of balls);
 - :mod:`~mtmetrology.cmm.simulate` — virtual CMM records;
 - :mod:`~mtmetrology.cmm.gp` — Gaussian-process error model (scikit-learn);
 - :mod:`~mtmetrology.cmm.compare` — kinematic versus GP on held-out positions;

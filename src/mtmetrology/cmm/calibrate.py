@@ -75,7 +75,7 @@ from mtmetrology.cmm.models import (
     parse_model,
 )
 from mtmetrology.cmm.notebook import CMMNotebookRepr
-from mtmetrology.cmm.problem import BallPlateProblem, kabsch
+from mtmetrology.cmm.problem import BallPlateProblem
 from mtmetrology.errors import RankDeficientError
 from mtmetrology.identification.adequacy import residual_patterns
 from mtmetrology.identification.diagnostics import analyse_identifiability
@@ -87,8 +87,6 @@ from mtmetrology.rng import as_generator
 from mtmetrology.units import from_internal
 
 __all__ = [
-    "ABSURD_FACTOR",
-    "CHECK_FACTOR",
     "BallPlateCalibration",
     "calibrate_ballplate",
     "check_design",
@@ -364,22 +362,37 @@ def check_design(problem: BallPlateProblem, plate: BallPlate, probes: ProbeSet):
     return report
 
 
-def _held_out_rms(cal: BallPlateCalibration, records: BallPlateRecords, plate, probes) -> float:
-    """RMS (mm) of the held-out indications after compensation and a rigid fit to the plate."""
-    tools = probes.offsets(records.probes)
-    pts = cal.compensate(records.readings, tools)
-    y = plate.coordinates[[plate.ids.index(b) for b in records.balls]]
-    r, t = kabsch(y, pts)
-    return float(np.sqrt(np.mean((pts - (y @ r.T + t)) ** 2)))
+def _ball_blocks(records: BallPlateRecords, blocks: int, repeats: int, rng) -> np.ndarray:
+    """Fold index of every indication, (repeats, n): the balls of each position are dealt
+    at random into ``blocks`` blocks (a ball's styli stay together); a position keeps at
+    least 3 balls in every fold (else it is never held out, index −1)."""
+    pos, balls = np.array(records.positions), np.array(records.balls)
+    out = np.full((repeats, len(pos)), -1)
+    for r in range(repeats):
+        for pid in records.position_ids:
+            sel = pos == pid
+            ids = np.unique(balls[sel])
+            deal = rng.permutation(len(ids)) % blocks
+            if len(ids) - np.bincount(deal).max() < 3:
+                continue
+            out[r, sel] = deal[np.searchsorted(ids, balls[sel])]
+    return out
 
 
-#: A fold whose held-out RMS exceeds this many times the fold's reference (the best
-#: candidate on that fold, or the candidate's own median fold if smaller) is absurd: the
-#: model, fitted without that position, extrapolates (1 885 µm was seen against ~1 µm).
-ABSURD_FACTOR = 10.0
-#: The candidate with the lowest AIC is chosen among those whose robust held-out score is
-#: within this factor of the best (the criterion checked against held-out data).
-CHECK_FACTOR = 1.25
+def _held_out_deviations(cal: BallPlateCalibration, held: BallPlateRecords, plate, probes):
+    """Compensated held-out indications minus the fit's plate points ``T̂_l(ŷ_i)``, (n, 3).
+
+    ``ŷ_i`` is the fit's ball centre when the ball was probed in another position (the
+    self-calibrated plate), else the certificate's.
+    """
+    prob = cal.problem
+    _, poses, balls = prob.split(cal.identification.estimate)
+    known = {b: balls[k] for k, b in enumerate(prob.ball_ids)}
+    y = np.array([known.get(b, plate.coordinates[plate.ids.index(b)]) for b in held.balls])
+    lpos = np.array([prob.position_ids.index(p) for p in held.positions])
+    v = np.einsum("nij,nj->ni", prob.rotations0[lpos], y)
+    target = v + np.cross(poses[lpos, :3], v) + poses[lpos, 3:]
+    return cal.compensate(held.readings, probes.offsets(held.probes)) - target
 
 
 def cross_validate(
@@ -390,123 +403,185 @@ def cross_validate(
     candidates,
     *,
     sigma: float,
+    blocks: int = 5,
+    repeats: int = 1,
+    seed=0,
 ) -> dict:
-    """Choose a model by AIC, checked against leave-one-position-out held-out scores.
+    """Choose a model by cross-validation on blocks of balls held out in every position.
 
-    For each candidate and each plate position, the model is identified without that
-    position; the held-out indications are compensated, fitted rigidly to the calibrated
-    plate, and the RMS of the remaining deviations is the fold's score.  A fold decides
-    nothing when
+    The balls of each plate position are dealt at random into ``blocks`` blocks; fold k
+    holds out block k of *every* position (all its styli) and fits the candidate to the
+    rest, so every position stays in every fold and a model identifiable from the whole
+    set-up stays identifiable (leaving a whole position out is not: with the standard
+    three plates in the XY, XZ and YZ planes every full model is then rank deficient or
+    extrapolates).  ``repeats`` deals again.  The held-out deviation of an indication is
+    its compensated position minus the fitted plate point ``T̂_l(ŷ_i)`` (the fold's pose
+    of the position and its estimate of the ball centre, the certificate's if the ball
+    was seen nowhere else); a fold's score is the RMS of its deviations (coordinates).
 
-    - its reduced set-up is rank deficient for the candidate (status ``rank-deficient``:
-      the model cannot be identified without that position), or
-    - its RMS exceeds :data:`ABSURD_FACTOR` times the fold's reference (status ``absurd``:
-      the model extrapolates from the other positions), the reference being the smaller of
-      the best RMS of any candidate on that fold and the candidate's median fold RMS.
-
-    A candidate is scored when at least half its folds are usable (status ``ok``); the
-    scored candidates are compared on their *common* usable folds (while fewer than two
-    remain, the scored candidate with the fewest usable folds is dropped).  The held-out
-    score is the median RMS over those folds (robust: one fold that extrapolates does not
-    decide); the mean is reported too.  Each candidate is also fitted to all the records:
+    The candidates are those identifiable from all the records (a candidate the set-up
+    cannot identify is reported, not chosen); they are compared on the folds where every
+    one of them is identifiable, and the chosen model has the lowest median fold RMS
+    (robust to one fold that extrapolates).  When fewer than two folds are common (no
+    fair comparison), the choice is the lowest
 
         AIC = χ² + 2p,    χ² = Σ r_i² / σ²
 
-    (``p`` unknowns, ``σ`` the stated reading uncertainty).  The chosen model has the lowest
-    AIC among the scored candidates whose held-out score is within :data:`CHECK_FACTOR` of
-    the best: leave-one-position-out folds alone favour small models (each fold
-    extrapolates to a position), the AIC alone trusts ``σ``.  A candidate with an absurd
-    fold is flagged (``absurd``) whatever its score.
+    over the whole-data fits (``p`` unknowns, ``σ`` the stated reading uncertainty;
+    Akaike 1974), and ``fair`` is False with the reason.  BIC = χ² + p ln m (m residual
+    rows; Schwarz 1978) and the variance factor χ²/ν are reported beside it.
+
+    Parameters
+    ----------
+    base : Machine
+    records : BallPlateRecords
+    plate : BallPlate
+    probes : ProbeSet
+    candidates : sequence of str or ModelChoice
+    sigma : float
+        Standard uncertainty of a reading coordinate, mm.
+    blocks : int
+        Number of ball blocks per deal (>= 2).
+    repeats : int
+        Number of deals.
+    seed : int or Generator
+        Of the deals.
 
     Returns
     -------
     dict
-        ``{"method", "positions", "common_folds", "absurd_factor", "check_factor",
-        "scores": [{"model", "rms_um": [per fold, None if rank deficient], "status": [per
-        fold], "median_rms_um", "mean_rms_um" (None if not scored), "aic", "n_unknowns",
-        "scored", "eligible", "absurd"}], "chosen"}``
+        ``{"method", "criterion" ("cross-validation" or "AIC"), "fair", "reason",
+        "positions", "folds" (labels "deal.block"), "common_folds", "blocks", "repeats",
+        "scores": [{"model", "full_rank", "fold_rms_um" (per fold, None if not
+        identifiable), "rms_um" (per position, pooled over the common folds),
+        "median_rms_um", "mean_rms_um" (pooled RMS; both None if not scored), "aic",
+        "bic", "variance_factor", "n_unknowns", "identifiable_folds", "scored",
+        "eligible"}], "chosen"}``; ``eligible`` marks the candidates the choice was made
+        among.
+
+    Raises
+    ------
+    RankDeficientError
+        No candidate is identifiable from the records.
 
     References
     ----------
     Akaike, H. (1974). A new look at the statistical model identification. *IEEE Trans.
     Automatic Control* 19(6), 716–723.
+    Schwarz, G. (1978). Estimating the dimension of a model. *Ann. Statist.* 6(2), 461–464.
+    Hastie, T., Tibshirani, R. & Friedman, J. (2009). *The Elements of Statistical
+    Learning*, 2nd ed., §7.10 (K-fold cross-validation).
     """
+    if blocks < 2 or repeats < 1:
+        raise ValueError(f"blocks >= 2 and repeats >= 1 expected, got {blocks}, {repeats}")
     positions = list(records.position_ids)
-    names, rms, aic, n_unknowns = [], [], [], []
+    deal = _ball_blocks(records, blocks, repeats, as_generator(seed))
+    folds = [(r, k) for r in range(repeats) for k in range(blocks) if (deal[r] == k).any()]
+    labels = [f"{r + 1}.{k + 1}" for r, k in folds]
+    pos = np.array(records.positions)
+    names, whole, dev = [], [], []
     for cand in candidates:
         names.append(cand if isinstance(cand, str) else cand.name)
         try:
             res = calibrate_ballplate(
                 base, records, plate, probes, model=cand, sigma=sigma
             ).identification
-            aic.append(2.0 * res.cost + 2.0 * len(res.names))
-            n_unknowns.append(len(res.names))
         except RankDeficientError:
-            aic.append(np.inf)
-            n_unknowns.append(None)
+            whole.append(None)
+            dev.append([None] * len(folds))
+            continue
+        whole.append(res)
         row = []
-        for pid in positions:
-            held = np.array([p == pid for p in records.positions])
+        for r, k in folds:
+            held = deal[r] == k
             try:
                 cal = calibrate_ballplate(
                     base, records.subset(~held), plate, probes, model=cand, sigma=sigma
                 )
             except RankDeficientError:
-                row.append(np.nan)
+                row.append(None)
                 continue
-            row.append(
-                float(from_internal(_held_out_rms(cal, records.subset(held), plate, probes), "µm"))
-            )
-        rms.append(row)
-    rms = np.array(rms, dtype=float).reshape(len(names), len(positions))
-    aic = np.array(aic)
-    with np.errstate(all="ignore"):
-        best = np.nanmin(np.where(np.isfinite(rms), rms, np.inf), axis=0)  # per fold
-        own = np.array([np.nanmedian(r) if np.isfinite(r).any() else np.inf for r in rms])
-        reference = np.minimum(best[None, :], own[:, None])
-    absurd = np.isfinite(rms) & (rms > ABSURD_FACTOR * reference)
-    usable = np.isfinite(rms) & ~absurd
-    status = np.where(~np.isfinite(rms), "rank-deficient", np.where(absurd, "absurd", "ok"))
-    scored = usable.sum(axis=1) >= max(1, len(positions) / 2)
-    common = usable[scored].all(axis=0) if scored.any() else np.zeros(len(positions), bool)
-    while scored.sum() > 1 and common.sum() < 2:
-        worst = np.flatnonzero(scored)[np.argmin(usable[scored].sum(axis=1))]
-        scored[worst] = False
-        common = usable[scored].all(axis=0)
-    if not scored.any() or not common.any():
+            row.append(_held_out_deviations(cal, records.subset(held), plate, probes))
+        dev.append(row)
+    full = np.array([w is not None for w in whole])
+    if not full.any():
         raise RankDeficientError(
-            "no candidate model can be cross-validated: each is rank deficient or absurd when "
-            "plate positions are left out; add positions or choose --model explicitly"
+            "no candidate model can be identified from these records: add plate positions "
+            "or styli, or choose a smaller model"
         )
-    scored &= np.isfinite(aic)
-    median = np.where(scored, np.median(rms[:, common], axis=1), np.nan)
-    mean = np.where(scored, rms[:, common].mean(axis=1), np.nan)
-    eligible = scored & (median <= CHECK_FACTOR * np.nanmin(median))
-    scores = [
-        {
-            "model": name,
-            "rms_um": [None if not np.isfinite(v) else float(v) for v in rms[i]],
-            "status": [str(v) for v in status[i]],
-            "median_rms_um": float(median[i]) if scored[i] else None,
-            "mean_rms_um": float(mean[i]) if scored[i] else None,
-            "aic": float(aic[i]) if np.isfinite(aic[i]) else None,
-            "n_unknowns": n_unknowns[i],
-            "scored": bool(scored[i]),
-            "eligible": bool(eligible[i]),
-            "absurd": bool(absurd[i].any()),
-        }
-        for i, name in enumerate(names)
-    ]
-    chosen = names[int(np.argmin(np.where(eligible, aic, np.inf)))]
+    ok = np.array([[d is not None for d in row] for row in dev], dtype=bool)
+    common = ok[full].all(axis=0)
+    fair = int(common.sum()) >= 2
+    rms = np.full((len(names), len(folds)), np.nan)
+    for i, row in enumerate(dev):
+        for j, d in enumerate(row):
+            if d is not None:
+                rms[i, j] = float(from_internal(np.sqrt(np.mean(d**2)), "µm"))
+    m = [len(w.residuals) if w is not None else 0 for w in whole]
+    aic = np.array([2 * w.cost + 2 * len(w.names) if w is not None else np.inf for w in whole])
+    scores = []
+    for i, name in enumerate(names):
+        w, scored = whole[i], bool(full[i] and fair)
+        per_pos, pooled, median = [None] * len(positions), None, None
+        if scored:
+            cols = np.flatnonzero(common)
+            d = np.concatenate([dev[i][j] for j in cols])
+            at = np.concatenate([pos[deal[folds[j][0]] == folds[j][1]] for j in cols])
+            pooled = float(from_internal(np.sqrt(np.mean(d**2)), "µm"))
+            median = float(np.median(rms[i, cols]))
+            per_pos = [
+                float(from_internal(np.sqrt(np.mean(d[at == p] ** 2)), "µm"))
+                if (at == p).any()
+                else None
+                for p in positions
+            ]
+        scores.append(
+            {
+                "model": name,
+                "full_rank": bool(full[i]),
+                "fold_rms_um": [None if np.isnan(v) else float(v) for v in rms[i]],
+                "rms_um": per_pos,
+                "median_rms_um": median,
+                "mean_rms_um": pooled,
+                "aic": float(aic[i]) if full[i] else None,
+                "bic": float(2 * w.cost + len(w.names) * np.log(m[i])) if full[i] else None,
+                "variance_factor": w.variance_factor if full[i] else None,
+                "n_unknowns": len(w.names) if full[i] else None,
+                "identifiable_folds": int(ok[i].sum()),
+                "scored": scored,
+                "eligible": bool(full[i]),
+            }
+        )
+    if fair:
+        key = [s["median_rms_um"] if s["scored"] else np.inf for s in scores]
+        chosen = names[int(np.argmin(key))]
+        reason = None
+        method = (
+            f"lowest median held-out RMS over {int(common.sum())} folds, each holding out "
+            f"one of {blocks} random blocks of balls in every plate position "
+            f"({repeats} deal{'s' if repeats > 1 else ''}); the fold's deviations are the "
+            "compensated indications minus the fitted plate points"
+        )
+    else:
+        chosen = names[int(np.argmin(aic))]
+        reason = (
+            f"only {int(common.sum())} of {len(folds)} ball-block folds leave every "
+            "identifiable candidate identifiable: no fair held-out comparison"
+        )
+        method = (
+            "lowest AIC (chi-square at the stated sigma + 2 x unknowns) over the whole-data "
+            f"fits of the identifiable candidates, because {reason}"
+        )
     return {
-        "method": "lowest AIC (chi-square at the stated sigma + 2 x unknowns) among the "
-        f"candidates whose held-out score is within {CHECK_FACTOR:g} x the best; held-out "
-        "score: median RMS after a rigid fit of the leave-one-position-out folds usable by "
-        "every scored candidate",
+        "method": method,
+        "criterion": "cross-validation" if fair else "AIC",
+        "fair": fair,
+        "reason": reason,
         "positions": positions,
-        "common_folds": [p for p, c in zip(positions, common, strict=True) if c],
-        "absurd_factor": ABSURD_FACTOR,
-        "check_factor": CHECK_FACTOR,
+        "folds": labels,
+        "common_folds": [lab for lab, c in zip(labels, common, strict=True) if c],
+        "blocks": blocks,
+        "repeats": repeats,
         "scores": scores,
         "chosen": chosen,
     }

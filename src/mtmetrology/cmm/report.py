@@ -3,7 +3,7 @@
 - :class:`~mtmetrology.cmm.calibrate.BallPlateCalibration`: the fit, the parameter table
   with u and U, their correlation, the datum, the rank diagnostics, the residual vectors
   of the ball centres in each plate position, U1/U2/U3 and maps of the model uncertainty
-  over the volume, and (``model_selection=``) the leave-one-position-out scores;
+  over the volume, and (``model_selection=``) the held-out scores of ``--model auto``;
 - :class:`~mtmetrology.cmm.gp.GPErrorModel`: hyper-parameters per component and the
   training residuals;
 - :class:`~mtmetrology.cmm.compare.ModelComparison`: the held-out table and the length
@@ -218,26 +218,22 @@ def _calibration(rep: Report, cal, *, model_selection: dict | None = None, **_) 
 def _model_selection(rep: Report, selection: dict) -> None:
     rep.section(
         f"Model selection: {selection['chosen']}",
-        f"{selection['method']}. A fold is rank deficient when the model cannot be identified "
-        f"without that position, absurd when its RMS exceeds {selection['absurd_factor']:g} "
-        "times the fold's best; neither decides. Folds compared: "
-        f"{', '.join(selection['common_folds'])}.",
+        f"{selection['method']}. Folds compared: {len(selection['common_folds'])} of "
+        f"{len(selection['folds'])}"
+        + ("" if selection["fair"] else f" ({selection['reason']})")
+        + ".",
     )
     positions = selection["positions"]
     rows = []
     for s in selection["scores"]:
-        folds = [
-            "rank deficient" if v is None else f"{v:.3g}" + (" (absurd)" if st == "absurd" else "")
-            for v, st in zip(s["rms_um"], s["status"], strict=True)
-        ]
         verdict = (
             "chosen"
             if s["model"] == selection["chosen"]
-            else "eligible"
-            if s["eligible"]
             else "scored"
             if s["scored"]
-            else "not scored"
+            else "compared by AIC"
+            if s["eligible"]
+            else "not identifiable"
         )
         rows.append(
             [
@@ -245,15 +241,16 @@ def _model_selection(rep: Report, selection: dict) -> None:
                 "—" if s["median_rms_um"] is None else f"{s['median_rms_um']:.3g}",
                 "—" if s["mean_rms_um"] is None else f"{s['mean_rms_um']:.3g}",
                 "—" if s["aic"] is None else f"{s['aic']:.1f}",
-                verdict + (", absurd fold" if s["absurd"] else ""),
-                *folds,
+                verdict,
+                *("—" if v is None else f"{v:.3g}" for v in s["rms_um"]),
             ]
         )
     rep.table(
-        ["model", "median RMS (µm)", "mean RMS (µm)", "AIC", "verdict", *positions],
+        ["model", "median RMS (µm)", "pooled RMS (µm)", "AIC", "verdict", *positions],
         rows,
-        caption="RMS of the held-out indications of each left-out position after "
-        "compensation and a rigid fit, µm; median and mean over the folds compared.",
+        caption="RMS of the held-out indications (compensated, minus the fitted plate "
+        "point), µm: median over the folds compared, pooled over them, and pooled per plate "
+        "position.",
     )
 
 

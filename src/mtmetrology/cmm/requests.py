@@ -58,8 +58,10 @@ def calibrate_ballplate_files(
         ``position,ball,probe,X,Y,Z`` records (mm), the plate certificate, the probe set.
     machine : Machine, preset name or machine YAML
     model : str
-        ``seed``, ``full-<d>``, or ``auto``: the lowest AIC among ``candidates`` whose
-        leave-one-position-out held-out RMS is within 1.25× the best.
+        ``seed``, ``full-<d>``, or ``auto``: the candidate with the lowest median
+        held-out RMS over folds that hold out a block of balls in every plate position
+        (:func:`~mtmetrology.cmm.calibrate.cross_validate`; the lowest AIC when no fair
+        comparison is possible).
     degrees : str, optional
         Per-function degrees of a full model, e.g. ``E_YX=3,E_AZ=1``.
     candidates : sequence of str

@@ -8,11 +8,11 @@ calibration's own standard uncertainty u_k, independently::
     x(t_k) = x(t_{k-1}) + β (t_k − t_{k-1}) + w_k,   w_k ~ N(0, q (t_k − t_{k-1}))
     y_k    = x(t_k) + ε_k,                           ε_k ~ N(0, u_k²)
 
-The Kalman filter on the state (x, β) with a diffuse start gives the level and slope after
-the last calibration with their covariance; q is the maximum-likelihood value of the
-prediction-error decomposition (the first two innovations, spent on the diffuse start,
+The Kalman filter on the state (x, β) with a diffuse start gives, for a given q, the level
+and slope after the last calibration with their covariance P and the likelihood of q from
+the prediction-error decomposition (the first two innovations, spent on the diffuse start,
 excluded). The prediction of x at t > t_K has variance
-P_xx + 2 Δ P_xβ + Δ² P_ββ + q Δ (Δ = t − t_K).
+P̄_xx + 2 Δ P̄_xβ + Δ² P̄_ββ + E[q] Δ (Δ = t − t_K), P̄ and E[q] as below.
 
 The due date is the first day on which the predicted probability that |x| exceeds the
 maximum permissible error (MPE) passes 1 − R, R the reliability target: the interval
@@ -26,7 +26,7 @@ covering about 81 % of simulated series at 8 runs).  So q is marginalised (Bayes
 averaging over q; flat prior on level and slope, which makes the filter's likelihood the
 restricted likelihood L(q)): with a prior π(q) on a grid of q,
 
-    w_j ∝ L(q_j) π_j,   E[β] = Σ w_j β_j,
+    w_j ∝ L(q_j) π_j,   m̄ = Σ w_j m_j,   E[q] = Σ w_j q_j,
     P̄ = Σ w_j (P_j + (m_j − m̄)(m_j − m̄)ᵀ)   (m = (level, slope), P its covariance given q),
 
 the slope's coverage interval is the probabilistically symmetric interval of the mixture
@@ -378,11 +378,11 @@ def fit_drift(
     if len(y) < 4:
         raise InputError(f"{parameter}: a drift model needs at least 4 calibrations, got {len(y)}")
     if prior not in PRIORS:
-        raise InputError(f"prior {prior!r}: use one of {', '.join(PRIORS)}")
+        raise InputError(f"--rw-prior {prior!r}: use one of {', '.join(PRIORS)}")
     if prior == "reference" and len(y) < 5:
         raise InputError(
             f"{parameter}: with the reference prior the slope's uncertainty is unbounded from "
-            f"{len(y)} calibrations (at least 5 are needed); or state the half-cauchy prior"
+            f"{len(y)} calibrations (at least 5 are needed), or state --rw-prior half-cauchy"
         )
     if np.any(~np.isfinite(u)) or np.any(u <= 0):
         raise InputError(
