@@ -173,11 +173,12 @@ def test_auto_with_a_too_small_sigma_does_not_advise_auto(files):
     assert res.exit_code == 0, res.output
     doc = json.loads(out.read_text())
     assert doc["fit"]["chi2_p_value"] < 0.01
-    warning = [ln for ln in res.stderr.splitlines() if ln.startswith("warning: variance")]
-    assert len(warning) == 1
+    assert doc["adequacy"]["significant"] and doc["adequacy"]["scaled"]
+    warning = [ln for ln in res.stderr.splitlines() if ln.startswith("warning: ")]
+    assert len(warning) == 1 and warning[0].startswith(f"warning: {doc['adequacy']['message']}")
     assert "--model auto" not in warning[0] and "--candidates" in warning[0]
     plain = _calibrate(files, files["records"], out, "--sigma-um", "0.05")
-    assert any("try --model auto" in ln for ln in plain.stderr.splitlines())
+    assert any("compare models with --model auto" in ln for ln in plain.stderr.splitlines())
 
 
 def test_gp_fit_predict_and_predict_with_gp_file(files):
