@@ -70,7 +70,7 @@ import numpy as np
 
 from mtmetrology.budgets.choices import Policy, RepeatabilityMethod
 from mtmetrology.budgets.repeats import repeat_shortfall, repeatability
-from mtmetrology.budgets.workpiece import WorkpieceVariation
+from mtmetrology.budgets.workpiece import WorkpieceVariation, checked_number
 from mtmetrology.errors import InputError
 from mtmetrology.uncertainty.conformity import ConformityDecision, Tolerance, decide
 from mtmetrology.uncertainty.outputs import Output
@@ -105,18 +105,8 @@ UNIT_RATIO_LIMIT = 10.0**1.5
 _MAGNITUDE_FLOOR = 0.1
 
 
-def _finite(value: float, name: str) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: expected a number, got {value!r}") from None
-    if not math.isfinite(x):
-        raise InputError(f"{name}: expected a finite number, got {value!r}")
-    return x
-
-
 def _nonnegative(value: float, name: str) -> float:
-    x = _finite(value, name)
+    x = checked_number(value, name)
     if x < 0:
         raise InputError(f"{name}: must be a finite number >= 0, got {value!r}")
     return x
@@ -543,7 +533,7 @@ def iso15530_3_budget(
     y = np.asarray(values, dtype=float).ravel()
     if not np.all(np.isfinite(y)):
         raise InputError("values: every repeated result must be a finite number")
-    calibrated = _finite(calibrated, "--calibrated")
+    calibrated = checked_number(calibrated, "--calibrated")
     policy = Policy(policy)
     method = RepeatabilityMethod(repeatability_method)
     u_cal = _nonnegative(u_cal, "u_cal")

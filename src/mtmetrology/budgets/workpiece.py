@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from mtmetrology.errors import InputError
 from mtmetrology.units import from_internal
 
-__all__ = ["FORMULA", "REFERENCE_TEMPERATURE", "WorkpieceVariation"]
+__all__ = ["FORMULA", "REFERENCE_TEMPERATURE", "WorkpieceVariation", "checked_number"]
 
 #: ISO 1:2016 reference temperature of dimensional specifications (°C).
 REFERENCE_TEMPERATURE = 20.0
@@ -48,7 +48,8 @@ FORMULA = (
 )
 
 
-def _number(value: float | None, name: str, *, minimum: float | None = None) -> float | None:
+def checked_number(value: float | None, name: str, *, minimum: float | None = None) -> float | None:
+    """``value`` as a finite float (None stays None); ``name`` (the option) in the refusal."""
     if value is None:
         return None
     try:
@@ -99,12 +100,14 @@ class WorkpieceVariation:
 
     def __post_init__(self) -> None:
         checked = {
-            "length": _number(self.length, "--length"),
-            "alpha": _number(self.alpha, "--alpha"),
-            "alpha_half_width": _number(self.alpha_half_width, "--alpha-half-width", minimum=0),
-            "temperature": _number(self.temperature, "--temperature"),
-            "u_temperature": _number(self.u_temperature, "--u-temperature", minimum=0),
-            "form": _number(self.form, "--form", minimum=0),
+            "length": checked_number(self.length, "--length"),
+            "alpha": checked_number(self.alpha, "--alpha"),
+            "alpha_half_width": checked_number(
+                self.alpha_half_width, "--alpha-half-width", minimum=0
+            ),
+            "temperature": checked_number(self.temperature, "--temperature"),
+            "u_temperature": checked_number(self.u_temperature, "--u-temperature", minimum=0),
+            "form": checked_number(self.form, "--form", minimum=0),
         }
         for name, value in checked.items():
             object.__setattr__(self, name, value)
