@@ -62,3 +62,23 @@ def reversal_machine(tmp_path):
     path = tmp_path / "reversal.yaml"
     path.write_text(REVERSAL_MACHINE)
     return Machine.load(path)
+
+
+#: Positioning errors of the three-axis preset, large against their u (0.3), so that most
+#: check points of the verification tell a correct table from a flipped one (|r − e| > 2 U_c).
+VERIFICATION_ERRORS = {"E_XX1": 30.0, "E_XX2": -6.0, "E_YY1": -25.0, "E_ZZ1": 20.0, "E_YX2": 4.0}
+
+
+@pytest.fixture(scope="module")
+def exported():
+    """(parameter set, result, verification files) of a LinuxCNC export at a 20 mm pitch
+    with the check programme at 5 positions per axis."""
+    from mtmetrology.export.verification import export_with_verification
+
+    machine = Machine.load("three-axis-xfyz")
+    u = dict.fromkeys(VERIFICATION_ERRORS, 0.3)
+    pset = _parameter_set(machine, VERIFICATION_ERRORS, u)
+    result, files = export_with_verification(
+        machine, pset, "linuxcnc", verify_positions=5, pitch=20, when="T"
+    )
+    return pset, result, files

@@ -24,24 +24,6 @@ from mtmetrology.kinematics import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 
 MACHINE = Machine.load("three-axis-xfyz")
-#: Positioning errors large against the uncertainties, so that most check points tell a
-#: correct table from a flipped one (|r - e| > 2 U_c).
-ERRORS = {"E_XX1": 30.0, "E_XX2": -6.0, "E_YY1": -25.0, "E_ZZ1": 20.0, "E_YX2": 4.0}
-U = {name: 0.3 for name in ERRORS}
-
-
-@pytest.fixture(scope="module")
-def exported():
-    names = list(ERRORS)
-    scales = np.array([MACHINE.parameter_scales[MACHINE.parameter_names.index(n)] for n in names])
-    units = [MACHINE.parameter_units[MACHINE.parameter_names.index(n)] for n in names]
-    theta = np.array(list(ERRORS.values())) * scales
-    cov = np.diag((np.array(list(U.values())) * scales) ** 2)
-    pset = ParameterSet(names, theta, units, cov, machine=MACHINE.name, model=MACHINE.model_name)
-    result, files = export_with_verification(
-        MACHINE, pset, "linuxcnc", verify_positions=5, pitch=20, when="T"
-    )
-    return pset, result, files
 
 
 def _rows(text: str) -> tuple[list[str], list[dict]]:

@@ -345,34 +345,44 @@ def _reversal_notes(model: CompensationModel, tables, fmt: str) -> list[str]:
     return out
 
 
-def _summary(model, readings, r, u, per_axis) -> dict:
-    e0, _ = residual(model.machine, model.theta, None, [], readings)
+def _figures(r: np.ndarray, u: np.ndarray | None, before: np.ndarray) -> dict:
+    """Largest and rms residual length, largest U (k = 2) of a component and the largest
+    uncompensated error (µm), and r̂ at each point."""
     return {
+        "max_um": float(from_internal(np.linalg.norm(r, axis=1).max(), "µm")),
+        "rms_um": float(from_internal(np.sqrt(np.mean(np.sum(r**2, axis=1))), "µm")),
+        "max_U_um": None if u is None else float(from_internal(2 * u.max(), "µm")),
+        "uncompensated_max_um": float(from_internal(np.linalg.norm(before, axis=1).max(), "µm")),
+        "r_um": from_internal(r, "µm").tolist(),
+    }
+
+
+def _summary(model, emulated: Emulation, readings, per_axis) -> dict:
+    """The check on the grid, for travel in the positive and in the negative direction of
+    every axis; the second is the first when nothing the machine or the control does
+    depends on the sense of travel (no reversal term, no per-direction table)."""
+    r, u = emulated_residual(model, emulated, readings)
+    e0, _ = residual(model.machine, model.theta, None, [], readings)
+    positive = _figures(r, u, e0)
+    summary = {
         "points": int(readings.shape[0]),
         "per_axis": per_axis,
-        "max_um": float(from_internal(np.linalg.norm(r, axis=1).max(), "µm")),
-        "rms_um": float(from_internal(np.sqrt(np.mean(np.sum(r**2, axis=1))), "µm")),
-        "max_U_um": None if u is None else float(from_internal(2 * u.max(), "µm")),
         "k": 2,
-        "uncompensated_max_um": float(from_internal(np.linalg.norm(e0, axis=1).max(), "µm")),
         "axes": list(model.machine.axis_names),
         "readings": model.machine.readings_to_customary(readings).tolist(),
-        "r_um": from_internal(r, "µm").tolist(),
+        **positive,
     }
-
-
-def _negative(model, emulated: Emulation, readings) -> dict:
-    """The check for travel in the negative direction of every axis."""
-    senses = -np.ones_like(readings)
-    r, u = emulated_residual(model, emulated, readings, senses)
-    e0, _ = residual(model.machine, model.theta, None, [], readings, senses)
-    return {
-        "max_um": float(from_internal(np.linalg.norm(r, axis=1).max(), "µm")),
-        "rms_um": float(from_internal(np.sqrt(np.mean(np.sum(r**2, axis=1))), "µm")),
-        "max_U_um": None if u is None else float(from_internal(2 * u.max(), "µm")),
-        "uncompensated_max_um": float(from_internal(np.linalg.norm(e0, axis=1).max(), "µm")),
-        "r_um": from_internal(r, "µm").tolist(),
-    }
+    by_sense = any(p.kind == "reversal" for p in model.machine.parameters) or any(
+        not np.array_equal(t.forward, t.reverse) for t in emulated.tables
+    )
+    if by_sense:
+        senses = -np.ones_like(readings)
+        r, u = emulated_residual(model, emulated, readings, senses)
+        e0, _ = residual(model.machine, model.theta, None, [], readings, senses)
+        summary["negative"] = _figures(r, u, e0)
+    else:
+        summary["negative"] = positive
+    return summary
 
 
 def _grid_slice(field: VolumetricMap) -> dict:
@@ -417,14 +427,10 @@ def _export_grid(machine, source, pitch, points, region, per_axis, at) -> Export
     summary = {
         "points": int(positions.shape[0]),
         "per_axis": per_axis,
-        "max_um": float(from_internal(np.linalg.norm(r, axis=1).max(), "µm")),
-        "rms_um": float(from_internal(np.sqrt(np.mean(np.sum(r**2, axis=1))), "µm")),
-        "max_U_um": None if u is None else float(from_internal(2 * u.max(), "µm")),
         "k": 2,
-        "uncompensated_max_um": float(from_internal(np.linalg.norm(before, axis=1).max(), "µm")),
         "axes": ["X", "Y", "Z"],
         "readings": positions.tolist(),
-        "r_um": from_internal(r, "µm").tolist(),
+        **_figures(r, u, before),
     }
     row = {
         "function": "volumetric",
@@ -547,9 +553,7 @@ def export_compensation(
     not_carried = [t.function for t in model.tables if t.function not in carried]
     not_carried += [n for n, _ in model.constants if n not in carried]
     readings = check_readings(model.machine, check_per_axis)
-    r, u = emulated_residual(model, emulated, readings)
-    summary = _summary(model, readings, r, u, check_per_axis)
-    summary["negative"] = _negative(model, emulated, readings)
+    summary = _summary(model, emulated, readings, check_per_axis)
     at_points = None
     if at is not None:
         at = np.asarray(at, float)

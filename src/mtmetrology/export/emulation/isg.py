@@ -56,7 +56,7 @@ import numpy as np
 from mtmetrology.errors import InputError
 from mtmetrology.export.control import ControlTable
 
-__all__ = ["SEMANTICS", "VolumetricSettings", "load"]
+__all__ = ["SEMANTICS", "load"]
 
 _DEG = np.pi / 180.0
 
@@ -72,13 +72,10 @@ SEMANTICS = {
 }
 
 
-class VolumetricSettings(dict):
+def _lis(text: str) -> dict:
     """The ``.lis`` settings the emulation uses: ``chain``, ``workpiece_axes``, ``negate``,
-    ``set_to_zero`` and the files with their formats."""
-
-
-def _lis(text: str) -> VolumetricSettings:
-    settings = VolumetricSettings(chain="XYZ", workpiece_axes=0, negate="", set_to_zero="")
+    ``set_to_zero`` (documented defaults) and the files with their formats."""
+    settings = {"chain": "XYZ", "workpiece_axes": 0, "negate": "", "set_to_zero": ""}
     files: dict[int, dict] = {}
     for k, raw in enumerate(text.splitlines(), start=1):
         line = raw.split("#", 1)[0].strip()
