@@ -14,9 +14,6 @@ import pytest
 from mtmetrology.export.verification import TEMPLATE
 from mtmetrology.export.verification_check import compare_readings
 from mtmetrology.io.files import InputFileError
-from mtmetrology.kinematics import Machine
-
-MACHINE = Machine.load("three-axis-xfyz")
 
 
 def _rows(text: str) -> tuple[list[str], list[dict]]:
