@@ -168,29 +168,7 @@ def test_map_coverage_over_simulated_setups():
     central 99 % region of that binomial (34..40 for N = 40: it fails when u is half the
     truth).  The sum of the N values of d² is χ²(3N): its central 99 % region fails when u
     is twice the truth (overstated uncertainty)."""
-    n_setups = 40
-    limit = stats.chi2.ppf(0.95, 3)
-    inside, total = 0, 0.0
-    for k in range(n_setups):
-        rng = np.random.default_rng(100 + k)
-        theta = _truth(rng)
-        rec = simulate_lengths(M, theta, STATIONS, _poses(rng, 40), THREE_TOOLS, seed=rng)
-        res = calibrate_multilateration(M, rec)
-        point = rng.uniform([800, 100, 100], [1200, 500, 300], (1, 3))
-        # a grid through the held-out point: the map there is its node, no interpolation
-        grid = tuple(np.array(sorted({lo, point[0, c], hi})) for c, (lo, hi) in
-                     enumerate(((800, 1200), (100, 500), (100, 300))))  # fmt: skip
-        vmap = VolumetricMap.from_parameters(M, res.parameters, grid)
-        q = M.inverse(point, np.zeros((1, 3)))
-        true_e = M.forward(q) - M.forward(q, theta)  # e = P_indicated - P_true
-        d = (vmap.error(point) - true_e)[0]
-        d2 = float(d @ np.linalg.solve(vmap.covariance(point), d))
-        inside += d2 <= limit
-        total += d2
-    lo, hi = stats.binom.interval(0.99, n_setups, 0.95)
-    assert lo <= inside <= hi, (inside, lo, hi)
-    low, high = stats.chi2.interval(0.99, 3 * n_setups)
-    assert low <= total <= high, (total, low, high)
+    _assert_map_coverage(M, _truth)
 
 
 def test_monte_carlo_agrees_with_the_guf():
@@ -265,21 +243,29 @@ def test_map_coverage_with_a_constant_tool_rotation():
     The rank check adds the three constants, and the held-out map errors are again covered
     (count in the binomial 99 % region, Σ d² in the χ²(3N) one); without them 2 of 40
     points fall inside."""
-    n_setups = 40
     tilted = M.with_parameters([*M.parameter_names, "E_AZ0", "E_BZ0", "E_CZ0"])
+    _assert_map_coverage(tilted, lambda rng: np.r_[_truth(rng), rng.normal(0, 20e-6, 3)])
+
+
+def _assert_map_coverage(simulated, truth, n_setups=40):
+    """Over ``n_setups`` virtual set-ups (the machine ``simulated`` with errors
+    ``truth(rng)``, fresh noise, three reflector tools, calibrated with the preset M and the
+    terms the set-up exposes): the held-out d² ≤ χ²₃(0.95) count lies in the binomial 99 %
+    region and Σ d² in the χ²(3N) one."""
     limit = stats.chi2.ppf(0.95, 3)
     inside, total = 0, 0.0
     for k in range(n_setups):
         rng = np.random.default_rng(100 + k)
-        theta = np.r_[_truth(rng), rng.normal(0, 20e-6, 3)]
-        rec = simulate_lengths(tilted, theta, STATIONS, _poses(rng, 40), THREE_TOOLS, seed=rng)
+        theta = truth(rng)
+        rec = simulate_lengths(simulated, theta, STATIONS, _poses(rng, 40), THREE_TOOLS, seed=rng)
         res = calibrate_multilateration(M, rec)
         point = rng.uniform([800, 100, 100], [1200, 500, 300], (1, 3))
+        # a grid through the held-out point: the map there is its node, no interpolation
         grid = tuple(np.array(sorted({lo, point[0, c], hi})) for c, (lo, hi) in
                      enumerate(((800, 1200), (100, 500), (100, 300))))  # fmt: skip
         vmap = VolumetricMap.from_parameters(M, res.parameters, grid)
         q = M.inverse(point, np.zeros((1, 3)))
-        true_e = tilted.forward(q) - tilted.forward(q, theta)  # e = P_indicated - P_true
+        true_e = simulated.forward(q) - simulated.forward(q, theta)  # e = P_indicated - P_true
         d = (vmap.error(point) - true_e)[0]
         d2 = float(d @ np.linalg.solve(vmap.covariance(point), d))
         inside += d2 <= limit
