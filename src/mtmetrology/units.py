@@ -91,6 +91,7 @@ _SIMPLE: dict[str, tuple[str, float]] = {
     "K": ("temperature", 1.0),
     # time, internal s
     "s": ("time", 1.0),
+    "ms": ("time", 1e-3),
     "min": ("time", 60.0),
     "h": ("time", 3600.0),
     # pressure, internal Pa
