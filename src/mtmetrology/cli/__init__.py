@@ -63,6 +63,8 @@ COMMANDS = {
     "history": ("mtmetrology.cli.history", "app", True),
     "cmm": ("mtmetrology.cli.cmm_studies", "app", True),
     "validate": ("mtmetrology.cli.validate", "app", True),
+    "ballbar": ("mtmetrology.cli.ballbar", "app", True),
+    "rtest": ("mtmetrology.cli.rtest", "app", True),
 }
 
 #: Groups whose subcommands come from several applications (``mtm calibrate samba``,
@@ -111,6 +113,14 @@ SUMMARIES = {
     "history": "Calibration history: record results, control charts, drift, long-term covariance.",
     "cmm": "Bridge-CMM studies on ball-plate records.",
     "validate": "Validate uncertainty statements against calibrated artefacts.",
+    "ballbar": (
+        "ISO 230-4 circular tests with a ballbar: simulate, analyse (G, H, F), calibrate "
+        "(identify the plane's ISO 230-1 errors and servo terms)."
+    ),
+    "rtest": (
+        "Static R-test of the rotary axes: simulate, calibrate (location errors and error "
+        "motions by rank)."
+    ),
     "calibrate": SHARED_GROUPS["calibrate"][0],
     "simulate": SHARED_GROUPS["simulate"][0],
 }
