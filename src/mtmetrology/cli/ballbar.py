@@ -15,7 +15,9 @@ import typer
 from mtmetrology.cli._common import (
     KeepAPrioriOption,
     MachineOption,
+    ReportOption,
     adequacy_rule,
+    command_line,
     emit_result,
     user_errors,
     vector_option,
@@ -94,6 +96,7 @@ def simulate(
 @app.command("analyse")
 @user_errors
 def analyse(
+    ctx: typer.Context,
     tests: Annotated[Path, typer.Argument(help=TESTS_HELP)],
     plane: PlaneOption = None,
     radius: RadiusOption = None,
@@ -104,6 +107,7 @@ def analyse(
     machine: Annotated[str | None, typer.Option("--machine", help="Machine name.")] = None,
     json: JsonOption = False,
     output: OutputOption = None,
+    report_path: ReportOption = None,
 ) -> None:
     """ISO 230-4 results per direction: circular deviation G (least-squares centre),
     circular hysteresis H, radial deviation F max/min."""
@@ -111,12 +115,17 @@ def analyse(
 
     cond = _conditions(plane, radius, feed, centre, overshoot_deg, name)
     result = analyse_file(tests, cond, machine=machine)
+    report = None
+    if report_path is not None:
+        from mtmetrology.ballbar.report import analysis_report
+
+        report = analysis_report(result, command_line(ctx), [tests])
     emit_result(
         result.to_dict(),
         result.summary(),
         output=output,
-        report=None,
-        report_path=None,
+        report=report,
+        report_path=report_path,
         as_json=json,
     )
 

@@ -22,6 +22,7 @@ specifications* (conformance and nonconformance zones).
 """
 
 from mtmetrology.report.figures.machines import (
+    circular_trace,
     convergence,
     error_map,
     length_errors,
@@ -47,6 +48,7 @@ from mtmetrology.report.figures.uncertainty import (
 
 __all__ = [
     "budget_bars",
+    "circular_trace",
     "conformity_zones",
     "control_chart",
     "convergence",

@@ -4,7 +4,7 @@ and the convergence of an iterative design or solver."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -18,6 +18,7 @@ from mtmetrology.report.figures.style import (
 )
 
 __all__ = [
+    "circular_trace",
     "convergence",
     "error_map",
     "length_errors",
@@ -336,4 +337,53 @@ def length_errors(
         ax.grid(True, alpha=0.3)
     axes[0].set_ylabel(axis_label("length error", unit))
     fig.suptitle(title or "Length errors and ±k·u of each model", fontsize=10)
+    return fig
+
+
+def circular_trace(
+    angle_deg, deviations: Mapping[str, object], *, unit: str = "µm", title: str | None = None
+) -> Figure:
+    """The polar plot of a circular test: the radial deviation of each run against its
+    angle, the nominal circle at the zero ring (ISO 230-4 presentation).
+
+    Parameters
+    ----------
+    angle_deg : mapping or array_like
+        Angles (degrees) of each run's samples, a mapping with the keys of ``deviations``
+        or one array shared by all runs.
+    deviations : mapping of str to array_like
+        Radial deviation per run (e.g. ``{"ccw": …, "cw": …}``), in ``unit``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> a = np.arange(0, 360, 10.0)
+    >>> fig = circular_trace(a, {"ccw": np.cos(np.radians(2 * a)), "cw": 0 * a})
+    >>> fig.axes[0].name, len(fig.axes[0].lines)
+    ('polar', 3)
+    """
+    if not deviations:
+        raise ValueError("no run to draw")
+    runs = {k: np.asarray(v, dtype=float).ravel() for k, v in deviations.items()}
+    angles = {
+        k: np.asarray(angle_deg[k] if isinstance(angle_deg, Mapping) else angle_deg, dtype=float)
+        for k in runs
+    }
+    low = min(v.min() for v in runs.values())
+    high = max(v.max() for v in runs.values())
+    span = max(high - low, 1e-12)
+    fig = new_figure(4.8, 4.8)
+    ax = fig.add_subplot(projection="polar")
+    # the zero ring is the nominal circle: the origin sits one span inside the lowest value
+    ax.set_rorigin(low - span)
+    ax.set_ylim(low - 0.1 * span, high + 0.1 * span)
+    ring = np.linspace(0.0, 2.0 * np.pi, 361)
+    ax.plot(ring, np.zeros_like(ring), color=GREY, lw=0.8)
+    for (name, dev), colour in zip(runs.items(), (BLUE, RED, GREY), strict=False):
+        order = np.argsort(angles[name])
+        theta = np.radians(angles[name][order])
+        ax.plot(np.append(theta, theta[0]), np.append(dev[order], dev[order][0]), color=colour,
+                lw=1.2, label=name)  # fmt: skip
+    ax.legend(loc="lower left", bbox_to_anchor=(0.9, 0.9), frameon=False)
+    ax.set_title(title or axis_label("Radial deviation", unit))
     return fig
