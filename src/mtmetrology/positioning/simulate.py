@@ -22,7 +22,7 @@ from mtmetrology.positioning.data import Conditions, PositioningTest
 from mtmetrology.positioning.identify import readings_along
 from mtmetrology.rng import SeedLike, as_generator
 
-__all__ = ["iso_targets", "simulate_many", "simulate_test"]
+__all__ = ["iso_targets", "simulate_many", "simulate_test", "true_deviation"]
 
 _COMPONENT = {"X": 0, "Y": 1, "Z": 2}
 
@@ -44,8 +44,9 @@ def iso_targets(low: float, high: float, m: int, seed: SeedLike = 0) -> np.ndarr
     return t
 
 
-def _true_deviation(machine: Machine, truth: ParameterSet, axis: str, targets: np.ndarray):
-    """[p(θ) − p(0)]_a at each target for senses +1 and −1, shape (m, 2), mm."""
+def true_deviation(machine: Machine, truth: ParameterSet, axis: str, targets: np.ndarray):
+    """The true deviation ``[p(q, s; θ) − p(q, s; 0)]_a`` of ``axis`` at each target for
+    senses +1 and −1, shape (m, 2), mm (the kinematic chain's own)."""
     m = truth.machine_for(machine)
     theta = truth.vector_for(m)
     q = readings_along(m, axis, targets)
@@ -94,7 +95,7 @@ def simulate_test(
     """
     if axis not in _COMPONENT:
         raise InputError(f"axis: {axis!r} is not a linear axis X, Y or Z")
-    true = _true_deviation(machine, truth, axis, np.asarray(targets, float))
+    true = true_deviation(machine, truth, axis, np.asarray(targets, float))
     noise = as_generator(seed).standard_normal((len(targets), runs, 2)) * sigma_mm
     cond = conditions or Conditions(
         axis=axis,
