@@ -16,7 +16,7 @@ from mtmetrology.export.workflow import export_compensation
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.positioning.identify import axis_machine
-from mtmetrology.positioning.simulate import true_deviation, iso_targets, simulate_test
+from mtmetrology.positioning.simulate import iso_targets, simulate_test, true_deviation
 from mtmetrology.positioning.workflow import analyse
 from mtmetrology.units import to_internal
 

@@ -84,3 +84,17 @@ def test_cli_bad_input_exits_2_with_one_line(tmp_path):
     assert len(res.stderr.strip().splitlines()) == 1
     res = mtm("laser", "analyse", csv, "--edition", "1066")
     assert res.exit_code == 2
+
+
+def test_cli_budget_file_changes_u_and_a_bad_one_is_refused(tmp_path):
+    csv = tmp_path / "t.csv"
+    assert mtm("laser", "simulate", "--machine", MACHINE, "-o", csv, "--seed", 5).exit_code == 0
+    base = json.loads(mtm("laser", "analyse", csv, "--json").stdout)
+    (tmp_path / "b.yaml").write_text("misalignment_rad: 0.002\n")
+    wide = json.loads(
+        mtm("laser", "analyse", csv, "--json", "--budget", tmp_path / "b.yaml").stdout
+    )
+    assert wide["uncertainty"]["u_um"]["E"] > base["uncertainty"]["u_um"]["E"]
+    (tmp_path / "c.yaml").write_text("misalignment_rad: wide\n")
+    res = mtm("laser", "analyse", csv, "--budget", tmp_path / "c.yaml")
+    assert res.exit_code == 2 and "misalignment_rad" in res.stderr

@@ -81,6 +81,14 @@ def analyse(
         typer.Option("--machine", help="Preset or YAML: also identify E_XX, E_XXb (ISO 230-1)."),
     ] = None,
     model: ErrorModelOption = None,
+    budget: Annotated[
+        Path | None,
+        typer.Option(
+            "--budget",
+            help="BUDGET.yaml: ISO/TR 230-9 inputs replacing the defaults (keys of "
+            "mtmetrology.positioning.budget.DEFAULTS, e.g. dead_path_mm: 120).",
+        ),
+    ] = None,
     json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
 ) -> None:
@@ -95,7 +103,14 @@ def analyse(
         from mtmetrology.kinematics.machine import Machine
 
         m = Machine.load(machine, model)
-    result = run(read_test(test, conditions), edition=edition, machine=m)
+    given = None
+    if budget is not None:
+        from mtmetrology.io.documents import load_document
+
+        given = load_document(budget, "ISO/TR 230-9 budget inputs")
+        if not isinstance(given, dict):
+            fail(f"{budget}: must be a mapping of budget inputs")
+    result = run(read_test(test, conditions), edition=edition, machine=m, budget_inputs=given)
     emit_result(
         result.to_dict(),
         result.summary(),

@@ -203,7 +203,8 @@ def tr230_9_budget(
         raise InputError(f"budget: {bad[0]}: not an input ({', '.join(DEFAULTS)})")
     v = DEFAULTS | given
     for key, value in v.items():
-        if not (np.isfinite(value) and value >= 0):
+        number = isinstance(value, int | float) and not isinstance(value, bool)
+        if not (number and np.isfinite(value) and value >= 0):
             raise InputError(f"budget: {key}: {value!r} must be a finite number ≥ 0")
     c = conditions
     datum = c.datum_mm if datum_mm is None else datum_mm
@@ -243,7 +244,7 @@ def tr230_9_budget(
             rect("alpha", a, v["alpha_half_width_per_K"], "1/K"),
             InputQuantity(
                 "cosine",
-                Rectangular(-2 * half["cos"], 0.0) if half["cos"] > 0 else Normal(0.0, 0.0),
+                Rectangular(-half["cos"], 0.0) if half["cos"] > 0 else Normal(0.0, 0.0),
                 "mm",
             ),
             rect("dead_path", 0.0, half["dead"], "mm"),
