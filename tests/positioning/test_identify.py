@@ -1,0 +1,58 @@
+"""E_XX and E_XXb of the tested axis through the identification engine: exact at zero noise,
+their 2u intervals cover the truth at the expected rate over many virtual tests."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mtmetrology.errors import InputError
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.positioning.identify import axis_machine, identify_axis
+from mtmetrology.positioning.simulate import iso_targets, simulate_test
+
+
+@pytest.fixture(scope="module")
+def setup():
+    m = Machine.load("three-axis-xfyz")
+    sub = axis_machine(m, "Y")
+    truth = ParameterSet(
+        sub.parameter_names, np.array([-0.008, 0.005, 0.002, -0.0015]), sub.parameter_units,
+        machine=m.name,
+    )  # fmt: skip
+    return m, truth, iso_targets(100, 500, 11, seed=2)
+
+
+def test_zero_noise_recovers_the_truth(setup):
+    m, truth, targets = setup
+    test = simulate_test(m, truth, "Y", targets, sigma_mm=0.0, seed=1)
+    pset, info = identify_axis(m, "Y", targets, test.deviations)
+    assert pset.names == ("E_YY1", "E_YY2", "E_YY3", "E_YYb")
+    np.testing.assert_allclose(pset.values, truth.values, rtol=0, atol=1e-12)
+    assert info["rms_residual_um"] < 1e-9
+
+
+@pytest.mark.slow
+def test_two_u_intervals_cover_the_truth_at_the_expected_rate(setup):
+    m, truth, targets = setup
+    trials = 200
+    inside = np.zeros(4)
+    for k in range(trials):
+        test = simulate_test(m, truth, "Y", targets, sigma_mm=0.001, seed=1000 + k)
+        pset, _ = identify_axis(m, "Y", targets, test.deviations)
+        inside += np.abs(pset.values - truth.values) <= 2 * pset.standard_uncertainty
+    rate = inside / trials
+    # binomial sd at p = 0.954 over 200 trials is 0.015: 3 sd either side
+    assert np.all((rate > 0.954 - 0.045) & (rate < 0.954 + 0.045)), rate
+
+
+def test_degrees_can_be_chosen_and_out_of_travel_targets_are_refused(setup):
+    m, truth, targets = setup
+    test = simulate_test(m, truth, "Y", targets, sigma_mm=0.0005, seed=3)
+    pset, _ = identify_axis(m, "Y", targets, test.deviations, degrees=[1, 2, 3, 4, 5])
+    assert pset.names[-2:] == ("E_YY5", "E_YYb")
+    with pytest.raises(InputError, match="outside the travel"):
+        identify_axis(m, "Y", targets + 100.0, test.deviations)
+    with pytest.raises(InputError, match="not a linear axis"):
+        identify_axis(m, "B", targets, test.deviations)
