@@ -98,3 +98,21 @@ def test_cli_budget_file_changes_u_and_a_bad_one_is_refused(tmp_path):
     (tmp_path / "c.yaml").write_text("misalignment_rad: wide\n")
     res = mtm("laser", "analyse", csv, "--budget", tmp_path / "c.yaml")
     assert res.exit_code == 2 and "misalignment_rad" in res.stderr
+
+
+def test_cli_report_holds_the_deviation_figure(tmp_path):
+    csv, html = tmp_path / "t.csv", tmp_path / "r.html"
+    assert mtm("laser", "simulate", "--machine", MACHINE, "-o", csv, "--seed", 6).exit_code == 0
+    res = mtm("laser", "analyse", csv, "--report", html)
+    assert res.exit_code == 0, res.output
+    assert html.read_text().count("<svg") >= 1
+
+
+def test_deviation_figure_draws_both_directions_with_bands(machine, truth):
+    from mtmetrology.positioning.report import deviation_figure
+
+    test = simulate_test(machine, truth, "X", iso_targets(800, 1200, 6, seed=1), seed=7)
+    ax = deviation_figure(analyse(test)).axes[0]
+    up = ax.lines[0].get_ydata()
+    np.testing.assert_allclose(up, from_internal(test.deviations[:, :, 0].mean(axis=1), "µm"))
+    assert len(ax.collections) == 2 and ax.get_ylabel() == "positional deviation (µm)"

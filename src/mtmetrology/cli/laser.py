@@ -12,7 +12,14 @@ from typing import Annotated
 
 import typer
 
-from mtmetrology.cli._common import ErrorModelOption, emit_result, fail, user_errors
+from mtmetrology.cli._common import (
+    ErrorModelOption,
+    ReportOption,
+    command_line,
+    emit_result,
+    fail,
+    user_errors,
+)
 
 app = typer.Typer(
     no_args_is_help=True,
@@ -69,6 +76,7 @@ def simulate(
 @app.command("analyse")
 @user_errors
 def analyse(
+    ctx: typer.Context,
     test: Annotated[
         Path, typer.Argument(help="TEST.csv: target,position_mm,run,direction,deviation_um.")
     ],
@@ -91,6 +99,7 @@ def analyse(
     ] = None,
     json: Annotated[bool, typer.Option("--json", help="Print RESULT.json.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="RESULT.json.")] = None,
+    report_path: ReportOption = None,
 ) -> None:
     """The ISO 230-2 parameters of the edition with U (k = 2, ISO/TR 230-9), the
     environmental correction applied (Edlén air index, NDE to 20 °C), the pitch table and,
@@ -111,11 +120,16 @@ def analyse(
         if not isinstance(given, dict):
             fail(f"{budget}: must be a mapping of budget inputs")
     result = run(read_test(test, conditions), edition=edition, machine=m, budget_inputs=given)
+    report = None
+    if report_path is not None:
+        from mtmetrology.positioning.report import positioning_report
+
+        report = positioning_report(result, command_line(ctx), [test])
     emit_result(
         result.to_dict(),
         result.summary(),
         output=output,
-        report=None,
-        report_path=None,
+        report=report,
+        report_path=report_path,
         as_json=json,
     )
