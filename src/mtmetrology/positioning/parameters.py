@@ -110,7 +110,8 @@ def evaluate(x: np.ndarray, edition: str = "2014") -> dict[str, np.ndarray]:
     if not np.all(np.isfinite(x)):
         raise InputError("deviations: a value is not finite")
     means = x.mean(axis=-2)  # (..., m, 2)
-    s = x.std(axis=-2, ddof=1)
+    dev = x - means[..., None, :]  # two passes (not sums of squares): exact for large means
+    s = np.sqrt(np.einsum("...jd,...jd->...d", dev, dev) / (x.shape[-2] - 1))
     up, down = means[..., 0], means[..., 1]
     s_up, s_down = s[..., 0], s[..., 1]
     mean = 0.5 * (up + down)
