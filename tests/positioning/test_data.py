@@ -32,6 +32,12 @@ def test_write_then_read_is_the_same_test(tmp_path):
     assert back.conditions == t.conditions
 
 
+def test_default_conditions_read_back(tmp_path):
+    t = PositioningTest(np.array([0.0, 100.0]), np.zeros((2, 5, 2)))
+    path, _ = _lines(tmp_path, t)
+    assert read_test(path).conditions == Conditions()
+
+
 def test_a_conditions_file_wins_over_the_header(tmp_path):
     path, _ = _lines(tmp_path)
     cond = tmp_path / "c.yaml"

@@ -127,11 +127,11 @@ def _condition(key: str, value, source: str):
         if not isinstance(value, bool):
             raise InputError(f"{source}: {key}: {value!r} is not true or false")
         return value
+    if value is None and key in ("overrun_mm", "datum_mm", "travel_mm"):
+        return None
     if key in ("travel_mm", "material_temperatures_C"):
         seq = value if isinstance(value, list) else [value]
         return [_finite(v, f"{source}: {key}") for v in seq]
-    if value is None and key in ("overrun_mm", "datum_mm"):
-        return None
     return _finite(value, f"{source}: {key}")
 
 
