@@ -29,8 +29,8 @@ def constructed(seed=11, m=7, n=5):
     return x
 
 
-def plain_iso(x):
-    """ISO 230-2 (1997/2006/2014) written out element by element."""
+def plain_iso(x, k=2.0):
+    """ISO 230-2 written out element by element (k = 2 from 1997 on, 3 in 1988)."""
     m, n = len(x), len(x[0])
     up, dn, su, sd = [], [], [], []
     for i in range(m):
@@ -43,23 +43,23 @@ def plain_iso(x):
         sd.append(math.sqrt(sum((v - mb) ** 2 for v in b) / (n - 1)))
     bi = [up[i] - dn[i] for i in range(m)]
     mean = [(up[i] + dn[i]) / 2 for i in range(m)]
-    ri = [max(2 * su[i] + 2 * sd[i] + abs(bi[i]), 4 * su[i], 4 * sd[i]) for i in range(m)]
+    ri = [max(k * su[i] + k * sd[i] + abs(bi[i]), 2 * k * su[i], 2 * k * sd[i]) for i in range(m)]
     out = {
         "B": max(abs(v) for v in bi),
         "B_mean": sum(bi) / m,
-        "R_up": max(4 * v for v in su),
-        "R_down": max(4 * v for v in sd),
+        "R_up": max(2 * k * v for v in su),
+        "R_down": max(2 * k * v for v in sd),
         "R": max(ri),
         "E_up": max(up) - min(up),
         "E_down": max(dn) - min(dn),
         "E": max(up + dn) - min(up + dn),
         "M": max(mean) - min(mean),
-        "A_up": max(up[i] + 2 * su[i] for i in range(m)) - min(up[i] - 2 * su[i] for i in range(m)),
-        "A_down": max(dn[i] + 2 * sd[i] for i in range(m))
-        - min(dn[i] - 2 * sd[i] for i in range(m)),
+        "A_up": max(up[i] + k * su[i] for i in range(m)) - min(up[i] - k * su[i] for i in range(m)),
+        "A_down": max(dn[i] + k * sd[i] for i in range(m))
+        - min(dn[i] - k * sd[i] for i in range(m)),
     }
-    hi = [max(up[i] + 2 * su[i], dn[i] + 2 * sd[i]) for i in range(m)]
-    lo = [min(up[i] - 2 * su[i], dn[i] - 2 * sd[i]) for i in range(m)]
+    hi = [max(up[i] + k * su[i], dn[i] + k * sd[i]) for i in range(m)]
+    lo = [min(up[i] - k * su[i], dn[i] - k * sd[i]) for i in range(m)]
     out["A"] = max(hi) - min(lo)
     per = {"mean_up": up, "mean_down": dn, "mean": mean, "s_up": su, "s_down": sd}
     per |= {"B_i": bi, "R_i": ri}
@@ -90,15 +90,34 @@ def plain_vdi(x):
     }
 
 
-@pytest.mark.parametrize("edition", ["2014", "2006", "1997"])
-def test_every_iso_parameter_equals_the_plain_computation(edition):
+@pytest.mark.parametrize(("edition", "k"), [("2014", 2), ("2006", 2), ("1997", 2), ("1988", 3)])
+def test_every_iso_parameter_equals_the_plain_computation(edition, k):
     x = constructed()
     got = evaluate(x, edition)
-    want, per = plain_iso(x.tolist())
+    want, per = plain_iso(x.tolist(), k)
     for key, value in want.items():
         assert abs(float(got[key]) - value) < TOL, key
     for key, values in per.items():
         assert np.max(np.abs(got[key] - np.array(values))) < TOL, key
+
+
+def test_1988_and_2014_differ_in_a_and_r_only():
+    # the first edition's ±3 s bands against the later ±2 s (AMT): A and R grow by the
+    # extra s, E, M and B do not depend on s at all
+    x = constructed()
+    old, new = evaluate(x, "1988"), evaluate(x, "2014")
+    for key in ("A", "A_up", "R", "R_up", "R_down"):
+        assert old[key] > new[key] + 0.1, key
+    assert old["R_up"] == pytest.approx(1.5 * new["R_up"], rel=1e-12)
+    for key in ("E", "E_up", "M", "B", "B_mean"):
+        assert old[key] == new[key], key
+
+
+def test_2006_and_2014_give_the_same_numbers():
+    # no public source establishes a change of A or R between these editions (module notes)
+    x = constructed()
+    old, new = evaluate(x, "2006"), evaluate(x, "2014")
+    assert all(np.array_equal(old[key], new[key]) for key in new)
 
 
 def test_the_constructed_set_exercises_each_branch_of_r_i():
@@ -149,4 +168,4 @@ def test_bad_shapes_are_refused(shape, field):
 
 def test_unknown_edition_is_refused():
     with pytest.raises(InputError, match="edition"):
-        evaluate(np.zeros((3, 5, 2)), "1988")
+        evaluate(np.zeros((3, 5, 2)), "1977")

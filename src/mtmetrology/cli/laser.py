@@ -82,7 +82,7 @@ def analyse(
     ],
     conditions: Annotated[Path | None, typer.Option("--conditions", help=_CONDITIONS_HELP)] = None,
     edition: Annotated[
-        str, typer.Option("--edition", help="2014, 2006, 1997 (ISO 230-2) or vdi3441.")
+        str, typer.Option("--edition", help="2014, 2006, 1997, 1988 (ISO 230-2) or vdi3441.")
     ] = "2014",
     machine: Annotated[
         str | None,

@@ -25,9 +25,19 @@ quantities with the same formulas, reproduced below):
   bidirectional ``A = max[x̄_i↑ + 2 s_i↑; x̄_i↓ + 2 s_i↓] − min[x̄_i↑ − 2 s_i↑; x̄_i↓ − 2 s_i↓]``
  .
 
-The editions are named options (:data:`EDITIONS`).  No difference between the 2006 and the 2014
-definitions of A and R could be cited from a public source, so those two editions compute
-the same numbers here (stated in the result; see the module tests).
+The first edition (1988) used bands of ±3 standard deviations where the later ones use
+±2 standard uncertainties ("instead of using 3 standard deviations (old standard), 2
+standard uncertainties are used", AMT, *ISO 230-2 revised*, amtonline.org article 133530):
+with ``k = 3`` for 1988 and ``k = 2`` otherwise, ``R_i↑ = 2k s_i↑``,
+``R_i = max[k s_i↑ + k s_i↓ + |B_i|; R_i↑; R_i↓]`` and the A bands ``x̄ ± k s``
+(:data:`BAND`; the 1988 repeatability as 6 s follows from the ±3 s band by the same
+construction, the 1988 text itself was not available).
+
+The editions are named options (:data:`EDITIONS`).  The public abstracts of the 2006 and
+2014 editions differ by the 2014 annexes on periodic positioning error and on ball arrays
+and step gauges; no difference between their definitions of A and R could be cited from a
+public source, so those two editions compute the same numbers here (the module tests pin
+it, and the 1988/2014 difference).
 
 VDI/DGQ 3441 (1977), the German guideline CARTO also offers, states the axis by four
 numbers computed from the same per-target statistics, with a pooled scatter
@@ -38,8 +48,8 @@ numbers computed from the same per-target statistics, with a pooled scatter
 - position deviation ``P_a = max x̄_i − min x̄_i``;
 - position uncertainty ``P = max[x̄_i + (U_i + P_s,i)/2] − min[x̄_i − (U_i + P_s,i)/2]``.
 
-The pooled form of s_i follows the secondary literature the project could consult (the
-guideline text itself was not available); it is stated so that a reader can check it.
+The pooled form of s_i is this implementation's reading (the guideline text itself was not
+available); it is stated so that a reader can check it.
 """
 
 from __future__ import annotations
@@ -48,15 +58,18 @@ import numpy as np
 
 from mtmetrology.errors import InputError
 
-__all__ = ["EDITIONS", "MIN_RUNS", "PER_TARGET", "SCALARS", "evaluate"]
+__all__ = ["BAND", "EDITIONS", "MIN_RUNS", "PER_TARGET", "SCALARS", "evaluate"]
 
 #: Editions offered: name -> the ISO 230-2 edition (or guideline) whose definitions apply.
 EDITIONS = {
     "2014": "ISO 230-2:2014",
     "2006": "ISO 230-2:2006",
     "1997": "ISO 230-2:1997",
+    "1988": "ISO 230-2:1988",
     "vdi3441": "VDI/DGQ 3441:1977",
 }
+#: Multiple of s in the bands of A and R: 2 from the 1997 edition on, 3 in the first (1988).
+BAND = {"2014": 2.0, "2006": 2.0, "1997": 2.0, "1988": 3.0}
 #: Runs per direction the standard requires at least (ISO 230-2: five at each target in
 #: each direction).
 MIN_RUNS = 5
@@ -81,7 +94,7 @@ def evaluate(x: np.ndarray, edition: str = "2014") -> dict[str, np.ndarray]:
     x : ndarray, shape (..., m, n, 2)
         Positional deviations ``x_ij = P_ij − P_i`` (any one length unit; the parameters
         come out in it): m targets, n runs, approach ↑ (index 0) and ↓ (index 1).
-    edition : {"2014", "2006", "1997", "vdi3441"}
+    edition : {"2014", "2006", "1997", "1988", "vdi3441"}
 
     Returns
     -------
@@ -130,10 +143,11 @@ def evaluate(x: np.ndarray, edition: str = "2014") -> dict[str, np.ndarray]:
         }
         return out
     b_i = up - down
-    r_up, r_down = 4.0 * s_up, 4.0 * s_down
-    r_i = np.maximum(2.0 * s_up + 2.0 * s_down + np.abs(b_i), np.maximum(r_up, r_down))
-    hi_up, lo_up = up + 2.0 * s_up, up - 2.0 * s_up
-    hi_down, lo_down = down + 2.0 * s_down, down - 2.0 * s_down
+    k = BAND[edition]
+    r_up, r_down = 2.0 * k * s_up, 2.0 * k * s_down
+    r_i = np.maximum(k * s_up + k * s_down + np.abs(b_i), np.maximum(r_up, r_down))
+    hi_up, lo_up = up + k * s_up, up - k * s_up
+    hi_down, lo_down = down + k * s_down, down - k * s_down
     out = dict(zip(PER_TARGET, (up, down, mean, s_up, s_down, b_i, r_up, r_down, r_i), strict=True))
     out |= {
         "B": np.abs(b_i).max(axis=-1),

@@ -223,7 +223,7 @@ def analyse(
     Parameters
     ----------
     test : PositioningTest
-    edition : {"2014", "2006", "1997", "vdi3441"}
+    edition : {"2014", "2006", "1997", "1988", "vdi3441"}
     machine : Machine, optional
         With a machine the axis's ``E_XX`` and ``E_XXb`` are identified (its model basis).
     degrees : list of int, optional
