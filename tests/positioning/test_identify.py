@@ -56,3 +56,16 @@ def test_degrees_can_be_chosen_and_out_of_travel_targets_are_refused(setup):
         identify_axis(m, "Y", targets + 100.0, test.deviations)
     with pytest.raises(InputError, match="not a linear axis"):
         identify_axis(m, "B", targets, test.deviations)
+
+
+def test_two_laser_runs_combine_into_a_tighter_e_xx(setup):
+    from mtmetrology.identification.combine import combine_parameter_sets
+
+    m, truth, targets = setup
+    sets = [
+        identify_axis(m, "Y", targets, simulate_test(m, truth, "Y", targets, seed=s).deviations)[0]
+        for s in (21, 22)
+    ]
+    c = combine_parameter_sets(*sets)
+    assert c.names == sets[0].names
+    assert np.all(c.standard_uncertainty < np.minimum(*(s.standard_uncertainty for s in sets)))
