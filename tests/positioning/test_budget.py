@@ -41,9 +41,15 @@ def test_local_terms_give_u_of_b_and_r():
     assert b.parameter_u()["E"] == pytest.approx(0.8 / math.sqrt(3), rel=1e-9)
 
 
+def test_environmental_variation_error_adds_to_every_target_and_to_b_and_r():
+    b = tr230_9_budget(TARGETS, Conditions(), **(ZERO | {"eve_um": 1.2}))
+    np.testing.assert_allclose(b.u_targets_um, 0.6 / math.sqrt(3), rtol=1e-9)
+    assert b.parameter_u()["B"] == pytest.approx(0.6 / math.sqrt(3), rel=1e-12)
+
+
 def test_monte_carlo_agrees_with_the_guf_within_5_percent():
     cond = Conditions(air_temperature_C=24.0, humidity_percent=70.0, material_temperatures_C=[24.5])
-    b = tr230_9_budget(TARGETS, cond, misalignment_rad=5e-4)
+    b = tr230_9_budget(TARGETS, cond, misalignment_rad=5e-4, eve_um=0.4)
     mc = b.monte_carlo(trials=100_000, seed=230)
     np.testing.assert_allclose(mc, b.u_targets_um, rtol=0.05)
     assert b.to_dict()["k"] == 2.0 and b.rows[0]["input"] == "delta_laser"

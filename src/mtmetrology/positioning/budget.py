@@ -3,7 +3,8 @@
 Measurement model.  At a target a distance L from the laser datum, the corrected deviation
 (:mod:`mtmetrology.positioning.environment`) errs by
 
-    e(L) = L·δ_las + L·(n̂/n − 1) − L·[α (t_m − 20) − α̂ (t̂_m − 20)] + δ_cos(L) + δ_dead + δ_set
+    e(L) = L·δ_las + L·(n̂/n − 1) − L·[α (t_m − 20) − α̂ (t̂_m − 20)] + δ_cos(L) + δ_dead
+           + δ_set + δ_EVE
 
 with the inputs of the ISO/TR 230-9 list of contributors:
 
@@ -17,13 +18,16 @@ with the inputs of the ISO/TR 230-9 list of contributors:
 - ``dead_path`` δ_dead = L_d·(∂n/∂t)·Δt — the dead path L_d between interferometer and
   datum, for an air-temperature change Δt during the test (rectangular ±Δt_max);
 - ``setup`` δ_set = h·Δε — Abbe offset h times the change of the angular error motion
-  (rectangular ±ε_max).
+  (rectangular ±ε_max);
+- ``eve`` δ_EVE — the environmental variation error: the drift of the reading of the
+  laser with the axis at rest over the duration of the test (a drift check before the
+  test), rectangular ±EVE/2 (0 unless measured).
 
 The outputs are e(L) at every target (µm).  E, M and A are ranges of means whose
 instrument error is at most the error over the measured length, so u(E) = u(M) = u(A) =
 u(e(L_max)) (the largest over the targets).  B and R are differences at one target
 (between directions, or runs), in which the length-proportional terms cancel: u(B) =
-u(R) = sqrt(u²(δ_dead) + u²(δ_set)).  U = k u with k = 2 (EA-4/02).
+u(R) = sqrt(u²(δ_dead) + u²(δ_set) + u²(δ_EVE)).  U = k u with k = 2 (EA-4/02).
 
 The GUF (JCGM 100) goes through :func:`mtmetrology.uncertainty.guf`, its Monte Carlo check
 (JCGM 101) through :func:`mtmetrology.uncertainty.monte_carlo`.  No worked example of
@@ -47,7 +51,7 @@ from mtmetrology.errors import InputError
 from mtmetrology.positioning import environment
 from mtmetrology.uncertainty.distributions import Normal, Rectangular
 from mtmetrology.uncertainty.inputs import InputQuantity, InputSet
-from mtmetrology.units import from_internal
+from mtmetrology.units import from_internal, to_internal
 
 __all__ = ["DEFAULTS", "Budget", "tr230_9_budget"]
 
@@ -65,6 +69,7 @@ DEFAULTS = {
     "air_drift_K": 0.5,  # largest air-temperature change during the test
     "abbe_offset_mm": 50.0,
     "angular_change_rad": 5.0e-6,
+    "eve_um": 0.0,  # environmental variation error from a drift check
     "k": 2.0,
 }
 _NAMES = (
@@ -77,6 +82,7 @@ _NAMES = (
     "cosine",
     "dead_path",
     "setup",
+    "eve",
 )
 
 
@@ -95,13 +101,13 @@ class _ErrorModel:
     def __call__(self, x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=float)
         cols = [x[..., k] for k in range(len(_NAMES))]
-        las, t, p, rh, tm, alpha, cos, dead, setup = cols
+        las, t, p, rh, tm, alpha, cos, dead, setup, eve = cols
         n = environment.refractive_index(t, np.clip(p, 1e4, 1.4e5), np.clip(rh, 0, 100))
         t_hat, alpha_hat = self.nominal[3], self.nominal[4]
         rel = las + (self.n_hat / n - 1.0) - (alpha * (tm - 20.0) - alpha_hat * (t_hat - 20.0))
         length = self.span
         e = rel[..., None] * length + (cos / self.l_max)[..., None] * length
-        return e + (dead + setup)[..., None]
+        return e + (dead + setup + eve)[..., None]
 
 
 @dataclass(frozen=True)
@@ -118,7 +124,7 @@ class Budget:
     u_targets_um : ndarray, shape (m,)
         u(e(L)) at each target by the GUF, µm.
     u_local_um : float
-        sqrt(u²(δ_dead) + u²(δ_set)), µm.
+        sqrt(u²(δ_dead) + u²(δ_set) + u²(δ_EVE)), µm.
     rows : list of dict
         The budget at the largest L: input, unit, estimate, u, sensitivity, contribution
         (µm), share.
@@ -227,6 +233,7 @@ def tr230_9_budget(
         "cos": l_max * v["misalignment_rad"] ** 2 / 2.0,
         "dead": abs(v["dead_path_mm"] * dn_dt * v["air_drift_K"]),
         "setup": v["abbe_offset_mm"] * v["angular_change_rad"],
+        "eve": to_internal(v["eve_um"], "µm") / 2.0,
     }
 
     def rect(name, centre, h, unit):
@@ -249,6 +256,7 @@ def tr230_9_budget(
             ),
             rect("dead_path", 0.0, half["dead"], "mm"),
             rect("setup", 0.0, half["setup"], "mm"),
+            rect("eve", 0.0, half["eve"], "mm"),
         ]
     )
     nominal = np.array(
@@ -270,5 +278,6 @@ def tr230_9_budget(
         }
         for r in res.budget(j)
     ]
-    u_local = from_internal(float(np.hypot(half["dead"], half["setup"]) / np.sqrt(3.0)), "µm")
+    local = np.sqrt(half["dead"] ** 2 + half["setup"] ** 2 + half["eve"] ** 2) / np.sqrt(3.0)
+    u_local = from_internal(float(local), "µm")
     return Budget(span, inputs, model, u_t, u_local, rows, float(v["k"]))
