@@ -116,3 +116,9 @@ def test_deviation_figure_draws_both_directions_with_bands(machine, truth):
     up = ax.lines[0].get_ydata()
     np.testing.assert_allclose(up, from_internal(test.deviations[:, :, 0].mean(axis=1), "µm"))
     assert len(ax.collections) == 2 and ax.get_ylabel() == "positional deviation (µm)"
+
+
+def test_the_result_shows_itself_in_a_notebook(machine, truth):
+    test = simulate_test(machine, truth, "X", iso_targets(800, 1200, 6, seed=1), seed=8)
+    html = analyse(test)._repr_html_()
+    assert "<svg" in html and "ISO/TR 230-9 budget" in html

@@ -12,9 +12,11 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from mtmetrology.formatting import format_uncertainty, format_value
+from mtmetrology.formatting import format_share, format_uncertainty, format_value
+from mtmetrology.positioning.workflow import PositioningResult
 from mtmetrology.report import Report
 from mtmetrology.report.figures.style import BLUE, ORANGE, axis_label, new_figure
+from mtmetrology.report.results import add_result, renders
 from mtmetrology.units import from_internal
 
 __all__ = ["deviation_figure", "positioning_report"]
@@ -56,17 +58,24 @@ def positioning_report(result, command: str, inputs: list[Path]) -> Report:
         command=command,
         provenance={"inputs": list(inputs)},
     )
-    report.section("Result", result.summary())
+    add_result(report, result)
+    return report
+
+
+@renders(PositioningResult, "ISO 230-2 positioning")
+def _render(rep, result, **_context) -> None:
+    """The sections of a result: summary, parameters with U, figure, pitch table, budget."""
+    rep.section("Result", result.summary())
     u = result.budget.parameter_u()
     k = result.budget.k
     rows = []
     for key, value in result.parameters.items():
         big_u = None if key not in u else k * u[key]
         rows.append([key, format_value(float(value), big_u), format_uncertainty(big_u), "µm"])
-    report.table(["parameter", "value", f"U (k = {k:g})", "unit"], rows, caption="Parameters")
-    report.figure(deviation_figure(result), caption="Deviation against position per direction")
+    rep.table(["parameter", "value", f"U (k = {k:g})", "unit"], rows, caption="Parameters")
+    rep.figure(deviation_figure(result), caption="Deviation against position per direction")
     pitch = result.pitch_table()
-    report.table(
+    rep.table(
         ["position (mm)", "x̄_i (µm)", "B_i (µm)", "u(x̄_i) (µm)"],
         [
             [pos, format_value(v, w), format_value(b, w), format_uncertainty(w)]
@@ -80,17 +89,17 @@ def positioning_report(result, command: str, inputs: list[Path]) -> Report:
         ],
         caption="Pitch-compensation table (the control applies −x̄_i, ∓B_i/2 per direction)",
     )
-    report.table(
-        ["input", "u", "contribution (µm)", "share"],
+    rep.table(
+        ["input", "u", "unit", "contribution (µm)", "share"],
         [
             [
                 r["input"],
-                f"{r['u']:.3g}",
+                format_uncertainty(r["u"]),
+                r["unit"],
                 format_uncertainty(r["contribution_um"]),
-                f"{100 * r['share']:.1f} %",
+                format_share(r["share"]),
             ]
             for r in result.budget.rows
         ],
         caption="ISO/TR 230-9 budget at the longest distance from the datum",
     )
-    return report

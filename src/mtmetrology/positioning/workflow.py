@@ -78,6 +78,8 @@ class PositioningResult(NotebookRepr):
     source : str
     """
 
+    _renderer_module = "mtmetrology.positioning.report"
+
     machine: str | None
     axis: str
     edition: str
