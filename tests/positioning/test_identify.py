@@ -30,7 +30,15 @@ def test_zero_noise_recovers_the_truth(setup):
     pset, info = identify_axis(m, "Y", targets, test.deviations)
     assert pset.names == ("E_YY1", "E_YY2", "E_YY3", "E_YYb")
     np.testing.assert_allclose(pset.values, truth.values, rtol=0, atol=1e-12)
-    assert info["rms_residual_um"] < 1e-9
+    assert info["rms_residual_um"] < 1e-9 and info["max_mean_misfit_um"] < 1e-9
+
+
+def test_a_periodic_error_the_cubic_cannot_follow_shows_as_misfit(setup):
+    m, truth, targets = setup
+    test = simulate_test(m, truth, "Y", targets, sigma_mm=0.0, seed=1)
+    ripple = 0.002 * np.sin(2 * np.pi * targets / 40.0)  # a 40 mm leadscrew period, 2 µm
+    _, info = identify_axis(m, "Y", targets, test.deviations + ripple[:, None, None])
+    assert info["max_mean_misfit_um"] > 0.5
 
 
 @pytest.mark.slow

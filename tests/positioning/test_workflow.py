@@ -72,6 +72,9 @@ def test_cli_simulate_then_analyse(tmp_path):
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)
     assert doc["kind"] == "iso230-2-positioning" and doc["edition"] == "2014"
+    res = mtm("laser", "analyse", csv, "--machine", MACHINE, "--degrees", "1,2", "--json")
+    assert [p["name"] for p in json.loads(res.stdout)["parameters"]] == ["E_XX1", "E_XX2", "E_XXb"]
+    assert mtm("laser", "analyse", csv, "--machine", MACHINE, "--degrees", "x").exit_code == 2
     res = mtm("laser", "analyse", csv, "--edition", "vdi3441")
     assert res.exit_code == 0 and "(k = 2)" in res.stdout.splitlines()[1]
 

@@ -89,6 +89,10 @@ def analyse(
         typer.Option("--machine", help="Preset or YAML: also identify E_XX, E_XXb (ISO 230-1)."),
     ] = None,
     model: ErrorModelOption = None,
+    degrees: Annotated[
+        str | None,
+        typer.Option("--degrees", help="Degrees of E_XX to identify, e.g. 1,2,3,4 (the model's)."),
+    ] = None,
     budget: Annotated[
         Path | None,
         typer.Option(
@@ -119,7 +123,21 @@ def analyse(
         given = load_document(budget, "ISO/TR 230-9 budget inputs")
         if not isinstance(given, dict):
             fail(f"{budget}: must be a mapping of budget inputs")
-    result = run(read_test(test, conditions), edition=edition, machine=m, budget_inputs=given)
+    chosen = None
+    if degrees is not None:
+        try:
+            chosen = [int(d) for d in degrees.split(",")]
+        except ValueError:
+            fail(f"--degrees: {degrees!r} is not a list of whole numbers")
+        if not chosen or min(chosen) < 1:
+            fail(f"--degrees: {degrees!r}: degrees are 1 or more")
+    result = run(
+        read_test(test, conditions),
+        edition=edition,
+        machine=m,
+        degrees=chosen,
+        budget_inputs=given,
+    )
     report = None
     if report_path is not None:
         from mtmetrology.positioning.report import positioning_report

@@ -115,7 +115,8 @@ def identify_axis(
     parameters : ParameterSet
         ``E_XX<d>`` and ``E_XXb`` with covariance (the datum dropped).
     summary : dict
-        ``sigma_um`` (the pooled s used as the reading's u), ``rms_residual_um``, ``dof``,
+        ``max_mean_misfit_um`` (largest |x̄_i − fit| over the targets), ``sigma_um`` (the
+        pooled s used as the reading's u), ``rms_residual_um``, ``dof``,
         ``variance_factor``, ``message``.
 
     Raises
@@ -147,7 +148,11 @@ def identify_axis(
     result = result.with_adequacy("scale")
     pset = result.parameter_set(sub, {"source": "ISO 230-2 laser run", **(provenance or {})})
     res = result.residuals * sigma
+    # how far the fitted function is from the pitch table (x̄_i of both directions): what
+    # the polynomial cannot follow (a periodic error, say) shows here, not in u
+    misfit = np.abs(res.reshape(m, n, 2).mean(axis=(1, 2))).max()
     return pset, {
+        "max_mean_misfit_um": from_internal(float(misfit), "µm"),
         "sigma_um": from_internal(sigma, "µm"),
         "rms_residual_um": from_internal(float(np.sqrt(np.mean(res**2))), "µm"),
         "dof": int(result.dof),

@@ -184,6 +184,10 @@ class PositioningResult(NotebookRepr):
                 )
             )
             lines.append(f"ISO 230-1 (k = 2): {terms}")
+            lines.append(
+                f"largest |x̄_i − fit| {self.identification['max_mean_misfit_um']:.2g} µm "
+                "(what the function does not follow of the pitch table)"
+            )
         return "\n".join(lines)
 
 
