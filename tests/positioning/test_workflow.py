@@ -58,7 +58,7 @@ def test_result_document_kind_machine_category_and_parameters(machine, truth):
 def test_without_a_machine_nothing_is_identified(machine, truth):
     test = simulate_test(machine, truth, "X", iso_targets(800, 1200, 6, seed=1), seed=4)
     doc = analyse(test).to_dict()
-    assert doc["category"] == "verification" and "parameters" not in doc
+    assert "category" not in doc and "parameters" not in doc
 
 
 def mtm(*args):

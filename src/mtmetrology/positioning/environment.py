@@ -34,6 +34,9 @@ Birch, K. P., Downs, M. J. (1993). An updated Edlén equation for the refractive
 air. *Metrologia* 30, 155–162; (1994) Correction … *Metrologia* 31, 315–316.
 Stone, J. A., Zimmerman, J. H. *Index of Refraction of Air*, NIST Engineering Metrology
 Toolbox, https://emtoolbox.nist.gov/Wavelength/Documentation.asp, Appendix A.
+IAPWS (2007). Revised Release on the IAPWS Industrial Formulation 1997 for the
+Thermodynamic Properties of Water and Steam, eq. 30 (saturation pressure) and Table 35
+(its verification values, reproduced in the tests).
 ISO 1:2016, standard reference temperature 20 °C.
 """
 

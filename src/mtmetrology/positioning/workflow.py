@@ -120,12 +120,12 @@ class PositioningResult(NotebookRepr):
 
     def to_dict(self) -> dict:
         """The JSON document; with a machine it embeds the identified parameter set (the
-        keys of a ``parameter-set``), so ``mtm export`` and ``mtm history add`` read it."""
+        keys of a ``parameter-set``) and says ``category: calibration``, so ``mtm export``
+        and ``mtm history add`` read it (without one the history cannot record it)."""
         doc = {
             "kind": KIND,
             "version": VERSION,
             "machine": self.machine,
-            "category": "calibration" if self.parameter_set is not None else "verification",
             "axis": self.axis,
             "edition": self.edition,
             "standard": EDITIONS[self.edition],
@@ -140,6 +140,8 @@ class PositioningResult(NotebookRepr):
             "source": self.source,
         }
         if self.parameter_set is not None:
+            # the history records a run with its identified parameters as a calibration
+            doc["category"] = "calibration"
             pdoc = self.parameter_set.to_document()
             for key in ("model", "parameters", "covariance", "provenance"):
                 if key in pdoc:
