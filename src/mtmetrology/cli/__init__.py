@@ -65,6 +65,7 @@ COMMANDS = {
     "validate": ("mtmetrology.cli.validate", "app", True),
     "ballbar": ("mtmetrology.cli.ballbar", "app", True),
     "rtest": ("mtmetrology.cli.rtest", "app", True),
+    "laser": ("mtmetrology.cli.laser", "app", True),
 }
 
 #: Groups whose subcommands come from several applications (``mtm calibrate samba``,
@@ -121,6 +122,7 @@ SUMMARIES = {
         "Static R-test of the rotary axes: simulate, calibrate (location errors and error "
         "motions by rank)."
     ),
+    "laser": "ISO 230-2 positioning tests with a laser interferometer: simulate, analyse.",
     "calibrate": SHARED_GROUPS["calibrate"][0],
     "simulate": SHARED_GROUPS["simulate"][0],
 }

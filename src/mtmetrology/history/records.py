@@ -172,6 +172,9 @@ def _residual_statistics(doc: dict) -> dict:
         for key in ("variance_factor", "dof", "rank", "status"):
             if key in ident:
                 stats[key] = ident[key]
+    iso = doc.get("iso230_2")  # an ISO 230-2 laser run: its axis parameters trend over time
+    if isinstance(iso, dict):
+        stats.update({f"iso230_2_{k}_um": iso[k] for k in ("E", "A", "R", "B", "M") if k in iso})
     records = doc.get("records")
     if isinstance(records, dict) and "indications" in records:
         stats["indications"] = records["indications"]

@@ -47,7 +47,12 @@ KIND = "parameter-set"
 VERSION = 1
 #: Result documents that embed a parameter set (``mtm predict --params`` reads them as they
 #: are); their keys beyond the parameter set are the result's own.
-RESULT_KINDS = ("samba-calibration", "ballplate-calibration", "tracker-calibration")
+RESULT_KINDS = (
+    "samba-calibration",
+    "ballplate-calibration",
+    "tracker-calibration",
+    "iso230-2-positioning",
+)
 _KEYS = {"kind", "version", "machine", "model", "parameters", "covariance", "tool_mm", "provenance"}
 _ENTRY_KEYS = {"name", "value", "unit", "u"}
 #: Largest magnitude of a parameter in its customary unit (1 m in µm, 1 rad in µrad): far
