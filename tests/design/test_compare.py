@@ -1,4 +1,4 @@
-"""The strategy comparison (``mtm design compare``) against Alami Mchichi (2018) Tables A.1
+"""The strategy comparison (``mtm samba compare-plans``) against Alami Mchichi (2018) Tables A.1
 and 5.3, and the simulated gauge-block check."""
 
 import json

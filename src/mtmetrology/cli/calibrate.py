@@ -1,4 +1,5 @@
-"""``mtm calibrate``: identify a machine's errors from artefact measurements."""
+"""``mtm samba calibrate`` and ``mtm samba unexplained``: a five-axis machine's errors from
+SAMBA records (commands of the ``mtm samba`` group, :data:`mtmetrology.cli.SHARED_GROUPS`)."""
 
 from __future__ import annotations
 
@@ -37,7 +38,7 @@ probed points (measurement,ball,X,Y,Z,B,C[,S,i,j,k]: one sphere fit per measurem
 or either form repeated K times (campaign,...: mean indications and their sample
 covariance); optional sense_<axis> columns (+1/-1) feed reversal terms. ARTEFACT.yaml
 names the balls, the scale bar and the stylus tip; REPEATABILITY.json the standard
-uncertainty of a reading per axis. Formats: docs/file-formats.md, "SAMBA calibration".
+uncertainty of a reading per axis. Formats: mtm formats samba-calibration.
 
 RESULT.json (kind samba-calibration) is a parameter set that 'mtm predict --params'
 reads as it is, plus the ball centres, tool vector, residuals, volumetric errors,
@@ -155,7 +156,9 @@ def samba_report(ctx: typer.Context, title: str, inputs: list, result, **context
 @user_errors
 def samba(
     ctx: typer.Context,
-    records: Annotated[Path, typer.Argument(help="RECORDS.csv (formats: docs/file-formats.md).")],
+    records: Annotated[
+        Path, typer.Argument(help="RECORDS.csv (formats: mtm formats samba-calibration).")
+    ],
     machine: MachineOption,
     artefact: ArtefactOption,
     model: ErrorModelOption = None,
@@ -323,7 +326,7 @@ def samba(
         )
     cov_e = None if unexplained_out is None else unexplained_from_calibration(cal, sigma)
     if history:
-        record_in_history(doc, m, "mtm calibrate samba", [records, artefact])
+        record_in_history(doc, m, "mtm samba calibrate", [records, artefact])
     if cov_e is not None:
         write_json(unexplained_out, cov_e.to_dict())
 
@@ -418,13 +421,13 @@ def _summary(doc: dict, output: Path | None) -> None:
 UNEXPLAINED_HELP = """cov(e) of the unexplained volumetric error from repeated SAMBA campaigns.
 
 CAMPAIGN.csv ...: two or more records files of the same SAMBA test (same balls,
-indexations and styli in the same order; any form 'mtm calibrate samba' reads), each
+indexations and styli in the same order; any form 'mtm samba calibrate' reads), each
 calibrated on its own. The estimate is the scatter of the residual field between the
 campaigns at the common positions, less the probing noise σ² (--noise-um), with
 ν = (K − 1)(n − p/3), made positive semidefinite by eigenvalue clipping; the pooled
 within-campaign estimate is given beside it. E.json is the unexplained-volumetric-error
 document (µm²) that 'mtm task uncertainty --unexplained' reads, the same form as
-'mtm calibrate samba --unexplained-out'.
+'mtm samba calibrate --unexplained-out'.
 """
 
 

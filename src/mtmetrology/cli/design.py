@@ -1,4 +1,5 @@
-"""``mtm design``: plan a calibration (SAMBA balls and probing programme by DETMAX)."""
+"""``mtm samba plan`` and ``mtm samba compare-plans``: plan a SAMBA calibration (balls and
+probing programme by DETMAX); commands of the ``mtm samba`` group."""
 
 from __future__ import annotations
 
@@ -158,7 +159,7 @@ def samba(
     The programme CSV has columns ball,B,C,S,X,Y,Z (+ sense_B,sense_C for models with
     backlash): X,Y,Z are the nominal readings at the ball centre, so `mtm machine
     identifiability MACHINE PROGRAMME.csv --artefact ARTEFACT.yaml` reads it as is, and
-    `mtm simulate samba --poses PROGRAMME.csv --balls BALLS.yaml --artefact ARTEFACT.yaml`
+    `mtm samba simulate --poses PROGRAMME.csv --balls BALLS.yaml --artefact ARTEFACT.yaml`
     (with the files of --balls-out and --artefact-out) simulates the planned test.
 
     With two or more --tool styli every row is probed with each (a tool column), balls
@@ -416,9 +417,3 @@ def compare(
         report_path=report_path,
         as_json=json,
     )
-
-
-# laser-tracker verification (mtmetrology.cli.tracker): its commands join this group
-from mtmetrology.cli.tracker import design_app as _tracker_app  # noqa: E402
-
-app.registered_commands.extend(_tracker_app.registered_commands)

@@ -1,4 +1,4 @@
-"""``mtm simulate multilateration`` and ``mtm calibrate multilateration``."""
+"""``mtm multilateration simulate`` and ``mtm multilateration calibrate``."""
 
 from __future__ import annotations
 

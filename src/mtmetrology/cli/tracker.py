@@ -1,5 +1,5 @@
-"""``mtm simulate tracker``, ``mtm calibrate tracker``, ``mtm verify tracker``, ``mtm design
-tracker-placement``: laser-tracker volumetric verification (Aguado et al. (2019)).
+"""``mtm tracker simulate``, ``mtm tracker calibrate``, ``mtm tracker verify``, ``mtm tracker
+plan``: laser-tracker volumetric verification (Aguado et al. (2019)).
 
 Each command parses its options, calls one library function of :mod:`mtmetrology.tracker`,
 prints a summary (or the JSON with ``--json``) and writes its outputs; the library is

@@ -1,4 +1,4 @@
-"""``mtm calibrate ballplate`` as one library call: :func:`calibrate_ballplate_files`."""
+"""``mtm cmm calibrate`` as one library call: :func:`calibrate_ballplate_files`."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The multilateration commands as library calls: pose grids, reflector tools, and
-:func:`calibrate_multilateration_file` (``mtm calibrate multilateration``)."""
+:func:`calibrate_multilateration_file` (``mtm multilateration calibrate``)."""
 
 from __future__ import annotations
 
