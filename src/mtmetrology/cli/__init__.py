@@ -3,7 +3,8 @@
 Exit codes: 0 success, 1 internal error (a bug), 2 input error (also rank deficiency,
 non-convergence, resource limits), 3 environment error (file system, scheduler),
 4 a check that ran and did not confirm (``mtm export check``), 130 interrupted (nothing
-written).  Errors are one line on stderr; ``--debug`` shows the
+written), 141 standard output closed by its reader (``mtm ... | head``; nothing printed).
+Errors are one line on stderr; ``--debug`` shows the
 traceback.
 
 ``app`` is the whole command line.  :func:`build_app` builds it with only the command a
