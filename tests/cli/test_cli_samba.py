@@ -106,6 +106,11 @@ def test_calibrate_writes_the_result_it_prints_with_validated_uncertainty(calibr
     assert set(out) == {"name", "value", "unit", "u", "U", "k", "p", "interval"}
     assert unc["validation"]["passed"] and len(unc["validation"]["table"]) == 15
     assert doc["covariance_source"] == "guf"
+    assert (unc["mcm"]["trials"], unc["mcm"]["sequences"], unc["mcm"]["adaptive"]) == (
+        4000,
+        1,
+        False,
+    )
 
 
 def test_predict_reads_the_result_as_it_is(calibrated, records, tmp_path):
@@ -463,3 +468,21 @@ def test_calibrate_history_records_the_written_result(records, tmp_path, monkeyp
     record = show_run(engine, run.id)
     assert record.result == json.loads(out.read_text())
     assert set(record.input_hashes) == {str(records), str(EXAMPLES / "artefact.yaml")}
+
+
+def test_the_console_states_the_monte_carlo_trials(calibrated, capsys):
+    """The summary names the trial count the result document holds (issue 31: an adaptive
+    run of 870 000 trials was silent about it)."""
+    from mtmetrology.cli.calibrate import _summary
+
+    _, doc = calibrated
+    _summary(doc, None)
+    lines = capsys.readouterr().out.splitlines()
+    assert "Monte Carlo: 4000 trials in 1 sequence" in lines
+    adaptive = json.loads(json.dumps(doc))
+    adaptive["uncertainty"]["mcm"].update(
+        trials=870_000, sequences=87, adaptive=True, converged=True
+    )
+    _summary(adaptive, None)
+    lines = capsys.readouterr().out.splitlines()
+    assert "Monte Carlo: 870000 trials in 87 sequences (adaptive, converged)" in lines

@@ -44,3 +44,14 @@ def test_not_on_a_terminal_nothing_is_drawn_however_long():
             clock.now += 5.0
             progress(i, 10)
     assert out.getvalue() == ""
+
+
+def test_a_run_without_a_known_end_counts_its_trials():
+    """An adaptive Monte Carlo (total None): the bar shows the trials done, of no total."""
+    console, out = _console(terminal=True)
+    clock = _Clock()
+    with progress_bar("Monte Carlo trials", console=console, clock=clock) as progress:
+        clock.now += 2.5
+        progress(30_000, None)
+        progress(870_000, None)
+    assert "Monte Carlo trials" in out.getvalue() and "870000/?" in out.getvalue()

@@ -1,7 +1,8 @@
 """A progress bar for long library calls: on a terminal, and only once the run is long.
 
-The library reports progress through a plain callback ``progress(done, total)`` and knows
-nothing of the display; :func:`progress_bar` gives such a callback that draws a rich bar
+The library reports progress through a plain callback ``progress(done, total)`` (total None
+when the run decides its own end, as an adaptive Monte Carlo does) and knows nothing of the
+display; :func:`progress_bar` gives such a callback that draws a rich bar
 on standard error when standard error is a terminal and the call has already run for
 ``after`` seconds (2 s: a short run prints nothing). Not on a terminal (a pipe, a file, a
 CI log) it draws nothing, so standard error stays the messages.
@@ -23,7 +24,7 @@ def progress_bar(
     after: float = 2.0,
     console=None,
     clock: Callable[[], float] = time.monotonic,
-) -> Iterator[Callable[[int, int], None]]:
+) -> Iterator[Callable[[int, int | None], None]]:
     """A ``progress(done, total)`` callback drawing a transient bar once ``after`` s passed.
 
     Parameters
@@ -40,7 +41,7 @@ def progress_bar(
     Yields
     ------
     callable
-        ``progress(done, total)``.
+        ``progress(done, total)``; ``total`` None draws a bar without an end ("done/?").
     """
     from rich.console import Console
     from rich.progress import (
@@ -55,7 +56,7 @@ def progress_bar(
     start = clock()
     shown: list = []  # [Progress, task id] once drawn
 
-    def progress(done: int, total: int) -> None:
+    def progress(done: int, total: int | None) -> None:
         if not console.is_terminal:
             return
         if not shown:

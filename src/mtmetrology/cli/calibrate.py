@@ -23,6 +23,7 @@ from mtmetrology.cli._common import (
     user_errors,
 )
 from mtmetrology.cli._history import HistoryOption, record_in_history
+from mtmetrology.cli._progress import progress_bar
 from mtmetrology.errors import ConvergenceError, InputError
 from mtmetrology.io.files import InputFileError, write_json
 
@@ -298,17 +299,19 @@ def samba(
             campaign_mean=campaign_uncertainty == "mean",
         )
         try:
-            unc = evaluate_uncertainty(
-                cal,
-                inputs,
-                described,
-                method=uncertainty,
-                trials=trials,
-                adaptive=adaptive,
-                digits=digits,
-                seed=seed,
-                executor=executor,
-            )
+            with progress_bar("Monte Carlo trials") as progress:
+                unc = evaluate_uncertainty(
+                    cal,
+                    inputs,
+                    described,
+                    method=uncertainty,
+                    trials=trials,
+                    adaptive=adaptive,
+                    digits=digits,
+                    seed=seed,
+                    executor=executor,
+                    progress=progress,
+                )
         except ConvergenceError as err:
             fail(str(err))
     doc = cal.to_dict(unc, described)
@@ -411,6 +414,14 @@ def _summary(doc: dict, output: Path | None) -> None:
         typer.echo(
             f"  largest residual rms at ball {worst['group']}: {worst['rms_µm']:.2g} µm "
             f"({worst['rms_weighted']:.2g} × the stated noise)"
+        )
+    mc = doc.get("uncertainty", {}).get("mcm")
+    if mc is not None:
+        run = "adaptive, " + ("converged" if mc["converged"] else "not converged")
+        typer.echo(
+            f"Monte Carlo: {mc['trials']} trials in {mc['sequences']} sequence"
+            + ("s" if mc["sequences"] > 1 else "")
+            + (f" ({run})" if mc["adaptive"] else "")
         )
     if "uncertainty" in doc and "validation" in doc["uncertainty"]:
         typer.echo(doc["uncertainty"]["validation"]["message"])
