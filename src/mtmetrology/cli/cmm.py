@@ -25,6 +25,7 @@ from mtmetrology.cli._common import (
     user_errors,
 )
 from mtmetrology.cli._history import record_in_history
+from mtmetrology.cli._progress import progress_bar
 from mtmetrology.io.files import InputFileError, atomic_write, check_output
 
 __all__ = ["app", "calibrate_ballplate", "gp_app"]
@@ -121,18 +122,20 @@ def calibrate_ballplate(
 
     sigma = to_internal(positive_option(sigma_um, "--sigma-um"), "µm")
     m = Machine.load(machine)
-    request = calibrate_ballplate_files(
-        records,
-        m,
-        plate,
-        probes,
-        model=model,
-        degrees=degrees,
-        candidates=[c.strip() for c in candidates.split(",") if c.strip()],
-        sigma=sigma,
-        seed=seed,
-        adequacy=adequacy_rule(keep_a_priori),
-    )
+    with progress_bar("model selection fits") as progress:
+        request = calibrate_ballplate_files(
+            records,
+            m,
+            plate,
+            probes,
+            model=model,
+            degrees=degrees,
+            candidates=[c.strip() for c in candidates.split(",") if c.strip()],
+            sigma=sigma,
+            seed=seed,
+            adequacy=adequacy_rule(keep_a_priori),
+            progress=progress,
+        )
     cal, selection = request.calibration, request.selection
     doc = request.to_dict()
     report = None
