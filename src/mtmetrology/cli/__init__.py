@@ -47,10 +47,12 @@ __all__ = [
 
 _HELP = (
     "mtmetrology: machine-tool and CMM metrology from the command line.\n\n"
+    "Commands read noun first, mtm <noun> <action> (mtm samba calibrate); fit, predict, "
+    "export, demo and formats act on files.\n\n"
     "Exit codes: 0 success, 1 internal error (a bug), 2 input error (also rank deficiency, "
     "non-convergence, resource limits), 3 environment error (file system, scheduler), "
     "4 a check that ran and did not confirm (mtm export check), 130 interrupted (nothing "
-    "written)."
+    "written), 141 standard output closed by its reader (mtm ... | head)."
 )
 
 #: Command name -> (module, attribute, whether it is a group of subcommands).
