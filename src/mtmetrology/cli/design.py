@@ -20,6 +20,7 @@ from mtmetrology.cli._common import (
     parse_tools,
     user_errors,
 )
+from mtmetrology.cli._progress import progress_bar
 from mtmetrology.design.choices import CRITERIA
 from mtmetrology.design.counts import MINUTES_PER_MEASUREMENT
 from mtmetrology.errors import InputError
@@ -378,19 +379,21 @@ def compare(
     m = Machine.load(machine, model)
     spec = load_balls(balls)
     pairs = read_indexations(indexations) if indexations is not None else default_indexations()
-    result = compare_strategies(
-        m,
-        pairs,
-        ([b.id for b in spec.balls], [b.centre_mm for b in spec.balls]),
-        n_balls=_list(n_balls, "--n-balls", int),
-        ks=_list(k, "--k", float),
-        criteria=[c.strip() for c in criterion.split(",") if c.strip()],
-        bar=spec.scale_bar,
-        sigma_mm=float(to_internal(sigma_um, "µm")),
-        gauge_length_mm=gauge_mm,
-        starts=starts,
-        seed=seed,
-    )
+    with progress_bar("strategies") as progress:
+        result = compare_strategies(
+            m,
+            pairs,
+            ([b.id for b in spec.balls], [b.centre_mm for b in spec.balls]),
+            n_balls=_list(n_balls, "--n-balls", int),
+            ks=_list(k, "--k", float),
+            criteria=[c.strip() for c in criterion.split(",") if c.strip()],
+            bar=spec.scale_bar,
+            sigma_mm=float(to_internal(sigma_um, "µm")),
+            gauge_length_mm=gauge_mm,
+            starts=starts,
+            seed=seed,
+            progress=progress,
+        )
     doc = result.to_dict()
     report = None
     if report_path is not None:
