@@ -151,3 +151,25 @@ def test_version_prints_the_installed_version():
     )
     assert run.returncode == 0
     assert run.stdout == f"mtmetrology {importlib.metadata.version('mtmetrology')}\n"
+
+
+def test_the_rename_script_rewrites_old_spellings_once():
+    """tools/rename_commands.py (for scripts and branches written before the change):
+    words across a line break and argument lists are rewritten, Python names are not,
+    and a second pass changes nothing."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[2] / "tools" / "rename_commands.py"
+    spec = importlib.util.spec_from_file_location("rename_commands", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    text = (
+        "$ mtm calibrate ballplate-budget b.yaml\n`mtm calibrate\nballplate` and "
+        'calibrate_samba(); app(["design", "compare", "--k", "2"]); mtm verify lengths r.csv'
+    )
+    new = module.rewrite(text)
+    assert new == (
+        "$ mtm cmm budget b.yaml\n`mtm cmm\ncalibrate` and "
+        'calibrate_samba(); app(["samba", "compare-plans", "--k", "2"]); mtm length predict r.csv'
+    )
+    assert module.rewrite(new) == new
