@@ -1,4 +1,4 @@
-"""Benchmark: cov(e) from K repeated SAMBA campaigns (``mtm calibrate unexplained``).
+"""Benchmark: cov(e) from K repeated SAMBA campaigns (``mtm samba unexplained``).
 
 Problem (examples/samba): K = 6 campaigns of the 13-parameter test, 111 ball-centre
 indications each (34 unknowns per calibration), an unmodelled error e ~ N(0, C) added to

@@ -114,7 +114,7 @@ def main() -> None:
     x = scipy_solve(problems[0])
     n = len(single.parameters.names)
     bench.notes.append(
-        "scipy and mtm calibrate agree on trial 0 to "
+        "scipy and mtm tracker calibrate agree on trial 0 to "
         f"{np.abs(x[:n] - single.parameters.values).max():.2g} (mm or rad, internal units)"
     )
     bench.report()

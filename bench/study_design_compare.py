@@ -1,4 +1,4 @@
-"""Study: Alami Mchichi (2018) Table 5.3 with ``mtm design compare`` on all 450 candidates.
+"""Study: Alami Mchichi (2018) Table 5.3 with ``mtm samba compare-plans`` on all 450 candidates.
 
 84-parameter model, the four laboratory balls (nested: 3 and 4 balls), k = 2, 3, 4, 5, 10,
 criterion O2, three DETMAX starts: Cond_N, Cond_n start → end, the improvement and the

@@ -1,4 +1,4 @@
-"""Study: which model ``mtm calibrate ballplate --model auto`` picks, over seeds.
+"""Study: which model ``mtm cmm calibrate --model auto`` picks, over seeds.
 
 The virtual bridge CMM of ``tests/cmm/test_model_selection.py`` (seed-model errors plus
 third-degree straightness; five calibration positions, three styli) is simulated at seeds

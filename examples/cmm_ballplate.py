@@ -181,13 +181,13 @@ def main(ctx: DemoContext) -> None:
     common = ("--machine", CMM, "--plate", files["plate.yaml"], "--probes", files["probes.yaml"])
     ctx.command(
         "simulate the ball-plate records",
-        "simulate", "ballplate", *common, "--positions", ctx.shown("cmm", "positions.yaml"),
+        "cmm", "simulate", *common, "--positions", ctx.shown("cmm", "positions.yaml"),
         "--params", ctx.shown("cmm", "truth.yaml"), "--seed", str(seed),
         "-o", files["records.csv"],
     )  # fmt: skip
     ctx.command(
         "calibrate the CMM (add --model auto to choose the model by cross-validation)",
-        "calibrate", "ballplate", files["records.csv"], *common,
+        "cmm", "calibrate", files["records.csv"], *common,
         "-o", ctx.shown("cmm", "calibration.json"),
     )  # fmt: skip
     ctx.command(

@@ -3,7 +3,7 @@ compensation, and compensated coordinates, on the virtual five-axis machine.
 
 Every step is the SAMBA application (:mod:`mtmetrology.samba`) run on files the script
 writes into its folder, so each printed ``$ mtm`` command redoes it; the simulated
-records are those ``mtm simulate samba`` writes. Run it on its own::
+records are those ``mtm samba simulate`` writes. Run it on its own::
 
     python examples/samba_calibration.py [OUT]
 
@@ -116,7 +116,7 @@ def samba_calibration_section(
             noise=float(to_internal(NOISE_UM, "µm")),
             seed=seed_sim,
         ).write(ctx.path("samba", "indications.csv"))
-    ctx.command("simulate the campaign", "simulate", "samba", *simulate,
+    ctx.command("simulate the campaign", "samba", "simulate", *simulate,
                 "-o", shown["indications.csv"])  # fmt: skip
     records = read_records(ctx.path("samba", "indications.csv"), m, artefact)
     sigma = float(to_internal(NOISE_UM, "µm"))
@@ -137,7 +137,7 @@ def samba_calibration_section(
     _unexplained_document(ctx, cal.residual_vectors)
     ctx.command(
         "calibrate with GUF and adaptive Monte Carlo (JCGM 102 validation)",
-        "calibrate", "samba", shown["indications.csv"], "--machine", preset, "--artefact",
+        "samba", "calibrate", shown["indications.csv"], "--machine", preset, "--artefact",
         shown["samba.yaml"], "--noise-um", f"{NOISE_UM:g}", "--estimate-tool",
         "--uncertainty", "both", "--adaptive", "--digits", "1", "--seed", str(seed_mcm),
         "-o", shown["params.json"],
@@ -181,8 +181,8 @@ def _report_calibration(ctx: DemoContext, m: Machine, cal, unc, truth) -> int:
     ctx.report.section(
         "Simulated SAMBA calibration",
         f"{len(cal.records.balls)} ball-centre indications simulated with "
-        f"{NOISE_UM:g} µm probing noise on the virtual machine ('mtm simulate samba'), "
-        "calibrated with 'mtm calibrate samba': the 13 errors, the ball centres and the "
+        f"{NOISE_UM:g} µm probing noise on the virtual machine ('mtm samba simulate'), "
+        "calibrated with 'mtm samba calibrate': the 13 errors, the ball centres and the "
         "tool vector. Their uncertainty by the GUF through the identification and by an "
         f"adaptive Monte Carlo re-solving it ({mc.trials} trials, JCGM 101 §7.9), compared "
         "as JCGM 102 §8 prescribes. Unexplained volumetric error "
@@ -216,7 +216,7 @@ def _report_calibration(ctx: DemoContext, m: Machine, cal, unc, truth) -> int:
 
 
 def _gauge_block(ctx: DemoContext, preset: str, shown: dict, seed: int) -> None:
-    """``mtm simulate length`` and ``mtm verify length``: nominal and compensated errors."""
+    """``mtm length simulate`` and ``mtm length verify``: nominal and compensated errors."""
     gauge = ctx.path("gauge", "gauge.csv")
     with ctx.step(f"a gauge block at {GAUGE_PAIRS} (B, C) indexations, before/after"):
         base = Machine.load(preset)
@@ -245,22 +245,22 @@ def _gauge_block(ctx: DemoContext, preset: str, shown: dict, seed: int) -> None:
     ctx.write_json(doc, "gauge", "length-check.json")
     ctx.command(
         "simulate the gauge-block readings",
-        "simulate", "length", "--machine", preset, "--truth", shown["truth.json"],
+        "length", "simulate", "--machine", preset, "--truth", shown["truth.json"],
         f"--end-a={GAUGE_END_A}", f"--end-b={GAUGE_END_B}", "--pairs", str(GAUGE_PAIRS),
         "--noise-um", f"{NOISE_UM:g}", "--seed", str(seed), "-o", ctx.shown("gauge", "gauge.csv"),
     )  # fmt: skip
     ctx.command(
         "the gauge block before and after compensation",
-        "verify", "length", ctx.shown("gauge", "gauge.csv"), "--machine", preset,
+        "length", "verify", ctx.shown("gauge", "gauge.csv"), "--machine", preset,
         "--params", shown["params.json"], "--length", f"{GAUGE_LENGTH_MM}",
         "--u-length", f"{GAUGE_U_MM}", "-o", ctx.shown("gauge", "length-check.json"),
     )  # fmt: skip
     ctx.report.section(
         "A gauge block before and after compensation",
         f"A {GAUGE_LENGTH_MM:g} mm gauge block lying diagonally on the table, its end faces "
-        f"probed at {GAUGE_PAIRS} random (B, C) indexations ('mtm simulate length'), "
+        f"probed at {GAUGE_PAIRS} random (B, C) indexations ('mtm length simulate'), "
         "measured with the nominal kinematics and with the calibrated parameters "
-        "('mtm verify length'). Length errors in µm.",
+        "('mtm length verify'). Length errors in µm.",
     )
     stats = ("mean", "rms", "std", "range", "max_abs")
     ctx.report.table(

@@ -4,7 +4,7 @@ Two balls are chosen from a grid of twelve candidates (three positions in X, two
 stem lengths) and then the (B, C) indexations, by the D criterion, for the 13-parameter
 model (Alami Mchichi 2018, §5.5–5.7); the predicted standard uncertainty of every parameter
 and the test duration come with the programme. It calls :func:`mtmetrology.design.samba.plan_samba`
-with the arguments ``mtm design samba`` uses, so the printed command rewrites the same
+with the arguments ``mtm samba plan`` uses, so the printed command rewrites the same
 programme. Run it on its own::
 
     python examples/samba_planning.py [OUT]
@@ -66,7 +66,7 @@ def main(ctx: DemoContext) -> None:
     add_result(ctx.report, design)
     ctx.command(
         "the plan",
-        "design", "samba", "--machine", PRESET, "--model", "13",
+        "samba", "plan", "--machine", PRESET, "--model", "13",
         "--balls-from", ctx.shown("planning", "ball-grid.yaml"), "--n-balls", "2",
         "--k", "3", "--criterion", "D", "--starts", "1", "--seed", str(ctx.seed),
         "--b-grid", B_GRID, "--c-grid", C_GRID, "--sigma-um", f"{SIGMA_UM:g}",

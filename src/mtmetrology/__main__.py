@@ -15,6 +15,9 @@ import sys
 
 INTERRUPTED = "interrupted; nothing written"
 EXIT_INTERRUPTED = 130
+#: The reader of standard output closed it (``mtm machine list | head -1``): the code of a
+#: program ended by SIGPIPE (128 + 13), which a shell does not report.
+EXIT_PIPE_CLOSED = 141
 
 
 def _interrupted() -> None:
@@ -27,6 +30,17 @@ def _interrupted() -> None:
     sys.stderr.write(message + "\n")
     sys.stderr.flush()
     raise SystemExit(EXIT_INTERRUPTED)
+
+
+def _pipe_closed() -> None:
+    """End quietly: the reader took what it wanted. Standard output goes to the null
+    device, so that the interpreter's last flush of what is still buffered cannot fail
+    again ("Exception ignored ... BrokenPipeError")."""
+    import os
+
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    raise SystemExit(EXIT_PIPE_CLOSED)
 
 
 def main(args: list[str] | None = None) -> None:
@@ -55,13 +69,21 @@ def main(args: list[str] | None = None) -> None:
                 signal.signal(signal.SIGINT, signal.SIG_IGN)
         except typer.Abort:
             raise KeyboardInterrupt from None
+        except SystemExit as ended:
+            # click answers a closed standard output (EPIPE) with exit 1, the code of a bug
+            if isinstance(ended.__context__, BrokenPipeError):
+                raise ended.__context__ from None
+            raise
         except CLICK_EXCEPTION as err:
             err.show()
             raise SystemExit(err.exit_code) from None
         if code == EXIT_INTERRUPTED and not interrupt_reported():
             raise KeyboardInterrupt  # typer turned a Ctrl-C outside the command into 130
+        sys.stdout.flush()  # here, where a closed pipe is still ours to answer
     except KeyboardInterrupt:
         _interrupted()
+    except BrokenPipeError:
+        _pipe_closed()
     raise SystemExit(code if isinstance(code, int) else 0)
 
 

@@ -29,7 +29,7 @@ def test_default_scales_and_the_option_keeps_the_a_priori_covariance(tmp_path):
     (tmp_path / "st.yaml").write_text(STATIONS)
     lengths = tmp_path / "l.csv"
     r = _run(
-        "simulate", "multilateration", "--machine", "three-axis-xfyz", "--stations",
+        "multilateration", "simulate", "--machine", "three-axis-xfyz", "--stations",
         tmp_path / "st.yaml", "--grid", "4,4,4", "--noise", "0.4um+0.6um/m", "--seed", 3,
         "-o", lengths,
     )  # fmt: skip
@@ -38,7 +38,7 @@ def test_default_scales_and_the_option_keeps_the_a_priori_covariance(tmp_path):
     for name, extra in (("scale", ()), ("a-priori", ("--keep-a-priori-covariance",))):
         out = tmp_path / f"{name}.json"
         r = _run(
-            "calibrate", "multilateration", lengths, "--machine", "three-axis-xfyz",
+            "multilateration", "calibrate", lengths, "--machine", "three-axis-xfyz",
             "-o", out, *extra,
         )  # fmt: skip
         assert r.exit_code == 0, r.output

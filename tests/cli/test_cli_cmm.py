@@ -1,4 +1,4 @@
-"""``mtm simulate ballplate``, ``mtm calibrate ballplate``, ``mtm gp``, ``mtm predict --probes``."""
+"""``mtm cmm simulate``, ``mtm cmm calibrate``, ``mtm gp``, ``mtm predict --probes``."""
 
 from __future__ import annotations
 
@@ -71,7 +71,7 @@ def files(tmp_path_factory):
     res = runner.invoke(
         app,
         [
-            "simulate", "ballplate", *M, "--params", str(out["truth"]), "--plate",
+            "cmm", "simulate", *M, "--params", str(out["truth"]), "--plate",
             str(out["plate"]), "--probes", str(out["probes"]), "--positions",
             str(out["positions"]), "--seed", "3", "-o", str(d / "records.csv"),
         ],
@@ -85,7 +85,7 @@ def _calibrate(files, records, output, *extra):
     return runner.invoke(
         app,
         [
-            "calibrate", "ballplate", str(records), *M, "--plate", str(files["plate"]),
+            "cmm", "calibrate", str(records), *M, "--plate", str(files["plate"]),
             "--probes", str(files["probes"]), "-o", str(output), *extra,
         ],
     )  # fmt: skip
@@ -264,13 +264,13 @@ def test_budget_command(files):
     path = files["dir"] / "budget.yaml"
     path.write_text(yaml.safe_dump(spec))
     out = files["dir"] / "budget.json"
-    res = runner.invoke(app, ["calibrate", "ballplate-budget", str(path), "-o", str(out)])
+    res = runner.invoke(app, ["cmm", "budget", str(path), "-o", str(out)])
     assert res.exit_code == 0, res.output
     o = json.loads(out.read_text())["outputs"][0]
     assert o["name"] == "l_x" and o["U"] == pytest.approx(o["k"] * o["u"])
     spec["cte_per_K"] = -1.0
     path.write_text(yaml.safe_dump(spec))
-    res = runner.invoke(app, ["calibrate", "ballplate-budget", str(path), "-o", str(out) + "x"])
+    res = runner.invoke(app, ["cmm", "budget", str(path), "-o", str(out) + "x"])
     assert res.exit_code == 2 and "cte_per_K" in res.output
 
 

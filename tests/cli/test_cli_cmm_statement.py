@@ -1,4 +1,4 @@
-"""``mtm calibrate ballplate-budget`` with a specification section: the statement at 532 mm."""
+"""``mtm cmm budget`` with a specification section: the statement at 532 mm."""
 
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ BUDGET = {
 def test_statement_in_the_budget_result(tmp_path):
     path, out = tmp_path / "budget.yaml", tmp_path / "budget.json"
     path.write_text(yaml.safe_dump(BUDGET), encoding="utf-8")
-    res = runner.invoke(app, ["calibrate", "ballplate-budget", str(path), "-o", str(out)])
+    res = runner.invoke(app, ["cmm", "budget", str(path), "-o", str(out)])
     assert res.exit_code == 0, res.output
     st = json.loads(out.read_text())["statement"]
     assert [round(st[k], 3) for k in ("U_cmm_um", "U_plate_um", "mpe_um")] == [
@@ -46,7 +46,7 @@ def test_unknown_specification_key_exits_2_naming_it(tmp_path):
     bad = {**BUDGET, "specification": {**BUDGET["specification"], "mpe_b": 1.0}}
     path, out = tmp_path / "bad.yaml", tmp_path / "bad.json"
     path.write_text(yaml.safe_dump(bad), encoding="utf-8")
-    res = runner.invoke(app, ["calibrate", "ballplate-budget", str(path), "-o", str(out)])
+    res = runner.invoke(app, ["cmm", "budget", str(path), "-o", str(out)])
     assert res.exit_code == 2
     errors = [ln for ln in res.output.splitlines() if ln.startswith("error:")]
     assert len(errors) == 1 and "mpe_b" in errors[0]

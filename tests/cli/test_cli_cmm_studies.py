@@ -71,7 +71,7 @@ def files(tmp_path_factory):
     res = runner.invoke(
         app,
         [
-            "simulate", "ballplate", *M, "--params", out["truth"], "--plate", out["plate"],
+            "cmm", "simulate", *M, "--params", out["truth"], "--plate", out["plate"],
             "--probes", out["probes"], "--positions", out["positions"], "--seed", "4",
             "-o", out["records"],
         ],

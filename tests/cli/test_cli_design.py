@@ -1,4 +1,4 @@
-"""mtm design samba: programme file, JSON document, hand-over to mtm machine
+"""mtm samba plan: programme file, JSON document, hand-over to mtm machine
 identifiability, and bad input (exit 2, one line, nothing written)."""
 
 import itertools
@@ -31,7 +31,7 @@ def planned(tmp_path_factory):
     d = tmp_path_factory.mktemp("design")
     (d / "grid.yaml").write_text(SMALL_GRID)
     args = [
-        "design", "samba", *MACHINE, "--model", "13", "--balls-from", str(d / "grid.yaml"),
+        "samba", "plan", *MACHINE, "--model", "13", "--balls-from", str(d / "grid.yaml"),
         "--n-balls", "1", "--k", "3", "--starts", "2", "--seed", "7",
         "--b-grid", "-90:90:15", "--c-grid", "0:330:30",
         "-o", str(d / "prog.csv"), "--artefact-out", str(d / "art.yaml"), "--json",
@@ -71,7 +71,7 @@ def test_identifiability_reads_the_programme_and_agrees(planned):
 def test_84_model_programme_states_approach_senses(tmp_path):
     (tmp_path / "balls.yaml").write_text(BALLS)
     out = tmp_path / "prog.csv"
-    args = ["design", "samba", *MACHINE, "--model", "84", "--balls", str(tmp_path / "balls.yaml")]
+    args = ["samba", "plan", *MACHINE, "--model", "84", "--balls", str(tmp_path / "balls.yaml")]
     args += ["--k", "1", "--count-rule", "indexations", "--criterion", "D", "--starts", "1"]
     args += ["--seed", "1", "-o", str(out)]
     args += ["--b-grid", "-90:90:15", "--c-grid", "0:315:45"]
@@ -98,7 +98,7 @@ def test_84_model_programme_states_approach_senses(tmp_path):
 def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, extra, names):
     (tmp_path / "balls.yaml").write_text(BALLS)
     out = tmp_path / "prog.csv"
-    args = ["design", "samba", *MACHINE, "--model", "13", "--balls", str(tmp_path / "balls.yaml")]
+    args = ["samba", "plan", *MACHINE, "--model", "13", "--balls", str(tmp_path / "balls.yaml")]
     result = runner.invoke(app, [*args, *extra, "-o", str(out)])
     assert result.exit_code == 2
     assert result.output.startswith("error: ") and result.output.count("\n") == 1
@@ -109,7 +109,7 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, extra, nam
 def test_too_small_k_is_refused_naming_k(tmp_path):
     (tmp_path / "balls.yaml").write_text(BALLS)
     out = tmp_path / "prog.csv"
-    args = ["design", "samba", *MACHINE, "--model", "84", "--balls", str(tmp_path / "balls.yaml")]
+    args = ["samba", "plan", *MACHINE, "--model", "84", "--balls", str(tmp_path / "balls.yaml")]
     args += ["--k", "0.1", "--criterion", "D", "--starts", "1", "-o", str(out)]
     result = runner.invoke(app, args)
     assert result.exit_code == 2
@@ -127,7 +127,7 @@ def test_default_count_rule_reproduces_4b5n_for_the_84_parameter_model(tmp_path)
     issue 18 §3): the default rule is the source's for the model, and the result says so."""
     (tmp_path / "balls.yaml").write_text(BALLS)
     args = [
-        "design", "samba", *MACHINE, "--model", "84", "--balls", str(tmp_path / "balls.yaml"),
+        "samba", "plan", *MACHINE, "--model", "84", "--balls", str(tmp_path / "balls.yaml"),
         "--k", "5", "--criterion", "D", "--starts", "1", "--seed", "1",
         "-o", str(tmp_path / "p.csv"), "--json",
     ]  # fmt: skip

@@ -1,4 +1,4 @@
-"""mtm design compare: the comparison JSON reads back as the library's result, the report
+"""mtm samba compare-plans: the comparison JSON reads back as the library's result, the report
 is written, and bad input is refused with one line, exit 2, nothing written."""
 
 import json
@@ -16,7 +16,7 @@ balls:
   - {id: "2", centre_mm: [80, -40, 150]}
 """
 PAIRS = "B,C\n" + "".join(f"{b},{c}\n" for b in range(-90, 91, 30) for c in range(0, 360, 45))
-BASE = ["design", "compare", "--machine", "five-axis-wcbxfzyst", "--model", "13"]
+BASE = ["samba", "compare-plans", "--machine", "five-axis-wcbxfzyst", "--model", "13"]
 
 
 def test_compare_writes_the_result_and_the_report(tmp_path):

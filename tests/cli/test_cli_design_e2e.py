@@ -1,10 +1,10 @@
 """Plan, simulate, calibrate (issue 13): the uncertainties a DETMAX programme predicts are
 the ones its simulated campaigns achieve.
 
-`mtm design samba` plans a 13-parameter test (1 ball chosen from a small grid, 1B.3n) and
-writes the programme, the artefact and the ball centres; `mtm simulate samba` probes K
+`mtm samba plan` plans a 13-parameter test (1 ball chosen from a small grid, 1B.3n) and
+writes the programme, the artefact and the ball centres; `mtm samba simulate` probes K
 independent campaigns of that programme on a machine with the errors of Sepahi Boroujeni
-(2021), Table 5-2, with the probing noise the plan assumed; `mtm calibrate samba`
+(2021), Table 5-2, with the probing noise the plan assumed; `mtm samba calibrate`
 identifies every campaign on its own.
 """
 
@@ -45,7 +45,7 @@ def _invoke(args):
 def planned(tmp_path_factory):
     d = tmp_path_factory.mktemp("plan")
     (d / "grid.yaml").write_text(GRID)
-    args = ["design", "samba", *MACHINE, "--balls-from", d / "grid.yaml", "--n-balls", "1"]
+    args = ["samba", "plan", *MACHINE, "--balls-from", d / "grid.yaml", "--n-balls", "1"]
     args += ["--k", "3", "--criterion", "D", "--starts", "1", "--seed", "11"]
     args += ["--b-grid", "-90:90:15", "--c-grid", "0:330:30", "--sigma-um", NOISE_UM]
     args += ["-o", d / "prog.csv", "--artefact-out", d / "art.yaml"]
@@ -90,7 +90,7 @@ def _certified_bar(folder, rng):
 def _calibrate(records, folder, uncertainty="none", artefact=None):
     out = folder / (records.stem + ".json")
     artefact = folder / "art.yaml" if artefact is None else artefact
-    args = ["calibrate", "samba", records, *MACHINE, "--artefact", artefact]
+    args = ["samba", "calibrate", records, *MACHINE, "--artefact", artefact]
     # The plan counts the tool vector among its unknowns (25 = 13 + 3 balls x 3 + tool).
     args += ["--estimate-tool", "--noise-um", NOISE_UM, "--uncertainty", uncertainty]
     args += ["-o", out]
@@ -113,7 +113,7 @@ def test_programme_files_feed_the_simulator(planned):
 def test_achieved_uncertainties_within_20_percent_of_planned(planned):
     d, doc = planned
     planned_u = {p["name"]: p["u"] for p in doc["parameters"]}
-    args = ["simulate", "samba", *MACHINE, "--truth", TRUTH, "--artefact", d / "art.yaml"]
+    args = ["samba", "simulate", *MACHINE, "--truth", TRUTH, "--artefact", d / "art.yaml"]
     args += ["--balls", d / "balls.yaml", "--poses", d / "prog.csv", "--noise-um", NOISE_UM]
     args += ["--campaigns", CAMPAIGNS, "--seed", "2026", "-o", d / "records.csv"]
     _invoke(args)

@@ -99,3 +99,24 @@ def test_sigint_during_start_up_is_one_line_and_130(tmp_path):
         pytest.skip("the command finished before the signal")
     assert process.returncode == 130, stderr
     assert stderr.decode().splitlines() == ["interrupted; nothing written"]
+
+
+@pytest.mark.parametrize(
+    "args", [["machine", "list"], ["--help"], ["machine", "show", "three-axis-xfyz"]]
+)
+def test_a_closed_pipe_ends_quietly(args):
+    """``mtm machine list | head -1``: the reader closed standard output before mtm wrote;
+    nothing on stderr (no "error: Broken pipe") and the code of a SIGPIPE end, 141."""
+    read_end, write_end = os.pipe()
+    os.close(read_end)  # the reader is gone before the first line is written
+    try:
+        run = subprocess.run(
+            [sys.executable, "-m", "mtmetrology", *args],
+            stdout=write_end,
+            stderr=subprocess.PIPE,
+            text=True,
+            timeout=120,
+        )
+    finally:
+        os.close(write_end)
+    assert (run.returncode, run.stderr) == (141, "")

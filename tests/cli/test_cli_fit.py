@@ -277,3 +277,48 @@ def test_a_least_squares_fit_does_without_the_zone_machinery(tmp_path):
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert json.loads(done.stdout[: done.stdout.rindex("}") + 1])["element"] == "sphere"
     assert done.stdout.strip().splitlines()[-1] == "[]"
+
+
+@pytest.mark.parametrize("method", ["ls", "minimum-zone"])
+def test_an_x_y_profile_is_a_line_in_the_plane_z_0(tmp_path, method):
+    """Points (±2, +h), (±1, −h): by symmetry the fitted line is y = 0 (least squares and
+    minimum zone alike), the residuals ±h and the 2-D straightness exactly 2h; the same
+    points with z = 0 give the same document but for the note."""
+    h = 0.001
+    xy = np.array([[-2.0, h], [-1.0, -h], [1.0, -h], [2.0, h]])
+    doc = _run_json("line", _write(tmp_path / "xy.csv", xy, header="x,y"), "--method", method)
+    assert doc["form_error"]["value"] == pytest.approx(2 * h * 1e3, abs=1e-9)
+    params = {p["name"]: p["value"] for p in doc["parameters"]}
+    assert abs(params["ax"]) == pytest.approx(1.0, abs=1e-12)
+    assert (params["y0"], params["z0"], params["ay"], params["az"]) == pytest.approx(
+        (0.0, 0.0, 0.0, 0.0), abs=1e-12
+    )
+    assert doc["notes"] == ["x, y profile: fitted in the plane z = 0 (2-D straightness)"]
+    flat = _run_json(
+        "line", _write(tmp_path / "xyz.csv", np.c_[xy, np.zeros(4)]), "--method", method
+    )
+    assert "notes" not in flat
+    assert flat["parameters"] == doc["parameters"]
+    assert flat["form_error"] == doc["form_error"]
+
+
+def test_an_x_y_circle_profile_has_its_roundness(tmp_path):
+    """Eight points alternately at radius R + d and R − d: centre 0, radius R, least-squares
+    roundness 2d, in the plane z = 0."""
+    radius, d = 10.0, 0.002
+    angles = np.arange(8) * np.pi / 4
+    r = radius + d * np.array([1, -1] * 4)
+    doc = _run_json(
+        "circle",
+        _write(tmp_path / "ring.csv", np.c_[r * np.cos(angles), r * np.sin(angles)], header="x,y"),
+    )
+    params = {p["name"]: p["value"] for p in doc["parameters"]}
+    assert params["r"] == pytest.approx(radius, abs=1e-9)
+    assert (params["x0"], params["y0"], params["z0"]) == pytest.approx((0, 0, 0), abs=1e-9)
+    assert doc["form_error"]["value"] == pytest.approx(2 * d * 1e3, abs=1e-6)
+    assert doc["notes"] == ["x, y profile: fitted in the plane z = 0 (2-D roundness)"]
+
+
+def test_an_x_y_file_is_no_plane(tmp_path):
+    path = _write(tmp_path / "xy.csv", np.ones((5, 2)), header="x,y")
+    _fails(["plane", path], "error:", str(path), "missing column 'z'")

@@ -1,4 +1,4 @@
-"""Help texts read cleanly at 80 columns (issue 18 §3: ``mtm calibrate samba --help`` was
+"""Help texts read cleanly at 80 columns (issue 18 §3: ``mtm samba calibrate --help`` was
 wrapped twice, file formats broken mid-sentence)."""
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ def test_every_help_is_prose_on_one_line_or_verbatim_within_the_width():
                 assert not too_wide, (path, too_wide)
 
 
-@pytest.mark.parametrize("command", [["calibrate", "samba"], ["repeatability", "fit"]])
+@pytest.mark.parametrize("command", [["samba", "calibrate"], ["repeatability", "fit"]])
 def test_help_at_80_columns_has_no_line_broken_twice(command):
     """Rendered at COLUMNS=80, each description line is the terminal's own wrap: a prose
     line ends short only at its paragraph's end (a double wrap left 'that put' alone)."""

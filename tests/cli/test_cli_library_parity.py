@@ -194,14 +194,14 @@ def case_multilateration(tmp_path):
     result = runner.invoke(
         app,
         [
-            *("simulate", "multilateration", "--machine", "three-axis-xfyz", "--grid", "4,4,4"),
+            *("multilateration", "simulate", "--machine", "three-axis-xfyz", "--grid", "4,4,4"),
             *("--stations", str(tmp_path / "stations.yaml"), "--seed", "1", "-o", str(lengths)),
         ],
     )
     assert result.exit_code == 0, result.output
     cli = _json(
         [
-            *("calibrate", "multilateration", lengths, "--machine", "three-axis-xfyz"),
+            *("multilateration", "calibrate", lengths, "--machine", "three-axis-xfyz"),
             *("--mc", "4", "--seed", "3", "--json"),
         ]
     )
@@ -222,7 +222,7 @@ def case_tracker(tmp_path):
     result = runner.invoke(
         app,
         [
-            *("simulate", "tracker", "--machine", "three-axis-xfyz", "--tools"),
+            *("tracker", "simulate", "--machine", "three-axis-xfyz", "--tools"),
             *(str(tmp_path / "tools.yaml"), "--seed", "4", "-o", str(meas)),
             *("--mesh", "800:1200:100,100:500:200,200:400:100"),
         ],
@@ -230,8 +230,8 @@ def case_tracker(tmp_path):
     assert result.exit_code == 0, result.output
     cli = _json(
         [
-            "calibrate",
             "tracker",
+            "calibrate",
             meas,
             "--machine",
             "three-axis-xfyz",
@@ -256,7 +256,7 @@ def case_simulate_length(tmp_path):
     result = runner.invoke(
         app,
         [
-            *("simulate", "length", "--machine", MACHINE.name, "--end-a", "-100,-100,40"),
+            *("length", "simulate", "--machine", MACHINE.name, "--end-a", "-100,-100,40"),
             *("--end-b", "100,100,40", "--pairs", "6", "--noise-um", "0.5", "--seed", "5"),
             *("-o", str(out)),
         ],
@@ -339,7 +339,7 @@ def _ballplate_files(tmp_path):
         [
             str(a)
             for a in [
-                *("simulate", "ballplate", "--machine", "cmm-moving-bridge", "--plate"),
+                *("cmm", "simulate", "--machine", "cmm-moving-bridge", "--plate"),
                 *(path["plate"], "--probes", path["probes"], "--positions"),
                 *(path["positions"], "--seed", "3", "-o", path["records"]),
             ]
@@ -355,7 +355,7 @@ def case_ballplate(tmp_path):
     path = _ballplate_files(tmp_path)
     cli = _json(
         [
-            *("calibrate", "ballplate", path["records"], "--machine", "cmm-moving-bridge"),
+            *("cmm", "calibrate", path["records"], "--machine", "cmm-moving-bridge"),
             *("--plate", path["plate"], "--probes", path["probes"]),
             *("-o", tmp_path / "cal.json", "--sigma-um", "0.6", "--seed", "1", "--json"),
         ]
@@ -408,7 +408,7 @@ def case_design_compare(tmp_path):
     )
     cli = _json(
         [
-            *("design", "compare", "--machine", MACHINE.name, "--model", "13", "--balls"),
+            *("samba", "compare-plans", "--machine", MACHINE.name, "--model", "13", "--balls"),
             *(balls, "--indexations", pairs, "--n-balls", "1", "--k", "3", "--starts", "1"),
             *("--criterion", "D", "--sigma-um", "0.8", "--seed", "5", "--json"),
         ]
@@ -489,7 +489,7 @@ def case_validate_task(tmp_path):
         )
     cli = _json(
         [
-            *("validate", "task", sides["a"], sides["b"], "--machine", MACHINE.name),
+            *("task", "validate", sides["a"], sides["b"], "--machine", MACHINE.name),
             *("--params", params, "--reference-mm", "150", "--reference-u-um", "0.15"),
             *("--cte", "10.8e-6", "--cte-u", "0.15e-6", "--delta-t", "1.75"),
             *("--delta-t-u", "0.003", "--long-term", lt, "--tip-diameter", "0", "--json"),
@@ -530,7 +530,7 @@ def case_validate_pooling(tmp_path):
         )
     cli = _json(
         [
-            *("validate", "pooling", *sets, "--machine", MACHINE.name, "--params", params),
+            *("task", "validate-pooling", *sets, "--machine", MACHINE.name, "--params", params),
             *("--diameter-mm", "20", "--diameter-u-um", "0.25", "--sphericity-um", "0.4"),
             *("--sphericity-u-um", "0.05", "--cte", "11.5e-6", "--delta-t", "0.5"),
             *("--tip-diameter", "0", "--draws", "4", "--points-per-draw", "6", "--seed", "3"),
@@ -562,7 +562,7 @@ def case_verify_length(tmp_path):
     result = runner.invoke(
         app,
         [
-            *("simulate", "length", "--machine", MACHINE.name, "--end-a", "-100,-100,40"),
+            *("length", "simulate", "--machine", MACHINE.name, "--end-a", "-100,-100,40"),
             *("--end-b", "100,100,40", "--pairs", "5", "--noise-um", "0.5", "--seed", "8"),
             *("-o", str(gauge)),
         ],
@@ -571,7 +571,7 @@ def case_verify_length(tmp_path):
     length = float(np.hypot(200.0, 200.0))
     cli = _json(
         [
-            *("verify", "length", gauge, "--machine", MACHINE.name, "--length", repr(length)),
+            *("length", "verify", gauge, "--machine", MACHINE.name, "--length", repr(length)),
             *("--u-length", "0.0002", "--json"),
         ]
     )
@@ -627,7 +627,7 @@ def case_cmm_budget(tmp_path):
     }
     path = tmp_path / "budget.yaml"
     path.write_text(yaml.safe_dump(spec), encoding="utf-8")
-    cli = _json(["calibrate", "ballplate-budget", path, "-o", tmp_path / "out.json", "--json"])
+    cli = _json(["cmm", "budget", path, "-o", tmp_path / "out.json", "--json"])
     return cli, ballplate_budget_file(path).to_dict()
 
 
@@ -638,7 +638,7 @@ def case_machine_identifiability(tmp_path):
     artefact, poses = examples / "artefact.yaml", tmp_path / "programme.csv"
     _json(  # the example's probing programme as ball-centre indications (ball,X,Y,Z,B,C,S)
         [
-            *("simulate", "samba", "--machine", "five-axis-wcbxfzyst", "--model", "13"),
+            *("samba", "simulate", "--machine", "five-axis-wcbxfzyst", "--model", "13"),
             *("--artefact", artefact, "--truth", examples / "truth.json"),
             *("--balls", examples / "balls.yaml", "--poses", examples / "poses.csv"),
             *("--seed", "1", "-o", poses),
@@ -696,20 +696,20 @@ def case_export_check(tmp_path):
 CASES = {
     "export siemens --verify-program": case_export_verify,
     "export check": case_export_check,
-    "calibrate ballplate-budget": case_cmm_budget,
+    "cmm budget": case_cmm_budget,
     "machine identifiability": case_machine_identifiability,
     "uncertainty run": case_uncertainty_run,
     "budget volumetric-map": case_volumetric_map,
     "cmm compare": case_cmm_compare,
-    "design compare": case_design_compare,
-    "validate task": case_validate_task,
-    "validate pooling": case_validate_pooling,
-    "verify length": case_verify_length,
-    "calibrate ballplate": case_ballplate,
+    "samba compare-plans": case_design_compare,
+    "task validate": case_validate_task,
+    "task validate-pooling": case_validate_pooling,
+    "length verify": case_verify_length,
+    "cmm calibrate": case_ballplate,
     "repeatability fit": case_repeatability_fit,
-    "simulate length": case_simulate_length,
-    "calibrate tracker": case_tracker,
-    "calibrate multilateration": case_multilateration,
+    "length simulate": case_simulate_length,
+    "tracker calibrate": case_tracker,
+    "multilateration calibrate": case_multilateration,
     "repeatability hysteresis": case_hysteresis,
     "budget iso15530-3": case_budget,
     "task uncertainty": case_task,
@@ -731,7 +731,7 @@ def test_parity_detects_a_field_the_command_would_add(tmp_path):
 
 
 def test_calibrate_unexplained_output_is_the_library_result(tmp_path):
-    """``mtm calibrate unexplained`` equals :func:`mtmetrology.samba.unexplained_from_campaigns`
+    """``mtm samba unexplained`` equals :func:`mtmetrology.samba.unexplained_from_campaigns`
     on three simulated campaigns of the example SAMBA test."""
     from pathlib import Path
 
@@ -748,14 +748,14 @@ def test_calibrate_unexplained_output_is_the_library_result(tmp_path):
             [
                 str(a)
                 for a in [
-                    *("simulate", "samba", *common, "--truth", examples / "truth.json"),
+                    *("samba", "simulate", *common, "--truth", examples / "truth.json"),
                     *("--balls", examples / "balls.yaml", "--poses", examples / "poses.csv"),
                     *("--seed", k, "-o", files[-1]),
                 ]
             ],
         )
         assert result.exit_code == 0, result.output
-    cli = _json(["calibrate", "unexplained", *files, *common, "--noise-um", "0.5", "--json"])
+    cli = _json(["samba", "unexplained", *files, *common, "--noise-um", "0.5", "--json"])
     m = Machine.load("five-axis-wcbxfzyst", "13")
     art = load_artefact(examples / "artefact.yaml")
     recs = [read_records(f, m, art) for f in files]

@@ -1,4 +1,4 @@
-"""Tests for ``mtm calibrate long-term`` (mtmetrology.cli.long_term)."""
+"""Tests for ``mtm samba long-term`` (mtmetrology.cli.long_term)."""
 
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ def _write(tmp_path, n=3, **overrides):
 def test_written_document_round_trips_through_parameter_set_load(tmp_path):
     paths, values = _write(tmp_path)
     out = tmp_path / "lt.json"
-    result = runner.invoke(app, ["calibrate", "long-term", *paths, "-o", str(out), "--json"])
+    result = runner.invoke(app, ["samba", "long-term", *paths, "-o", str(out), "--json"])
     assert result.exit_code == 0, result.output
     printed = json.loads(result.stdout)
     assert printed["kind"] == "parameter-set" and printed["provenance"]["calibrations"] == 3
@@ -53,7 +53,7 @@ def test_written_document_round_trips_through_parameter_set_load(tmp_path):
 def test_mean_values_and_within_covariance_options(tmp_path):
     paths, values = _write(tmp_path)
     out = tmp_path / "lt.json"
-    argv = ["calibrate", "long-term", *paths, "-o", str(out), "--values", "mean", "--add-within"]
+    argv = ["samba", "long-term", *paths, "-o", str(out), "--values", "mean", "--add-within"]
     result = runner.invoke(app, argv)
     assert result.exit_code == 0, result.output
     loaded = ParameterSet.load(out, MACHINE)
@@ -88,7 +88,7 @@ def test_refusals_exit_2_and_write_nothing(tmp_path, spoil):
     paths, _ = _write(tmp_path, n=2)
     spoil(tmp_path, paths)
     out = tmp_path / "lt.json"
-    result = runner.invoke(app, ["calibrate", "long-term", *paths, "-o", str(out)])
+    result = runner.invoke(app, ["samba", "long-term", *paths, "-o", str(out)])
     assert result.exit_code == 2, result.output
     assert result.stderr.startswith("error: ")
     assert len(result.stderr.strip().splitlines()) == 1

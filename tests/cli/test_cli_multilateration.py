@@ -1,4 +1,4 @@
-"""mtm simulate multilateration / mtm calibrate multilateration: round trip and refusals."""
+"""mtm multilateration simulate / mtm multilateration calibrate: round trip and refusals."""
 
 from __future__ import annotations
 
@@ -45,7 +45,7 @@ def lengths(tmp_path_factory):
     (d / "truth.json").write_text(json.dumps(TRUTH))
     out = d / "lengths.csv"
     r = _run(
-        "simulate", "multilateration", "--machine", "three-axis-xfyz", "--truth",
+        "multilateration", "simulate", "--machine", "three-axis-xfyz", "--truth",
         d / "truth.json", "--stations", d / "stations.yaml", "--grid", "4,4,4",
         "--seed", 1, "-o", out,
     )  # fmt: skip
@@ -55,7 +55,7 @@ def lengths(tmp_path_factory):
 
 def test_calibrate_recovers_the_truth_within_its_uncertainty(lengths, tmp_path):
     out = tmp_path / "map.json"
-    r = _run("calibrate", "multilateration", lengths, "--machine", "three-axis-xfyz", "-o", out)
+    r = _run("multilateration", "calibrate", lengths, "--machine", "three-axis-xfyz", "-o", out)
     assert r.exit_code == 0, r.output
     m = Machine.load("three-axis-xfyz")
     pset = ParameterSet.load(out, m)
@@ -81,7 +81,7 @@ def test_station_seeing_too_few_points_is_refused(lengths, tmp_path):
     bad = tmp_path / "few.csv"
     bad.write_text("\n".join(kept) + "\n")
     out = tmp_path / "map.json"
-    r = _run("calibrate", "multilateration", bad, "--machine", "three-axis-xfyz", "-o", out)
+    r = _run("multilateration", "calibrate", bad, "--machine", "three-axis-xfyz", "-o", out)
     assert r.exit_code == 2
     assert "station S4 sees 3 points" in r.output
     assert not out.exists()
@@ -91,12 +91,12 @@ def test_one_tool_names_the_unobservable_yaws(tmp_path):
     (tmp_path / "stations.yaml").write_text(STATIONS)
     one = tmp_path / "one.csv"
     r = _run(
-        "simulate", "multilateration", "--machine", "three-axis-xfyz", "--stations",
+        "multilateration", "simulate", "--machine", "three-axis-xfyz", "--stations",
         tmp_path / "stations.yaml", "--grid", "4,4,4", "--tool", "0,0,-100", "-o", one,
     )  # fmt: skip
     assert r.exit_code == 0, r.output
     out = tmp_path / "map.json"
-    r = _run("calibrate", "multilateration", one, "--machine", "three-axis-xfyz", "-o", out)
+    r = _run("multilateration", "calibrate", one, "--machine", "three-axis-xfyz", "-o", out)
     assert r.exit_code == 2
     assert "E_CZ1 (not observable)" in r.output and "E_CY1 (not observable)" in r.output
     assert not out.exists()
@@ -105,7 +105,7 @@ def test_one_tool_names_the_unobservable_yaws(tmp_path):
 def test_negative_noise_refused(lengths, tmp_path):
     out = tmp_path / "map.json"
     r = _run(
-        "calibrate", "multilateration", lengths, "--machine", "three-axis-xfyz",
+        "multilateration", "calibrate", lengths, "--machine", "three-axis-xfyz",
         "--noise", "-0.2um+0.3um/m", "-o", out,
     )  # fmt: skip
     assert r.exit_code == 2 and "--noise" in r.output and not out.exists()

@@ -1,5 +1,5 @@
-"""``mtm simulate samba``, ``mtm calibrate samba``, ``mtm simulate length`` and ``mtm verify
-length`` end to end through typer's CliRunner, with the example files of examples/samba."""
+"""``mtm samba simulate``, ``mtm samba calibrate``, ``mtm length simulate`` and ``mtm length
+verify`` end to end through typer's CliRunner, with the example files of examples/samba."""
 
 from __future__ import annotations
 
@@ -34,10 +34,10 @@ def mtm(*args):
 
 
 def calibrate_samba(records, *args):
-    """``mtm calibrate samba RECORDS`` on the example machine and artefact."""
+    """``mtm samba calibrate RECORDS`` on the example machine and artefact."""
     return mtm(
-        "calibrate",
         "samba",
+        "calibrate",
         records,
         "--machine",
         MACHINE,
@@ -52,8 +52,8 @@ def records(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("cli")
     path = tmp / "records.csv"
     result = mtm(
-        "simulate",
         "samba",
+        "simulate",
         *SIMULATE,
         "--model",
         "13",
@@ -106,6 +106,11 @@ def test_calibrate_writes_the_result_it_prints_with_validated_uncertainty(calibr
     assert set(out) == {"name", "value", "unit", "u", "U", "k", "p", "interval"}
     assert unc["validation"]["passed"] and len(unc["validation"]["table"]) == 15
     assert doc["covariance_source"] == "guf"
+    assert (unc["mcm"]["trials"], unc["mcm"]["sequences"], unc["mcm"]["adaptive"]) == (
+        4000,
+        1,
+        False,
+    )
 
 
 def test_predict_reads_the_result_as_it_is(calibrated, records, tmp_path):
@@ -125,8 +130,8 @@ def test_length_check_after_calibration(calibrated, tmp_path):
     path, _ = calibrated
     gauge = tmp_path / "gauge.csv"
     result = mtm(
-        "simulate",
         "length",
+        "simulate",
         "--machine",
         MACHINE,
         "--truth",
@@ -145,8 +150,8 @@ def test_length_check_after_calibration(calibrated, tmp_path):
     assert result.exit_code == 0, result.output
     length = float(np.hypot(200.0, 200.0))
     result = mtm(
-        "verify",
         "length",
+        "verify",
         gauge,
         "--machine",
         MACHINE,
@@ -167,9 +172,9 @@ def test_length_check_after_calibration(calibrated, tmp_path):
 def test_raw_points_and_campaigns_from_simulate_are_read_by_calibrate(tmp_path):
     raw = tmp_path / "raw.csv"
     common = (*SIMULATE, "--seed", "2")
-    assert mtm("simulate", "samba", *common, "--raw-points", "-o", raw).exit_code == 0
+    assert mtm("samba", "simulate", *common, "--raw-points", "-o", raw).exit_code == 0
     camp = tmp_path / "campaigns.csv"
-    assert mtm("simulate", "samba", *common, "--campaigns", "5", "-o", camp).exit_code == 0
+    assert mtm("samba", "simulate", *common, "--campaigns", "5", "-o", camp).exit_code == 0
     for path, form, k, extra in (
         (raw, "raw-points", 1, ()),
         (camp, "centres", 5, ("--uncertainty", "guf")),
@@ -187,17 +192,21 @@ def test_raw_points_and_campaigns_from_simulate_are_read_by_calibrate(tmp_path):
 
 
 def test_help_documents_the_file_formats():
-    """The help names the record forms and points to docs/file-formats.md, whose section
-    holds the full formats (moved out of the help: issue 18 §3)."""
-    text = mtm("calibrate", "samba", "--help").output
-    for fmt in ("ball,X,Y,Z,B,C[,S]", "measurement,ball,X,Y,Z,B,C", "docs/file-formats.md"):
+    """The help names the record forms and points to ``mtm formats samba-calibration``,
+    which prints the full formats from the package (moved out of the help: issue 18 §3;
+    reachable without the docs: issue 31)."""
+    text = mtm("samba", "calibrate", "--help").output
+    for fmt in (
+        "ball,X,Y,Z,B,C[,S]",
+        "measurement,ball,X,Y,Z,B,C",
+        "mtm formats samba-calibration",
+    ):
         assert fmt in text
-    docs = (EXAMPLES.parents[1] / "docs" / "file-formats.md").read_text(encoding="utf-8")
-    section = docs.split("## SAMBA calibration (`mtm calibrate samba`)")[1].split("\n## ")[0]
+    section = mtm("formats", "samba-calibration").output
     for fmt in ("`ball,X,Y,Z,B,C[,S]`", "`campaign,...`", '"kind": "samba-repeatability"'):
         assert fmt in section
-    assert "samba-balls" in mtm("simulate", "samba", "--help").output
-    assert "pair,end,X,Y,Z,B,C" in mtm("verify", "length", "--help").output
+    assert "samba-balls" in mtm("samba", "simulate", "--help").output
+    assert "pair,end,X,Y,Z,B,C" in mtm("length", "verify", "--help").output
 
 
 def _bad_records(records, tmp_path, edit):
@@ -252,8 +261,8 @@ def test_a_unit_that_does_not_fit_is_refused_and_nothing_written(tmp_path):
     bad.write_text(json.dumps(truth), encoding="utf-8")
     out = tmp_path / "records.csv"
     result = mtm(
-        "simulate",
         "samba",
+        "simulate",
         "--machine",
         MACHINE,
         "--truth",
@@ -320,8 +329,8 @@ def test_noise_of_k_campaigns_is_the_noise_of_their_mean(tmp_path):
     repetition averages."""
     common = (*SIMULATE, "--seed", "4")
     one, four = tmp_path / "one.csv", tmp_path / "four.csv"
-    assert mtm("simulate", "samba", *common, "-o", one).exit_code == 0
-    assert mtm("simulate", "samba", *common, "--campaigns", "4", "-o", four).exit_code == 0
+    assert mtm("samba", "simulate", *common, "-o", one).exit_code == 0
+    assert mtm("samba", "simulate", *common, "--campaigns", "4", "-o", four).exit_code == 0
     u = {}
     for name, path in (("one", one), ("four", four)):
         result = calibrate_samba(path, "--noise-um", "0.5", "--uncertainty", "guf", "--json")
@@ -459,3 +468,21 @@ def test_calibrate_history_records_the_written_result(records, tmp_path, monkeyp
     record = show_run(engine, run.id)
     assert record.result == json.loads(out.read_text())
     assert set(record.input_hashes) == {str(records), str(EXAMPLES / "artefact.yaml")}
+
+
+def test_the_console_states_the_monte_carlo_trials(calibrated, capsys):
+    """The summary names the trial count the result document holds (issue 31: an adaptive
+    run of 870 000 trials was silent about it)."""
+    from mtmetrology.cli.calibrate import _summary
+
+    _, doc = calibrated
+    _summary(doc, None)
+    lines = capsys.readouterr().out.splitlines()
+    assert "Monte Carlo: 4000 trials in 1 sequence" in lines
+    adaptive = json.loads(json.dumps(doc))
+    adaptive["uncertainty"]["mcm"].update(
+        trials=870_000, sequences=87, adaptive=True, converged=True
+    )
+    _summary(adaptive, None)
+    lines = capsys.readouterr().out.splitlines()
+    assert "Monte Carlo: 870000 trials in 87 sequences (adaptive, converged)" in lines

@@ -1,4 +1,4 @@
-"""``mtm calibrate samba --campaign-uncertainty``: K campaign records give u of their mean
+"""``mtm samba calibrate --campaign-uncertainty``: K campaign records give u of their mean
 (S/K) by default or u of one run (S, the form of Sepahi Boroujeni (2021), Table 5-2,
 whose mean of k runs has u/√k); the document says which (``records.uncertainty_of``)."""
 
@@ -27,7 +27,7 @@ def mtm(*args):
 def campaigns(tmp_path_factory):
     path = tmp_path_factory.mktemp("campaigns") / "camp.csv"
     result = mtm(
-        "simulate", "samba", "--machine", "five-axis-wcbxfzyst", "--model", "13",
+        "samba", "simulate", "--machine", "five-axis-wcbxfzyst", "--model", "13",
         "--truth", EXAMPLES / "truth.json", "--artefact", EXAMPLES / "artefact.yaml",
         "--balls", EXAMPLES / "balls.yaml", "--poses", EXAMPLES / "poses.csv",
         "--noise-um", "0.5", "--campaigns", K, "--seed", "3", "-o", path,
@@ -38,7 +38,7 @@ def campaigns(tmp_path_factory):
 
 def _calibrate(path, *extra):
     return mtm(
-        "calibrate", "samba", path, "--machine", "five-axis-wcbxfzyst", "--model", "13",
+        "samba", "calibrate", path, "--machine", "five-axis-wcbxfzyst", "--model", "13",
         "--artefact", EXAMPLES / "artefact.yaml", *extra,
     )  # fmt: skip
 

@@ -16,7 +16,7 @@ import sys
 import pytest
 import typer
 
-from mtmetrology.cli import COMMANDS, SHARED_GROUPS, SUMMARIES, build_app
+from mtmetrology.cli import ALIASES, SUMMARIES, build_app
 
 #: Runs ``mtm`` as its console script does, then prints the loaded modules as JSON.
 PROBE = (
@@ -28,14 +28,14 @@ PROBE = (
 #: Subcommand lines whose help shows a constant of the library (criteria, default duration,
 #: fewest targets per coefficient): read from light modules, not from the numpy ones.
 SUBCOMMAND_HELP = [
-    ["design", "samba", "--help"],
+    ["samba", "plan", "--help"],
     ["repeatability", "fit", "--help"],
     ["export", "siemens", "--help"],
     ["export", "check", "--help"],
 ]
 LINES = (
     [["--help"], ["machine", "list"]]
-    + [[c, "--help"] for c in [*COMMANDS, *SHARED_GROUPS]]
+    + [[c, "--help"] for c in [*SUMMARIES, *ALIASES]]
     + SUBCOMMAND_HELP
 )
 
@@ -123,7 +123,7 @@ def test_predict_loads_neither_the_fitting_nor_the_uncertainty_engine(loaded):
 
 def test_summaries_are_the_first_paragraph_of_each_command_help():
     full = typer.main.get_command(build_app())
-    for name in [*COMMANDS, *SHARED_GROUPS]:
+    for name in SUMMARIES:
         assert full.commands[name].help.split("\n\n")[0].strip() == SUMMARIES[name], name
 
 

@@ -228,7 +228,7 @@ def test_the_long_term_variation_must_be_stated(tmp_path):
     (line,) = result.stderr.strip().splitlines()
     assert line == (
         "error: state the long-term variation of the parameters since the calibration: "
-        "--long-term FILE (mtm calibrate long-term), or --recalibrated"
+        "--long-term FILE (mtm samba long-term), or --recalibrated"
     )
     assert not out.exists()
 

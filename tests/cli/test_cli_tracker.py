@@ -1,4 +1,4 @@
-"""``mtm simulate tracker`` and ``mtm calibrate tracker`` end to end; bad input exits 2 with
+"""``mtm tracker simulate`` and ``mtm tracker calibrate`` end to end; bad input exits 2 with
 one line and writes nothing (issue 21)."""
 
 from __future__ import annotations
@@ -31,14 +31,14 @@ def measurements(tmp_path_factory):
         "tools_mm: [[0, 0, -100], [100, 0, -100], [0, 100, -100]]\n"
     )
     out = d / "meas.csv"
-    res = mtm("simulate", "tracker", "--machine", MACHINE, "--mesh", MESH, "--tools",
+    res = mtm("tracker", "simulate", "--machine", MACHINE, "--mesh", MESH, "--tools",
               d / "tools.yaml", "--seed", 4, "-o", out)  # fmt: skip
     assert res.exit_code == 0, res.output
     return out
 
 
 def test_simulate_then_calibrate_writes_a_parameter_set_predict_reads(measurements, tmp_path):
-    res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--json",
+    res = mtm("tracker", "calibrate", measurements, "--machine", MACHINE, "--json",
               "-o", tmp_path / "r.json")  # fmt: skip
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)
@@ -61,13 +61,13 @@ def test_pose_inside_workspace_refused(tmp_path):
     pose = tmp_path / "pose.yaml"
     pose.write_text("kind: tracker-pose\nversion: 1\nD_mm: 1000\nL_mm: 300\nH_mm: 300\n"
                     "alpha_deg: 0\nbeta_deg: 0\ndelta_deg: 0\n")  # fmt: skip
-    res = mtm("simulate", "tracker", "--machine", MACHINE, "--mesh", MESH, "--pose", pose,
+    res = mtm("tracker", "simulate", "--machine", MACHINE, "--mesh", MESH, "--pose", pose,
               "-o", tmp_path / "m.csv")  # fmt: skip
     _refused(res, tmp_path, "error: pose: the tracker at D, L, H = 1000, 300, 300 mm lies inside")
 
 
 def test_mesh_outside_travel_refused(tmp_path):
-    res = mtm("simulate", "tracker", "--machine", MACHINE, "--mesh",
+    res = mtm("tracker", "simulate", "--machine", MACHINE, "--mesh",
               "800:1200:100,100:600:100,200:400:100", "-o", tmp_path / "m.csv")  # fmt: skip
     _refused(res, tmp_path, "error: --mesh: Y = 600 mm lies outside the travel")
 
@@ -76,7 +76,7 @@ def test_nan_pose_field_refused(tmp_path):
     pose = tmp_path / "pose.yaml"
     pose.write_text("kind: tracker-pose\nversion: 1\nD_mm: .nan\nL_mm: 300\nH_mm: 300\n"
                     "alpha_deg: 0\nbeta_deg: 0\ndelta_deg: 0\n")  # fmt: skip
-    res = mtm("simulate", "tracker", "--machine", MACHINE, "--mesh", MESH, "--pose", pose,
+    res = mtm("tracker", "simulate", "--machine", MACHINE, "--mesh", MESH, "--pose", pose,
               "-o", tmp_path / "m.csv")  # fmt: skip
     assert res.exit_code == 2
     assert "D_mm" in res.output.strip().splitlines()[0]
@@ -89,7 +89,7 @@ def test_reading_beyond_tracker_limits_and_nan_reading_refused(measurements, tmp
     cells[9] = "-60"  # elevation of data row 5
     steep = tmp_path / "steep.csv"
     steep.write_text("\n".join([*lines[:5], ",".join(cells), *lines[6:]]) + "\n")
-    res = mtm("calibrate", "tracker", steep, "--machine", MACHINE, "-o", tmp_path / "r.json")
+    res = mtm("tracker", "calibrate", steep, "--machine", MACHINE, "-o", tmp_path / "r.json")
     assert res.exit_code == 2
     assert (
         res.output.strip() == "error: measurement 5: elevation -60.00° beyond ±45° of the tracker"
@@ -98,14 +98,14 @@ def test_reading_beyond_tracker_limits_and_nan_reading_refused(measurements, tmp
     cells[9] = "nan"
     nan = tmp_path / "nan.csv"
     nan.write_text("\n".join([*lines[:5], ",".join(cells), *lines[6:]]) + "\n")
-    res = mtm("calibrate", "tracker", nan, "--machine", MACHINE, "-o", tmp_path / "r.json")
+    res = mtm("tracker", "calibrate", nan, "--machine", MACHINE, "-o", tmp_path / "r.json")
     assert res.exit_code == 2
     assert "elevation" in res.output and len(res.output.strip().splitlines()) == 1
     assert not (tmp_path / "r.json").exists()
 
 
 def test_verify_tracker_json_and_report(tmp_path):
-    res = mtm("verify", "tracker", "--machine", MACHINE, "--trials", 50, "--seed", 1, "--json",
+    res = mtm("tracker", "verify", "--machine", MACHINE, "--trials", 50, "--seed", 1, "--json",
               "--report", tmp_path / "v.html")  # fmt: skip
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)
@@ -117,12 +117,12 @@ def test_verify_tracker_json_and_report(tmp_path):
 
 
 def test_verify_tracker_bad_trials_writes_nothing(tmp_path):
-    res = mtm("verify", "tracker", "--machine", MACHINE, "--trials", 2, "-o", tmp_path / "v.json")
+    res = mtm("tracker", "verify", "--machine", MACHINE, "--trials", 2, "-o", tmp_path / "v.json")
     _refused(res, tmp_path, "error: --trials must be an integer >= 10, got 2")
 
 
 def test_design_tracker_placement_json(tmp_path):
-    res = mtm("design", "tracker-placement", "--machine", MACHINE, "--trials", 2000,
+    res = mtm("tracker", "plan", "--machine", MACHINE, "--trials", 2000,
               "--seed", 2, "--json", "--report", tmp_path / "p.html")  # fmt: skip
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)
@@ -132,7 +132,7 @@ def test_design_tracker_placement_json(tmp_path):
 
 
 def test_design_tracker_placement_bad_region_writes_nothing(tmp_path):
-    res = mtm("design", "tracker-placement", "--machine", MACHINE, "--region", "a:b,1:2",
+    res = mtm("tracker", "plan", "--machine", MACHINE, "--region", "a:b,1:2",
               "-o", tmp_path / "p.json")  # fmt: skip
     _refused(res, tmp_path, "error: --region needs D0:D1,L0:L1,H0:H1 in mm")
 
@@ -143,14 +143,14 @@ def test_conditions_file_is_read_and_a_bad_key_named(tmp_path):
                     "sensor_temperatures_C: [[25, 25], [25, 25], [25, 25]]\nu_sensor_K: 0.0\n"
                     "u_cte_per_K: [0, 0, 0]\n")  # fmt: skip
     out = tmp_path / "m.csv"
-    res = mtm("simulate", "tracker", "--machine", MACHINE, "--mesh", MESH, "--conditions", cond,
+    res = mtm("tracker", "simulate", "--machine", MACHINE, "--mesh", MESH, "--conditions", cond,
               "--seed", 1, "-o", out)  # fmt: skip
     assert res.exit_code == 0, res.output
     temps = [line.split(",")[-3:] for line in out.read_text().splitlines()[1:]]
     assert {float(v) for row in temps for v in row} == {25.0}
     bad = tmp_path / "bad.yaml"
     bad.write_text("kind: tracker-conditions\nversion: 1\ncte: [1, 2, 3]\n")
-    res = mtm("simulate", "tracker", "--machine", MACHINE, "--mesh", MESH, "--conditions", bad,
+    res = mtm("tracker", "simulate", "--machine", MACHINE, "--mesh", MESH, "--conditions", bad,
               "-o", tmp_path / "n.csv")  # fmt: skip
     assert res.exit_code == 2
     assert res.output.strip().startswith(f"error: {bad}: cte: unknown key")
@@ -160,7 +160,7 @@ def test_conditions_file_is_read_and_a_bad_key_named(tmp_path):
 def test_noise_options_set_the_weights_and_bad_values_are_refused(measurements, tmp_path):
     """Issue 30: --range-noise A,B (µm, µm/m), --angle-urad, --angle-spread, --smr reach the
     noise model the calibration weights with; the source's values otherwise."""
-    res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--json",
+    res = mtm("tracker", "calibrate", measurements, "--machine", MACHINE, "--json",
               "--range-noise", "1.5,0.4", "--angle-urad", 5, "--angle-spread", 0,
               "--smr", 2)  # fmt: skip
     assert res.exit_code == 0, res.output
@@ -170,7 +170,7 @@ def test_noise_options_set_the_weights_and_bad_values_are_refused(measurements, 
     assert noise["u_angle_urad"] == pytest.approx(5.0)
     assert noise["u_angle_spread_urad"] == 0.0
     assert noise["u_smr_um"] == pytest.approx(2.0)
-    default = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--json")
+    default = mtm("tracker", "calibrate", measurements, "--machine", MACHINE, "--json")
     noise = json.loads(default.stdout)["calibration_provenance"]["noise"]
     assert (noise["u_range_constant_um"], noise["u_angle_spread_urad"]) == (4.0, 3.0)
     for option, value, words in (("--range-noise", "1.5", "must be"),
@@ -178,7 +178,7 @@ def test_noise_options_set_the_weights_and_bad_values_are_refused(measurements, 
                                  ("--angle-spread", "nan", ": expected a finite number"),
                                  ("--smr", "-1", "must be")):  # fmt: skip
         out = tmp_path / "r.json"
-        res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, option, value,
+        res = mtm("tracker", "calibrate", measurements, "--machine", MACHINE, option, value,
                   "-o", out)  # fmt: skip
         _refused(res, tmp_path, f"error: {option}{'' if words[0] == ':' else ' '}{words}")
 
@@ -196,16 +196,16 @@ def test_tool_ids_give_the_offsets_of_a_tool_column(measurements, tmp_path):
     by_id = tmp_path / "ids.csv"
     by_id.write_text("\n".join(rows) + "\n")
     tools = ["--tool", "T1=0,0,-100", "--tool", "T2=100,0,-100", "--tool", "T3=0,100,-100"]
-    res = mtm("calibrate", "tracker", by_id, "--machine", MACHINE, "--json", *tools)
+    res = mtm("tracker", "calibrate", by_id, "--machine", MACHINE, "--json", *tools)
     assert res.exit_code == 0, res.output
-    ref = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--json")
+    ref = mtm("tracker", "calibrate", measurements, "--machine", MACHINE, "--json")
     got, want = json.loads(res.stdout), json.loads(ref.stdout)
     assert got["parameters"] == want["parameters"]
-    res = mtm("calibrate", "tracker", by_id, "--machine", MACHINE, *tools[:4])
+    res = mtm("tracker", "calibrate", by_id, "--machine", MACHINE, *tools[:4])
     assert res.exit_code == 2
     assert res.output.strip().startswith(f"error: {by_id}, line ")
     assert "tool 'T3' has no offset" in res.output
-    res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--tool", "T1=0,0")
+    res = mtm("tracker", "calibrate", measurements, "--machine", MACHINE, "--tool", "T1=0,0")
     assert res.exit_code == 2 and res.output.startswith("error: --tool T1")
 
 
@@ -216,7 +216,7 @@ def test_known_pose_fixed_or_as_prior(measurements, tmp_path):
     fields += "beta_deg: 0.0343\ndelta_deg: 59.4652\n"
     fixed = tmp_path / "pose.yaml"
     fixed.write_text("kind: tracker-pose\nversion: 1\n" + fields)
-    res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--pose", fixed,
+    res = mtm("tracker", "calibrate", measurements, "--machine", MACHINE, "--pose", fixed,
               "--json")  # fmt: skip
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)
@@ -225,14 +225,14 @@ def test_known_pose_fixed_or_as_prior(measurements, tmp_path):
     prior = tmp_path / "prior.yaml"
     u = "u_D_mm: 0.01\nu_L_mm: 0.01\nu_H_mm: 0.01\nu_alpha_deg: 1e-4\nu_beta_deg: 1e-4\n"
     prior.write_text("kind: tracker-pose\nversion: 1\n" + fields + u + "u_delta_deg: 1e-4\n")
-    res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--pose", prior,
+    res = mtm("tracker", "calibrate", measurements, "--machine", MACHINE, "--pose", prior,
               "--json")  # fmt: skip
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)
     assert doc["pose_source"] == "prior"
     assert 0 < doc["pose_u"]["D_mm"] <= 0.01 and 0 < doc["pose_u"]["delta_deg"] <= 1e-4
     prior.write_text("kind: tracker-pose\nversion: 1\n" + fields + u)
-    res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "--pose", prior)
+    res = mtm("tracker", "calibrate", measurements, "--machine", MACHINE, "--pose", prior)
     assert res.exit_code == 2
     assert res.output.strip() == (
         f"error: {prior}: u_delta_deg: a pose prior needs all of u_D_mm, u_L_mm, u_H_mm, "
@@ -241,16 +241,16 @@ def test_known_pose_fixed_or_as_prior(measurements, tmp_path):
 
 
 def test_verify_lengths_from_a_tracker_calibration(measurements, tmp_path):
-    """``mtm verify lengths``: each pair's length with the calibrated errors and u(L), U at
+    """``mtm length predict``: each pair's length with the calibrated errors and u(L), U at
     k = 2 (the library's numbers); a reference gives e and E_n; no covariance is refused."""
-    res = mtm("calibrate", "tracker", measurements, "--machine", MACHINE, "-o", tmp_path / "r.json")
+    res = mtm("tracker", "calibrate", measurements, "--machine", MACHINE, "-o", tmp_path / "r.json")
     assert res.exit_code == 0, res.output
     pairs = tmp_path / "pairs.csv"
     pairs.write_text(
         "pair,end,X,Y,Z\nx,a,800,300,300\nx,b,1200,300,300\nd,a,850,150,250\nd,b,1150,450,350\n"
     )
     (tmp_path / "ref.csv").write_text("pair,length_mm,u_um\nx,400.0,0.5\nd,435.89,0.5\n")
-    res = mtm("verify", "lengths", pairs, "--machine", MACHINE, "--params", tmp_path / "r.json",
+    res = mtm("length", "predict", pairs, "--machine", MACHINE, "--params", tmp_path / "r.json",
               "--reference", tmp_path / "ref.csv", "--json")  # fmt: skip
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)
@@ -270,6 +270,6 @@ def test_verify_lengths_from_a_tracker_calibration(measurements, tmp_path):
         "kind: parameter-set\nversion: 1\nmachine: three-axis-xfyz\n"
         "parameters:\n  - {name: E_XX1, value: 5.0, unit: µm}\n"
     )
-    res = mtm("verify", "lengths", pairs, "--machine", MACHINE, "--params", bare)
+    res = mtm("length", "predict", pairs, "--machine", MACHINE, "--params", bare)
     assert res.exit_code == 2
     assert res.output.strip() == f"error: {bare}: no covariance; u(L) needs the calibration's U_θ"

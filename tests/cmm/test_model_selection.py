@@ -116,8 +116,21 @@ def test_auto_picks_a_model_within_10_percent_of_the_best_held_out_error(setup, 
         machine, theta, plate, _positions(HELD_OUT), probes, sigma=SIGMA, seed=seed + 100
     )
     held_out = _held_out_by_candidate(base, cal.records, test, plate, probes)
-    sel = cross_validate(base, cal.records, plate, probes, CANDIDATES, sigma=SIGMA)
+    seen: list = []  # progress reports: before each fold's fit, and at the end
+    sel = cross_validate(
+        base,
+        cal.records,
+        plate,
+        probes,
+        CANDIDATES,
+        sigma=SIGMA,
+        progress=lambda *a: seen.append(a),
+    )
     assert held_out[sel["chosen"]] <= 1.10 * min(held_out.values()), (sel["chosen"], held_out)
+    total = len(CANDIDATES) * 6  # the whole data and 5 folds per candidate
+    assert seen == [(i * 6 + 1 + j, total) for i in range(len(CANDIDATES)) for j in range(5)] + [
+        (total, total)
+    ]
     # every candidate's scores are reported, structured; every fold is fair to every one
     scores = {s["model"]: s for s in sel["scores"]}
     assert list(scores) == CANDIDATES and sel["positions"] == [p[0] for p in CALIBRATION]

@@ -1,4 +1,4 @@
-"""The strategy comparison (``mtm design compare``) against Alami Mchichi (2018) Tables A.1
+"""The strategy comparison (``mtm samba compare-plans``) against Alami Mchichi (2018) Tables A.1
 and 5.3, and the simulated gauge-block check."""
 
 import json
@@ -49,6 +49,7 @@ def test_sweep_gives_every_strategy_its_figures_and_round_trips(m13):
     is its predicted u per µm of σ, the compensated model cuts the gauge-block error
     (true errors within ±50 µm, µrad, µm/m) tenfold at σ = 0.1 µm and a bar of u = 0.1 µm
     (what is left is that noise through the UPF), and the file form reads back equal."""
+    seen: list = []
     res = compare_strategies(
         m13,
         PAIRS[::9],
@@ -59,8 +60,10 @@ def test_sweep_gives_every_strategy_its_figures_and_round_trips(m13):
         seed=3,
         sigma_mm=0.0001,
         bar=ScaleBarPlacement(u_mm=0.0001),
+        progress=lambda *a: seen.append(a),
     )
     assert [s.name for s in res.strategies] == ["1B.2n O2", "1B.3n O2", "4B.2n O2", "4B.3n O2"]
+    assert seen == [(1, 4), (2, 4), (3, 4), (4, 4)]  # a progress report per strategy
     d = [s.duration_h for s in res.strategies]
     m = [s.n_measurements for s in res.strategies]
     assert np.all(np.argsort(d) == np.argsort(m))

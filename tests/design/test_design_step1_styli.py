@@ -92,7 +92,7 @@ def test_cli_chooses_balls_with_two_styli(tmp_path):
     grid.write_text("kind: samba-ball-grid\nx_mm: [-80, 80]\ny_mm: [-40, 40]\nstems_mm: [75]\n")
     names = "E_A0B,E_C0B,E_X0C,E_A0C,E_B0C,E_B0Z,E_A0Y,E_C0Y,E_XX1,E_YY1,E_ZZ1,E_Y0S,E_X0S,E_AY1"
     out = tmp_path / "plan.csv"
-    args = ["design", "samba", "--machine", "five-axis-wcbxfzyst", "--params-only", names]
+    args = ["samba", "plan", "--machine", "five-axis-wcbxfzyst", "--params-only", names]
     args += ["--balls-from", str(grid), "--n-balls", "2", "--criterion", "D"]
     args += ["--b-grid", "-90:90:30", "--c-grid", "0:315:45", "--starts", "1", "--seed", "0"]
     args += ["--tool", "long=0,0,-150", "--tool", "short=0,0,-200", "-o", str(out), "--json"]

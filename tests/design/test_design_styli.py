@@ -93,7 +93,7 @@ def test_cli_writes_the_tool_column_and_the_artefact_tools(tmp_path):
     )
     names = "E_A0B,E_C0B,E_X0C,E_A0C,E_B0C,E_B0Z,E_A0Y,E_C0Y,E_XX1,E_YY1,E_ZZ1,E_Y0S,E_X0S,E_AY1"
     out, art = tmp_path / "plan.csv", tmp_path / "artefact.yaml"
-    args = ["design", "samba", "--machine", "five-axis-wcbxfzyst", "--params-only", names]
+    args = ["samba", "plan", "--machine", "five-axis-wcbxfzyst", "--params-only", names]
     args += ["--balls", str(balls), "--b-grid", "-90:90:30", "--c-grid", "0:315:45"]
     args += ["--tool", "long=0,0,-150", "--tool", "short=0,0,-200", "--starts", "1"]
     args += ["--seed", "0", "-o", str(out), "--artefact-out", str(art), "--json"]
@@ -125,7 +125,7 @@ def test_planned_u_is_the_calibrations_for_the_two_stylus_programme(tmp_path):
     machine = ["--machine", "five-axis-wcbxfzyst", "--params-only", names]
     plan, art, placed = tmp_path / "plan.csv", tmp_path / "art.yaml", tmp_path / "b.yaml"
     runner = CliRunner()
-    args = ["design", "samba", *machine, "--balls", str(balls), "--b-grid", "-90:90:30"]
+    args = ["samba", "plan", *machine, "--balls", str(balls), "--b-grid", "-90:90:30"]
     args += ["--c-grid", "0:315:45", "--tool", "long=0,0,-150", "--tool", "short=0,0,-200"]
     args += ["--starts", "1", "--seed", "0", "-o", str(plan), "--artefact-out", str(art)]
     args += ["--balls-out", str(placed), "--json"]
@@ -142,11 +142,11 @@ def test_planned_u_is_the_calibrations_for_the_two_stylus_programme(tmp_path):
     assert ident["n_unknowns"] == plan_doc["n_unknowns"] == ident["rank"]
     assert ident["condition_scaled"] == pytest.approx(plan_doc["condition_scaled"], rel=1e-6)
     records = tmp_path / "rec.csv"
-    args = ["simulate", "samba", "--machine", "five-axis-wcbxfzyst", "--artefact", str(art)]
+    args = ["samba", "simulate", "--machine", "five-axis-wcbxfzyst", "--artefact", str(art)]
     args += ["--balls", str(placed), "--poses", str(plan), "--noise-um", "0", "-o", str(records)]
     result = runner.invoke(app, args)
     assert result.exit_code == 0, result.output
-    args = ["calibrate", "samba", str(records), *machine, "--artefact", str(art)]
+    args = ["samba", "calibrate", str(records), *machine, "--artefact", str(art)]
     args += ["--estimate-tool", "--noise-um", "1", "--json"]
     result = runner.invoke(app, args)
     assert result.exit_code == 0, result.output

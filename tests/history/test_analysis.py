@@ -74,7 +74,7 @@ def test_long_term_covariance_of_simulated_calibrations_recovers_the_known_one(
 def test_history_covariance_is_the_long_term_statistic_on_files(
     history_url, make_calibration, tmp_path
 ):
-    """One implementation: the database's covariance equals ``mtm calibrate long-term``'s
+    """One implementation: the database's covariance equals ``mtm samba long-term``'s
     function on the same calibrations, and its file is read back as a parameter set with
     the machine, model and covariance ``mtm task uncertainty --params`` needs."""
     rows = np.random.default_rng(5).normal(size=(6, 13))

@@ -176,8 +176,10 @@ def test_monte_carlo_agrees_with_the_guf():
     rec = simulate_lengths(M, _truth(rng), STATIONS, _poses(rng, 50), THREE_TOOLS, seed=6)
     res = calibrate_multilateration(M, rec)
     pts = rng.uniform([800, 100, 100], [1200, 500, 300], (4, 3))
-    mc = map_monte_carlo(M, rec, res, pts, trials=1000, seed=7)
+    seen: list = []  # progress reports, one per block of 500 trials
+    mc = map_monte_carlo(M, rec, res, pts, trials=1000, seed=7, progress=lambda *a: seen.append(a))
     assert mc.trials == 1000 and mc.failed == 0
+    assert seen == [(500, 1000), (1000, 1000)]
     # sd of a 1000-trial standard deviation is 2.2 %: 10 % is 4.5 of them
     assert mc.largest_ratio_deviation < 0.10
     # the map uncertainty of a medium machine from the LaserTRACER spec is within 1 µm (to

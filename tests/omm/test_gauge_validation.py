@@ -1,6 +1,6 @@
 """The validation campaign (issue 25): every side-A × side-B bipoint of a gauge, its
 compensated length and interval, eq. 6-16 coverage against a known truth, and
-``mtm validate task``."""
+``mtm task validate``."""
 
 from __future__ import annotations
 
@@ -133,7 +133,7 @@ def _write_side(path, readings):
 
 
 def test_command_matches_the_library_and_refuses_bad_input(tmp_path):
-    """``mtm validate task`` on a 150 mm gauge with the §6.4 thermal data: y_cal =
+    """``mtm task validate`` on a 150 mm gauge with the §6.4 thermal data: y_cal =
     150 (1 + 10.8·10⁻⁶·1.75) mm;
     its summary equals the library's on the same files; without --recalibrated or
     --long-term it exits 2 and writes nothing."""
@@ -156,7 +156,7 @@ def test_command_matches_the_library_and_refuses_bad_input(tmp_path):
         encoding="utf-8",
     )
     args = [
-        "validate", "task", str(tmp_path / "a.csv"), str(tmp_path / "b.csv"),
+        "task", "validate", str(tmp_path / "a.csv"), str(tmp_path / "b.csv"),
         "--machine", "five-axis-wcbxfzyst", "--params", str(tmp_path / "params.json"),
         "--reference-mm", "150", "--reference-u-um", "0.15", "--cte", "10.8e-6",
         "--cte-u", "0.15e-6", "--delta-t", "1.75", "--delta-t-u", str(0.005 / 3**0.5),
@@ -234,7 +234,7 @@ def test_request_from_files_carries_the_reference_and_names_its_files(tmp_path):
 
 
 def test_pooling_command_matches_the_library(tmp_path):
-    """``mtm validate pooling`` on three 8-point sets of a 20 mm sphere at three poses of
+    """``mtm task validate-pooling`` on three 8-point sets of a 20 mm sphere at three poses of
     a calibrated machine (stylus-centre points, d_tip = 0, u_cal = 0): equal to
     :func:`pooling_experiment`'s on the same readings and seed; a k outside 1 … 3 and a
     malformed --k exit 2 with nothing written."""
@@ -254,7 +254,7 @@ def test_pooling_command_matches_the_library(tmp_path):
     pset = replace(ParameterSet.zeros(MACHINE), values=delta, covariance=U_THETA)
     pset.save(tmp_path / "params.json")
     args = [
-        "validate", "pooling", *map(str, paths), "--machine", "five-axis-wcbxfzyst",
+        "task", "validate-pooling", *map(str, paths), "--machine", "five-axis-wcbxfzyst",
         "--params", str(tmp_path / "params.json"), "--diameter-mm", "20",
         "--diameter-u-um", "0", "--tip-diameter", "0", "--draws", "5",
         "--points-per-draw", "8", "--seed", "1",
@@ -282,7 +282,7 @@ def test_pooling_command_matches_the_library(tmp_path):
 
 def test_pooling_command_names_a_failed_fit_and_leaves_it_out(tmp_path):
     """Two 12-point sets at general poses and one on a great circle of the sphere (its
-    fit cannot converge): ``mtm validate pooling --k 1`` lists each draw of the circle
+    fit cannot converge): ``mtm task validate-pooling --k 1`` lists each draw of the circle
     under ``failed_fits`` by its file, warns on stderr naming it, and states coverage and
     mean U over the other draws (the JSON on stdout stays the data)."""
     from mtmetrology.omm.repeatability import sphere_normal
@@ -303,7 +303,7 @@ def test_pooling_command_names_a_failed_fit_and_leaves_it_out(tmp_path):
         tmp_path / "params.json"
     )
     args = [
-        "validate", "pooling", *map(str, paths), "--machine", "five-axis-wcbxfzyst",
+        "task", "validate-pooling", *map(str, paths), "--machine", "five-axis-wcbxfzyst",
         "--params", str(tmp_path / "params.json"), "--diameter-mm", "20",
         "--diameter-u-um", "0.5", "--tip-diameter", "0", "--draws", "12",
         "--points-per-draw", "12", "--seed", "4", "--k", "1", "--json",

@@ -116,7 +116,7 @@ def test_bad_length_points_are_refused(tmp_path, text, message):
             "length",
             {},
             "state the long-term variation of the parameters since the calibration: "
-            "--long-term FILE (mtm calibrate long-term), or --recalibrated",
+            "--long-term FILE (mtm samba long-term), or --recalibrated",
         ),
         (
             "plane",

@@ -161,7 +161,7 @@ def test_document_round_trip_and_the_task_loader(estimates, tmp_path):
 
 
 def test_calibrate_samba_writes_the_unexplained_document(tmp_path):
-    """``mtm calibrate samba --unexplained-out E.json`` on records with the unmodelled
+    """``mtm samba calibrate --unexplained-out E.json`` on records with the unmodelled
     error: the file has ν = n − p/3 and its matrix equals the library estimate."""
     m, cal = next(_perturbed_calibrations(tmp_path, 1))
     path = tmp_path / "perturbed.csv"
@@ -174,8 +174,8 @@ def test_calibrate_samba_writes_the_unexplained_document(tmp_path):
     result = CliRunner().invoke(
         app,
         [
-            "calibrate",
             "samba",
+            "calibrate",
             str(path),
             "--machine",
             "five-axis-wcbxfzyst",

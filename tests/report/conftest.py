@@ -112,7 +112,7 @@ def _samba_inputs(d: Path) -> dict:
              "-o", str(d / "samba.csv")]  # fmt: skip
     gauge = [*common, "--end-a", "-100,-100,40", "--end-b", "100,100,40", "--pairs", "8",
              "--seed", "5", "-o", str(d / "gauge.csv")]  # fmt: skip
-    for args in (["simulate", "samba", *samba], ["simulate", "length", *gauge]):
+    for args in (["samba", "simulate", *samba], ["length", "simulate", *gauge]):
         result = runner.invoke(app, args)
         assert result.exit_code == 0, result.output
     return {
@@ -209,23 +209,23 @@ def _report_commands(inputs: dict, out: Path) -> dict[str, list[str]]:
         "predict": ["predict", "--machine", "five-axis-wcbxfzyst", "--params",
                     str(inputs["params"]), str(inputs["records"]), "-o", str(out / "xyz.csv"),
                     "--report", str(out / "predict.html")],
-        "ballplate": ["calibrate", "ballplate", str(inputs["ballplate"]), *CMM,
+        "ballplate": ["cmm", "calibrate", str(inputs["ballplate"]), *CMM,
                       "--model", "auto", "--candidates", "seed,full-1",
                       "-o", str(out / "ballplate.json"), "--report", str(out / "ballplate.html")],
-        "ballplate-budget": ["calibrate", "ballplate-budget", str(inputs["budget"]),
+        "ballplate-budget": ["cmm", "budget", str(inputs["budget"]),
                              "-o", str(out / "budget.json"),
                              "--report", str(out / "ballplate-budget.html")],
         # before samba-verify-length, which reads its RESULT.json
-        "samba-calibrate": ["calibrate", "samba", str(inputs["samba_records"]),
+        "samba-calibrate": ["samba", "calibrate", str(inputs["samba_records"]),
                             "--machine", SAMBA_MACHINE, "--artefact", str(inputs["samba_artefact"]),
                             "--estimate-tool", "--uncertainty", "both", "--trials", "1000",
                             "--seed", "3", "-o", str(out / "samba.json"),
                             "--report", str(out / "samba-calibrate.html")],
-        "samba-verify-length": ["verify", "length", str(inputs["gauge"]),
+        "samba-verify-length": ["length", "verify", str(inputs["gauge"]),
                                 "--machine", SAMBA_MACHINE, "--params", str(out / "samba.json"),
                                 "--length", f"{GAUGE_LENGTH_MM:.9f}", "-o", str(out / "gauge.json"),
                                 "--report", str(out / "samba-verify-length.html")],
-        "design": ["design", "samba", "--machine", "five-axis-wcbxfzyst", "--model", "13",
+        "design": ["samba", "plan", "--machine", "five-axis-wcbxfzyst", "--model", "13",
                    "--balls-from", str(inputs["ball_grid"]), "--n-balls", "2", "--k", "3",
                    "--criterion", "D", "--starts", "2", "--seed", "5",
                    "--b-grid", "-90:90:15", "--c-grid", "0:330:30",

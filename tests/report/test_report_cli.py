@@ -173,7 +173,7 @@ def test_ballplate_bad_probe_writes_neither_result_nor_report(command_inputs, tm
     lines[1] = lines[1].replace(",P0,", ",P9,").replace(",PX1,", ",P9,").replace(",PY1,", ",P9,")
     bad.write_text("\n".join(lines) + "\n")
     out, rep = tmp_path / "r.json", tmp_path / "r.html"
-    args = ["calibrate", "ballplate", str(bad), "--machine", "cmm-moving-bridge", "--plate",
+    args = ["cmm", "calibrate", str(bad), "--machine", "cmm-moving-bridge", "--plate",
             str(command_inputs["plate"]), "--probes", str(command_inputs["probes"]),
             "-o", str(out), "--report", str(rep)]  # fmt: skip
     result = runner.invoke(app, args)
@@ -318,7 +318,7 @@ def test_design_report_shows_the_plan_it_wrote(reports, tmp_path_factory):
     assert "--seed 5" in _provenance(page, "command")
     d = tmp_path_factory.mktemp("design-json")
     grid = re.search(r"--balls-from (\S+)", _provenance(page, "command")).group(1)
-    args = ["design", "samba", "--machine", "five-axis-wcbxfzyst", "--model", "13",
+    args = ["samba", "plan", "--machine", "five-axis-wcbxfzyst", "--model", "13",
             "--balls-from", grid, "--n-balls", "2", "--k", "3", "--criterion", "D",
             "--starts", "2", "--seed", "5", "--b-grid", "-90:90:15", "--c-grid", "0:330:30",
             "-o", str(d / "programme.csv"), "--json"]  # fmt: skip

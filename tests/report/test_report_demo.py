@@ -75,7 +75,7 @@ def test_demo_writes_inputs_results_and_report(demo_run):
 
 def test_demo_plan_is_full_rank_and_its_programme_matches_the_plan(demo_run):
     """The planning section: two balls of the grid, full rank, and a programme CSV whose
-    rows are the plan's (the printed `mtm design samba` rewrites it: see the rerun test)."""
+    rows are the plan's (the printed `mtm samba plan` rewrites it: see the rerun test)."""
     out, _ = demo_run
     plan = json.loads((out / "planning" / "plan.json").read_text(encoding="utf-8"))
     assert plan["kind"] == "samba-design" and len(plan["balls"]) == 2

@@ -126,12 +126,12 @@ def test_command_writes_the_library_estimate_and_refuses_bad_input(varying, tmp_
     paths, res = varying
     out = tmp_path / "E.json"
     common = ["--machine", MACHINE, "--model", "13", "--artefact", EXAMPLES / "artefact.yaml"]
-    result = _cli("calibrate", "unexplained", *paths, *common, "--noise-um", "0.5", "-o", out)
+    result = _cli("samba", "unexplained", *paths, *common, "--noise-um", "0.5", "-o", out)
     assert result.exit_code == 0, result.output
     doc = json.loads(out.read_text(encoding="utf-8"))
     assert doc["kind"] == "unexplained-volumetric-error"
     np.testing.assert_allclose(load_unexplained_covariance(out), res.between.covariance)
     bad = tmp_path / "never.json"
-    result = _cli("calibrate", "unexplained", paths[0], *common, "-o", bad)
+    result = _cli("samba", "unexplained", paths[0], *common, "-o", bad)
     assert result.exit_code == 2 and "at least 2 campaign files" in result.output
     assert not bad.exists()

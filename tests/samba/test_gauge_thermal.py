@@ -1,5 +1,5 @@
 """The gauge's thermal correction and the tip radius from a reference sphere in the length
-check (Alami Mchichi (2018) §6.5.3), library and ``mtm verify length``."""
+check (Alami Mchichi (2018) §6.5.3), library and ``mtm length verify``."""
 
 import json
 
@@ -41,7 +41,7 @@ def _sphere_points(centre, radius, n=25, seed=0):
 
 def _verify(tmp_path, *extra):
     args = [
-        "verify", "length", str(tmp_path / "gauge.csv"), "--machine", "five-axis-wcbxfzyst",
+        "length", "verify", str(tmp_path / "gauge.csv"), "--machine", "five-axis-wcbxfzyst",
         "--length", "300", "--u-length", "0.00025", "--json", *extra,
     ]  # fmt: skip
     result = runner.invoke(app, args)
@@ -58,7 +58,7 @@ def test_cli_thermal_correction_and_tip_sphere_shift_each_error_exactly(tmp_path
     sim = runner.invoke(
         app,
         [
-            "simulate", "length", "--machine", "five-axis-wcbxfzyst", "--end-a",
+            "length", "simulate", "--machine", "five-axis-wcbxfzyst", "--end-a",
             "-106.066017,-106.066017,40", "--end-b", "106.066017,106.066017,40", "--pairs", "5",
             "--seed", "3", "-o", str(tmp_path / "gauge.csv"),
         ],
@@ -97,7 +97,7 @@ def test_cli_thermal_correction_and_tip_sphere_shift_each_error_exactly(tmp_path
 def test_cli_tip_sphere_without_diameter_exits_2(tmp_path):
     (tmp_path / "gauge.csv").write_text("pair,end,X,Y,Z,B,C\n")
     args = [
-        "verify", "length", str(tmp_path / "gauge.csv"), "--machine", "five-axis-wcbxfzyst",
+        "length", "verify", str(tmp_path / "gauge.csv"), "--machine", "five-axis-wcbxfzyst",
         "--length", "500", "--tip-sphere", str(tmp_path / "s.csv"),
     ]  # fmt: skip
     result = runner.invoke(app, args)

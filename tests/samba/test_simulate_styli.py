@@ -1,5 +1,5 @@
-"""``mtm simulate samba`` with two styli: records with a ``tool`` column that ``mtm
-calibrate samba`` reads back, and the round trip that recovers E_AY1 and E_YY1, the pair
+"""``mtm samba simulate`` with two styli: records with a ``tool`` column that ``mtm
+samba calibrate`` reads back, and the round trip that recovers E_AY1 and E_YY1, the pair
 one stylus length confounds (Alami Mchichi (2018) Table 4.4)."""
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ def files(tmp_path_factory):
 
 
 def simulate(files, out, *tools, noise="0.5"):
-    args = ["simulate", "samba", "--machine", MACHINE, "--truth", files / "truth.json"]
+    args = ["samba", "simulate", "--machine", MACHINE, "--truth", files / "truth.json"]
     args += ["--artefact", files / "artefact.yaml", "--balls", EXAMPLES / "balls.yaml"]
     args += ["--poses", EXAMPLES / "poses.csv", "--noise-um", noise, "--seed", "5", "-o", out]
     for t in tools:
@@ -54,7 +54,7 @@ def simulate(files, out, *tools, noise="0.5"):
 
 def calibrate(files, records):
     return mtm(
-        "calibrate", "samba", records, "--machine", MACHINE, "--artefact",
+        "samba", "calibrate", records, "--machine", MACHINE, "--artefact",
         files / "artefact.yaml", "--params-only", ",".join(PARAMS), "--estimate-tool",
         "--noise-um", "0.5", "--json",
     )  # fmt: skip
@@ -115,7 +115,7 @@ def test_a_tool_missing_from_the_artefact_is_refused(files, machine13, balls, ar
     with pytest.raises(InputFileError, match="a tool column needs the styli"):
         simulate_records(machine13, None, balls, named, artefact)
     result = mtm(
-        "simulate", "samba", "--machine", MACHINE, "--artefact", files / "artefact.yaml",
+        "samba", "simulate", "--machine", MACHINE, "--artefact", files / "artefact.yaml",
         "--balls", EXAMPLES / "balls.yaml", "--poses", EXAMPLES / "poses.csv",
         "--tool", "long=0,0", "-o", files / "never.csv",
     )  # fmt: skip

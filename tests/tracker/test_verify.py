@@ -71,9 +71,14 @@ def test_held_out_coverage_is_consistent_with_95_percent(machine, mesh, pose):
     theta = np.zeros(machine.n_params)
     idx = [machine.parameter_names.index(n) for n in kept]
     theta[idx] = np.random.default_rng(5).normal(0, 10, len(idx)) * machine.parameter_scales[idx]
-    r = verify(machine, theta, pose, mesh, ONE_TOOL, trials=2000, seed=11)
+    seen: list = []  # the progress reports, one per chunk of 1000 verifications
+    r = verify(
+        machine, theta, pose, mesh, ONE_TOOL, trials=2000, seed=11,
+        progress=lambda *a: seen.append(a),
+    )  # fmt: skip
     assert 1871 <= r.coverage["covered"] <= 1929
     assert r.coverage["trials"] == 2000
+    assert seen == [(1000, 2000), (2000, 2000)]
 
 
 def test_result_round_trip(paper_run):

@@ -53,3 +53,37 @@ def test_non_finite_model_values_name_trials_and_output():
             monte_carlo(log_model, INPUTS, trials=1_000, seed=41)
     assert "output 0" not in str(error.value)
     assert "first offending inputs" in str(error.value)
+
+
+def test_progress_reports_every_round_and_changes_no_value():
+    """With a progress callback the chunks are evaluated in rounds, a report after each:
+    the trials done rise to the total, and the model values are those of a run without."""
+    executor = InProcessExecutor()
+    plain, _ = run_sequences(executor, lambda x: x, INPUTS, root_sequence(5), 0, 2, 500, 7)
+    seen: list[int] = []
+    reported, _ = run_sequences(
+        executor, lambda x: x, INPUTS, root_sequence(5), 0, 2, 500, 7, seen.append
+    )
+    for a, b in zip(plain, reported, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert seen == sorted(seen) and len(seen) > 1 and seen[-1] == 1000
+
+
+def test_monte_carlo_reports_trials_of_a_fixed_and_an_adaptive_run():
+    """A fixed run reports (done, M) up to M; an adaptive one (done, None) up to the trials
+    it ran (its stopping rule decides the end); both give the values of a silent run."""
+    model = lambda x: x[:, 0] + x[:, 1]  # noqa: E731
+    fixed: list = []
+    silent = monte_carlo(model, INPUTS, trials=20_000, seed=2, chunk_size=1_000)
+    loud = monte_carlo(
+        model, INPUTS, trials=20_000, seed=2, chunk_size=1_000, progress=lambda *a: fixed.append(a)
+    )
+    assert loud.outputs[0].u == silent.outputs[0].u
+    assert fixed[-1] == (20_000, 20_000) and len(fixed) == 10
+    adaptive: list = []
+    run = monte_carlo(
+        model, INPUTS, adaptive=True, digits=1, seed=2, progress=lambda *a: adaptive.append(a)
+    )
+    assert {total for _, total in adaptive} == {None}
+    assert adaptive[-1][0] == run.trials and run.sequences >= 2
+    assert [done for done, _ in adaptive] == sorted(done for done, _ in adaptive)

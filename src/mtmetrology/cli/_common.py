@@ -7,6 +7,8 @@ line on stderr and a documented exit code (:mod:`mtmetrology.errors`):
   ``exit_code`` (2 for input, rank, convergence and resource limits; 3 for environment);
 - ``RecursionError`` / ``MemoryError`` -> exit 2 (the input is too deep or too large);
 - any other ``OSError`` (unwritable target, directory given as a file ...) -> exit 3;
+- standard output closed by its reader (``mtm machine list | head -1``) -> nothing
+  printed, exit 141 (:mod:`mtmetrology.__main__`, as SIGPIPE would end the program);
 - Ctrl-C (SIGINT) -> ``interrupted; nothing written``, exit 130 (outputs are written
   atomically, so this is true);
 - anything else is a bug -> ``internal error: ...``, exit 1.
@@ -181,8 +183,8 @@ class MtmGroup(TyperGroup):
         outputs_before = len(committed())
         try:
             return super().invoke(ctx)
-        except (typer.Exit, typer.Abort, CLICK_EXCEPTION):
-            raise
+        except (typer.Exit, typer.Abort, CLICK_EXCEPTION, BrokenPipeError):
+            raise  # a closed standard output is no failure: mtmetrology.__main__ ends quietly
         except KeyboardInterrupt:
             message, code = describe_failure(KeyboardInterrupt(), outputs_before)
             _REPORTED.append(True)

@@ -1,10 +1,12 @@
 """A progress bar for long library calls: on a terminal, and only once the run is long.
 
-The library reports progress through a plain callback ``progress(done, total)`` and knows
-nothing of the display; :func:`progress_bar` gives such a callback that draws a rich bar
+The library reports progress through a plain callback ``progress(done, total)`` (total None
+when the run decides its own end, as an adaptive Monte Carlo does) and knows nothing of the
+display; :func:`progress_bar` gives such a callback that draws a rich bar
 on standard error when standard error is a terminal and the call has already run for
 ``after`` seconds (2 s: a short run prints nothing). Not on a terminal (a pipe, a file, a
-CI log) it draws nothing, so standard error stays the messages.
+CI log) it gives no callback (None) and draws nothing, so standard error stays the messages
+and the library runs as it does without a display.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ def progress_bar(
     after: float = 2.0,
     console=None,
     clock: Callable[[], float] = time.monotonic,
-) -> Iterator[Callable[[int, int], None]]:
+) -> Iterator[Callable[[int, int | None], None] | None]:
     """A ``progress(done, total)`` callback drawing a transient bar once ``after`` s passed.
 
     Parameters
@@ -39,8 +41,10 @@ def progress_bar(
 
     Yields
     ------
-    callable
-        ``progress(done, total)``.
+    callable or None
+        ``progress(done, total)``; ``total`` None draws a bar without an end ("done/?").
+        None when ``console`` is not a terminal: the library then runs as without a
+        display (a Monte Carlo evaluates its chunks in one pass, not in reporting rounds).
     """
     from rich.console import Console
     from rich.progress import (
@@ -52,12 +56,13 @@ def progress_bar(
     )
 
     console = Console(stderr=True) if console is None else console
+    if not console.is_terminal:
+        yield None
+        return
     start = clock()
     shown: list = []  # [Progress, task id] once drawn
 
-    def progress(done: int, total: int) -> None:
-        if not console.is_terminal:
-            return
+    def progress(done: int, total: int | None) -> None:
         if not shown:
             if clock() - start < after:
                 return

@@ -253,7 +253,7 @@ MAP_HELP = f"""VDI/VDE 2617-11 budget of a feature with a volumetric error map.
 
 POINTS.csv: x,y,z[,cycle[,series]] (mm): the indicated contact (stylus-centre) points
 of the feature, every cycle the same points.  --params: the machine's map, a parameter
-set with covariance (MAP.json of 'mtm calibrate multilateration') or a volumetric-map
+set with covariance (MAP.json of 'mtm multilateration calibrate') or a volumetric-map
 document.  Each point is corrected P_true = P - e(P); the feature ({", ".join(FEATURE_KINDS)})
 is fitted to the original and corrected points; b = F(corrected) - F(original), u_b = |b|
 (--mode uncorrected, the default) or the corrected value with u_b from the map covariance

@@ -1,4 +1,5 @@
-"""``mtm calibrate``: identify a machine's errors from artefact measurements."""
+"""``mtm samba calibrate`` and ``mtm samba unexplained``: a five-axis machine's errors from
+SAMBA records (commands of the ``mtm samba`` group, :data:`mtmetrology.cli.SHARED_GROUPS`)."""
 
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ from mtmetrology.cli._common import (
     user_errors,
 )
 from mtmetrology.cli._history import HistoryOption, record_in_history
+from mtmetrology.cli._progress import progress_bar
 from mtmetrology.errors import ConvergenceError, InputError
 from mtmetrology.io.files import InputFileError, write_json
 
@@ -37,7 +39,7 @@ probed points (measurement,ball,X,Y,Z,B,C[,S,i,j,k]: one sphere fit per measurem
 or either form repeated K times (campaign,...: mean indications and their sample
 covariance); optional sense_<axis> columns (+1/-1) feed reversal terms. ARTEFACT.yaml
 names the balls, the scale bar and the stylus tip; REPEATABILITY.json the standard
-uncertainty of a reading per axis. Formats: docs/file-formats.md, "SAMBA calibration".
+uncertainty of a reading per axis. Formats: mtm formats samba-calibration.
 
 RESULT.json (kind samba-calibration) is a parameter set that 'mtm predict --params'
 reads as it is, plus the ball centres, tool vector, residuals, volumetric errors,
@@ -155,7 +157,9 @@ def samba_report(ctx: typer.Context, title: str, inputs: list, result, **context
 @user_errors
 def samba(
     ctx: typer.Context,
-    records: Annotated[Path, typer.Argument(help="RECORDS.csv (formats: docs/file-formats.md).")],
+    records: Annotated[
+        Path, typer.Argument(help="RECORDS.csv (formats: mtm formats samba-calibration).")
+    ],
     machine: MachineOption,
     artefact: ArtefactOption,
     model: ErrorModelOption = None,
@@ -295,17 +299,19 @@ def samba(
             campaign_mean=campaign_uncertainty == "mean",
         )
         try:
-            unc = evaluate_uncertainty(
-                cal,
-                inputs,
-                described,
-                method=uncertainty,
-                trials=trials,
-                adaptive=adaptive,
-                digits=digits,
-                seed=seed,
-                executor=executor,
-            )
+            with progress_bar("Monte Carlo trials") as progress:
+                unc = evaluate_uncertainty(
+                    cal,
+                    inputs,
+                    described,
+                    method=uncertainty,
+                    trials=trials,
+                    adaptive=adaptive,
+                    digits=digits,
+                    seed=seed,
+                    executor=executor,
+                    progress=progress,
+                )
         except ConvergenceError as err:
             fail(str(err))
     doc = cal.to_dict(unc, described)
@@ -323,7 +329,7 @@ def samba(
         )
     cov_e = None if unexplained_out is None else unexplained_from_calibration(cal, sigma)
     if history:
-        record_in_history(doc, m, "mtm calibrate samba", [records, artefact])
+        record_in_history(doc, m, "mtm samba calibrate", [records, artefact])
     if cov_e is not None:
         write_json(unexplained_out, cov_e.to_dict())
 
@@ -409,6 +415,14 @@ def _summary(doc: dict, output: Path | None) -> None:
             f"  largest residual rms at ball {worst['group']}: {worst['rms_µm']:.2g} µm "
             f"({worst['rms_weighted']:.2g} × the stated noise)"
         )
+    mc = doc.get("uncertainty", {}).get("mcm")
+    if mc is not None:
+        run = "adaptive, " + ("converged" if mc["converged"] else "not converged")
+        typer.echo(
+            f"Monte Carlo: {mc['trials']} trials in {mc['sequences']} sequence"
+            + ("s" if mc["sequences"] > 1 else "")
+            + (f" ({run})" if mc["adaptive"] else "")
+        )
     if "uncertainty" in doc and "validation" in doc["uncertainty"]:
         typer.echo(doc["uncertainty"]["validation"]["message"])
     if output is not None:
@@ -418,13 +432,13 @@ def _summary(doc: dict, output: Path | None) -> None:
 UNEXPLAINED_HELP = """cov(e) of the unexplained volumetric error from repeated SAMBA campaigns.
 
 CAMPAIGN.csv ...: two or more records files of the same SAMBA test (same balls,
-indexations and styli in the same order; any form 'mtm calibrate samba' reads), each
+indexations and styli in the same order; any form 'mtm samba calibrate' reads), each
 calibrated on its own. The estimate is the scatter of the residual field between the
 campaigns at the common positions, less the probing noise σ² (--noise-um), with
 ν = (K − 1)(n − p/3), made positive semidefinite by eigenvalue clipping; the pooled
 within-campaign estimate is given beside it. E.json is the unexplained-volumetric-error
 document (µm²) that 'mtm task uncertainty --unexplained' reads, the same form as
-'mtm calibrate samba --unexplained-out'.
+'mtm samba calibrate --unexplained-out'.
 """
 
 

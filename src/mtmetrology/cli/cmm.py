@@ -1,9 +1,9 @@
-"""CMM commands: ``mtm calibrate ballplate``, ``mtm calibrate ballplate-budget``,
-``mtm simulate ballplate``, ``mtm gp fit``, ``mtm gp predict``.
+"""CMM commands: ``mtm cmm simulate``, ``mtm cmm budget``, ``mtm gp fit``,
+``mtm gp predict``, and the ball-plate calibration that ``mtm cmm calibrate``
+(:mod:`mtmetrology.cli.cmm_studies`) runs without ``--qualification``.
 
-The calibrate and simulate commands are plain functions attached to the ``calibrate`` and
-``simulate`` groups by :func:`register`, so the groups can be shared with other
-applications (SAMBA); ``gp`` is this module's own group, :data:`gp_app`.
+:data:`app` holds this module's commands of the ``mtm cmm`` group
+(:data:`mtmetrology.cli.SHARED_GROUPS`); ``gp`` is this module's own group, :data:`gp_app`.
 """
 
 from __future__ import annotations
@@ -16,7 +16,6 @@ from typing import Annotated
 import typer
 
 from mtmetrology.cli._common import (
-    KeepAPrioriOption,
     MachineOption,
     ReportOption,
     adequacy_rule,
@@ -25,11 +24,11 @@ from mtmetrology.cli._common import (
     machine_with_parameters,
     user_errors,
 )
-from mtmetrology.cli._history import HistoryOption, record_in_history
-from mtmetrology.cmm.requests import AUTO_CANDIDATES
+from mtmetrology.cli._history import record_in_history
+from mtmetrology.cli._progress import progress_bar
 from mtmetrology.io.files import InputFileError, atomic_write, check_output
 
-__all__ = ["gp_app", "register"]
+__all__ = ["app", "calibrate_ballplate", "gp_app"]
 
 
 FILES_HELP = (
@@ -97,66 +96,46 @@ def read_ballplate_inputs(records: Path, plate: Path, probes: Path):
     return read_records(records, pl, pr), pl, pr
 
 
-@user_errors
-def calibrate_ballplate_cmd(
+def calibrate_ballplate(
     ctx: typer.Context,
-    records: Annotated[Path, typer.Argument(help="Records CSV: position,ball,probe,X,Y,Z (mm).")],
-    machine: MachineOption,
-    plate: PlateOpt,
-    probes: ProbesOpt,
-    output: OutOpt,
-    model: Annotated[
-        str,
-        typer.Option(
-            "--model",
-            help="seed (the source's Chebyshev model), full-<d> (21 functions, degree <= d), "
-            "or auto (lowest median held-out RMS over folds that hold out a block of balls "
-            "in every plate position; lowest AIC when no fair comparison is possible).",
-        ),
-    ] = "seed",
-    degrees: Annotated[
-        str | None,
-        typer.Option("--degrees", help="Per-function degrees of a full model: E_YX=3,E_AZ=1."),
-    ] = None,
-    candidates: Annotated[
-        str,
-        typer.Option("--candidates", help="Models compared by --model auto, comma-separated."),
-    ] = ",".join(AUTO_CANDIDATES),
-    sigma_um: SigmaOpt = 0.5,
-    seed: Annotated[int, typer.Option("--seed", help="Seed of the U2/U3 sample points.")] = 0,
-    keep_a_priori: KeepAPrioriOption = False,
-    json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
-    report_path: ReportOption = None,
-    history: HistoryOption = False,
+    records: Path,
+    machine: str,
+    plate: Path,
+    probes: Path,
+    output: Path,
+    *,
+    model: str,
+    degrees: str | None,
+    candidates: str,
+    sigma_um: float,
+    seed: int,
+    keep_a_priori: bool,
+    json_out: bool,
+    report_path: Path | None,
+    history: bool,
 ) -> None:
-    """Identify a CMM's error functions from ball-plate records (kinematic model).
-
-    Unknowns: the error parameters, 6 pose parameters per plate position and the ball
-    centres (the certificate enters with its uncertainty). The datum (terms left out) is
-    chosen by rank and reported; a set-up that cannot see the model is refused with the
-    unobservable combinations named. Writes a ballplate-calibration result (a parameter set
-    for `mtm predict --params`) with U1/U2/U3 from the full covariance, scaled by the
-    variance factor s² when the residuals contradict the model or --sigma-um (chi-squared
-    p < 0.01; --keep-a-priori-covariance keeps it); residual RMS by position and stylus.
-    """
+    """``mtm cmm calibrate`` without ``--qualification``: the styli by their probe-set
+    offsets (:func:`mtmetrology.cmm.requests.calibrate_ballplate_files`)."""
     from mtmetrology.cmm.requests import calibrate_ballplate_files
     from mtmetrology.kinematics.machine import Machine
     from mtmetrology.units import to_internal
 
     sigma = to_internal(positive_option(sigma_um, "--sigma-um"), "µm")
     m = Machine.load(machine)
-    request = calibrate_ballplate_files(
-        records,
-        m,
-        plate,
-        probes,
-        model=model,
-        degrees=degrees,
-        candidates=[c.strip() for c in candidates.split(",") if c.strip()],
-        sigma=sigma,
-        seed=seed,
-        adequacy=adequacy_rule(keep_a_priori),
-    )
+    with progress_bar("model selection fits") as progress:
+        request = calibrate_ballplate_files(
+            records,
+            m,
+            plate,
+            probes,
+            model=model,
+            degrees=degrees,
+            candidates=[c.strip() for c in candidates.split(",") if c.strip()],
+            sigma=sigma,
+            seed=seed,
+            adequacy=adequacy_rule(keep_a_priori),
+            progress=progress,
+        )
     cal, selection = request.calibration, request.selection
     doc = request.to_dict()
     report = None
@@ -166,7 +145,7 @@ def calibrate_ballplate_cmd(
         )
         add_cmm_result(report, cal, model_selection=selection)
     if history:
-        record_in_history(doc, m, "mtm calibrate ballplate", [records, plate, probes])
+        record_in_history(doc, m, "mtm cmm calibrate", [records, plate, probes])
 
     def messages() -> None:
         if selection is not None:
@@ -434,14 +413,8 @@ def gp_predict(
     typer.echo(f"wrote {len(table)} rows to {output}", err=True)
 
 
-def register(calibrate_app: typer.Typer, simulate_app: typer.Typer) -> None:
-    """Attach ``ballplate`` (and ``ballplate-budget``) to the calibrate and simulate groups."""
-    calibrate_app.command("ballplate", help=_help(calibrate_ballplate_cmd))(calibrate_ballplate_cmd)
-    calibrate_app.command("ballplate-budget")(budget_cmd)
-    simulate_app.command("ballplate", help=_help(simulate_ballplate_cmd))(simulate_ballplate_cmd)
-
-
-#: The CMM commands of the shared ``mtm calibrate`` and ``mtm simulate`` groups.
-calibrate_app = typer.Typer()
-simulate_app = typer.Typer()
-register(calibrate_app, simulate_app)
+#: The CMM commands of the ``mtm cmm`` group defined here (the studies and the
+#: calibration are in :mod:`mtmetrology.cli.cmm_studies`).
+app = typer.Typer()
+app.command("simulate", help=_help(simulate_ballplate_cmd))(simulate_ballplate_cmd)
+app.command("budget")(budget_cmd)

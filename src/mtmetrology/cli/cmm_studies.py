@@ -3,8 +3,9 @@
 ``compare``: kinematic against GP error model on held-out plate positions;
 ``source-gp``: the source's GP demonstration re-run (GPML port, :mod:`mtmetrology.cmm.gpml`);
 ``selfcal-design``: U1, U2, U3 of the source's self-calibration (:mod:`mtmetrology.cmm.selfcal`);
-``calibrate``: ball-plate calibration with the stylus offsets (and optionally the plate) as
-unknowns (:mod:`mtmetrology.cmm.probecal`).
+``calibrate``: the ball-plate calibration, by the probe set's stylus offsets
+(:func:`mtmetrology.cli.cmm.calibrate_ballplate`) or, with ``--qualification``, with the
+stylus offsets (and optionally the plate) as unknowns (:mod:`mtmetrology.cmm.probecal`).
 """
 
 from __future__ import annotations
@@ -14,16 +15,26 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from mtmetrology.cli._common import MachineOption, ReportOption, emit_result, user_errors
+from mtmetrology.cli._common import (
+    KeepAPrioriOption,
+    MachineOption,
+    ReportOption,
+    emit_result,
+    user_errors,
+)
+from mtmetrology.cli._history import HistoryOption
 from mtmetrology.cli.cmm import (
+    FILES_HELP,
     PlateOpt,
     ProbesOpt,
     SigmaOpt,
     add_cmm_result,
+    calibrate_ballplate,
     cmm_report,
     positive_option,
     read_ballplate_inputs,
 )
+from mtmetrology.cmm.requests import AUTO_CANDIDATES
 from mtmetrology.io.files import InputFileError, check_output
 
 if TYPE_CHECKING:
@@ -269,7 +280,27 @@ def _length(text: str) -> CalibratedLength:
     return CalibratedLength(a, b, length, to_internal(u_um, "µm"))
 
 
-@app.command("calibrate")
+CALIBRATE_HELP = f"""Identify a CMM's error functions from ball-plate records (kinematic model).
+
+Unknowns: the error parameters, 6 pose parameters per plate position and the ball
+centres (the certificate enters with its uncertainty). The datum (terms left out) is
+chosen by rank and reported; a set-up that cannot see the model is refused with the
+unobservable combinations named. Writes a ballplate-calibration result (a parameter set
+for `mtm predict --params`) with U1/U2/U3 from the full covariance, scaled by the
+variance factor s² when the residuals contradict the model or --sigma-um (chi-squared
+p < 0.01; --keep-a-priori-covariance keeps it); residual RMS by position and stylus.
+
+With --qualification, the stylus offsets are unknowns too: the qualification records on a
+reference sphere are observations of their own, the stylus centroid is fixed; the plate by
+its certificate or, with --length, self-calibrated with one length as its only scale. A
+set-up that leaves directions free is refused with them named (--model seed or full-<d>;
+--degrees, --candidates, --seed, --keep-a-priori-covariance and --history are for the
+calibration without --qualification).
+
+{FILES_HELP}"""
+
+
+@app.command("calibrate", help=CALIBRATE_HELP)
 @user_errors
 def calibrate_cmd(
     ctx: typer.Context,
@@ -277,34 +308,70 @@ def calibrate_cmd(
     machine: MachineOption,
     plate: PlateOpt,
     probes: ProbesOpt,
+    output: Annotated[Path, typer.Option("-o", "--output", help="Write the result (JSON).")],
     qualification: Annotated[
-        Path,
+        Path | None,
         typer.Option(
             "--qualification",
-            help="Reference-sphere records, CSV position,ball,probe,X,Y,Z (mm): every stylus.",
+            help="Reference-sphere records, CSV position,ball,probe,X,Y,Z (mm): every stylus; "
+            "the stylus offsets become unknowns.",
         ),
-    ],
-    output: Annotated[Path, typer.Option("-o", "--output", help="Write the result (JSON).")],
-    model: Annotated[str, typer.Option("--model", help="Kinematic model: seed, full-<d>.")] = (
-        "seed"
-    ),
+    ] = None,
+    model: Annotated[
+        str,
+        typer.Option(
+            "--model",
+            help="seed (the source's Chebyshev model), full-<d> (21 functions, degree <= d), "
+            "or auto (lowest median held-out RMS over folds that hold out a block of balls "
+            "in every plate position; lowest AIC when no fair comparison is possible).",
+        ),
+    ] = "seed",
+    degrees: Annotated[
+        str | None,
+        typer.Option("--degrees", help="Per-function degrees of a full model: E_YX=3,E_AZ=1."),
+    ] = None,
+    candidates: Annotated[
+        str,
+        typer.Option("--candidates", help="Models compared by --model auto, comma-separated."),
+    ] = ",".join(AUTO_CANDIDATES),
     length: Annotated[
         str | None,
         typer.Option(
             "--length",
-            help="Self-calibrate the plate with one calibrated length: BALL_A,BALL_B,LENGTH_MM,"
-            "U_UM (the certificate's centres are then only the start).",
+            help="With --qualification: self-calibrate the plate with one calibrated length: "
+            "BALL_A,BALL_B,LENGTH_MM,U_UM (the certificate's centres are then only the start).",
         ),
     ] = None,
     sigma_um: SigmaOpt = 0.5,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the U2/U3 sample points.")] = 0,
+    keep_a_priori: KeepAPrioriOption = False,
     json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
     report_path: ReportOption = None,
+    history: HistoryOption = False,
 ) -> None:
-    """Identify the error parameters with the stylus offsets as unknowns (--estimate-probes):
-    the qualification records on a reference sphere are observations of their own, the
-    stylus centroid is fixed; the plate by its certificate or, with --length, self-calibrated
-    with one length as its only scale. A set-up that leaves directions free is refused with
-    them named."""
+    if qualification is None:
+        if length is not None:
+            raise InputFileError("--length: needs --qualification (the styli as unknowns)")
+        calibrate_ballplate(
+            ctx, records, machine, plate, probes, output, model=model, degrees=degrees,
+            candidates=candidates, sigma_um=sigma_um, seed=seed, keep_a_priori=keep_a_priori,
+            json_out=json_out, report_path=report_path, history=history,
+        )  # fmt: skip
+        return
+    not_here = [
+        option
+        for option, given in (
+            ("--model auto", model == "auto"),
+            ("--degrees", degrees is not None),
+            ("--candidates", candidates != ",".join(AUTO_CANDIDATES)),
+            ("--seed", seed != 0),
+            ("--keep-a-priori-covariance", keep_a_priori),
+            ("--history", history),
+        )
+        if given
+    ]
+    if not_here:
+        raise InputFileError(f"{not_here[0]}: not with --qualification (styli as unknowns)")
     from mtmetrology.cmm.files import read_records
     from mtmetrology.cmm.models import parse_model
     from mtmetrology.cmm.probecal import calibrate_with_probes

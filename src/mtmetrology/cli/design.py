@@ -1,4 +1,5 @@
-"""``mtm design``: plan a calibration (SAMBA balls and probing programme by DETMAX)."""
+"""``mtm samba plan`` and ``mtm samba compare-plans``: plan a SAMBA calibration (balls and
+probing programme by DETMAX); commands of the ``mtm samba`` group."""
 
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from mtmetrology.cli._common import (
     parse_tools,
     user_errors,
 )
+from mtmetrology.cli._progress import progress_bar
 from mtmetrology.design.choices import CRITERIA
 from mtmetrology.design.counts import MINUTES_PER_MEASUREMENT
 from mtmetrology.errors import InputError
@@ -158,7 +160,7 @@ def samba(
     The programme CSV has columns ball,B,C,S,X,Y,Z (+ sense_B,sense_C for models with
     backlash): X,Y,Z are the nominal readings at the ball centre, so `mtm machine
     identifiability MACHINE PROGRAMME.csv --artefact ARTEFACT.yaml` reads it as is, and
-    `mtm simulate samba --poses PROGRAMME.csv --balls BALLS.yaml --artefact ARTEFACT.yaml`
+    `mtm samba simulate --poses PROGRAMME.csv --balls BALLS.yaml --artefact ARTEFACT.yaml`
     (with the files of --balls-out and --artefact-out) simulates the planned test.
 
     With two or more --tool styli every row is probed with each (a tool column), balls
@@ -377,19 +379,21 @@ def compare(
     m = Machine.load(machine, model)
     spec = load_balls(balls)
     pairs = read_indexations(indexations) if indexations is not None else default_indexations()
-    result = compare_strategies(
-        m,
-        pairs,
-        ([b.id for b in spec.balls], [b.centre_mm for b in spec.balls]),
-        n_balls=_list(n_balls, "--n-balls", int),
-        ks=_list(k, "--k", float),
-        criteria=[c.strip() for c in criterion.split(",") if c.strip()],
-        bar=spec.scale_bar,
-        sigma_mm=float(to_internal(sigma_um, "µm")),
-        gauge_length_mm=gauge_mm,
-        starts=starts,
-        seed=seed,
-    )
+    with progress_bar("strategies") as progress:
+        result = compare_strategies(
+            m,
+            pairs,
+            ([b.id for b in spec.balls], [b.centre_mm for b in spec.balls]),
+            n_balls=_list(n_balls, "--n-balls", int),
+            ks=_list(k, "--k", float),
+            criteria=[c.strip() for c in criterion.split(",") if c.strip()],
+            bar=spec.scale_bar,
+            sigma_mm=float(to_internal(sigma_um, "µm")),
+            gauge_length_mm=gauge_mm,
+            starts=starts,
+            seed=seed,
+            progress=progress,
+        )
     doc = result.to_dict()
     report = None
     if report_path is not None:
@@ -416,9 +420,3 @@ def compare(
         report_path=report_path,
         as_json=json,
     )
-
-
-# laser-tracker verification (mtmetrology.cli.tracker): its commands join this group
-from mtmetrology.cli.tracker import design_app as _tracker_app  # noqa: E402
-
-app.registered_commands.extend(_tracker_app.registered_commands)

@@ -77,7 +77,11 @@ def fit(
     ctx: typer.Context,
     element: Annotated[ElementName, typer.Argument(help="The element to fit.")],
     points_csv: Annotated[
-        Path, typer.Argument(help="CSV file with columns x, y, z (mm), one point a row.")
+        Path,
+        typer.Argument(
+            help="CSV file with columns x, y, z (mm), one point a row; x, y alone: a line or "
+            "circle profile in the plane z = 0."
+        ),
     ],
     method: Annotated[
         Method,
@@ -108,7 +112,9 @@ def fit(
     """Fit a line, plane, circle, sphere, cylinder or cone to points and report its form.
 
     A line whose points all have the same z is a profile in that plane (2-D straightness);
-    otherwise its minimum zone is the smallest enclosing cylinder (ISO 12780-1).
+    otherwise its minimum zone is the smallest enclosing cylinder (ISO 12780-1). A file of
+    x, y alone is a line or circle profile in the plane z = 0 (2-D straightness or
+    roundness, stated in a note).
     """
     from mtmetrology.fitting.element_fit import fit_points_file
 

@@ -1,6 +1,6 @@
-"""``mtm calibrate long-term``: the day-to-day covariance of several calibrations.
+"""``mtm samba long-term``: the day-to-day covariance of several calibrations.
 
-A command of the shared ``mtm calibrate`` group (:data:`mtmetrology.cli.SHARED_GROUPS`).
+A command of the ``mtm samba`` group (:data:`mtmetrology.cli.SHARED_GROUPS`).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ app = typer.Typer()
 
 LONG_TERM_HELP = """Long-term parameter covariance from several calibrations of one machine.
 
-CAL.json: parameter sets or calibration results (mtm calibrate samba -o), one per day, in
+CAL.json: parameter sets or calibration results (mtm samba calibrate -o), one per day, in
 time order. They must name the same machine, error model and parameters.
 
 LONGTERM.json (kind parameter-set): the values of the latest calibration (--values mean:

@@ -1,4 +1,4 @@
-"""``mtm simulate multilateration`` and ``mtm calibrate multilateration``."""
+"""``mtm multilateration simulate`` and ``mtm multilateration calibrate``."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ from mtmetrology.cli._common import (
     user_errors,
     vector_option,
 )
+from mtmetrology.cli._progress import progress_bar
 from mtmetrology.errors import InputError
 
 simulate_app = typer.Typer()
@@ -133,9 +134,11 @@ def calibrate_multilateration_cmd(
         if target is not None:
             check_output(target, [lengths])
     m = Machine.load(machine, model)
-    result = calibrate_multilateration_file(
-        lengths, m, noise=noise, mc=mc, seed=seed, adequacy=adequacy_rule(keep_a_priori)
-    )
+    with progress_bar("map check trials") as progress:
+        result = calibrate_multilateration_file(
+            lengths, m, noise=noise, mc=mc, seed=seed, adequacy=adequacy_rule(keep_a_priori),
+            progress=progress,
+        )  # fmt: skip
     doc = result.to_dict()
     check = result.map_check
     report = None

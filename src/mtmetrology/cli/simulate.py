@@ -1,4 +1,5 @@
-"""``mtm simulate``: records of a virtual machine with chosen errors."""
+"""``mtm samba simulate`` and ``mtm length simulate``: records of a virtual machine with chosen
+errors (commands of the ``mtm samba`` and ``mtm length`` groups)."""
 
 from __future__ import annotations
 
@@ -36,7 +37,7 @@ BALLS.yaml: true ball centres in the workpiece frame:
     - {id: "1", centre_mm: [-50, -50, 50]}
     - {id: SB1, centre_mm: [-152.78, 0, 30]}
 
-ARTEFACT.yaml: as for 'mtm calibrate samba' (ball and stylus tip diameters).
+ARTEFACT.yaml: as for 'mtm samba calibrate' (ball and stylus tip diameters).
 
 POSES.csv: the probing programme, one probing per row in probing order:
 ball,B,C[,S][,tool] (degrees).
@@ -46,7 +47,7 @@ centre) once per stylus, ids as in the artefact's tools; each probing uses the t
 its POSES.csv tool column, or, without one, the whole programme is repeated with each
 tool in turn.  A POSES.csv tool column without --tool uses the artefact's vectors.
 
-RECORDS.csv is written in the format 'mtm calibrate samba' reads: ball,X,Y,Z,B,C,S
+RECORDS.csv is written in the format 'mtm samba calibrate' reads: ball,X,Y,Z,B,C,S
 (ball-centre indications), or measurement,ball,X,Y,Z,B,C,S,i,j,k with --raw-points
 (i,j,k: approach direction in machine axes), with a leading campaign column when
 --campaigns K > 1, sense_<axis> columns when the model has reversal terms and a tool
@@ -55,7 +56,7 @@ column with several styli.
 
 LENGTH_HELP = """Readings of a gauge-block length check on a virtual machine.
 
-Writes READINGS.csv (pair,end,X,Y,Z,B,C[,S]) for 'mtm verify length': the stylus
+Writes READINGS.csv (pair,end,X,Y,Z,B,C[,S]) for 'mtm length verify': the stylus
 centre against end a and end b of a length whose end-face centres END_A and END_B
 (workpiece frame, mm) are given, at --pairs random (B, C) indexations.
 """

@@ -1,5 +1,5 @@
-"""``mtm simulate tracker``, ``mtm calibrate tracker``, ``mtm verify tracker``, ``mtm design
-tracker-placement``: laser-tracker volumetric verification (Aguado et al. (2019)).
+"""``mtm tracker simulate``, ``mtm tracker calibrate``, ``mtm tracker verify``, ``mtm tracker
+plan``: laser-tracker volumetric verification (Aguado et al. (2019)).
 
 Each command parses its options, calls one library function of :mod:`mtmetrology.tracker`,
 prints a summary (or the JSON with ``--json``) and writes its outputs; the library is
@@ -24,6 +24,7 @@ from mtmetrology.cli._common import (
     parse_tools,
     user_errors,
 )
+from mtmetrology.cli._progress import progress_bar
 from mtmetrology.errors import InputError
 
 simulate_app = typer.Typer()
@@ -204,17 +205,19 @@ def verify_tracker(
     from mtmetrology.tracker.verify import verify
 
     m = Machine.load(machine)
-    result = verify(
-        m,
-        files.true_errors(m, truth),
-        files.load_pose(pose),
-        parse_mesh(mesh, m),
-        files.load_tools(tools),
-        trials=trials,
-        noise=files.noise(angle_urad, range_noise, angle_spread, smr),
-        conditions=files.load_conditions(conditions),
-        seed=seed,
-    )
+    with progress_bar("simulated verifications") as progress:
+        result = verify(
+            m,
+            files.true_errors(m, truth),
+            files.load_pose(pose),
+            parse_mesh(mesh, m),
+            files.load_tools(tools),
+            trials=trials,
+            noise=files.noise(angle_urad, range_noise, angle_spread, smr),
+            conditions=files.load_conditions(conditions),
+            seed=seed,
+            progress=progress,
+        )
     doc = result.to_dict()
     report = None
     if report_path is not None:

@@ -26,6 +26,7 @@ from rich.console import Console
 from rich.table import Table
 
 from mtmetrology.cli._common import ReportOption, command_line, emit_result, fail
+from mtmetrology.cli._progress import progress_bar
 from mtmetrology.errors import MtmetrologyError, ResourceLimitError
 
 if TYPE_CHECKING:
@@ -133,17 +134,19 @@ def run(
     except ModelFileError as exc:
         _fail(str(exc))
     try:
-        evaluation = evaluate_model(
-            loaded,
-            method.value,
-            digits=digits,
-            p=p,
-            trials=trials,
-            adaptive=adaptive,
-            seed=seed,
-            executor=executor,
-            source=str(model_file),
-        )
+        with progress_bar("Monte Carlo trials") as progress:
+            evaluation = evaluate_model(
+                loaded,
+                method.value,
+                digits=digits,
+                p=p,
+                trials=trials,
+                adaptive=adaptive,
+                seed=seed,
+                executor=executor,
+                source=str(model_file),
+                progress=progress,
+            )
     except ResourceLimitError:
         raise
     except (MtmetrologyError, ValueError, TypeError) as exc:

@@ -1,4 +1,4 @@
-"""``mtm validate task`` and ``mtm validate pooling``: validation campaigns of a task
+"""``mtm task validate`` and ``mtm task validate-pooling``: validation campaigns of a task
 uncertainty on calibrated artefacts.
 
 Every side-A × side-B bipoint is compensated and given y ± U (full-covariance GUF); the

@@ -1,4 +1,5 @@
-"""``mtm verify``: independent checks of a calibrated machine."""
+"""``mtm length verify`` and ``mtm length predict``: independent checks of a calibrated machine
+(commands of the ``mtm length`` group, :data:`mtmetrology.cli.SHARED_GROUPS`)."""
 
 from __future__ import annotations
 
@@ -176,8 +177,9 @@ LENGTHS_HELP = """Lengths between pairs of positions predicted by a calibration,
 READINGS.csv (mm, degrees): pair,end,X,Y,Z[,B,C,S], end a or b: the two commanded
 positions of each pair. Each length is L = |p(b) - p(a)| of the tool tip with the
 calibrated errors (RESULT.json: a parameter set with its covariance, e.g. of mtm
-calibrate tracker or multilateration), and u(L)^2 = g U_θ g^T with g = dL/dθ (both ends
-share θ: their correlation is kept; readings taken as exact). U = 2 u(L) (k = 2).
+tracker calibrate or mtm multilateration calibrate), and u(L)^2 = g U_θ g^T with
+g = dL/dθ (both ends share θ: their correlation is kept; readings taken as exact).
+U = 2 u(L) (k = 2).
 --reference REF.csv (pair,length_mm,u_um) adds each pair's error L - L_ref and
 E_n = |e| / (2 sqrt(u(L)^2 + u_ref^2)).
 """
@@ -227,9 +229,3 @@ def lengths(
     )
     emit_result(result.to_dict(), result.summary(), output=output, report=None,
                 report_path=None, as_json=json)  # fmt: skip
-
-
-# laser-tracker verification (mtmetrology.cli.tracker): its commands join this group
-from mtmetrology.cli.tracker import verify_app as _tracker_app  # noqa: E402
-
-app.registered_commands.extend(_tracker_app.registered_commands)

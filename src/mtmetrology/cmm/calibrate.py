@@ -406,6 +406,7 @@ def cross_validate(
     blocks: int = 5,
     repeats: int = 1,
     seed=0,
+    progress=None,
 ) -> dict:
     """Choose a model by cross-validation on blocks of balls held out in every position.
 
@@ -446,6 +447,9 @@ def cross_validate(
         Number of deals.
     seed : int or Generator
         Of the deals.
+    progress : callable, optional
+        ``progress(done, total)`` before each fold's fit and at the end, ``total`` the
+        fits of every candidate (the whole data and each fold), for a progress display.
 
     Returns
     -------
@@ -480,7 +484,8 @@ def cross_validate(
     labels = [f"{r + 1}.{k + 1}" for r, k in folds]
     pos = np.array(records.positions)
     names, whole, dev = [], [], []
-    for cand in candidates:
+    per = 1 + len(folds)  # fits per candidate: the whole data, then every fold
+    for i, cand in enumerate(candidates):
         names.append(cand if isinstance(cand, str) else cand.name)
         try:
             res = calibrate_ballplate(
@@ -492,7 +497,9 @@ def cross_validate(
             continue
         whole.append(res)
         row = []
-        for r, k in folds:
+        for j, (r, k) in enumerate(folds):
+            if progress is not None:
+                progress(i * per + 1 + j, len(candidates) * per)
             held = deal[r] == k
             try:
                 cal = calibrate_ballplate(
@@ -503,6 +510,8 @@ def cross_validate(
                 continue
             row.append(_held_out_deviations(cal, records.subset(held), plate, probes))
         dev.append(row)
+    if progress is not None:
+        progress(len(candidates) * per, len(candidates) * per)
     full = np.array([w is not None for w in whole])
     if not full.any():
         raise RankDeficientError(

@@ -17,7 +17,7 @@ Probe set::
     probes:                                  # stylus-tip centre relative to the machine's
       - {id: P0, offset_mm: [0, 0, -150]}    # reference point: the tool vector, mm
 
-Plate positions (for ``mtm simulate ballplate``)::
+Plate positions (for ``mtm cmm simulate``)::
 
     kind: ballplate-positions
     positions:

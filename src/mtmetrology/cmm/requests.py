@@ -1,4 +1,4 @@
-"""``mtm calibrate ballplate`` as one library call: :func:`calibrate_ballplate_files`."""
+"""``mtm cmm calibrate`` as one library call: :func:`calibrate_ballplate_files`."""
 
 from __future__ import annotations
 
@@ -49,6 +49,7 @@ def calibrate_ballplate_files(
     sigma: float = 0.5e-3,
     seed: int = 0,
     adequacy: str = "scale",
+    progress=None,
 ) -> BallPlateRequest:
     """Identify a CMM's error functions from ball-plate files (kinematic model).
 
@@ -73,6 +74,8 @@ def calibrate_ballplate_files(
     adequacy : {"scale", "a-priori"}
         The identification engine's model-adequacy rule for the calibration
         (``"a-priori"``: ``--keep-a-priori-covariance``).
+    progress : callable, optional
+        ``progress(done, total)`` over the fits of ``auto``'s cross-validation.
 
     Returns
     -------
@@ -93,7 +96,7 @@ def calibrate_ballplate_files(
         names = list(candidates)
         for c in names:
             parse_model(c)
-        selection = cross_validate(m, rec, pl, pr, names, sigma=sigma)
+        selection = cross_validate(m, rec, pl, pr, names, sigma=sigma, progress=progress)
         choice = parse_model(selection["chosen"])
     else:
         choice = parse_model(model, degrees)

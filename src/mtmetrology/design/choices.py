@@ -1,6 +1,6 @@
 """The named choices of calibration planning, in a module that imports nothing of the
-engines: the command line lists them in its options (``mtm design samba --criterion``,
-``mtm design compare --criterion``) without loading numpy.
+engines: the command line lists them in its options (``mtm samba plan --criterion``,
+``mtm samba compare-plans --criterion``) without loading numpy.
 
 :mod:`mtmetrology.design.criteria` says what each criterion computes.
 """

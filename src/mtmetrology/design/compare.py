@@ -246,6 +246,7 @@ def compare_strategies(
     gauge_z_mm: float = 100.0,
     starts: int = 3,
     seed: SeedLike = None,
+    progress=None,
 ) -> StrategyComparison:
     """Plan and check every strategy of a balls × k × criterion sweep.
 
@@ -268,6 +269,8 @@ def compare_strategies(
         Gauge block of the simulated check (the source's is 500 mm; it must fit the travels).
     seed : int, optional
         Every random start, truth and simulated test derives from it.
+    progress : callable, optional
+        ``progress(done, total)`` after each strategy, for a progress display.
 
     Returns
     -------
@@ -348,6 +351,8 @@ def compare_strategies(
                 gauge_calibrated_um=float(from_internal(np.abs(gauge_cal).max(), "µm")),
             )
         )
+        if progress is not None:
+            progress(len(strategies), len(combos))
     return StrategyComparison(
         machine=machine.name,
         model=machine.model_name,

@@ -105,7 +105,7 @@ class BallGridFile(_Strict):
         return ids, np.array(centres, dtype=float)
 
 
-#: Seed 004 candidate grid, the default of ``mtm design samba`` without ``--balls-from``:
+#: Seed 004 candidate grid, the default of ``mtm samba plan`` without ``--balls-from``:
 #: 5 x 4 positions at 80 mm pitch, stems 75-175 mm (Alami Mchichi 2018, §5.5).
 SEED004_GRID = BallGridFile(
     kind="samba-ball-grid",

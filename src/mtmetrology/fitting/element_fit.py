@@ -40,10 +40,12 @@ from mtmetrology.fitting.probe import compensate
 from mtmetrology.io import read_csv_table
 from mtmetrology.units import from_internal
 
-__all__ = ["ELEMENTS", "METHODS", "ElementFit", "fit_points_file"]
+__all__ = ["ELEMENTS", "METHODS", "PROFILE_ELEMENTS", "ElementFit", "fit_points_file"]
 
 #: The elements and the criteria of :func:`fit_points_file`.
 ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone")
+#: The elements a profile in a plane describes: a file of ``x, y`` alone is read in z = 0.
+PROFILE_ELEMENTS = ("line", "circle")
 METHODS = ("ls", "minimum-zone", "inscribed", "circumscribed")
 
 _LEAST_SQUARES = {
@@ -113,15 +115,18 @@ class ElementFit:
         )
 
 
-def _read_points(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """Points (n, 3) in mm and the file line of each."""
-    table = read_csv_table(path, required=["x", "y", "z"])
-    points, lines = np.c_[table.floats("x"), table.floats("y"), table.floats("z")], table.lines
+def _read_points(path: Path, element: str) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Points (n, 3) in mm, the file line of each, and whether the file is a 2-D profile
+    (columns ``x, y`` only: a line or circle in the plane z = 0)."""
+    table = read_csv_table(path, required=["x", "y"])
+    profile = not table.has("z") and element in PROFILE_ELEMENTS
+    z = np.zeros(len(table)) if profile else table.floats("z")  # names the missing z
+    points, lines = np.c_[table.floats("x"), table.floats("y"), z], table.lines
     del table
     # Arrow's allocator keeps the freed text columns (about 3 bytes per byte of the file)
     # for reuse, glibc the reader's freed scratch; return them before the fit's own peak.
     release_free_memory()
-    return points, lines
+    return points, lines, profile
 
 
 def _line_in_plane(points: np.ndarray) -> bool:
@@ -167,15 +172,17 @@ def fit_points_file(
 ) -> ElementFit:
     """Fit a line, plane, circle, sphere, cylinder or cone to the points of a CSV file.
 
-    A line whose points all have the same z is a profile in that plane (2-D straightness);
-    otherwise its minimum zone is the smallest enclosing cylinder (ISO 12780-1).
+    A line whose points all have the same z is a profile in that plane (2-D straightness,
+    ISO 12780-1: the zone between two parallel lines); otherwise its minimum zone is the
+    smallest enclosing cylinder. A file of ``x, y`` alone is a profile in the plane z = 0
+    for a line or a circle (:data:`PROFILE_ELEMENTS`), stated in the document's notes.
 
     Parameters
     ----------
     element : str
         One of :data:`ELEMENTS`.
     points_csv : path
-        Columns ``x, y, z`` in mm, one point a row.
+        Columns ``x, y, z`` in mm, one point a row (``x, y`` for a line or circle profile).
     method : str
         ``ls`` (least squares), ``minimum-zone`` (Chebyshev), ``inscribed`` or
         ``circumscribed``.
@@ -205,8 +212,11 @@ def fit_points_file(
             raise _UsageError(f"--tip-radius must be a finite length >= 0 mm, got {tip_radius}")
         if element not in ELEMENTS or method not in METHODS:
             raise _UsageError(f"unknown element {element!r} or method {method!r}")
-        points, lines = _read_points(Path(points_csv))
+        points, lines, profile = _read_points(Path(points_csv), element)
         extra: dict = {}
+        if profile:
+            form = "straightness" if element == "line" else "roundness"
+            extra["notes"] = [f"x, y profile: fitted in the plane z = 0 (2-D {form})"]
         if method == "ls":
             fitted, result = _least_squares(element, points)
             residuals, form_error = result.residuals, result.form_error
@@ -246,7 +256,7 @@ def fit_points_file(
                 )
             extra["tip_radius"] = {"value": tip_radius, "unit": "mm", "inside": inside}
             if note is not None:
-                extra["notes"] = [note]
+                extra.setdefault("notes", []).append(note)
     except ValueError as exc:  # InputFileError, FitError, _UsageError, element checks
         message = str(exc)
         if not isinstance(exc, _UsageError) and str(points_csv) not in message:

@@ -8,7 +8,7 @@ outside the limits is flagged out of control: a crash, a re-alignment, a compens
 table loaded, or a calibration gone wrong.
 
 :func:`long_term_covariance` is :func:`mtmetrology.identification.long_term.long_term_parameters`
-(the same statistic as ``mtm calibrate long-term``) over the machine's runs in the
+(the same statistic as ``mtm samba long-term``) over the machine's runs in the
 database.
 """
 

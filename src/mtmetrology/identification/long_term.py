@@ -11,7 +11,7 @@ long-term variation Σ_lt of a task's budget (``mtm task uncertainty --long-term
 calibration that compensates brings its own U_θ (``--params``).  The scatter of the
 estimates holds their estimation noise too, so Σ_lt from it counts part of U_θ again
 (conservative).
-It lives in the identification engine so that ``mtm calibrate long-term`` (on files) and
+It lives in the identification engine so that ``mtm samba long-term`` (on files) and
 ``mtm history covariance`` (on the calibration database) call the same statistic.
 
 References

@@ -322,6 +322,7 @@ def identification_mcm(
     chunk_size: int = CHUNK_TRIALS,
     sequence_size: int = 10_000,
     keep_samples: bool = False,
+    progress=None,
 ) -> MCMResult:
     """Monte Carlo of the outputs of an identification, re-solving it in every trial.
 
@@ -346,6 +347,9 @@ def identification_mcm(
     sequence_size : int
         Trials per sequence of the adaptive procedure (JCGM 101 7.9.4 recommends 10⁴).
     keep_samples : bool
+    progress : callable, optional
+        ``progress(done, total)`` as the trials are evaluated
+        (:func:`~mtmetrology.uncertainty.mcm.monte_carlo`).
 
     Returns
     -------
@@ -370,6 +374,7 @@ def identification_mcm(
             keep_samples=keep_samples,
             output_names=model.output_names,
             output_units=model.output_units,
+            progress=progress,
         )
 
 

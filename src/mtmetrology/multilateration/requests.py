@@ -1,5 +1,5 @@
 """The multilateration commands as library calls: pose grids, reflector tools, and
-:func:`calibrate_multilateration_file` (``mtm calibrate multilateration``)."""
+:func:`calibrate_multilateration_file` (``mtm multilateration calibrate``)."""
 
 from __future__ import annotations
 
@@ -86,6 +86,7 @@ def calibrate_multilateration_file(
     mc: int = 0,
     seed: int | None = None,
     adequacy: str = "scale",
+    progress=None,
 ) -> MultilaterationResult:
     """Identify the machine's errors from a LENGTHS.csv of a sequential multilateration.
 
@@ -107,6 +108,8 @@ def calibrate_multilateration_file(
     adequacy : {"scale", "a-priori"}
         The identification engine's model-adequacy rule (``"a-priori"``:
         ``--keep-a-priori-covariance``); the check draws the noise the covariance stands for.
+    progress : callable, optional
+        ``progress(done, mc)`` over the check's trials, for a progress display.
 
     Returns
     -------
@@ -126,5 +129,7 @@ def calibrate_multilateration_file(
     if not mc:
         return result
     points = volume_points(machine, record.readings)
-    check = map_monte_carlo(machine, record, result, points, trials=mc, seed=seed)
+    check = map_monte_carlo(
+        machine, record, result, points, trials=mc, seed=seed, progress=progress
+    )
     return replace(result, map_check=check)

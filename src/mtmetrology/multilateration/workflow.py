@@ -426,6 +426,7 @@ def map_monte_carlo(
     seed: SeedLike = None,
     tool=None,
     block: int = 500,
+    progress=None,
 ) -> MapMonteCarlo:
     """Re-solve the identification for simulated length noise; u of the map at ``points``.
 
@@ -447,6 +448,9 @@ def map_monte_carlo(
         Tool of the map (the machine's nominal tool by default).
     block : int
         Trials re-solved at once (memory: block × lengths × 3 doubles).
+    progress : callable, optional
+        ``progress(done, trials)`` after each block, for a progress display; the result
+        does not depend on it.
 
     Returns
     -------
@@ -516,5 +520,7 @@ def map_monte_carlo(
         ok = solved.status > 0
         failed += int((~ok).sum())
         samples.append((solved.x[ok, :p] @ gp.reshape(-1, p).T).reshape(-1, len(pts), 3))
+        if progress is not None:
+            progress(start + size, trials)
     e = np.concatenate(samples)
     return MapMonteCarlo(pts, u_guf, e.std(axis=0, ddof=1), int(e.shape[0]), failed)

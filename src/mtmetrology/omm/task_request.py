@@ -273,7 +273,7 @@ def task_uncertainty_from_files(
     if not recalibrated and long_term is None:
         raise InputError(
             "state the long-term variation of the parameters since the calibration: "
-            "--long-term FILE (mtm calibrate long-term), or --recalibrated"
+            "--long-term FILE (mtm samba long-term), or --recalibrated"
         )
     if side is not None and feature not in DEFAULT_SIDE:
         raise InputError(f"--side applies to a sphere, circle or cylinder, not to a {feature}")

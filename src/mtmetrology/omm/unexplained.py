@@ -9,7 +9,7 @@ compensated point independently. The file holds it in µm²::
     unit: µm²
     covariance: [[45, -17, 5], [-17, 66, 7], [5, 7, 58]]
 
-An estimate from data (:mod:`mtmetrology.uncertainty.unexplained_estimate`, ``mtm calibrate samba
+An estimate from data (:mod:`mtmetrology.uncertainty.unexplained_estimate`, ``mtm samba calibrate
 --unexplained-out``) adds ``source`` and ``estimate`` (the estimator and its terms).
 """
 

@@ -1,5 +1,5 @@
-"""The validation campaigns of a task uncertainty from their files (``mtm validate task``,
-``mtm validate pooling``).
+"""The validation campaigns of a task uncertainty from their files (``mtm task validate``,
+``mtm task validate-pooling``).
 
 :func:`validate_gauge_from_files` reads the two sides' readings, the calibration, the
 long-term variation, the repeatability model and cov(e), carries the calibrated length to

@@ -19,8 +19,8 @@ which the task model already holds), made positive semidefinite by eigenvalue cl
 tests: the centring over campaigns removes n positions' worth (3n) and each fit p/3 per
 coordinate, (K − 1) times.
 
-Beside it the result gives the pooled within-campaign estimate (the one of ``mtm calibrate
-samba --unexplained-out``, ν = K(n − p/3)), which also holds the part of e that repeats
+Beside it the result gives the pooled within-campaign estimate (the one of ``mtm samba
+calibrate --unexplained-out``, ν = K(n − p/3)), which also holds the part of e that repeats
 identically at every position in every campaign (a stable unmodelled error field) — the
 between-campaign estimate does not: the difference says whether the unexplained error is
 a stable field (a richer model would remove it) or changes between campaigns.
@@ -87,7 +87,7 @@ class CampaignUnexplained(NotebookRepr):
     _renderer_module = "mtmetrology.samba.report"
 
     def to_dict(self) -> dict:
-        """The ``unexplained-volumetric-error`` document of ``mtm calibrate samba
+        """The ``unexplained-volumetric-error`` document of ``mtm samba calibrate
         --unexplained-out`` (covariance µm², what ``mtm task uncertainty --unexplained``
         reads), with the campaigns, the estimator and the within-campaign estimate."""
         doc = self.between.to_dict()
@@ -187,7 +187,7 @@ def unexplained_from_campaigns(
     if k < 2:
         raise InputError(
             f"cov(e) between campaigns needs at least 2 campaign files, got {k}; "
-            "for one campaign use mtm calibrate samba --unexplained-out"
+            "for one campaign use mtm samba calibrate --unexplained-out"
         )
     for other in campaigns[1:]:
         _check_same_test(campaigns[0], other, machine)

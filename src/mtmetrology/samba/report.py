@@ -133,7 +133,7 @@ def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
         "Uncertainty propagation factors",
         f"UPF = u / σ (Alami Mchichi (2018) eq. 6.14): u = sqrt(diag((JᵀWJ)⁻¹)) of the "
         f"identification for σ = {rec['sigma_um']:.3g} µm per coordinate and the scale bar's "
-        "u, per µm of probing noise; the figure `mtm design samba` predicts for the same "
+        "u, per µm of probing noise; the figure `mtm samba plan` predicts for the same "
         "set-up.",
     )
     if doc["propagation_factors"] and doc["propagation_factors"][0]["upf"] is not None:

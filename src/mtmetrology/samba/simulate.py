@@ -139,7 +139,7 @@ def _with_tools(
     if unknown:
         raise InputFileError(
             f"tool {unknown[0]!r} is not in the artefact's tools "
-            f"({', '.join(listed) or 'none listed'}); mtm calibrate samba reads its nominal "
+            f"({', '.join(listed) or 'none listed'}); mtm samba calibrate reads its nominal "
             "vector there"
         )
     if programme.tools is None:

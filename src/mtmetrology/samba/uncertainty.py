@@ -258,8 +258,12 @@ def evaluate_uncertainty(
     seed: SeedLike = None,
     executor=None,
     p: float = 0.95,
+    progress=None,
 ) -> SambaUncertainty:
     """GUF, MCM or both (``method``), and the validation when both ran.
+
+    ``progress(done, total)`` is called as the Monte Carlo trials are evaluated (total None
+    in an adaptive run), for a progress display.
 
     When the calibration's covariance was scaled by the adequacy rule (s², the residuals
     contradicting the stated noise), every input covariance is scaled by s² too: the
@@ -287,6 +291,7 @@ def evaluate_uncertainty(
             seed=seed,
             executor=executor,
             p=p,
+            progress=progress,
         )
     v = validate_identification(g, mc, digits) if g is not None and mc is not None else None
     return SambaUncertainty(source, g, mc, v)

@@ -509,7 +509,7 @@ class SimulatedLengthCheck:
         return len(self.rows) // 2
 
     def lines(self) -> list[list[str]]:
-        """The CSV rows ``pair,end,<readings to 6 decimals>`` that ``mtm verify length``
+        """The CSV rows ``pair,end,<readings to 6 decimals>`` that ``mtm length verify``
         reads."""
         return [
             [str(k // 2 + 1), "ab"[k % 2], *(f"{v:.6f}" for v in row)]

@@ -136,7 +136,7 @@ POSE_U_KEYS = ("u_D_mm", "u_L_mm", "u_H_mm", "u_alpha_deg", "u_beta_deg", "u_del
 
 
 def load_known_pose(path: str | Path | None) -> tuple[TrackerPose | None, np.ndarray | None]:
-    """A known pose for ``mtm calibrate tracker --pose``: (pose, covariance or None).
+    """A known pose for ``mtm tracker calibrate --pose``: (pose, covariance or None).
 
     The ``tracker-pose`` document of :func:`load_pose`; with the six standard uncertainties
     :data:`POSE_U_KEYS` the pose is a prior of that (diagonal) covariance, without them it

@@ -8,7 +8,7 @@ elevation of the tool tip with its noise (:class:`~mtmetrology.kinematics.tracke
 and the SMR error; the axis temperatures recorded are those of the sensors, with their
 calibration error.
 
-MEASUREMENTS CSV (what :func:`read_measurements` reads and ``mtm calibrate tracker``
+MEASUREMENTS CSV (what :func:`read_measurements` reads and ``mtm tracker calibrate``
 takes)::
 
     point,X,Y,Z,tool_x,tool_y,tool_z,range,azimuth,elevation,T_X,T_Y,T_Z
@@ -129,7 +129,7 @@ def read_measurements(
     ----------
     path : path-like
     tools : dict of str to (3,) array, optional
-        Tool offsets (mm) by id (``mtm calibrate tracker --tool ID=x,y,z``): the rows of
+        Tool offsets (mm) by id (``mtm tracker calibrate --tool ID=x,y,z``): the rows of
         the file's ``tool`` column with that id take it, in place of their ``tool_x``,
         ``tool_y``, ``tool_z`` (which a file with a ``tool`` column may leave out).
 

@@ -240,6 +240,7 @@ def verify(
     limits: TrackerLimits | None = None,
     pose_scatter: tuple[float, float] = (1.0, 1e-3),
     seed: SeedLike = None,
+    progress=None,
 ) -> TrackerVerification:
     """Monte Carlo of ``trials`` complete verifications (module notes).
 
@@ -261,6 +262,9 @@ def verify(
         Standard deviations of the true pose about the nominal one between verifications:
         position (mm) and rotation (rad).
     seed : int, optional
+    progress : callable, optional
+        ``progress(done, trials)`` after each chunk of verifications, for a progress
+        display; the result does not depend on it.
 
     Returns
     -------
@@ -379,6 +383,8 @@ def verify(
         e = (pred_h_lt - true_h_lt)[np.arange(k), comp]
         out["cov"].append(np.abs(e) <= 1.96 * u_held[h, comp])
         done += k
+        if progress is not None:
+            progress(done, trials)
     covered = np.concatenate(out["cov"])
     n_cov = covered.size
     half = 3.0 * np.sqrt(0.95 * 0.05 / n_cov)

@@ -153,7 +153,14 @@ def _sequence_tasks(model, inputs, root, index: int, size: int, chunk_size: int)
     return [_ChunkTask(model, inputs, g, s) for g, s in zip(generators, sizes, strict=True)]
 
 
-def run_sequences(executor, model, inputs, root, first: int, count: int, size, chunk_size):
+#: Rounds of a run that reports progress: its batches are evaluated in this many ``map``
+#: calls (each of two batches per worker), a progress report after each.
+PROGRESS_ROUNDS = 10
+
+
+def run_sequences(
+    executor, model, inputs, root, first: int, count: int, size, chunk_size, progress=None
+):
     """Evaluate the Monte Carlo sequences ``first .. first + count - 1``.
 
     Parameters
@@ -171,6 +178,10 @@ def run_sequences(executor, model, inputs, root, first: int, count: int, size, c
         The sequences to evaluate.
     size, chunk_size : int
         Trials per sequence (M of JCGM 101:2008, 7.9.4) and per model call.
+    progress : callable, optional
+        ``progress(done)`` with the trials evaluated so far in this call, after each of
+        :data:`PROGRESS_ROUNDS` rounds of batches. The results do not depend on it: every
+        chunk draws from its own stream, whatever batch it is evaluated in.
 
     Returns
     -------
@@ -192,7 +203,16 @@ def run_sequences(executor, model, inputs, root, first: int, count: int, size, c
         tasks += sequence
         owner += [index - first] * len(sequence)
     # two batches per worker: few pickles of the model and inputs, and some load balance
-    batches = executor.map(_evaluate_batch, _batches(tasks, 2 * executor.workers))
+    per_round = 2 * executor.workers
+    if progress is None:
+        batches = executor.map(_evaluate_batch, _batches(tasks, per_round))
+    else:
+        batches, done = [], 0
+        all_batches = _batches(tasks, per_round * PROGRESS_ROUNDS)
+        for start in range(0, len(all_batches), per_round):
+            batches += executor.map(_evaluate_batch, all_batches[start : start + per_round])
+            done += sum(sum(b.sizes) for b in all_batches[start : start + per_round])
+            progress(done)
     outputs = [out for batch in batches for out in batch]
     widths = {out.values.shape[1] for out in outputs}
     if len(widths) != 1 or len({out.scalar for out in outputs}) != 1:

@@ -90,6 +90,7 @@ def evaluate_model(
     seed=None,
     executor=None,
     source: str | None = None,
+    progress=None,
 ) -> ModelEvaluation:
     """Evaluate a loaded measurement model by the GUF, Monte Carlo, or both.
 
@@ -112,6 +113,9 @@ def evaluate_model(
         As in :func:`~mtmetrology.uncertainty.mcm.monte_carlo`.
     source : str, optional
         The file the model came from, recorded in the document.
+    progress : callable, optional
+        ``progress(done, total)`` as the Monte Carlo trials are evaluated (total None in
+        an adaptive run), for a progress display.
 
     Returns
     -------
@@ -162,6 +166,7 @@ def evaluate_model(
             seed=seed,
             executor=executor,
             max_trials=min(10_000_000, MAX_VALUES // n_outputs),
+            progress=progress,
         )
         if r.converged is False:
             raise ConvergenceError(

@@ -85,6 +85,7 @@ def monte_carlo(
     min_sequences: int | None = None,
     output_names=None,
     output_units=None,
+    progress: Callable[[int, int | None], None] | None = None,
 ) -> MCMResult:
     """Propagate distributions through a model by Monte Carlo (JCGM 101, JCGM 102).
 
@@ -133,6 +134,11 @@ def monte_carlo(
     output_names, output_units : sequence of str, optional
         Default to ``model.output_names`` / ``model.output_units`` or y1..ym (as
         :func:`~mtmetrology.uncertainty.guf.guf`).
+
+    progress : callable, optional
+        ``progress(done, total)`` as the trials are evaluated, for a progress display:
+        ``total`` is the trials of a fixed run, None in an adaptive one (its stopping rule
+        decides). The result does not depend on it.
 
     Returns
     -------
@@ -239,8 +245,9 @@ def monte_carlo(
     try:
         if not adaptive:
             return _fixed(
-                model, inputs, trials, p, root, executor, chunk_size, keep_samples, labels
-            )
+                model, inputs, trials, p, root, executor, chunk_size, keep_samples, labels,
+                progress=_trials_done(progress, 0, trials),
+            )  # fmt: skip
         return _adaptive(
             model,
             inputs,
@@ -256,14 +263,26 @@ def monte_carlo(
             criterion=criterion,
             max_trials=max_trials,
             min_sequences=min_sequences,
+            progress=progress,
         )
     finally:
         if owned:
             executor.close()
 
 
-def _fixed(model, inputs, trials, p, root, executor, chunk_size, keep_samples, labels) -> MCMResult:
-    (values,), scalar = run_sequences(executor, model, inputs, root, 0, 1, trials, chunk_size)
+def _trials_done(progress, before: int, total: int | None):
+    """``run_sequences``' ``progress(done)`` as the caller's ``progress(before + done, total)``."""
+    if progress is None:
+        return None
+    return lambda done: progress(before + done, total)
+
+
+def _fixed(
+    model, inputs, trials, p, root, executor, chunk_size, keep_samples, labels, progress=None
+) -> MCMResult:
+    (values,), scalar = run_sequences(
+        executor, model, inputs, root, 0, 1, trials, chunk_size, progress
+    )
     moments = Moments()
     for start in range(0, trials, chunk_size):
         moments.add(values[start : start + chunk_size])
@@ -302,6 +321,7 @@ def _adaptive(
     criterion,
     max_trials,
     min_sequences,
+    progress=None,
 ) -> MCMResult:
     budget = max_trials // sequence_size  # sequences allowed
     kept: list[np.ndarray] = []
@@ -315,8 +335,9 @@ def _adaptive(
         batch = min_sequences - h if h < min_sequences else executor.workers
         batch = min(batch, budget - h)
         sequences, scalar = run_sequences(
-            executor, model, inputs, root, h, batch, sequence_size, chunk_size
-        )
+            executor, model, inputs, root, h, batch, sequence_size, chunk_size,
+            _trials_done(progress, h * sequence_size, None),
+        )  # fmt: skip
         for values in sequences:
             kept.append(values)
             moments.add(values)
