@@ -34,7 +34,8 @@ The model assumes steady contouring over the data arc: the arc of overshoot befo
 (a test condition) has already reversed each axis, so the first samples carry the sense and
 the decaying spike of the reversal before them.  Senses of motion are those of the
 commanded path just after the sample in the run's direction: at a reversal point the new
-sense, so that reversal steps (``E_XXb``: the tool displaced by +E_XXb in the sense of motion of X) sit at the quadrant crossings, e.g. in
+sense, so that reversal steps (``E_XXb``: the tool displaced by +E_XXb in the sense of
+motion of X) sit at the quadrant crossings, e.g. in
 the XY plane counter-clockwise ℓ = −E_XXb · sign(sin θ) cos θ: a step of 2·E_XXb at
 θ = 0° and 180°.
 
