@@ -19,7 +19,10 @@ The convention (docs/contributing.md) for every page under ``docs/`` and ``READM
   ``FILE TERM [± TERM ...] [UNIT]``: a JSON file of the working folder, dotted paths into
   it (``outputs.0.u``) or numbers added or subtracted, and the display unit to convert
   the internal value (mm, rad, a fraction) to (``µm``, ``µrad``, ``%``); or ``$ REGEX``:
-  the first group of the regular expression in the output of the last command run.
+  the first group of the regular expression in the output of the last command run; or
+  ``bench SECTION "CONTENDER" [UNIT]``: the median time (s, or converted to ``min``, ``h``)
+  of that contender in that section of ``bench/RESULTS.md`` (a time is quoted from the
+  benchmarks, never from a page's run).
 
 Two numbers agree at the quoted precision when they differ by at most half a unit in the
 last quoted digit of each (``1.08`` and ``1.1`` agree; ``1.08`` and ``1.2`` do not), so a
@@ -37,7 +40,9 @@ from pathlib import Path, PurePosixPath
 from typer.testing import CliRunner
 
 from mtmetrology.cli import app
-from mtmetrology.units import from_internal
+from mtmetrology.units import convert, from_internal
+
+RESULTS = Path(__file__).resolve().parents[2] / "bench" / "RESULTS.md"
 
 FENCE = re.compile(r"^```([\w-]*)([^\n]*)\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
 TITLE = re.compile(r'title="([^"]+)"')
@@ -171,6 +176,10 @@ def _walk(document, path: str):
 
 def marker_value(source: str, folder: Path, last_output: str) -> float | str:
     """The run's number named by a marker's ``SOURCE`` (see the module docstring)."""
+    if source.startswith("bench "):
+        section, contender, *unit = shlex.split(source)[1:]
+        seconds = bench_median(RESULTS.read_text(encoding="utf-8"), section, contender)
+        return float(convert(seconds, "s", unit[0])) if unit else seconds
     if source.startswith("$ "):
         match = re.search(source[2:], last_output)
         if match is None:
@@ -188,6 +197,19 @@ def marker_value(source: str, folder: Path, last_output: str) -> float | str:
         value += term(terms[1]) * (1 if terms[0] == "+" else -1)
         terms = terms[2:]
     return float(from_internal(value, terms[0])) if terms else value
+
+
+def bench_median(results: str, section: str, contender: str) -> float:
+    """The median time (s) of ``contender`` (the start of its name) in the table of
+    ``## section`` of bench/RESULTS.md (columns contender, kind, min, median, ...)."""
+    match = re.search(rf"^## {re.escape(section)}\n(.*?)(?=^## |\Z)", results, re.M | re.S)
+    if match is None:
+        raise LookupError(f"no section {section!r} in bench/RESULTS.md")
+    for line in match.group(1).splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) >= 4 and cells[0].startswith(contender):
+            return float(cells[3])
+    raise LookupError(f"no contender {contender!r} in section {section!r} of bench/RESULTS.md")
 
 
 def quoted_before(prose: str) -> str | None:

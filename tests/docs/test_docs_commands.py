@@ -16,7 +16,16 @@ import shutil
 from pathlib import Path
 
 import pytest
-from doccheck import agree, blocks, commands, compare_output, quoted_before, run_page
+from doccheck import (
+    MARKER,
+    agree,
+    bench_median,
+    blocks,
+    commands,
+    compare_output,
+    quoted_before,
+    run_page,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 DOCS = ROOT / "docs"
@@ -25,13 +34,14 @@ EXAMPLES = ROOT / "examples"
 
 def pages_that_run() -> list[Path]:
     pages = [*sorted(DOCS.rglob("*.md")), ROOT / "README.md"]
-    return [
-        p
-        for p in pages
-        if any(
-            lang in ("console", "python") for lang, _, _ in blocks(p.read_text(encoding="utf-8"))
-        )
-    ]
+    return [p for p in pages if _runs(p.read_text(encoding="utf-8"))]
+
+
+def _runs(text: str) -> bool:
+    """A page with commands, python blocks or marked numbers."""
+    return MARKER.search(text) is not None or any(
+        lang in ("console", "python") for lang, _, _ in blocks(text)
+    )
 
 
 def _run(page: Path, text: str, folder: Path, monkeypatch):
@@ -44,7 +54,7 @@ def _run(page: Path, text: str, folder: Path, monkeypatch):
 @pytest.mark.parametrize("page", pages_that_run(), ids=lambda p: str(p.relative_to(ROOT)))
 def test_page_runs_and_quotes_the_program(page: Path, tmp_path: Path, monkeypatch) -> None:
     run = _run(page, page.read_text(encoding="utf-8"), tmp_path, monkeypatch)
-    assert run.commands + run.python_blocks > 0
+    assert run.commands + run.python_blocks + run.markers > 0
     assert run.problems == [], "\n".join(run.problems)
 
 
@@ -104,3 +114,18 @@ def test_the_convention_finds_files_commands_and_markers() -> None:
     assert quoted_before("line 1\nE_XX1 is u = 8.8") == "8.8"
     assert quoted_before("u = −0.25") == "−0.25"
     assert quoted_before("u = 8.8 µm") is None and quoted_before("T00") is None
+
+
+def test_bench_times_come_from_the_results_table() -> None:
+    """``bench SECTION "CONTENDER"``: the median column of the first row whose contender
+    starts so, in that section only."""
+    results = (
+        "## a\n\n| contender | kind | min (s) | median (s) |\n|---|---|---:|---:|\n"
+        "| ours: fast | ours | 1.0 | 1.25 |\n| loop | loop | 9.0 | 9.5 |\n\n"
+        "## b\n\n| ours: fast | ours | 2.0 | 2.5 |\n"
+    )
+    assert bench_median(results, "a", "ours") == 1.25
+    assert bench_median(results, "b", "ours: fast") == 2.5
+    assert bench_median(results, "a", "loop") == 9.5
+    with pytest.raises(LookupError):
+        bench_median(results, "a", "missing")
