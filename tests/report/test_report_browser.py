@@ -160,3 +160,45 @@ def test_a_marker_at_the_axes_edge_is_caught(browser, tmp_path):
     assert len(problems) == 2 and all(p.startswith("marker cut by its axes: use") for p in problems)
     [kept] = browser.load(page(0.15)).figures
     assert figure_problems(kept) == []
+
+
+def _doccheck():
+    """tests/docs/doccheck.py, which runs a documentation page as the docs tests do."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    if "doccheck" in sys.modules:  # the docs tests ran in this session
+        return sys.modules["doccheck"]
+    path = Path(__file__).resolve().parents[1] / "docs" / "doccheck.py"
+    spec = importlib.util.spec_from_file_location("doccheck", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["doccheck"] = module  # its dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize(
+    "page", ["tutorials/task-uncertainty.md", "tutorials/compensation.md", "tutorials/history.md"]
+)
+def test_the_reports_of_a_tutorial_pass_the_figure_checks(
+    browser, artefacts, tmp_path, monkeypatch, page
+):
+    """Every report a tutorial writes (task and its conformity zones, repeatability,
+    hysteresis, cov(e) campaigns, the export's tables and residual maps, the history's
+    control charts): captioned figures, nothing cut, no axis offset."""
+    import shutil
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    shutil.copytree(root / "examples", tmp_path / "examples")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("COLUMNS", "100")
+    doc = root / "docs" / page
+    _doccheck().run_page(page, doc.read_text(encoding="utf-8"), tmp_path)
+    reports = sorted(p for p in tmp_path.rglob("*.html") if "examples" not in p.parts)
+    loads = [browser.load(report) for report in reports]
+    assert sum(len(load.figures) for load in loads) > 0, page
+    for report, load in zip(reports, loads, strict=True):
+        for fig in load.figures:
+            assert figure_problems(fig) == [], (report.name, fig["number"], figure_problems(fig))

@@ -160,5 +160,6 @@ def control_chart(
             np.datetime64(due_date.replace(tzinfo=None), "s"), color=RED, ls=":", label="due"
         )
     ax.set_ylabel(axis_label(name, unit))
+    ax.set_title(f"{name} over time: individuals control chart (ISO 7870-2)")
     legend_below(fig, ax)
     return plain_ticks(fig)
