@@ -1,7 +1,7 @@
 """A sphere by least squares and by minimum zone (sphericity).
 
-25 points on the upper half of a 12.7 mm sphere, radial deviations of 2 µm standard
-deviation (seeded): the least-squares sphericity (peak to valley) and the minimum zone,
+25 points on the upper half of a sphere of 25.4 mm diameter (12.7 mm radius), radial
+deviations of 2 µm standard deviation (seeded): the least-squares sphericity (peak to valley) and the minimum zone,
 which a form tolerance is checked against. What ``mtm fit sphere --method minimum-zone``
 computes (its command is printed). Run it on its own::
 
@@ -24,6 +24,9 @@ from mtmetrology.report.demo import DemoContext
 from mtmetrology.report.results import add_fit_document
 from mtmetrology.units import from_internal, to_internal
 
+#: The sphere's radius, mm: a one-inch (25.4 mm) reference sphere.
+RADIUS_MM = 12.7
+
 
 def _rng(ctx: DemoContext, stream: int) -> np.random.Generator:
     """An independent stream per section, from the root seed."""
@@ -37,7 +40,7 @@ def main(ctx: DemoContext) -> None:
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     d[:, 2] = np.abs(d[:, 2])  # the upper hemisphere, as probed on a mounted sphere
     form = float(to_internal(2.0, "µm"))
-    points = np.array([10.0, -20.0, 5.0]) + (12.7 + form * rng.standard_normal(25))[:, None] * d
+    points = np.array([10.0, -20.0, 5.0]) + (RADIUS_MM + form * rng.standard_normal(25))[:, None] * d
     write_csv_table(
         ctx.path("fitting", "sphere.csv"),
         ["x", "y", "z"],
@@ -58,8 +61,8 @@ def main(ctx: DemoContext) -> None:
     ctx.write_json(document, "fitting", "sphere-result.json")
     ctx.report.section(
         "A sphere: least squares and minimum zone",
-        "25 points on the upper half of a 12.7 mm sphere, radial deviations of 2 µm standard "
-        "deviation. The "
+        f"25 points on the upper half of a sphere of {2 * RADIUS_MM:g} mm diameter, radial "
+        "deviations of 2 µm standard deviation. The "
         f"least-squares sphericity (peak to valley) is "
         f"{float(from_internal(ls.form_error, 'µm')):.2f} µm; the minimum zone, which a form "
         f"tolerance is checked against, {float(from_internal(zone.form_error, 'µm')):.2f} µm.",

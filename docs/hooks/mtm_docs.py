@@ -8,6 +8,9 @@
   parameters with their unit, what a positive value does and where it is referred to
   (:func:`mtmetrology.kinematics.conventions.describe_parameters`, the text that
   ``mtm machine show`` prints).
+
+A ``<!-- from: ... -->`` marker right after a quoted number (tests/docs/doccheck.py compares the
+number with a run of the page) is removed from the page: it is for the test, not the reader.
 """
 
 from __future__ import annotations
@@ -17,6 +20,8 @@ import re
 # Markers stand alone on their line (a marker quoted in a sentence is left alone).
 CLI_MARKER = re.compile(r"^<!-- mtm:cli-reference -->$", re.MULTILINE)
 CONVENTIONS = re.compile(r"^<!-- mtm:conventions (\S+) (\S+) -->$", re.MULTILINE)
+# a fenced block is matched first and kept: a marker shown in a code example stays
+FROM_MARKER = re.compile(r"(^```.*?^```)|(?<=\d)<!-- from: .+? -->", re.MULTILINE | re.DOTALL)
 # The Markdown that Typer's generator adds around the help texts (left as it is): headings,
 # section labels, the fences of the usage blocks, and the "* `name`: " of each list item.
 STRUCTURE = re.compile(r"^(#+ `[^`]*`|\*\*\w+\*\*:|```\w*)$")
@@ -80,4 +85,5 @@ def _conventions(match: re.Match) -> str:
 def on_page_markdown(markdown: str, page, config, files) -> str:
     if CLI_MARKER.search(markdown):
         markdown = CLI_MARKER.sub(lambda _: _cli_reference(), markdown)
+    markdown = FROM_MARKER.sub(lambda m: m.group(1) or "", markdown)
     return CONVENTIONS.sub(_conventions, markdown)

@@ -111,3 +111,12 @@ def test_reference_page_shows_every_help_text() -> None:
                     assert squash(paragraph) in shown, f"{name}: {paragraph!r}"
                     helps += 1
     assert helps > 100
+
+
+def test_number_markers_are_removed_from_the_page_but_not_from_code() -> None:
+    """``<!-- from: ... -->`` after a quoted number is for the docs test: the hook drops it
+    from the prose and leaves a marker shown in a code example as written."""
+    code = "```markdown\nu = 8.8<!-- from: x -->\n```\n"
+    text = "u = 8.8<!-- from: task.json outputs.0.u µm --> µm\n\n" + code
+    out = hook.on_page_markdown(text, None, None, None)
+    assert out == "u = 8.8 µm\n\n" + code

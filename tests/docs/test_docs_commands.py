@@ -1,110 +1,131 @@
-"""The documentation's commands run, so the tutorials never rot.
+"""The documentation's commands run and its numbers are the program's.
 
-Convention (docs/contributing.md): in every page under ``docs/``,
-
-- a fenced block with a ``title="NAME"`` attribute (```` ```yaml title="model.yaml" ````)
-  is a file the reader creates: it is written to ``NAME`` in the page's working folder;
-- a fenced ``console`` block holds commands, one per line starting with ``$ mtm``
-  (a trailing backslash continues a line); the lines after a command are its output,
-  shown to the reader and not compared, except that an output line starting with
-  ``error:`` means the command must fail with exit code 2 and an ``error:`` line on
-  stderr.
+Every page under ``docs/`` (and ``README.md``) runs by the convention of
+:mod:`doccheck` (docs/contributing.md): files written, commands run, the output shown
+after a command compared with what it prints, python blocks executed and every number
+marked ``<!-- from: ... -->`` in the prose compared with the run, at the quoted precision.
 
 Each page runs in a fresh temporary folder, holding a copy of the repository's
 ``examples/`` folder (input files a tutorial may name as ``examples/...``), its blocks in
-order; every other command must exit with code 0.
+order.
 """
 
 from __future__ import annotations
 
-import re
-import shlex
 import shutil
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 
 import pytest
-from typer.testing import CliRunner
-
-from mtmetrology.cli import app
+from doccheck import (
+    MARKER,
+    agree,
+    bench_median,
+    blocks,
+    commands,
+    compare_output,
+    quoted_before,
+    run_page,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 DOCS = ROOT / "docs"
 EXAMPLES = ROOT / "examples"
-FENCE = re.compile(r"^```([\w-]*)([^\n]*)\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
-TITLE = re.compile(r'title="([^"]+)"')
 
 
-def blocks(text: str):
-    """(language, title or None, body) of each fenced block of a page, in order."""
-    for match in FENCE.finditer(text):
-        title = TITLE.search(match.group(2))
-        yield match.group(1), (title.group(1) if title else None), match.group(3)
+def pages_that_run() -> list[Path]:
+    pages = [*sorted(DOCS.rglob("*.md")), ROOT / "README.md"]
+    return [p for p in pages if _runs(p.read_text(encoding="utf-8"))]
 
 
-def commands(body: str) -> list[tuple[list[str], bool]]:
-    """The ``$ mtm`` commands of a console block and whether each is expected to fail."""
-    lines = body.splitlines()
-    out, i = [], 0
-    while i < len(lines):
-        line = lines[i]
-        i += 1
-        if not line.startswith("$ "):
-            continue
-        text = line[2:]
-        while text.endswith("\\") and i < len(lines):
-            text = text[:-1] + " " + lines[i].strip()
-            i += 1
-        end = next((k for k in range(i, len(lines)) if lines[k].startswith("$ ")), len(lines))
-        out.append((shlex.split(text), any(o.startswith("error:") for o in lines[i:end])))
-    return out
-
-
-def pages_with_commands() -> list[Path]:
-    return sorted(
-        p
-        for p in DOCS.rglob("*.md")
-        if any(lang == "console" for lang, _, _ in blocks(p.read_text(encoding="utf-8")))
+def _runs(text: str) -> bool:
+    """A page with commands, python blocks or marked numbers."""
+    return MARKER.search(text) is not None or any(
+        lang in ("console", "python") for lang, _, _ in blocks(text)
     )
 
 
-@pytest.mark.parametrize("page", pages_with_commands(), ids=lambda p: str(p.relative_to(DOCS)))
-def test_page_commands_run(page: Path, tmp_path: Path, monkeypatch) -> None:
-    shutil.copytree(EXAMPLES, tmp_path / "examples")
-    monkeypatch.chdir(tmp_path)
+def _run(page: Path, text: str, folder: Path, monkeypatch):
+    shutil.copytree(EXAMPLES, folder / "examples")
+    monkeypatch.chdir(folder)
     monkeypatch.setenv("COLUMNS", "100")
-    runner = CliRunner()
-    ran = 0
-    for language, title, body in blocks(page.read_text(encoding="utf-8")):
-        if title is not None:
-            name = PurePosixPath(title)
-            assert not name.is_absolute() and ".." not in name.parts, f"{page}: {title}"
-            (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
-            (tmp_path / name).write_text(body, encoding="utf-8")
-        elif language == "console":
-            for argv, must_fail in commands(body):
-                assert argv[0] == "mtm", f"{page.name}: only mtm commands run: {argv}"
-                result = runner.invoke(app, argv[1:])
-                shown = f"{page.name}: $ {shlex.join(argv)}\n{result.output}"
-                if must_fail:
-                    assert result.exit_code == 2, shown
-                    assert result.stderr.startswith("error: "), shown
-                else:
-                    assert result.exit_code == 0, shown
-                ran += 1
-    assert ran > 0
+    return run_page(str(page.relative_to(ROOT)), text, folder)
 
 
-def test_the_convention_finds_files_and_commands() -> None:
-    """The parser itself: a titled file, a continued command, an expected failure."""
+@pytest.mark.parametrize("page", pages_that_run(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_page_runs_and_quotes_the_program(page: Path, tmp_path: Path, monkeypatch) -> None:
+    run = _run(page, page.read_text(encoding="utf-8"), tmp_path, monkeypatch)
+    assert run.commands + run.python_blocks + run.markers > 0
+    assert run.problems == [], "\n".join(run.problems)
+
+
+def test_a_changed_number_fails_the_page(tmp_path: Path, monkeypatch) -> None:
+    """A default that moves a quoted number fails: the GUM H.1 page with its u_c changed
+    from 32 to 33 nm in a shown table and its marked 3.8 nm changed to 8 nm (the page's
+    former text) reports both, naming the numbers."""
+    page = DOCS / "tutorials" / "uncertainty.md"
+    text = page.read_text(encoding="utf-8")
+    shown = "│ l      │ 50000839 │ 32 │ 93 │"
+    quoted = "by 3.8<!-- from:"
+    assert text.count(shown) == 1 and text.count(quoted) == 1
+    text = text.replace(shown, shown.replace("32", "33")).replace(quoted, "by 8<!-- from:")
+    run = _run(page, text, tmp_path, monkeypatch)
+    assert len(run.problems) == 2, run.problems
+    assert "50000839 │ 33 │ 93" in run.problems[0]
+    assert "quoted 8 but the run gives 3.81" in run.problems[1]
+
+
+def test_agreement_at_the_quoted_precision() -> None:
+    """Half a unit in the last digit of each: a coarser print of the same value agrees, a
+    moved value does not."""
+    assert agree("1.08", "1.1") and agree("1.1", "1.08") and agree("17", 17.35)
+    assert agree("8.86", 8.8649) and not agree("8.86", 8.8651)
+    assert not agree("1.08", "1.2") and not agree("8", 3.81) and not agree("20.1", 21.9)
+    assert agree("3.54e+03", 3544.0) and not agree("3.54e+03", 3560.0)
+    assert not agree("33", "32") and agree("32", "32") and agree("0.5", 0.5)
+    assert agree("−0.02", -0.0204) and not agree("-0.02", 0.02)
+
+
+def test_shown_output_is_compared_line_by_line() -> None:
+    printed = "head\nresidual: largest 9.47 µm, rms 6.1 µm\ntail 3\n"
+    assert compare_output(["...", "residual: largest 9.5 µm, rms 6.06 µm"], printed) == []
+    [out_of_order] = compare_output(["tail 3", "head"], printed)
+    assert out_of_order.startswith("shown 'head' is not printed")
+    [problem] = compare_output(["residual: largest 8.16 µm, rms 6.06 µm"], printed)
+    assert "8.16" in problem and "9.47" in problem
+    assert compare_output(["residual: largest 9.47 µm, ..."], printed) == []
+    assert compare_output(["residual: smallest 9.47 µm, ..."], printed) != []
+
+
+def test_the_convention_finds_files_commands_and_markers() -> None:
+    """The parser itself: a titled file, a continued command, an expected failure, the
+    shown lines, the number a marker refers to."""
     body = (
         "$ mtm fit sphere \\\n    pts.csv --json\n{...}\n$ mtm fit sphere missing.csv\nerror: x\n"
     )
     assert commands(body) == [
-        (["mtm", "fit", "sphere", "pts.csv", "--json"], False),
-        (["mtm", "fit", "sphere", "missing.csv"], True),
+        (["mtm", "fit", "sphere", "pts.csv", "--json"], False, ["{...}"]),
+        (["mtm", "fit", "sphere", "missing.csv"], True, ["error: x"]),
     ]
     text = '```csv title="pts.csv"\nx,y,z\n```\n\n```console\n$ mtm machine list\n```\n'
     assert list(blocks(text)) == [
         ("csv", "pts.csv", "x,y,z\n"),
         ("console", None, "$ mtm machine list\n"),
     ]
+    assert quoted_before("line 1\nE_XX1 is u = 8.8") == "8.8"
+    assert quoted_before("u = −0.25") == "−0.25"
+    assert quoted_before("u = 8.8 µm") is None and quoted_before("T00") is None
+
+
+def test_bench_times_come_from_the_results_table() -> None:
+    """``bench SECTION "CONTENDER"``: the median column of the first row whose contender
+    starts so, in that section only."""
+    results = (
+        "## a\n\n| contender | kind | min (s) | median (s) |\n|---|---|---:|---:|\n"
+        "| ours: fast | ours | 1.0 | 1.25 |\n| loop | loop | 9.0 | 9.5 |\n\n"
+        "## b\n\n| ours: fast | ours | 2.0 | 2.5 |\n"
+    )
+    assert bench_median(results, "a", "ours") == 1.25
+    assert bench_median(results, "b", "ours: fast") == 2.5
+    assert bench_median(results, "a", "loop") == 9.5
+    with pytest.raises(LookupError):
+        bench_median(results, "a", "missing")

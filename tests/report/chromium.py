@@ -186,15 +186,53 @@ class Chromium:
             shutil.rmtree(self._profile, ignore_errors=True)
 
 
-# Each report figure: its number, the size of its SVG on the page and how many drawn
-# elements (paths, text, images ...) it holds.
+# Each report figure: its number, the size of its SVG on the page, how many drawn
+# elements (paths, text, images ...) it holds, its caption, and what is cut off:
+# ``outside`` lists the texts and drawn elements whose box leaves the SVG's viewport,
+# ``clipped`` the markers (matplotlib's <use>: balls, points) cut by their axes' clip
+# rectangle (a marker half outside its axes), ``texts`` every text drawn.
 FIGURES_SCRIPT = """
 Array.from(document.querySelectorAll('figure.mtm-figure')).map(f => {
   const svg = f.querySelector('svg');
   const r = svg ? svg.getBoundingClientRect() : {x: 0, y: 0, width: 0, height: 0};
-  return {number: f.dataset.figure, width: r.width, height: r.height,
+  const caption = f.querySelector('figcaption');
+  const out = {number: f.dataset.figure, width: r.width, height: r.height,
           x: r.x + window.scrollX, y: r.y + window.scrollY,
-          drawn: svg ? svg.querySelectorAll('path, text, image, use, line, polygon').length : 0};
+          drawn: svg ? svg.querySelectorAll('path, text, image, use, line, polygon').length : 0,
+          caption: caption ? caption.textContent.trim() : '', outside: [], clipped: [],
+          texts: []};
+  if (!svg) return out;
+  const tol = 0.5;
+  const inside = (b, c) => b.left >= c.left - tol && b.right <= c.right + tol &&
+                           b.top >= c.top - tol && b.bottom <= c.bottom + tol;
+  const label = e => e.tagName + ' ' + (e.textContent || e.getAttribute('xlink:href') ||
+                                         e.getAttribute('href') || '').trim().slice(0, 40);
+  for (const e of svg.querySelectorAll('text, use, image, path, line, polygon')) {
+    if (e.closest('defs, clipPath')) continue;
+    const b = e.getBoundingClientRect();
+    if (b.width === 0 && b.height === 0) continue;
+    if (e.tagName === 'text') out.texts.push(e.textContent.trim());
+    // clipped drawing (data lines, spans) may extend past the viewport: only its visible
+    // part counts, so elements under a clip-path are checked against the clip instead
+    const holder = e.closest('[clip-path]');
+    if (!holder) {
+      if (!inside(b, r)) out.outside.push(label(e));
+      continue;
+    }
+    if (e.tagName !== 'use') continue;
+    const id = holder.getAttribute('clip-path').match(/#([^)"']+)/)[1];
+    const rect = svg.querySelector('clipPath[id="' + id + '"] rect');
+    if (!rect) continue;
+    const m = holder.getScreenCTM();
+    const p = (x, y) => new DOMPoint(x, y).matrixTransform(m);
+    const x0 = +rect.getAttribute('x'), y0 = +rect.getAttribute('y');
+    const a = p(x0, y0), z = p(x0 + +rect.getAttribute('width'),
+                               y0 + +rect.getAttribute('height'));
+    const c = {left: Math.min(a.x, z.x), right: Math.max(a.x, z.x),
+               top: Math.min(a.y, z.y), bottom: Math.max(a.y, z.y)};
+    if (!inside(b, c)) out.clipped.push(label(e));
+  }
+  return out;
 })
 """
 

@@ -2,11 +2,15 @@
 
 Each page must load without any request other than its own file (and ``data:`` URIs),
 without console errors or uncaught exceptions; every figure must be present, sized,
-hold drawn elements and put ink on the screen; the page must print to PDF. A full-page
+hold drawn elements and put ink on the screen, have a caption, keep every text and drawn
+element inside its SVG viewport and every marker inside its axes, and show no offset or
+multiplier on an axis ("+2.828e2", "1e-5"); the page must print to PDF. A full-page
 screenshot of each is kept under the artefacts folder.
 """
 
 from __future__ import annotations
+
+import re
 
 import numpy as np
 import pytest
@@ -31,6 +35,20 @@ COMMAND_FIGURES = {
 }
 
 
+#: An axis offset or multiplier as matplotlib writes it: "+2.828e2", "−5e7", "1e−5", "×10⁻⁵".
+OFFSET_TEXT = re.compile(r"^([+−-]\d[\d.]*e[+−-]?\d+|1e[+−-]?\d+|×10.*)$")
+
+
+def figure_problems(fig: dict) -> list[str]:
+    """What the browser found wrong with one figure of a page (empty when nothing)."""
+    problems = [f"outside the figure: {e}" for e in fig["outside"]]
+    problems += [f"marker cut by its axes: {e}" for e in fig["clipped"]]
+    problems += [f"axis offset text {t!r}" for t in fig["texts"] if OFFSET_TEXT.match(t)]
+    if not re.fullmatch(r"Figure \d+\. \S.*", fig["caption"], flags=re.DOTALL):
+        problems.append(f"caption {fig['caption']!r}")
+    return problems
+
+
 def check_page(browser, page, expected_figures: int, artefacts, name: str) -> None:
     load = browser.load(page)
     foreign = [u for u in load.requests if u != load.url and not u.startswith("data:")]
@@ -42,6 +60,7 @@ def check_page(browser, page, expected_figures: int, artefacts, name: str) -> No
         assert fig["width"] > 100 and fig["height"] > 60, (name, fig)
         assert fig["drawn"] > 5, (name, fig)
         assert ink_fraction(image, fig) > 0.01, (name, fig)  # not a blank box
+        assert figure_problems(fig) == [], (name, fig["number"], figure_problems(fig))
     pdf = browser.print_pdf()
     (artefacts / f"{name}.pdf").write_bytes(pdf)
     assert pdf.startswith(b"%PDF") and len(pdf) > 10_000
@@ -94,3 +113,92 @@ def test_a_page_with_an_error_is_caught(browser, tmp_path):
     page.write_text('<!DOCTYPE html><html><body><img src="missing.png"></body></html>')
     load = browser.load(page)
     assert load.console_errors and any(u.endswith("missing.png") for u in load.requests)
+
+
+def test_cut_and_uncaptioned_figures_are_caught(browser, tmp_path):
+    """The figure checks can fail: a text past the SVG's right edge, a marker half outside
+    its clip rectangle, an offset label and an empty caption are each reported."""
+    page = tmp_path / "cut.html"
+    page.write_text(
+        '<!DOCTYPE html><html><body><figure class="mtm-figure" data-figure="1">'
+        '<svg xmlns="http://www.w3.org/2000/svg" xmlns:xlink="http://www.w3.org/1999/xlink" '
+        'width="200" height="100" viewBox="0 0 200 100">'
+        '<defs><path id="m" d="M -5 0 L 5 0 L 0 5 z"/>'
+        '<clipPath id="c"><rect x="20" y="20" width="100" height="60"/></clipPath></defs>'
+        '<text x="20" y="95">+2.828e2</text><text x="170" y="50">cut off</text>'
+        '<g clip-path="url(#c)"><use xlink:href="#m" x="60" y="50"/>'
+        '<use xlink:href="#m" x="120" y="50"/></g>'
+        "</svg><figcaption>Figure 1.</figcaption></figure></body></html>"
+    )
+    [fig] = browser.load(page).figures
+    problems = figure_problems(fig)
+    assert problems == [
+        "outside the figure: text cut off",
+        "marker cut by its axes: use #m",
+        "axis offset text '+2.828e2'",
+        "caption 'Figure 1.'",
+    ], problems
+
+
+def test_a_marker_at_the_axes_edge_is_caught(browser, tmp_path):
+    """A matplotlib figure whose limits cut its end points in half: the browser finds the two
+    cut markers (the SVG as a report writes it), and none once the limits have margins."""
+    from matplotlib.figure import Figure
+
+    def page(margin: float):
+        fig = Figure(figsize=(4, 3))
+        ax = fig.add_subplot()
+        ax.plot([0.0, 0.5, 1.0], [0.0, 0.5, 1.0], "o", ms=10)
+        ax.set_xlim(-margin, 1 + margin)
+        ax.set_ylim(-margin, 1 + margin)
+        rep = Report("edge")
+        rep.figure(fig, caption="Three balls.")
+        return rep.write(tmp_path / f"edge-{margin}.html")
+
+    [cut] = browser.load(page(0.0)).figures
+    problems = figure_problems(cut)
+    assert len(problems) == 2 and all(p.startswith("marker cut by its axes: use") for p in problems)
+    [kept] = browser.load(page(0.15)).figures
+    assert figure_problems(kept) == []
+
+
+def _doccheck():
+    """tests/docs/doccheck.py, which runs a documentation page as the docs tests do."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    if "doccheck" in sys.modules:  # the docs tests ran in this session
+        return sys.modules["doccheck"]
+    path = Path(__file__).resolve().parents[1] / "docs" / "doccheck.py"
+    spec = importlib.util.spec_from_file_location("doccheck", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["doccheck"] = module  # its dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize(
+    "page", ["tutorials/task-uncertainty.md", "tutorials/compensation.md", "tutorials/history.md"]
+)
+def test_the_reports_of_a_tutorial_pass_the_figure_checks(
+    browser, artefacts, tmp_path, monkeypatch, page
+):
+    """Every report a tutorial writes (task and its conformity zones, repeatability,
+    hysteresis, cov(e) campaigns, the export's tables and residual maps, the history's
+    control charts): captioned figures, nothing cut, no axis offset."""
+    import shutil
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    shutil.copytree(root / "examples", tmp_path / "examples")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("COLUMNS", "100")
+    doc = root / "docs" / page
+    _doccheck().run_page(page, doc.read_text(encoding="utf-8"), tmp_path)
+    reports = sorted(p for p in tmp_path.rglob("*.html") if "examples" not in p.parts)
+    loads = [browser.load(report) for report in reports]
+    assert sum(len(load.figures) for load in loads) > 0, page
+    for report, load in zip(reports, loads, strict=True):
+        for fig in load.figures:
+            assert figure_problems(fig) == [], (report.name, fig["number"], figure_problems(fig))

@@ -205,3 +205,35 @@ def test_budget_of_units_the_units_module_does_not_know_is_shown_as_given():
     assert shown == [0, 1]
     assert [line[3] for line in lines] == ["g", "mg"]
     assert lines[0][4] == "1000 mg/g" and lines[1][4] == "1"
+
+
+def test_guf_rows_name_the_unit_of_every_number():
+    """A gauge length in mm with u in µm: the row's unit cell says both (no row mixes mm
+    and µm unannounced), and u is the number in µm."""
+    g = _task_like_guf()
+    rep = result_report(g)
+    [results] = [
+        b
+        for s in rep._sections
+        if s.heading.startswith("GUF results")
+        for b in s.blocks
+        if b.kind == "table"
+    ]
+    row = dict(zip(results.columns, results.rows[0], strict=True))
+    assert row["unit"] == "mm; u, U in µm"
+    assert float(row["u"]) == pytest.approx(float(g.standard_uncertainty[0]) * 1e3, rel=0.05)
+    assert len(row["value"].split(".")[1]) >= 4  # mm, to the decimal of u
+
+
+def test_validation_rows_show_delta_in_the_display_unit(two_outputs):
+    """Outputs in mm: |difference| and δ are shown in µm (δ = 0.05 mm reads 50), and the
+    unit cell says so, not "5.0e-05 mm"-like internal values."""
+    _, g, r = two_outputs
+    v = validate_guf(g.estimate, g.covariance, r, tolerance=0.05, p=0.95)
+    rep = Report("validation")
+    add_result(rep, v, units={w.name: "mm" for w in v.rows})
+    [table] = [b for s in rep._sections for b in s.blocks if b.kind == "table"]
+    cells = dict(zip(table.columns, table.rows[0], strict=True))
+    assert cells["unit"] == "mm; |difference|, δ in µm"
+    assert float(cells["δ"]) == 50.0
+    assert float(cells["|difference|"]) == pytest.approx(1e3 * v.rows[0].difference, rel=0.05)

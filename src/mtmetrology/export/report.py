@@ -16,6 +16,7 @@ from matplotlib.figure import Figure
 
 from mtmetrology.export.workflow import ExportResult
 from mtmetrology.report import figures
+from mtmetrology.report.figures.style import legend_below
 from mtmetrology.report.results import renders
 
 __all__ = ["correction_profiles", "grid_slice"]
@@ -26,7 +27,7 @@ PANELS = 6
 
 def correction_profiles(rows: list) -> Figure:
     """Corrections of up to :data:`PANELS` tables against position, with ± U (k = 2)."""
-    fig = Figure(figsize=(6.4, 1.6 * len(rows) + 0.6))
+    fig = Figure(figsize=(6.4, 1.6 * len(rows) + 0.6), layout="constrained")
     for k, row in enumerate(rows):
         ax = fig.add_subplot(len(rows), 1, k + 1)
         x, y = np.asarray(row["positions"]), np.asarray(row["correction"])
@@ -45,8 +46,7 @@ def correction_profiles(rows: list) -> Figure:
         if k == len(rows) - 1:
             ax.set_xlabel(f"position ({row['pitch_unit']})")
         if k == 0:
-            ax.legend(loc="best", fontsize="small")
-    fig.tight_layout()
+            legend_below(fig, ax)  # under the panels, on no table
     return fig
 
 

@@ -100,7 +100,13 @@ def _task(rep: Report, result: TaskResult, **_) -> None:
             f"Conformity decision of {name} (ISO 14253-1:2017)",
             str(result.decision.to_dict()["decision"]),
         )
-        rep.figure(figures.conformity_zones(value, big_u, lower, upper, name=name, unit="mm"))
+        rep.figure(
+            figures.conformity_zones(
+                value, big_u, lower, upper, name=name, unit="mm", nominal=tol.nominal
+            ),
+            caption=f"{name} ± U against the specification zone and its conformance and "
+            "nonconformance zones (ISO 14253-1:2017), in deviations from the nominal.",
+        )
 
 
 @renders(RepeatabilityFit, "Probing repeatability")

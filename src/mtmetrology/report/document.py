@@ -110,6 +110,9 @@ def figure_svg(fig, prefix: str = "f") -> str:
     """
     import matplotlib
 
+    from mtmetrology.report.figures.style import plain_ticks
+
+    plain_ticks(fig)  # figures built outside report.figures too: no offset on any axis
     buffer = io.StringIO()
     with matplotlib.rc_context({"svg.fonttype": "none", "svg.hashsalt": "mtmetrology"}):
         fig.savefig(buffer, format="svg", bbox_inches="tight", dpi=150, metadata={"Date": None})
@@ -120,6 +123,17 @@ def figure_svg(fig, prefix: str = "f") -> str:
         text = text.replace(f'id="{name}"', f'id="{new}"')
         text = text.replace(f"#{name})", f"#{new})").replace(f'"#{name}"', f'"#{new}"')
     return text
+
+
+def figure_title(fig) -> str:
+    """The title of a figure: its ``suptitle``, else the first axes title; "" if none."""
+    suptitle = getattr(fig, "_suptitle", None)
+    if suptitle is not None and suptitle.get_text().strip():
+        return suptitle.get_text().strip()
+    for ax in fig.axes:
+        if ax.get_title().strip():
+            return ax.get_title().strip()
+    return ""
 
 
 def _close(fig) -> None:
@@ -215,7 +229,14 @@ class Report:
         return self
 
     def figure(self, fig, *, caption: str | None = None) -> Report:
-        """A matplotlib figure, inlined as SVG; the figure is closed afterwards."""
+        """A matplotlib figure, inlined as SVG; the figure is closed afterwards.
+
+        Every figure is captioned ("Figure 4." alone tells nothing): without ``caption``,
+        the figure's own title (its ``suptitle``, else the first axes title) is the
+        caption. The browser tests (tests/report/test_report_browser.py) fail a report
+        figure that has neither.
+        """
+        caption = caption or figure_title(fig)
         self._figures += 1
         try:
             svg = figure_svg(fig, prefix=f"fig{self._figures}")

@@ -84,11 +84,18 @@ def _dof(v: float) -> str:
 
 
 def _uncertainty(u: float, unit: str) -> str:
-    """An uncertainty in the display unit of ``unit``, with that unit when it differs."""
+    """An uncertainty in the display unit of ``unit`` (µm for mm), the number alone: the
+    row's unit cell (:func:`_unit_cell`) names that unit."""
     du = display_unit(unit) if unit else unit
-    if du == unit:
-        return format_uncertainty(u)
-    return f"{format_uncertainty(float(convert(u, unit, du)))} {du}"
+    return format_uncertainty(float(convert(u, unit, du)) if du != unit else u)
+
+
+def _unit_cell(unit: str, shown: str) -> str:
+    """The unit cell of a row whose values are in ``unit`` and whose ``shown`` columns
+    (uncertainties, tolerances) are in its display unit: ``"mm; u, U in µm"``, so that a row
+    never mixes units unannounced; ``unit`` alone when the two are the same."""
+    du = display_unit(unit) if unit else unit
+    return unit if du == unit else f"{unit}; {shown} in {du}"
 
 
 def _interval(low: float, high: float, u: float) -> str:
@@ -114,7 +121,7 @@ def _guf(rep: Report, g, **_) -> None:
                 f"{float(g.coverage_factor[j]):.3f}",
                 _interval(*g.interval[j], u),
                 _dof(float(g.dof_effective[j])),
-                g.units[j],
+                _unit_cell(g.units[j], "u, U"),
             ]
         )
     rep.table(["output", "value", "u", "U", "k", "interval", "ν_eff", "unit"], rows)
@@ -158,7 +165,7 @@ def _mcm(rep: Report, r, *, names=None, units=None, guf=None, **_) -> None:
                 _uncertainty(u, units[j]),
                 _interval(*r.interval[j], u),
                 _interval(*r.interval_shortest[j], u),
-                units[j],
+                _unit_cell(units[j], "u"),
             ]
         )
     rep.table(["output", "value", "u", "symmetric interval", "shortest interval", "unit"], rows)
@@ -218,11 +225,11 @@ def _validation(rep: Report, v, *, units=None, **_) -> None:
             [
                 w.name,
                 w.quantity,
-                units.get(w.name, "—"),
+                _unit_cell(units[w.name], "|difference|, δ") if units.get(w.name) else "—",
                 format_value(w.guf, w.tolerance),
                 format_value(w.mcm, w.tolerance),
-                format_uncertainty(w.difference),
-                format_uncertainty(w.tolerance),
+                _uncertainty(w.difference, units.get(w.name, "")),
+                _uncertainty(w.tolerance, units.get(w.name, "")),
                 f"{100 * w.ratio:.0f} %",
                 w.passed,
             ]

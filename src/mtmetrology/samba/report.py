@@ -37,6 +37,7 @@ from matplotlib.figure import Figure
 from mtmetrology.formatting import format_uncertainty, format_value
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
+from mtmetrology.report.figures.style import legend_below
 from mtmetrology.report.results import add_result, renders
 from mtmetrology.samba.calibrate import SambaCalibration
 from mtmetrology.samba.campaign_unexplained import ESTIMATOR, CampaignUnexplained
@@ -292,7 +293,7 @@ def length_error_bars(pairs, nominal_um, compensated_um) -> Figure:
     ax.set_xticks(x, list(pairs), fontsize=7)
     ax.set_xlabel("pair")
     ax.set_ylabel("length error (µm)")
-    ax.legend(fontsize=8)
+    legend_below(fig, ax)
     ax.set_title("Gauge-length error before and after compensation")
     return fig
 

@@ -14,7 +14,9 @@ from mtmetrology.report.figures.style import (
     GREY,
     RED,
     axis_label,
+    legend_below,
     new_figure,
+    plain_ticks,
 )
 
 __all__ = [
@@ -73,6 +75,11 @@ def residual_vectors(
     for n, (i, j, plane) in enumerate(((0, 1, "XY"), (0, 2, "XZ"), (1, 2, "YZ"))):
         ax = fig.add_subplot(1, 3, n + 1)
         ax.plot(x[:, i], x[:, j], "o", color=GREY, ms=4)
+        # the limits hold the arrow tips as well as the points (quiver does not autoscale
+        # to its tips), with a margin for the markers and the labels beside them
+        tips = x[:, [i, j]] + magnification * r[:, [i, j]]
+        ax.update_datalim(tips)
+        ax.margins(0.15)
         ax.quiver(
             x[:, i],
             x[:, j],
@@ -103,7 +110,7 @@ def residual_vectors(
         + f" (largest {longest:.3g} {unit}; arrows x{magnification:.3g} mm per {unit})",
         fontsize=10,
     )
-    return fig
+    return plain_ticks(fig)
 
 
 def point_deviations(points, deviations, *, unit: str = "µm", title: str | None = None) -> Figure:
@@ -138,7 +145,7 @@ def point_deviations(points, deviations, *, unit: str = "µm", title: str | None
         ax.tick_params(labelsize=7)
     fig.colorbar(image, ax=axes, label=axis_label("deviation", unit), shrink=0.85)
     fig.suptitle(title or "Deviations from the fitted element", fontsize=10)
-    return fig
+    return plain_ticks(fig)
 
 
 def residual_profile(residuals, *, unit: str = "µm", title: str | None = None) -> Figure:
@@ -164,7 +171,7 @@ def residual_profile(residuals, *, unit: str = "µm", title: str | None = None) 
     ax.set_xlabel("point")
     ax.set_ylabel(axis_label("residual", unit))
     ax.set_title(title or f"Residuals (range {r.max() - r.min():.3g} {unit})")
-    return fig
+    return plain_ticks(fig)
 
 
 def error_map(
@@ -214,7 +221,7 @@ def error_map(
     ax.set_ylabel(ylabel)
     ax.set_aspect("equal", adjustable="box")
     ax.set_title(title or f"{name} over the workspace")
-    return fig
+    return plain_ticks(fig)
 
 
 def singular_values(values, *, title: str | None = None) -> Figure:
@@ -240,7 +247,7 @@ def singular_values(values, *, title: str | None = None) -> Figure:
     ax.set_ylabel("singular value")
     ax.set_title(title or "Singular values of the scaled Jacobian")
     ax.grid(True, which="both", alpha=0.3)
-    return fig
+    return plain_ticks(fig)
 
 
 def convergence(
@@ -282,8 +289,8 @@ def convergence(
     ax.set_title(title or "Convergence")
     ax.grid(True, alpha=0.3)
     if labels is not None or len(curves) > 1:
-        ax.legend(fontsize=8)
-    return fig
+        legend_below(fig, ax)
+    return plain_ticks(fig)
 
 
 def length_errors(
@@ -337,7 +344,7 @@ def length_errors(
         ax.grid(True, alpha=0.3)
     axes[0].set_ylabel(axis_label("length error", unit))
     fig.suptitle(title or "Length errors and ±k·u of each model", fontsize=10)
-    return fig
+    return plain_ticks(fig)
 
 
 def circular_trace(

@@ -15,7 +15,9 @@ from mtmetrology.report.figures.style import (
     ORANGE,
     RED,
     axis_label,
+    legend_below,
     new_figure,
+    plain_ticks,
 )
 
 __all__ = [
@@ -64,9 +66,9 @@ def window_repeatability(
         ax.set_xlabel("window start (iteration)")
         ax.set_ylabel(axis_label(name, unit))
         ax.grid(True, alpha=0.3)
-    axes[0].legend(fontsize=8)
+    legend_below(fig, axes[0])
     fig.suptitle(title or f"Repeatability in a {window}-touch sliding window", fontsize=10)
-    return fig
+    return plain_ticks(fig)
 
 
 def hysteresis_bars(
@@ -106,7 +108,7 @@ def hysteresis_bars(
     ax.set_ylabel(axis_label("hysteresis error H", unit))
     ax.grid(True, axis="y", alpha=0.3)
     ax.set_title(title or "Hysteresis error per indexation, bars ±U")
-    return fig
+    return plain_ticks(fig)
 
 
 def _utc_datetime64(dates) -> np.ndarray:
@@ -158,5 +160,6 @@ def control_chart(
             np.datetime64(due_date.replace(tzinfo=None), "s"), color=RED, ls=":", label="due"
         )
     ax.set_ylabel(axis_label(name, unit))
-    ax.legend(fontsize="small", loc="best")
-    return fig
+    ax.set_title(f"{name} over time: individuals control chart (ISO 7870-2)")
+    legend_below(fig, ax)
+    return plain_ticks(fig)

@@ -24,8 +24,11 @@ from mtmetrology.report.figures.style import (
     ORANGE,
     RED,
     axis_label,
+    legend_below,
     new_figure,
+    plain_ticks,
 )
+from mtmetrology.units import convert, display_unit
 
 __all__ = [
     "budget_bars",
@@ -114,7 +117,7 @@ def correlation_heatmap(names: Sequence[str], correlation, *, title: str | None 
                 ax.text(j, i, f"{r[i, j]:.2f}", ha="center", va="center", fontsize=7, color=colour)
     fig.colorbar(image, ax=ax, shrink=0.8, label="correlation coefficient")
     ax.set_title(title or "Correlation of the estimates")
-    return fig
+    return plain_ticks(fig)
 
 
 def histogram_vs_normal(
@@ -181,8 +184,8 @@ def histogram_vs_normal(
     ax.set_xlabel(axis_label(name, unit))
     ax.set_ylabel("probability density")
     ax.set_title(f"Distribution of {name}")
-    ax.legend(fontsize=8)
-    return fig
+    legend_below(fig, ax)
+    return plain_ticks(fig)
 
 
 def _ellipse(centre, cov2, k: float, n: int = 181) -> np.ndarray:
@@ -269,9 +272,9 @@ def coverage_ellipses(
         ax.set_ylabel(axis_label(names[j], units[j]), fontsize=8)
         ax.tick_params(labelsize=7)
         if n == 0:
-            ax.legend(fontsize=7)
+            legend_below(fig, ax, fontsize=7)
     fig.suptitle(f"Pairwise coverage regions, p = {p:g}")
-    return fig
+    return plain_ticks(fig)
 
 
 def budget_bars(
@@ -315,7 +318,7 @@ def budget_bars(
     ax.set_xlim(1.25 * low, 1.25 * high if high > 0 else 1.0)
     ax.set_xlabel("share of u_c²(y), %")
     ax.set_title(title or "Uncertainty budget")
-    return fig
+    return plain_ticks(fig)
 
 
 def conformity_zones(
@@ -326,6 +329,7 @@ def conformity_zones(
     *,
     name: str = "",
     unit: str = "",
+    nominal: float | None = None,
 ) -> Figure:
     """A measured value ± U against its specification zone (ISO 14253-1:2017).
 
@@ -334,11 +338,25 @@ def conformity_zones(
     zones beyond the limits widened by U (where nonconformity is proven); between them
     neither is proven. One limit may be None (a one-sided specification).
 
+    Parameters
+    ----------
+    value, U, lower, upper : float
+        The value, its expanded uncertainty and the limits, in ``unit``.
+    name, unit : str
+    nominal : float, optional
+        The nominal value: the axis then shows deviations from it in the display unit
+        of ``unit`` (µm for mm), ``name − nominal``, rather than ``value`` itself, whose
+        ticks would differ in their last digits only.
+
     Examples
     --------
     >>> fig = conformity_zones(10.002, 0.003, 9.990, 10.010, name="length", unit="mm")
     >>> fig.axes[0].get_title()
     'length = 10.0020 ± 0.0030 mm: conformity proven'
+    >>> fig = conformity_zones(10.002, 0.003, 9.990, 10.010, name="length", unit="mm",
+    ...                        nominal=10.0)
+    >>> fig.axes[0].get_xlabel(), tuple(round(float(x), 6) for x in fig.axes[0].get_xlim())
+    ('length − 10 mm (µm)', (-17.0, 17.0))
     """
     if lower is None and upper is None:
         raise ValueError("a specification needs at least one limit")
@@ -358,6 +376,16 @@ def conformity_zones(
     span = (max(finite) - min(finite)) if len(finite) == 2 else max(4 * U, abs(value) * 1e-3, 1e-9)
     left = min([*finite, value - U]) - 0.35 * span
     right = max([*finite, value + U]) + 0.35 * span
+    title = f"{format_value(value, U / 2)} ± {format_uncertainty(U)}"
+    title = f"{name + ' = ' if name else ''}{title}{' ' + unit if unit else ''}: {decision}"
+    xlabel = axis_label(name or "value", unit)
+    if nominal is not None:
+        # the axis in deviations from the nominal, in the display unit (µm for mm)
+        shown = display_unit(unit) if unit else unit
+        scale = float(convert(1.0, unit, shown)) if unit else 1.0
+        xlabel = axis_label(f"{name or 'value'} − {nominal:g}{' ' + unit if unit else ''}", shown)
+        lo, hi, value, left, right = ((v - nominal) * scale for v in (lo, hi, value, left, right))
+        finite, U = [(v - nominal) * scale for v in finite], U * scale
     fig = new_figure(6.4, 2.4)
     ax = fig.add_subplot()
     a, b = max(lo, left), min(hi, right)
@@ -386,8 +414,7 @@ def conformity_zones(
     ax.set_xlim(left, right)
     ax.set_ylim(0, 1)
     ax.set_yticks([])
-    ax.set_xlabel(axis_label(name or "value", unit))
-    text = f"{format_value(value, U / 2)} ± {format_uncertainty(U)}"
-    ax.set_title(f"{name + ' = ' if name else ''}{text}{' ' + unit if unit else ''}: {decision}")
-    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.35), ncol=4)
-    return fig
+    ax.set_xlabel(xlabel)
+    ax.set_title(title)
+    legend_below(fig, ax, fontsize=7)
+    return plain_ticks(fig)
