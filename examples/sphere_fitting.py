@@ -1,8 +1,8 @@
 """A sphere by least squares and by minimum zone (sphericity).
 
 25 points on the upper half of a sphere of 25.4 mm diameter (12.7 mm radius), radial
-deviations of 2 µm standard deviation (seeded): the least-squares sphericity (peak to valley) and the minimum zone,
-which a form tolerance is checked against. What ``mtm fit sphere --method minimum-zone``
+deviations of 2 µm standard deviation (seeded): the least-squares sphericity (peak to
+valley) and the minimum zone, which a form tolerance is checked against. What ``mtm fit sphere --method minimum-zone``
 computes (its command is printed). Run it on its own::
 
     python examples/sphere_fitting.py [OUT]
@@ -40,7 +40,8 @@ def main(ctx: DemoContext) -> None:
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     d[:, 2] = np.abs(d[:, 2])  # the upper hemisphere, as probed on a mounted sphere
     form = float(to_internal(2.0, "µm"))
-    points = np.array([10.0, -20.0, 5.0]) + (RADIUS_MM + form * rng.standard_normal(25))[:, None] * d
+    radii = RADIUS_MM + form * rng.standard_normal(25)
+    points = np.array([10.0, -20.0, 5.0]) + radii[:, None] * d
     write_csv_table(
         ctx.path("fitting", "sphere.csv"),
         ["x", "y", "z"],
