@@ -2,8 +2,8 @@
 
 25 points on the upper half of a sphere of 25.4 mm diameter (12.7 mm radius), radial
 deviations of 2 µm standard deviation (seeded): the least-squares sphericity (peak to
-valley) and the minimum zone, which a form tolerance is checked against. What ``mtm fit sphere --method minimum-zone``
-computes (its command is printed). Run it on its own::
+valley) and the minimum zone, which a form tolerance is checked against. What
+``mtm fit sphere --method minimum-zone`` computes (its command is printed). Run it on its own::
 
     python examples/sphere_fitting.py [OUT]
 
