@@ -189,7 +189,7 @@ def _source(
     """The parameter set, or for the grid format also a volumetric map: a map document
     (kind volumetric-map) or a vendor grid CSV (x,y,z,ex,ey,ez[,ux,uy,uz]; errors); with
     ``measured`` the pitch table of a laser result (per direction or the mean)."""
-    from mtmetrology.export.tabulated import MeasuredTable  # noqa: F811
+    from mtmetrology.export.tabulated import MeasuredTable
     from mtmetrology.io import load_document
     from mtmetrology.kinematics.parameter_set import ParameterSet
     from mtmetrology.kinematics.volumetric_map import MAP_KIND, VolumetricMap
