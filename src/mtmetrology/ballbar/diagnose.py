@@ -35,6 +35,7 @@ from mtmetrology.identification import (
     levenberg_marquardt,
 )
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.units import from_internal, to_internal
 
@@ -252,6 +253,15 @@ class BallbarDiagnosis:
                 }
             )
         return rows
+
+    def parameter_set(self) -> ParameterSet:
+        """The ISO 230-1 parameters with their covariance block (the dynamic terms and the
+        pivots dropped, :meth:`IdentificationResult.parameter_set`): what combines with the
+        laser runs and other calibrations of the machine
+        (:func:`~mtmetrology.identification.combine.combine_parameter_sets`)."""
+        return self.identification.parameter_set(
+            self.machine, {"source": "ISO 230-4 ballbar tests"}
+        )
 
     def to_dict(self, machine_name: str | None = None) -> dict:
         """The result document (``kind: iso230-4-calibration``): ``parameters`` and
