@@ -397,6 +397,11 @@ def export_format(
                 f"rms {neg['rms_um']:.3g} µm{u} "
                 f"(uncompensated {neg['uncompensated_max_um']:.3g} µm)"
             )
+        if r.get("interpolation_bound_um") is not None:
+            typer.echo(
+                f"measured pitch table: interpolation bound {r['interpolation_bound_um']:.3g} µm "
+                "at this pitch (the largest residual the sampling leaves over the axis)"
+            )
         if result.advisor is not None:
             typer.echo(f"pitch advisor: {result.advisor['reason']}")
         for note in result.notes:
