@@ -88,11 +88,11 @@ def test_document_fields(machine):
     sim = simulate(machine, [_test()], {"E_C0Y": 30e-6}, sigma=1e-3, seed=3)
     doc = diagnose(machine, sim).to_dict()
     assert (doc["kind"], doc["machine"], doc["category"]) == (
-        "iso230-4-circular",
+        "iso230-4-calibration",
         "WXFYZT",
         "calibration",
     )
-    row = next(p for p in doc["parameters"] if p["name"] == "E_C0Y")
+    row = next(p for p in doc["estimates"] if p["name"] == "E_C0Y")
     assert row["unit"] == "µrad" and row["k"] == 2.0 and row["U"] == 2.0 * row["u"]
     assert abs(row["value"] - 30.0) < 3 * row["u"]
     assert set(doc["tests"][0]["iso230_4"]["circular_deviation_G"]) == {"ccw", "cw"}

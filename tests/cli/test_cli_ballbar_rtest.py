@@ -44,7 +44,7 @@ def test_calibrate_identifies_the_true_errors(test_csv, tmp_path):
               "-o", out)  # fmt: skip
     assert res.exit_code == 0, res.output
     doc = json.loads(out.read_text())
-    rows = {p["name"]: p for p in doc["parameters"]}
+    rows = {p["name"]: p for p in doc["estimates"]}
     for name, truth in (("E_C0Y", 20.0), ("E_XXb", 2.0), ("servo_mismatch_XY", 1.0)):
         assert abs(rows[name]["value"] - truth) < 4 * rows[name]["u"], name
     assert (doc["machine"], doc["category"]) == ("three-axis-xfyz", "calibration")

@@ -35,6 +35,7 @@ from mtmetrology.identification import (
     levenberg_marquardt,
 )
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.units import from_internal, to_internal
 
@@ -50,7 +51,9 @@ __all__ = [
     "simulate",
 ]
 
-KIND = "iso230-4-circular"
+#: The calibration document of ``mtm ballbar calibrate`` (``iso230-4-circular`` is the
+#: ISO 230-4 verification of ``mtm ballbar analyse``): one kind, one history category.
+KIND = "iso230-4-calibration"
 #: k of the expanded uncertainties U = k u (EA-4/02: k = 2, about 95 %).
 COVERAGE_FACTOR = 2.0
 #: Converged when the scaled step is below a millionth of the reading uncertainty.
@@ -251,8 +254,20 @@ class BallbarDiagnosis:
             )
         return rows
 
+    def parameter_set(self) -> ParameterSet:
+        """The ISO 230-1 parameters with their covariance block (the dynamic terms and the
+        pivots dropped, :meth:`IdentificationResult.parameter_set`): what combines with the
+        laser runs and other calibrations of the machine
+        (:func:`~mtmetrology.identification.combine.combine_parameter_sets`)."""
+        return self.identification.parameter_set(
+            self.machine, {"source": "ISO 230-4 ballbar tests"}
+        )
+
     def to_dict(self, machine_name: str | None = None) -> dict:
-        """The result document (``kind: iso230-4-circular``)."""
+        """The result document (``kind: iso230-4-calibration``): ``parameters`` and
+        ``covariance`` are the ISO 230-1 parameters as a parameter set (``mtm export``,
+        ``mtm predict`` and ``mtm history add`` read them), ``estimates`` every unknown
+        with U and k (the dynamic terms and the nuisance pivots too)."""
         from mtmetrology.kinematics.conventions import describe_parameters
 
         ident = self.identification
@@ -281,8 +296,9 @@ class BallbarDiagnosis:
             "version": 1,
             "machine": machine_name or self.machine.name,
             "category": "calibration",
-            "parameters": self.parameter_rows(),
-            "covariance": {"names": list(self.names), "matrix": cov.tolist()},
+            **ident.parameter_set_keys(self.machine, {"source": "ISO 230-4 ballbar tests"}),
+            "estimates": self.parameter_rows(),
+            "estimate_covariance": {"names": list(self.names), "matrix": cov.tolist()},
             "covariance_source": self.covariance_source,
             "coverage": {"k": COVERAGE_FACTOR, "rule": "U = k u, k = 2 (EA-4/02)"},
             "conventions": [c.to_dict() for c in describe_parameters(self.machine)],

@@ -28,6 +28,7 @@ from mtmetrology.cli._common import (
 from mtmetrology.errors import EXIT_NOT_CONFIRMED, InputError
 
 if TYPE_CHECKING:
+    from mtmetrology.export.tabulated import MeasuredTable
     from mtmetrology.kinematics.machine import Machine
     from mtmetrology.kinematics.parameter_set import ParameterSet
     from mtmetrology.kinematics.volumetric_map import VolumetricMap
@@ -182,13 +183,24 @@ def _axis_names(text: str | None) -> dict | None:
     return out
 
 
-def _source(path: Path, machine: Machine, fmt: str) -> ParameterSet | VolumetricMap:
+def _source(
+    path: Path, machine: Machine, fmt: str, measured: str | None = None
+) -> ParameterSet | VolumetricMap | MeasuredTable:
     """The parameter set, or for the grid format also a volumetric map: a map document
-    (kind volumetric-map) or a vendor grid CSV (x,y,z,ex,ey,ez[,ux,uy,uz]; errors)."""
+    (kind volumetric-map) or a vendor grid CSV (x,y,z,ex,ey,ez[,ux,uy,uz]; errors); with
+    ``measured`` the pitch table of a laser result (per direction or the mean)."""
+    from mtmetrology.export.tabulated import MeasuredTable
     from mtmetrology.io import load_document
     from mtmetrology.kinematics.parameter_set import ParameterSet
     from mtmetrology.kinematics.volumetric_map import MAP_KIND, VolumetricMap
 
+    if measured is not None:
+        if measured not in ("bidirectional", "mean"):
+            fail(f"--measured: {measured!r} is not bidirectional or mean")
+        doc = load_document(path, "laser result")
+        return MeasuredTable.from_result(
+            doc, str(path), bidirectional=measured == "bidirectional", machine=machine.name
+        )
     if fmt == "grid" and path.suffix.lower() == ".csv":
         return VolumetricMap.from_table(path, machine=machine.name)
     doc = load_document(path, "parameter set or map")
@@ -267,6 +279,15 @@ def export_format(
     verify_overrun: Annotated[
         float, typer.Option("--verify-overrun", help="Overrun before each approach, mm.")
     ] = 5.0,
+    measured: Annotated[
+        str | None,
+        typer.Option(
+            "--measured",
+            help="Laser result (mtm laser analyse): tabulate its measured pitch table point by "
+            "point, per direction (bidirectional) or the mean of both (mean), not the fitted "
+            "E_XX.",
+        ),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the check JSON.")] = False,
     report_path: ReportOption = None,
 ) -> None:
@@ -295,7 +316,7 @@ def export_format(
         check_output(report_path, inputs)
     plan_output(output, (), force=force)  # refused before the work; again with the names
     m = Machine.load(machine)
-    pset = _source(params, m, fmt)
+    pset = _source(params, m, fmt, measured)
     readings = senses = None
     if at is not None:
         table = read_csv_table(at)
@@ -375,6 +396,11 @@ def export_format(
                 f"  travel in the negative direction: largest {neg['max_um']:.3g} µm, "
                 f"rms {neg['rms_um']:.3g} µm{u} "
                 f"(uncompensated {neg['uncompensated_max_um']:.3g} µm)"
+            )
+        if r.get("interpolation_bound_um") is not None:
+            typer.echo(
+                f"measured pitch table: interpolation bound {r['interpolation_bound_um']:.3g} µm "
+                "at this pitch (the largest residual the sampling leaves over the axis)"
             )
         if result.advisor is not None:
             typer.echo(f"pitch advisor: {result.advisor['reason']}")

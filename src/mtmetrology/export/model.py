@@ -146,6 +146,10 @@ class CompensationModel:
     reference : dict of str to float
         Reference position of each tabulated axis (internal units): the axis position the
         control's reference point is at (travel minimum unless given).
+    measured : tuple of MeasuredTable
+        Error functions known as measured tables rather than parameters (an ISO 230-2
+        pitch table, :mod:`mtmetrology.export.tabulated`); the residual check takes the
+        machine's error from them.  Empty for a model of a parameter set.
     """
 
     machine: Machine
@@ -154,6 +158,7 @@ class CompensationModel:
     tables: tuple[ErrorTable, ...]
     constants: tuple[tuple[str, float], ...]
     reference: dict
+    measured: tuple = ()
 
     @property
     def sign(self) -> float:

@@ -18,7 +18,7 @@ import numpy as np
 
 from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
-from mtmetrology.export import etalon, fanuc, grid, isg, linuxcnc, siemens
+from mtmetrology.export import etalon, fanuc, grid, isg, linuxcnc, siemens, tabulated
 from mtmetrology.export.control import ControlTable, residual
 from mtmetrology.export.emulation import (
     SIGN_NOT_ESTABLISHED,
@@ -27,6 +27,7 @@ from mtmetrology.export.emulation import (
     emulate,
 )
 from mtmetrology.export.model import CompensationModel, compensation_model
+from mtmetrology.export.tabulated import MeasuredTable, tabulated_model
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.topology import LINEAR_AXES
@@ -199,7 +200,11 @@ def residual_check(
     factors=None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Residual r̂ and u (mm) at ``readings`` after the control applies ``tables``; travel
-    in the positive direction of every axis unless ``senses`` (±1 per reading and axis)."""
+    in the positive direction of every axis unless ``senses`` (±1 per reading and axis).
+    A model of a measured table takes the machine's error from the table
+    (:func:`mtmetrology.export.tabulated.residual_after`)."""
+    if model.measured:
+        return tabulated.residual_after(model, tables, constants, readings, senses, factors)
     cov = None
     if model.parameters.covariance is not None:
         p = model.parameters
@@ -331,9 +336,20 @@ def _at_arrays(r: np.ndarray, u: np.ndarray | None, e: np.ndarray, senses=None) 
     }
 
 
+def _largest_um(values: np.ndarray) -> float:
+    return float(from_internal(np.abs(values).max(), "µm"))
+
+
 def _reversal_notes(model: CompensationModel, tables, fmt: str) -> list[str]:
-    """Reversal terms a format drops (it writes the forward table only)."""
-    out = []
+    """Reversal terms a format drops (it writes the forward table only) or a mean pitch
+    table leaves (the measured reversal, for the control's backlash setting)."""
+    out = [
+        f"{m.function}: the pitch table is tabulated as the mean of both directions; the "
+        f"measured reversal of up to {_largest_um(m.forward - m.reverse):.3g} µm remains "
+        "(the control's backlash setting)"
+        for m in model.measured
+        if not m.bidirectional
+    ]
     for t in tables:
         src = model.table(t.function)
         if src.bidirectional and np.array_equal(t.forward, t.reverse):
@@ -357,12 +373,21 @@ def _figures(r: np.ndarray, u: np.ndarray | None, before: np.ndarray) -> dict:
     }
 
 
+def _uncompensated(model: CompensationModel, readings, senses=None) -> np.ndarray:
+    """The machine's tool-point error without compensation (mm): the parameters' or the
+    measured table's."""
+    if model.measured:
+        return tabulated.measured_error(model, readings, senses)[0]
+    return residual(model.machine, model.theta, None, [], readings, senses)[0]
+
+
 def _summary(model, emulated: Emulation, readings, per_axis) -> dict:
     """The check on the grid, for travel in the positive and in the negative direction of
     every axis; the second is the first when nothing the machine or the control does
-    depends on the sense of travel (no reversal term, no per-direction table)."""
+    depends on the sense of travel (no reversal term, no per-direction table, a measured
+    table of one direction only)."""
     r, u = emulated_residual(model, emulated, readings)
-    e0, _ = residual(model.machine, model.theta, None, [], readings)
+    e0 = _uncompensated(model, readings)
     positive = _figures(r, u, e0)
     summary = {
         "points": int(readings.shape[0]),
@@ -372,13 +397,22 @@ def _summary(model, emulated: Emulation, readings, per_axis) -> dict:
         "readings": model.machine.readings_to_customary(readings).tolist(),
         **positive,
     }
-    by_sense = any(p.kind == "reversal" for p in model.machine.parameters) or any(
-        not np.array_equal(t.forward, t.reverse) for t in emulated.tables
+    by_sense = (
+        any(p.kind == "reversal" for p in model.machine.parameters)
+        or any(not np.array_equal(t.forward, t.reverse) for t in emulated.tables)
+        or any(not np.array_equal(t.forward, t.reverse) for t in model.measured)
     )
+    if model.measured:
+        # exact for linear tables (module notes of export.tabulated); a staircase's own
+        # error is not a linear interpolation's
+        linear = all(t.rule == "linear" for t in emulated.tables)
+        summary["interpolation_bound_um"] = (
+            float(from_internal(tabulated.interpolation_bound(model), "µm")) if linear else None
+        )
     if by_sense:
         senses = -np.ones_like(readings)
         r, u = emulated_residual(model, emulated, readings, senses)
-        e0, _ = residual(model.machine, model.theta, None, [], readings, senses)
+        e0 = _uncompensated(model, readings, senses)
         summary["negative"] = _figures(r, u, e0)
     else:
         summary["negative"] = positive
@@ -487,10 +521,12 @@ def export_compensation(
     Parameters
     ----------
     machine : Machine
-    parameters : ParameterSet or VolumetricMap
-        Identified parameters with covariance, made for ``machine``; for the ``grid``
-        format also a measured volumetric map (a map document or a vendor grid), which is
-        resampled on the control's grid.
+    parameters : ParameterSet, MeasuredTable or VolumetricMap
+        Identified parameters with covariance, made for ``machine``; a measured pitch table
+        (:class:`~mtmetrology.export.tabulated.MeasuredTable`, an ISO 230-2 run's x̄ per
+        target and direction), tabulated point by point; for the ``grid`` format also a
+        measured volumetric map (a map document or a vendor grid), which is resampled on
+        the control's grid.
     fmt : {"linuxcnc", "fanuc", "siemens", "isg", "etalon", "grid"}
     pitch, points : float or int
         Table spacing (mm, or degrees on a rotary axis) or number of points (one of them).
@@ -533,7 +569,10 @@ def export_compensation(
         raise InputError(f"format: {fmt!r} is not one of {', '.join(FORMATS)}, grid")
     if pitch is None and points is None:
         raise InputError("give --pitch or --points")
+    measured = isinstance(parameters, MeasuredTable)
     if fmt == "grid":
+        if measured:
+            raise InputError("format: grid takes a parameter set or a map, not a pitch table")
         return _export_grid(machine, parameters, pitch, points, region, check_per_axis, at)
     if isinstance(parameters, VolumetricMap):
         raise InputError(
@@ -541,9 +580,19 @@ def export_compensation(
             "exported by the grid format only"
         )
     names = _axis_names(fmt, machine, axis_names)
-    model = compensation_model(
-        machine, parameters, pitch=pitch, points=points, axes=axes, reference=reference
-    )
+    if measured:
+        if bound_um is not None:
+            raise InputError(
+                "--bound: the pitch advisor tabulates a parameter set; for a measured table "
+                "check.json states the interpolation bound at the pitch given"
+            )
+        model = tabulated_model(
+            machine, parameters, pitch=pitch, points=points, axes=axes, reference=reference
+        )
+    else:
+        model = compensation_model(
+            machine, parameters, pitch=pitch, points=points, axes=axes, reference=reference
+        )
     module, tables, _ = _build(fmt, model, functions)
     files = _render(fmt, module, tables, model, names)
     # the residual is what the control, emulated from its vendor's document, does with the
@@ -558,7 +607,7 @@ def export_compensation(
     if at is not None:
         at = np.asarray(at, float)
         r_at, u_at = emulated_residual(model, emulated, at, at_senses)
-        e_at, _ = residual(model.machine, model.theta, None, [], at, at_senses)
+        e_at = _uncompensated(model, at, at_senses)
         at_points = _at_arrays(r_at, u_at, e_at, at_senses)
     rows = []
     for t in tables:
@@ -597,13 +646,13 @@ def export_compensation(
     return ExportResult(
         fmt,
         model.machine.name,
-        parameters.model or machine.model_name,
+        model.parameters.model or machine.model_name,
         files,
         rows,
         not_carried,
         summary,
         advisor,
-        {"parameters": dict(parameters.provenance)},
+        {"pitch_table" if measured else "parameters": dict(model.parameters.provenance)},
         at_points,
         ([] if sign["established"] else [sign["statement"]])
         + (fanuc.reference_notes(model, tables) if fmt == "fanuc" else [])

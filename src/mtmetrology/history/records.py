@@ -42,7 +42,7 @@ __all__ = [
 
 CALIBRATION_KINDS = (PARAMETER_SET, *RESULT_KINDS)
 TASK_KINDS = ("uncertainty-result",)
-VERIFICATION_KINDS = ("length-check", "conformity-decision")
+VERIFICATION_KINDS = ("length-check", "conformity-decision", "iso230-4-circular")
 _TABLES = {
     "calibration": schema.CalibrationRun,
     "task": schema.TaskResult,

@@ -177,6 +177,16 @@ class IdentificationResult(NotebookRepr):
             model=machine.model_name,
         )
 
+    def parameter_set_keys(self, machine: Machine, provenance: dict | None = None) -> dict:
+        """The keys a calibration result embeds (``model``, ``parameters``, ``covariance``,
+        ``provenance`` of :meth:`parameter_set`'s document), so that it is read as a
+        parameter set; a minimum-norm solution states no covariance (its u is undefined)."""
+        pset = self.parameter_set(machine, provenance)
+        if self.minimum_norm:
+            pset = replace(pset, covariance=None)
+        doc = pset.to_document()
+        return {k: doc[k] for k in ("model", "parameters", "covariance", "provenance") if k in doc}
+
 
 def levenberg_marquardt(
     problem,

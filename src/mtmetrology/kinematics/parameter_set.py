@@ -52,6 +52,8 @@ RESULT_KINDS = (
     "ballplate-calibration",
     "tracker-calibration",
     "iso230-2-positioning",
+    "iso230-4-calibration",
+    "r-test",
 )
 _KEYS = {"kind", "version", "machine", "model", "parameters", "covariance", "tool_mm", "provenance"}
 _ENTRY_KEYS = {"name", "value", "unit", "u"}

@@ -97,11 +97,18 @@ class PositioningResult(NotebookRepr):
     def pitch_table(self) -> dict:
         """The pitch-compensation table: per target the mean bidirectional deviation x̄_i,
         the reversal B_i and the two directions' means, µm, with the standard uncertainty
-        of x̄_i (s/√n pooled over both directions, the laser's own u added)."""
+        of x̄_i and of each direction's mean (``u_forward_um``, ``u_reverse_um``):
+        ``u² = s↑²/n + u_L²`` (the same for ↓; ``s²/(2n) + u_L²`` for x̄_i), s the scatter
+        of one reading pooled over the targets (JCGM 100:2008, §4.2.8: five runs give a
+        target's own s only 4 degrees of freedom, too few for its mean's u), u_L the
+        ISO/TR 230-9 budget at the target's distance from the datum."""
         x = from_internal(self.deviations, "µm")
+        n = x.shape[1]
         mean_up, mean_down = x[:, :, 0].mean(axis=1), x[:, :, 1].mean(axis=1)
-        s = np.sqrt(0.5 * (x[:, :, 0].var(axis=1, ddof=1) + x[:, :, 1].var(axis=1, ddof=1)))
-        u_mean = np.sqrt(s**2 / (2 * x.shape[1]) + self.budget.u_at_um(self.span) ** 2)
+        var_up = x[:, :, 0].var(axis=1, ddof=1).mean()
+        var_down = x[:, :, 1].var(axis=1, ddof=1).mean()
+        u_laser = self.budget.u_at_um(self.span)
+        u_mean = np.sqrt(0.5 * (var_up + var_down) / (2 * n) + u_laser**2)
         return {
             "position_mm": self.targets.tolist(),
             "mean_um": (0.5 * (mean_up + mean_down)).tolist(),
@@ -109,6 +116,8 @@ class PositioningResult(NotebookRepr):
             "forward_um": mean_up.tolist(),
             "reverse_um": mean_down.tolist(),
             "u_mean_um": u_mean.tolist(),
+            "u_forward_um": np.sqrt(var_up / n + u_laser**2).tolist(),
+            "u_reverse_um": np.sqrt(var_down / n + u_laser**2).tolist(),
             "correction": "the control applies −mean (and ∓reversal/2 per direction)",
         }
 

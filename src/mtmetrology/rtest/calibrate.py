@@ -145,7 +145,10 @@ class RTestCalibration:
         ]
 
     def to_dict(self, machine_name: str | None = None) -> dict:
-        """The result document (``kind: r-test``)."""
+        """The result document (``kind: r-test``, a calibration): ``parameters`` and
+        ``covariance`` are the location errors as a parameter set (``mtm export``,
+        ``mtm predict`` and ``mtm history add`` read them), ``estimates`` every unknown
+        with U and k (the nuisance sphere position too)."""
         from mtmetrology.kinematics.conventions import describe_parameters
 
         ident = self.identification
@@ -158,8 +161,9 @@ class RTestCalibration:
             "version": 1,
             "machine": machine_name or self.machine.name,
             "category": "calibration",
-            "parameters": self.parameter_rows(),
-            "covariance": {"names": list(self.names), "matrix": cov.tolist()},
+            **ident.parameter_set_keys(self.machine, {"source": "R-test"}),
+            "estimates": self.parameter_rows(),
+            "estimate_covariance": {"names": list(self.names), "matrix": cov.tolist()},
             "covariance_source": self.covariance_source,
             "coverage": {"k": COVERAGE_FACTOR, "rule": "U = k u, k = 2 (EA-4/02)"},
             "conventions": [c.to_dict() for c in describe_parameters(self.machine)],
