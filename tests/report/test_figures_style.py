@@ -56,6 +56,9 @@ def _every_figure() -> dict[str, Figure]:
             dates, GAUGE, GAUGE.mean(), (GAUGE.min(), GAUGE.max()), [False] * 4, name="L", unit="mm"
         ),
         "hysteresis_bars": figures.hysteresis_bars([0, 30, 60, 90], TINY, [1e-5] * 4),
+        "circular_trace": figures.circular_trace(
+            np.arange(0.0, 360.0, 10.0), {"ccw": NM[1] + np.zeros(36), "cw": NM[2] + np.zeros(36)}
+        ),
         "window_repeatability": figures.window_repeatability(
             {"sigma_X": [([2, 3, 4, 5], GAUGE)]}, window=10
         ),

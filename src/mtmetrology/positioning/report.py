@@ -15,7 +15,14 @@ from matplotlib.figure import Figure
 from mtmetrology.formatting import format_share, format_uncertainty, format_value
 from mtmetrology.positioning.workflow import PositioningResult
 from mtmetrology.report import Report
-from mtmetrology.report.figures.style import BLUE, ORANGE, axis_label, new_figure
+from mtmetrology.report.figures.style import (
+    BLUE,
+    ORANGE,
+    axis_label,
+    legend_below,
+    new_figure,
+    plain_ticks,
+)
 from mtmetrology.report.results import add_result, renders
 from mtmetrology.units import from_internal
 
@@ -47,8 +54,8 @@ def deviation_figure(result) -> Figure:
     ax.set_xlabel(axis_label(f"target position {result.axis}", "mm"))
     ax.set_ylabel(axis_label("positional deviation", "µm"))
     ax.set_title(f"{result.axis} axis, bands x̄ ± 2s")
-    ax.legend(fontsize="small")
-    return fig
+    legend_below(fig, ax)
+    return plain_ticks(fig)
 
 
 def positioning_report(result, command: str, inputs: list[Path]) -> Report:

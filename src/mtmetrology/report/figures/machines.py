@@ -8,6 +8,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import ScalarFormatter
 
 from mtmetrology.report.figures.style import (
     BLUE,
@@ -391,6 +392,11 @@ def circular_trace(
         theta = np.radians(angles[name][order])
         ax.plot(np.append(theta, theta[0]), np.append(dev[order], dev[order][0]), color=colour,
                 lw=1.2, label=name)  # fmt: skip
-    ax.legend(loc="lower left", bbox_to_anchor=(0.9, 0.9), frameon=False)
+    legend_below(fig, ax)
+    # the polar radial axis replaces its formatter when drawn (plain_ticks' settings are lost):
+    # a formatter of its own, plain from the start
+    radial = ScalarFormatter(useOffset=False)
+    radial.set_scientific(False)
+    ax.yaxis.set_major_formatter(radial)
     ax.set_title(title or axis_label("Radial deviation", unit))
     return fig
