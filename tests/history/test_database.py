@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from sqlalchemy import text
 
-from mtmetrology.errors import InputError
+from mtmetrology.errors import EnvironmentFailure, InputError
 from mtmetrology.history import add_result, list_runs, open_history, show_run
 from mtmetrology.history.database import HEAD, canonical_sha256, database_url, schema_revision
 from mtmetrology.kinematics.machine import Machine
@@ -78,9 +78,9 @@ def test_first_schema_version_upgrades_with_its_data_intact(history_url, make_ca
         add_result(engine, document, MACHINE)
 
 
-def test_a_database_that_does_not_answer_is_one_input_error():
+def test_a_database_that_does_not_answer_is_one_environment_failure():
     with pytest.raises(
-        InputError, match=r"^database postgresql://u@127\.0\.0\.1:1/x: does not answer"
+        EnvironmentFailure, match=r"^database postgresql://u@127\.0\.0\.1:1/x: does not answer"
     ):
         open_history("postgresql://u@127.0.0.1:1/x")
 

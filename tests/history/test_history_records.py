@@ -47,8 +47,13 @@ def test_a_calibration_round_trips_with_its_fields(history_url, make_calibration
 
 def test_task_and_verification_results_go_to_their_tables(history_url):
     engine = open_history(history_url)
-    task = add_result(engine, {"kind": "uncertainty-result", "version": 2, "x": 1}, MACHINE)
-    check = add_result(engine, {"kind": "length-check", "version": 1, "e": 2}, MACHINE)
+    name = MACHINE.name
+    task = add_result(
+        engine, {"kind": "uncertainty-result", "version": 2, "machine": name, "x": 1}, MACHINE
+    )
+    check = add_result(
+        engine, {"kind": "length-check", "version": 1, "machine": name, "e": 2}, MACHINE
+    )
     assert (task.category, check.category) == ("task", "verification")
     assert [r.id for r in list_runs(engine, category="task")] == [task.id]
     assert list_runs(engine) == ()
@@ -63,11 +68,12 @@ def test_unknown_kind_is_refused_naming_the_file(history_url):
 def test_a_calibration_of_another_machine_is_refused(history_url, make_calibration):
     engine = open_history(history_url)
     other = Machine.load("three-axis-xfyz")
-    with pytest.raises(InputError, match="not in three-axis-xfyz"):
+    both = "a result of machine 'five-axis-wcbxfzyst', not of machine 'three-axis-xfyz'"
+    with pytest.raises(InputError, match=f"^cal.json: {both}"):
         add_result(engine, make_calibration([0.0] * 13), other, source="cal.json")
     document = make_calibration([0.0] * 13)
     document["machine"] = "another-machine"
-    with pytest.raises(InputError, match="made for machine 'another-machine'"):
+    with pytest.raises(InputError, match="machine 'another-machine', not of machine 'five-"):
         add_result(engine, document, MACHINE, source="cal.json")
     assert list_runs(engine) == ()
 
