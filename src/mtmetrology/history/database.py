@@ -47,7 +47,7 @@ from typing import TYPE_CHECKING
 
 from sqlalchemy import create_engine, event
 from sqlalchemy.engine import make_url
-from sqlalchemy.exc import ArgumentError, IntegrityError, OperationalError
+from sqlalchemy.exc import ArgumentError, IntegrityError
 from sqlalchemy.pool import NullPool
 
 from mtmetrology.errors import EnvironmentFailure, InputError
@@ -106,9 +106,11 @@ _ENVIRONMENT = (
     ("timeout", "does not answer"),
     ("permission denied", "permission denied"),
 )
+#: SQLite's words for faults the file system names better (:func:`_file_system`).
+_AMBIGUOUS = ("unable to open database file", "disk i/o error", "readonly database")
 _DATABASE = (
     ("file is not a database", "not a database (or a corrupted one)"),
-    ("malformed", "corrupted (database disk image is malformed)"),
+    ("malformed", "corrupted or truncated"),
     ("no such table", "a table of the history is missing (the database was altered)"),
     ("no such column", "a column of the history is missing (the database was altered)"),
     ("does not exist", "a table or database does not exist"),
@@ -150,7 +152,28 @@ def _shown(url) -> str:
     return parsed.render_as_string(hide_password=True)
 
 
-def database_fault(database: str, err: BaseException) -> InputError | EnvironmentFailure:
+def _file_system(path: str) -> str | None:
+    """What the file system says of a SQLite file's place: read-only, full, or nothing.
+
+    SQLite reports a full disk under a WAL file as "disk I/O error" and a read-only file
+    system as "unable to open database file"; the file system says which it is."""
+    try:
+        state = os.statvfs(Path(path).parent)
+    except OSError:
+        return None
+    if state.f_flag & os.ST_RDONLY:
+        return "on a read-only file system"
+    free = state.f_bavail * state.f_frsize
+    if free < 1 << 20:
+        return f"the disk is full ({free // 1024} KiB free)"
+    if Path(path).exists() and not os.access(path, os.W_OK):
+        return "the file is read-only"
+    return None
+
+
+def database_fault(
+    database: str, err: BaseException, path: str | None = None
+) -> InputError | EnvironmentFailure:
     """The one refusal for a fault of the database driver (see the module docstring).
 
     Parameters
@@ -159,6 +182,9 @@ def database_fault(database: str, err: BaseException) -> InputError | Environmen
         The file or URL, as :func:`_shown` gives it.
     err : BaseException
         The DBAPI exception (``sqlite3`` or ``psycopg``), or SQLAlchemy's wrapper of it.
+    path : str, optional
+        The SQLite file: a fault of the machine is then named from its file system
+        (read-only, full) when the driver's words do not say it.
 
     Returns
     -------
@@ -168,17 +194,18 @@ def database_fault(database: str, err: BaseException) -> InputError | Environmen
     original = getattr(err, "orig", None) or err
     words = " ".join(str(original).split())[:200]
     lowered = words.lower()
-    if isinstance(err, OSError) or isinstance(original, OSError):
-        return EnvironmentFailure(f"database {database}: {words}")
     if isinstance(err, IntegrityError) or type(original).__name__ == "IntegrityError":
         return InputError(f"database {database}: a constraint of the history fails ({words})")
     for needle, what in _DATABASE:
         if needle in lowered:
             return InputError(f"database {database}: {what} ({words})")
-    for needle, what in _ENVIRONMENT:
-        if needle in lowered:
-            return EnvironmentFailure(f"database {database}: {what} ({words})")
-    if isinstance(err, OperationalError) or type(original).__name__ == "OperationalError":
+    needle = next((needle for needle, _ in _ENVIRONMENT if needle in lowered), None)
+    what = dict(_ENVIRONMENT).get(needle)
+    if path is not None and (needle is None or needle in _AMBIGUOUS):
+        what = _file_system(path) or what
+    if what is not None:
+        return EnvironmentFailure(f"database {database}: {what} ({words})")
+    if isinstance(original, OSError) or type(original).__name__ == "OperationalError":
         return EnvironmentFailure(f"database {database}: {words}")
     return InputError(f"database {database}: cannot be used as a history ({words})")
 
@@ -189,9 +216,12 @@ def _engine(url: str) -> Engine:
     except ArgumentError:
         raise InputError(f"database URL {url!r} is not a URL (dialect://user@host/name)") from None
     shown = _shown(parsed)
+    path = None
     if parsed.get_backend_name() == "sqlite":
         path = parsed.database
-        if path and path != ":memory:":
+        if path == ":memory:":
+            path = None
+        if path:
             try:
                 Path(path).parent.mkdir(parents=True, exist_ok=True)
             except OSError as err:
@@ -209,7 +239,7 @@ def _engine(url: str) -> Engine:
                 dbapi_connection.execute("PRAGMA foreign_keys = ON")
                 dbapi_connection.execute("PRAGMA journal_mode = WAL")
             except Exception as err:  # sqlite3.Error: raised outside SQLAlchemy's wrapping
-                raise database_fault(shown, err) from None
+                raise database_fault(shown, err, path) from None
 
         @event.listens_for(engine, "begin")
         def _begin(connection):
@@ -237,7 +267,7 @@ def _engine(url: str) -> Engine:
         # the duplicate check of add_result reads IntegrityError itself
         if isinstance(context.sqlalchemy_exception, IntegrityError):
             return
-        raise database_fault(shown, context.original_exception) from None
+        raise database_fault(shown, context.original_exception, path) from None
 
     return engine
 

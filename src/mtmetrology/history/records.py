@@ -676,7 +676,9 @@ def parameter_series(
             query = query.where(cal.performed_at >= _utc(since))
         rows = session.execute(query.order_by(cal.performed_at, cal.id)).all()
         if not rows:
-            first = session.scalar(select(cal.id).where(cal.machine_id == machine_id).limit(1))
+            first = session.scalar(
+                select(cal.id).where(cal.machine_id == machine_id).order_by(cal.id).limit(1)
+            )
             names = (
                 []
                 if first is None
@@ -686,6 +688,10 @@ def parameter_series(
                     )
                 )
             )
+            if parameter in names:
+                raise InputError(
+                    f"--since {since.isoformat()}: no calibration of {machine!r} on or after it"
+                )
             shown = f" ({', '.join(names[:6])}{' ...' if len(names) > 6 else ''})" if names else ""
             raise InputError(
                 f"parameter {parameter!r}: not a parameter of the runs of {machine!r}{shown}"
