@@ -224,7 +224,8 @@ def list_(
     def summary() -> None:
         for r in runs:
             typer.echo(
-                f"{r.id:>6}  {r.performed_at:%Y-%m-%d %H:%M}  {r.machine:<24} {r.kind:<22} "
+                f"{r.id:>6}  {r.performed_at.isoformat(timespec='minutes')}  {r.machine:<24} "
+                f"{r.kind:<22} "
                 f"{r.operator_note or ''}"
             )
         typer.echo(f"{len(runs)} {category} run(s)", err=True)
