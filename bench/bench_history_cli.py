@@ -100,7 +100,9 @@ def main() -> None:
             "mtm history list": Child([*MTM, "history", "list", "--db", str(one)]),
             "mtm history show 1": Child([*MTM, "history", "show", "1", "--db", str(one)]),
             "mtm history add (1 file)": Adding(directory / "add.sqlite", documents, 1),
-            f"mtm history add ({BATCH} files)": Adding(directory / "batch.sqlite", documents, BATCH),
+            f"mtm history add ({BATCH} files)": Adding(
+                directory / "batch.sqlite", documents, BATCH
+            ),
         }
         for label, child in children.items():
             bench.time(label, "baseline" if label == "mtm --help" else "ours", child)
