@@ -563,12 +563,20 @@ def dcc(
     country: Annotated[
         str, typer.Option("--country", help="Laboratory country, ISO 3166-1 alpha-2 (DE).")
     ],
+    responsible_person: Annotated[
+        str, typer.Option("--responsible-person", help="Person responsible for the certificate.")
+    ],
+    manufacturer: Annotated[str, typer.Option("--manufacturer", help="Machine manufacturer.")],
+    customer: Annotated[
+        str | None, typer.Option("--customer", help="Customer [the laboratory: in-house].")
+    ] = None,
     coverage_factor: Annotated[
         float, typer.Option("--coverage-factor", help="k of U = k u (>= 1).")
     ] = 2.0,
     db: Db = None,
 ) -> None:
-    """Export a calibration run as a PTB Digital Calibration Certificate (DCC 3.1.2)."""
+    """Export a calibration run as a PTB Digital Calibration Certificate (DCC 3.1.2), with
+    the run's recorded temperature and artefact."""
     from mtmetrology.history import open_history, show_run
     from mtmetrology.history.dcc import calibration_certificate
 
@@ -578,6 +586,9 @@ def dcc(
         laboratory=laboratory,
         email=email,
         country=country,
+        responsible_person=responsible_person,
+        manufacturer=manufacturer,
+        customer=customer,
         coverage_factor=coverage_factor,
     )
     xml = cert.to_xml()
@@ -626,7 +637,10 @@ def dcc_import(
         document = load_document(scale_bar, "SAMBA artefact")
         if not isinstance(document.get("scale_bar"), dict):
             raise InputError(f"{scale_bar}: scale_bar: missing (ends, length_mm, u_mm)")
-        length, u = certified_length(cert, quantity)
+        nominal = document["scale_bar"].get("length_mm")
+        length, u = certified_length(
+            cert, quantity, nominal if isinstance(nominal, int | float) else None
+        )
         document["scale_bar"] = {**document["scale_bar"], "length_mm": length, "u_mm": u}
         typer.echo(
             f"scale bar {cert.identifier}: {length:.6f} mm, u = {from_internal(u, 'µm'):.2g} µm",

@@ -58,6 +58,8 @@ _NS = {"dcc": DCC_NS, "si": SI_NS}
 _SI_UNITS = {"length": ("m", r"\metre"), "angle": ("rad", r"\radian"), "ratio": ("1", r"\one")}
 _PREFIXES = {"": "", "nano": "n", "micro": "µ", "milli": "m", "kilo": "k"}
 _BASES = {"metre": "m", "radian": "rad"}
+#: An e-mail address as a certificate states it: local@domain.tld, no spaces.
+_EMAIL = re.compile(r"[^@\s]+@[^@\s.]+(\.[^@\s.]+)+")
 _D_SI_SIMPLE = re.compile(r"^(?:\\(nano|micro|milli|kilo))?\\(metre|radian)$")
 
 
@@ -136,8 +138,7 @@ class CalibrationCertificate:
     item : str
         The calibrated item: the machine or artefact name.
     laboratory, email, country : str
-        Calibration laboratory, its e-mail address and ISO 3166-1 country code (the
-        laboratory is also the customer: an in-house calibration of the lab's machine).
+        Calibration laboratory, its e-mail address and ISO 3166-1 country code.
     begin, end : date
         Performance dates of the calibration (UTC).
     software_version : str
@@ -150,6 +151,14 @@ class CalibrationCertificate:
     covariance : tuple of tuple of float
         Covariance of the values (products of ``units``).
     coverage_factor, coverage_probability : float
+    customer : str or None
+        The customer's name (None: the laboratory itself, an in-house calibration).
+    responsible_person, manufacturer : str
+        The person responsible for the certificate; the item's manufacturer.
+    temperature_c : float or None
+        The recorded workshop temperature (an influence condition).
+    artefact : str or None
+        The artefact used (the measuring equipment).
     """
 
     identifier: str
@@ -168,6 +177,11 @@ class CalibrationCertificate:
     covariance: tuple[tuple[float, ...], ...]
     coverage_factor: float
     coverage_probability: float
+    customer: str | None = None
+    responsible_person: str = ""
+    manufacturer: str = ""
+    temperature_c: float | None = None
+    artefact: str | None = None
 
     @property
     def region(self) -> RegionCoverage:
@@ -206,6 +220,11 @@ class CalibrationCertificate:
             "covariance": [list(row) for row in self.covariance],
             "coverage_factor": self.coverage_factor,
             "coverage_probability": self.coverage_probability,
+            "customer": self.customer,
+            "responsible_person": self.responsible_person,
+            "manufacturer": self.manufacturer,
+            "temperature_c": self.temperature_c,
+            "artefact": self.artefact,
             "region": self.region.to_dict(),
         }
 
@@ -230,6 +249,11 @@ class CalibrationCertificate:
             covariance=tuple(tuple(float(c) for c in row) for row in doc["covariance"]),
             coverage_factor=float(doc["coverage_factor"]),
             coverage_probability=float(doc["coverage_probability"]),
+            customer=doc.get("customer"),
+            responsible_person=doc.get("responsible_person", ""),
+            manufacturer=doc.get("manufacturer", ""),
+            temperature_c=doc.get("temperature_c"),
+            artefact=doc.get("artefact"),
         )
 
     def to_xml(self) -> bytes:
@@ -271,8 +295,8 @@ def _decimals(values) -> str:
     return " ".join(repr(float(v)) for v in values)
 
 
-def _contact(element, cert: CalibrationCertificate) -> None:
-    _named(element, "name", cert.laboratory)
+def _contact(element, cert: CalibrationCertificate, name: str | None = None) -> None:
+    _named(element, "name", name or cert.laboratory)
     _sub(element, _d("eMail"), cert.email)
     _sub(_sub(element, _d("location")), _d("countryCode"), cert.country)
 
@@ -296,17 +320,26 @@ def _certificate_element(cert: CalibrationCertificate):
     items = _sub(admin, _d("items"))
     item = _sub(items, _d("item"))
     _named(item, "name", cert.item)
-    _named(_sub(item, _d("manufacturer")), "name", "not stated")
+    _named(_sub(item, _d("manufacturer")), "name", cert.manufacturer)
     identification = _sub(_sub(item, _d("identifications")), _d("identification"))
     _sub(identification, _d("issuer"), "customer")
     _sub(identification, _d("value"), cert.item)
     _contact(_sub(_sub(admin, _d("calibrationLaboratory")), _d("contact")), cert)
     person = _sub(_sub(admin, _d("respPersons")), _d("respPerson"))
-    _named(_sub(person, _d("person")), "name", cert.laboratory)
-    _contact(_sub(admin, _d("customer")), cert)
+    _named(_sub(person, _d("person")), "name", cert.responsible_person)
+    _contact(_sub(admin, _d("customer")), cert, cert.customer)
 
     result = _sub(_sub(root, _d("measurementResults")), _d("measurementResult"))
     _named(result, "name", cert.result)
+    if cert.artefact is not None:
+        equipment = _sub(_sub(result, _d("measuringEquipments")), _d("measuringEquipment"))
+        _named(equipment, "name", cert.artefact)
+    if cert.temperature_c is not None:
+        condition = _sub(_sub(result, _d("influenceConditions")), _d("influenceCondition"))
+        _named(condition, "name", "workshop temperature")
+        real = _sub(_sub(_sub(condition, _d("data")), _d("quantity")), _s("real"))
+        _sub(real, _s("value"), repr(float(cert.temperature_c)))
+        _sub(real, _s("unit"), r"\degreecelsius")
     one = _sub(_sub(result, _d("results")), _d("result"))
     _named(one, "name", "parameters")
     quantity = _sub(_sub(one, _d("data")), _d("quantity"))
@@ -343,6 +376,9 @@ def calibration_certificate(
     laboratory: str,
     email: str,
     country: str,
+    responsible_person: str,
+    manufacturer: str,
+    customer: str | None = None,
     coverage_factor: float = 2.0,
 ) -> CalibrationCertificate:
     """The certificate of a recorded calibration run.
@@ -356,6 +392,12 @@ def calibration_certificate(
         Name and e-mail address of the calibration laboratory.
     country : str
         Its ISO 3166-1 alpha-2 country code (two capital letters).
+    responsible_person, manufacturer : str
+        The person responsible for the certificate; the machine's manufacturer.
+    customer : str, optional
+        The customer (default: the laboratory, an in-house calibration). The run's
+        recorded temperature and artefact are stated as an influence condition and the
+        measuring equipment.
     coverage_factor : float
         ``k`` of the expanded uncertainties ``U = k u``, ``k >= 1``; the coverage probability
         stated is ``p = 2 Φ(k) − 1`` (normal distribution). The ellipsoidal region of the
@@ -371,11 +413,21 @@ def calibration_certificate(
     ------
     InputError
         Not a calibration run, a parameter without ``u`` or without a D-SI unit, a bad
-        country code or coverage factor.
+        country code or coverage factor, an empty name or a malformed e-mail address.
     """
     source = f"run {record.id}"
     if record.category != "calibration":
         raise InputError(f"{source}: a {record.category} run; a certificate needs a calibration")
+    for option, text in (
+        ("--laboratory", laboratory),
+        ("--responsible-person", responsible_person),
+        ("--manufacturer", manufacturer),
+        ("--customer", "given" if customer is None else customer),
+    ):
+        if not text.strip():
+            raise InputError(f"{option}: empty; a certificate names it")
+    if not _EMAIL.fullmatch(email):
+        raise InputError(f"--email {email!r}: not an e-mail address (name@domain.tld)")
     if not re.fullmatch(r"[A-Z]{2}", country):
         raise InputError(f"--country {country!r}: an ISO 3166-1 alpha-2 code such as DE")
     if not (math.isfinite(coverage_factor) and coverage_factor >= 1.0):
@@ -418,6 +470,11 @@ def calibration_certificate(
         covariance=tuple(tuple(float(c) for c in row) for row in cov_si),
         coverage_factor=float(coverage_factor),
         coverage_probability=coverage_probability(coverage_factor),
+        customer=customer,
+        responsible_person=responsible_person,
+        manufacturer=manufacturer,
+        temperature_c=record.temperature_c,
+        artefact=record.artefact,
     )
 
 
@@ -504,6 +561,7 @@ def read_certificate(path: str | Path) -> CalibrationCertificate:
         "si:coverageProbabilityXMLList",
         source,
     )
+    _check_coverage(k, p, source)
     u = big_u / k * f
     matrix = listed.find("si:ellipsoidalRegionXMLList/si:covarianceMatrix", _NS)
     if matrix is None:
@@ -532,10 +590,12 @@ def read_certificate(path: str | Path) -> CalibrationCertificate:
     item = root.find("dcc:administrativeData/dcc:items/dcc:item/dcc:name/dcc:content", _NS)
     software = root.find("dcc:administrativeData/dcc:dccSoftware/dcc:software/dcc:release", _NS)
     result = root.find(".//dcc:measurementResult/dcc:name/dcc:content", _NS)
+    laboratory = _text(contact, "dcc:name/dcc:content", source)
+    customer = _optional(root, "dcc:administrativeData/dcc:customer/dcc:name/dcc:content")
     return CalibrationCertificate(
         identifier=_text(core, "dcc:uniqueIdentifier", source),
         item="" if item is None else (item.text or ""),
-        laboratory=_text(contact, "dcc:name/dcc:content", source),
+        laboratory=laboratory,
         email=_text(contact, "dcc:eMail", source),
         country=_text(core, "dcc:countryCodeISO3166_1", source),
         begin=date.fromisoformat(_text(core, "dcc:beginPerformanceDate", source)),
@@ -549,11 +609,56 @@ def read_certificate(path: str | Path) -> CalibrationCertificate:
         covariance=tuple(tuple(float(c) for c in row) for row in covariance),
         coverage_factor=float(k[0]),
         coverage_probability=float(p[0]),
+        customer=None if customer == laboratory else customer,
+        responsible_person=_optional(root, f"{_ADMIN}/dcc:respPersons//dcc:person/{_NAME}") or "",
+        manufacturer=_optional(root, f"{_ADMIN}/dcc:items/dcc:item/dcc:manufacturer/{_NAME}") or "",
+        temperature_c=_temperature(root, source),
+        artefact=_optional(root, f".//dcc:measurementResult//dcc:measuringEquipment/{_NAME}"),
     )
 
 
+_ADMIN = "dcc:administrativeData"
+_NAME = "dcc:name/dcc:content"
+
+
+def _optional(root, path: str) -> str | None:
+    found = root.find(path, _NS)
+    return None if found is None or found.text is None else found.text.strip()
+
+
+def _temperature(root, source: str) -> float | None:
+    """The workshop temperature this module writes as an influence condition (°C)."""
+    real = root.find(".//dcc:influenceCondition/dcc:data/dcc:quantity/si:real", _NS)
+    if real is None or _text(real, "si:unit", source) != r"\degreecelsius":
+        return None
+    return float(_text(real, "si:value", source))
+
+
+def _check_coverage(k: np.ndarray, p: np.ndarray, source: str) -> None:
+    """Refuse a coverage factor and probability that no t distribution relates.
+
+    ``k = t_p(ν_eff)`` with ``ν_eff ≥ 1`` (JCGM 100:2008, G.3–G.4): ``p`` lies between
+    ``P(|t₁| ≤ k) = (2/π) atan k`` (Cauchy, ν = 1) and ``P(|N| ≤ k) = erf(k/√2)`` (normal,
+    ν → ∞); 0.005 is allowed either side for a p stated rounded (k = 2, p = 0.95).
+    """
+    for i, (factor, probability) in enumerate(zip(k, p, strict=True)):
+        if not (math.isfinite(factor) and factor > 0 and 0 < probability < 1):
+            raise InputError(
+                f"{source}: quantity {i + 1}: coverage factor {factor:g}, probability "
+                f"{probability:g}: k > 0 and 0 < p < 1 are needed"
+            )
+        low = 2 / math.pi * math.atan(factor) - 0.005
+        high = math.erf(factor / math.sqrt(2)) + 0.005
+        if not low <= probability <= high:
+            raise InputError(
+                f"{source}: quantity {i + 1}: coverage factor k = {factor:g} with coverage "
+                f"probability p = {probability:g}: inconsistent (k = {factor:g} covers "
+                f"{low + 0.005:.3f} to {high - 0.005:.4f}, JCGM 100 G.3)"
+            )
+
+
 def certified_length(
-    cert: CalibrationCertificate, quantity: str | None = None
+    cert: CalibrationCertificate, quantity: str | None = None, nominal: float | None = None
 ) -> tuple[float, float]:
     """A certified length and its standard uncertainty, in mm (e.g. a scale bar's).
 
@@ -561,7 +666,11 @@ def certified_length(
     ----------
     cert : CalibrationCertificate
     quantity : str, optional
-        Its name in the certificate; by default the certificate's only length.
+        Its name in the certificate; without it the certificate must hold one quantity
+        (a certificate of several, e.g. a machine's, is not silently a scale bar's).
+    nominal : float, optional
+        The artefact's length so far (mm): a certified length more than 1 % from it is
+        refused (a unit or the wrong certificate: 10³ off).
 
     Returns
     -------
@@ -571,23 +680,38 @@ def certified_length(
     Raises
     ------
     InputError
-        No such quantity, not a length, or several lengths and no ``quantity``.
+        No such quantity, not a length, several quantities and no ``quantity``, a length
+        that is not positive or not the nominal.
     """
     values, u, _ = cert.internal()
     lengths = [i for i, unit in enumerate(cert.units) if parse_unit(unit).dimension == "length"]
     if quantity is None:
-        if len(lengths) != 1:
+        if len(cert.names) != 1:
             raise InputError(
-                f"{cert.identifier}: {len(lengths)} lengths certified; name one with --quantity"
+                f"{cert.identifier}: {len(cert.names)} quantities certified "
+                f"({', '.join(cert.names[:4])}{' ...' if len(cert.names) > 4 else ''}); a "
+                "scale bar's certificate has one: name it with --quantity"
             )
-        i = lengths[0]
+        i = 0
+        if i not in lengths:
+            raise InputError(f"{cert.identifier}: {cert.names[0]}: not a length ({cert.units[0]})")
     else:
         if quantity not in cert.names:
             raise InputError(f"--quantity {quantity!r}: not a quantity of {cert.identifier}")
         i = cert.names.index(quantity)
         if i not in lengths:
             raise InputError(f"--quantity {quantity!r}: not a length ({cert.units[i]})")
-    return float(values[i]), float(u[i])
+    length = float(values[i])
+    if not length > 0:
+        raise InputError(
+            f"{cert.identifier}: {cert.names[i]}: length {length:g} mm is not positive"
+        )
+    if nominal is not None and abs(length - nominal) > 0.01 * abs(nominal):
+        raise InputError(
+            f"{cert.identifier}: {cert.names[i]}: {length:g} mm, the artefact's length is "
+            f"{nominal:g} mm (more than 1 % apart: another artefact or unit)"
+        )
+    return length, float(u[i])
 
 
 def certified_ball_centres(
