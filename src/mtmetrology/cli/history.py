@@ -334,6 +334,9 @@ def trend(
             if flag:
                 typer.echo(f"  out of control: run {i} ({d:%Y-%m-%d}) {v:.4f} {result.unit}")
         typer.echo(f"{int(result.out_of_control.sum())} point(s) out of control")
+        hint = result.hint()
+        if hint is not None:
+            typer.echo(f"hint: {hint['reason']}; see: {hint['command']}")
 
     emit_result(
         document, summary, output=output, report=report, report_path=report_path, as_json=json
