@@ -387,3 +387,12 @@ def test_long_term_history_names_its_database(tmp_path, monkeypatch):
     f = MACHINE.parameter_scales
     np.testing.assert_allclose(loaded.covariance / np.outer(f, f), np.cov(rows, rowvar=False))
     assert not (tmp_path / "elsewhere.sqlite").exists()
+
+
+def test_long_term_history_takes_a_database_url_through_the_path_option():
+    """--long-term is a Path option (pathlib makes postgresql://h/db postgresql:/h/db): the
+    URL after '@' is the one given, as its refusal shows."""
+    from mtmetrology.errors import EnvironmentFailure
+
+    with pytest.raises(EnvironmentFailure, match=r"^database postgresql://u@127\.0\.0\.1:1/x: "):
+        load_parameters(Path(f"history:{MACHINE.name}@postgresql://u@127.0.0.1:1/x"), MACHINE)
