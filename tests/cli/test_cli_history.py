@@ -306,8 +306,9 @@ def test_a_full_disk_and_a_read_only_file_system_are_exit_3_and_the_runs_survive
     tmp_path, small_file_system
 ):
     """A real full disk (the tmpfs filled) and a real read-only file system (the tmpfs
-    remounted read-only): ``history add`` is one line, exit 3, naming the fault; once the
-    space is back the database holds exactly its earlier run and takes the next one."""
+    remounted read-only): ``history add`` is one line, exit 3, naming the fault (the
+    read-only one is still listed); once the space is back the database holds exactly its
+    earlier run and takes the next one."""
     db = small_file_system / "h.sqlite"
     paths, _ = _calibrations(tmp_path, 3)
     assert _mtm("history", "add", paths[0], "--db", db).exit_code == 0
@@ -326,6 +327,8 @@ def test_a_full_disk_and_a_read_only_file_system_are_exit_3_and_the_runs_survive
     subprocess.run(["mount", "-o", "remount,ro", str(small_file_system)], check=True)
     line = _one_line(_mtm("history", "add", paths[1], "--db", db), 3)
     assert line.startswith(f"error: database {db}: on a read-only file system ("), line
+    listed = json.loads(_mtm("history", "list", "--db", db, "--json").stdout)  # still readable
+    assert [r["id"] for r in listed["runs"]] == [1]
     subprocess.run(["mount", "-o", "remount,rw", str(small_file_system)], check=True)
     assert _mtm("history", "add", paths[2], "--db", db).exit_code == 0
     listed = json.loads(_mtm("history", "list", "--db", db, "--json").stdout)

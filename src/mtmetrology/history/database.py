@@ -210,7 +210,16 @@ def database_fault(
     return InputError(f"database {database}: cannot be used as a history ({words})")
 
 
-def _engine(url: str) -> Engine:
+def _read_only_medium(path: str) -> bool:
+    """Whether an existing SQLite file sits on a read-only file system (a CD, a snapshot, a
+    read-only mount): nobody can write it, so it is read as immutable."""
+    try:
+        return Path(path).is_file() and bool(os.statvfs(Path(path).parent).f_flag & os.ST_RDONLY)
+    except OSError:
+        return False
+
+
+def _engine(url: str, read_only: bool = False) -> Engine:
     try:
         parsed = make_url(url)
     except ArgumentError:
@@ -228,8 +237,18 @@ def _engine(url: str) -> Engine:
                 raise EnvironmentFailure(f"database {shown}: {err.strerror or err}") from None
             if Path(path).is_dir():
                 raise InputError(f"database {shown}: a directory, not a SQLite file")
+        # A reader of a file on a read-only file system: WAL mode needs its -shm file,
+        # which cannot be made there; no writer can exist, so the file is immutable.
+        frozen = read_only and bool(path) and _read_only_medium(path)
+        options = {}
+        if frozen:
+            import sqlite3
+            from urllib.parse import quote
+
+            uri = f"file:{quote(path)}?mode=ro&immutable=1"
+            options["creator"] = lambda: sqlite3.connect(uri, uri=True, check_same_thread=False)
         engine = create_engine(
-            parsed, poolclass=NullPool, connect_args={"timeout": _BUSY_TIMEOUT_S}
+            parsed, poolclass=NullPool, connect_args={"timeout": _BUSY_TIMEOUT_S}, **options
         )
 
         @event.listens_for(engine, "connect")
@@ -237,7 +256,8 @@ def _engine(url: str) -> Engine:
             dbapi_connection.isolation_level = None  # SQLAlchemy, not pysqlite, begins
             try:
                 dbapi_connection.execute("PRAGMA foreign_keys = ON")
-                dbapi_connection.execute("PRAGMA journal_mode = WAL")
+                if not frozen:
+                    dbapi_connection.execute("PRAGMA journal_mode = WAL")
             except Exception as err:  # sqlite3.Error: raised outside SQLAlchemy's wrapping
                 raise database_fault(shown, err, path) from None
 
@@ -348,8 +368,8 @@ def open_history(
         The schema wanted (tests make older databases with it).
     read_only : bool
         A reader: never migrates and never takes the write lock; a database at an older
-        revision is refused with the command that upgrades it. A writer (default)
-        migrates an older database.
+        revision is refused with the command that upgrades it; a file on a read-only file
+        system is read as immutable. A writer (default) migrates an older database.
 
     Raises
     ------
@@ -361,7 +381,7 @@ def open_history(
         The disk, the file system or the server refuses (full, read-only, unreachable).
     """
     url = database_url(db)
-    engine = _engine(url)
+    engine = _engine(url, read_only)
     current = schema_revision(engine)
     if current == revision:
         return engine
