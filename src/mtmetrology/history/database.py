@@ -11,8 +11,9 @@ Opening (:func:`open_history`) reads the schema revision with one ``SELECT`` of
 imported). A writer (the default) brings an older database to the current schema with the
 Alembic migrations shipped in ``mtmetrology/history/migrations``; a reader
 (``read_only=True``) never migrates and never takes the write lock: it refuses an older
-database with the command that upgrades it (``mtm history upgrade``). An empty database
-(a new file) is given the schema by either.
+database with the command that upgrades it (``mtm history upgrade``), and reads a SQLite
+file on a read-only file system as immutable. An empty database (a new file) is given the
+schema by either.
 
 Writes are transactions: a run is recorded with its parameters in one ``COMMIT``, so a
 process killed in the middle leaves the run absent. On SQLite every write transaction
