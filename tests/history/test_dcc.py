@@ -17,11 +17,10 @@ from mtmetrology.history.dcc import (
     SI_NS,
     CalibrationCertificate,
     calibration_certificate,
-    certified_length,
     coverage_probability,
-    read_certificate,
     validate_certificate,
 )
+from mtmetrology.history.dcc_read import certified_length, read_certificate
 from mtmetrology.history.records import document_covariance
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet

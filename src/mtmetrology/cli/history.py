@@ -630,7 +630,11 @@ def dcc_import(
     json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Read a DCC (a scale bar's or ball plate's certificate): values, u and covariance."""
-    from mtmetrology.history.dcc import certified_ball_centres, certified_length, read_certificate
+    from mtmetrology.history.dcc_read import (
+        certified_ball_centres,
+        certified_length,
+        read_certificate,
+    )
     from mtmetrology.io.documents import load_document
     from mtmetrology.units import from_internal
 

@@ -20,7 +20,7 @@ _WHERE = {
     "open_history": "database",
     "CalibrationCertificate": "dcc",
     "calibration_certificate": "dcc",
-    "read_certificate": "dcc",
+    "read_certificate": "dcc_read",
     "DriftResult": "drift",
     "fit_drift": "drift",
     "RunRecord": "records",
