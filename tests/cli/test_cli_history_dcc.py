@@ -19,7 +19,18 @@ from mtmetrology.samba.artefact import load_artefact
 
 runner = CliRunner()
 MACHINE = Machine.load("five-axis-wcbxfzyst")
-ISSUER = ("--laboratory", "Lab A", "--email", "lab@example.org", "--country", "DE")
+ISSUER = (
+    "--laboratory",
+    "Lab A",
+    "--email",
+    "lab@example.org",
+    "--country",
+    "DE",
+    "--responsible-person",
+    "A. Person",
+    "--manufacturer",
+    "Maker GmbH",
+)
 
 
 def _mtm(*args):
@@ -70,9 +81,12 @@ def test_dcc_bad_input_is_one_line_exit_2_and_nothing_written(tmp_path):
         (("1", "--country", "Germany"), "--country 'Germany'"),
         (("7", "--country", "DE"), "run 7: no calibration run"),
         (("1", "--country", "DE", "--coverage-factor", "0.5"), "--coverage-factor 0.5"),
+        (("1", "--country", "DE", "--laboratory", " "), "--laboratory: empty"),
+        (("1", "--country", "DE", "--email", "lab@x"), "--email 'lab@x': not an e-mail"),
     ):
-        issuer = ("--laboratory", "L", "--email", "e@x")
-        r = _mtm("history", "dcc", *args, *issuer, "-o", cert, "--db", db)
+        issuer = ("--laboratory", "L", "--email", "e@x.org", "--responsible-person", "P")
+        issuer += ("--manufacturer", "M")
+        r = _mtm("history", "dcc", *issuer, *args, "-o", cert, "--db", db)
         assert r.exit_code == 2
         assert len(r.stderr.strip().splitlines()) == 1
         assert expected in r.stderr
@@ -118,6 +132,11 @@ def test_a_scale_bar_certificate_sets_the_samba_artefact_length_and_u(tmp_path):
     out = tmp_path / "samba_cal.json"
     cert = _scale_bar_certificate(tmp_path)
     r = _mtm("history", "dcc-import", cert, "--scale-bar", artefact, "-o", out)
+    assert r.exit_code == 2 and r.stderr.strip() == (
+        "error: SB-2026-001: 2 quantities certified (L, T); a scale bar's certificate has "
+        "one: name it with --quantity"
+    )
+    r = _mtm("history", "dcc-import", cert, "--scale-bar", artefact, "--quantity", "L", "-o", out)
     assert r.exit_code == 0, r.output
     updated = load_artefact(out)
     assert updated.scale_bar.length_mm == pytest.approx(305.2105, rel=1e-15)

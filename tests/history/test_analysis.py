@@ -134,3 +134,37 @@ def test_add_within_adds_the_mean_of_the_runs_own_covariances(history_url, make_
     sets = [ParameterSet.from_document(make_calibration(r), MACHINE) for r in rows]
     files = long_term_parameters(sets, add_within=True)
     np.testing.assert_allclose(within.covariance, files.covariance, rtol=1e-12)
+
+
+def test_pattern_tests_fire_on_a_shift_and_a_trend_and_not_on_alternation():
+    from mtmetrology.history.analysis import pattern_tests
+
+    alternating = np.tile([1.0, -1.0], 10)
+    assert [t.tolist() for t in pattern_tests(alternating, 0.0).values()] == [[], []]
+    shifted = np.concatenate([np.tile([1.0, -1.0], 2), np.full(10, 2.0)])
+    assert pattern_tests(shifted, 0.0)["run"].tolist() == [12, 13]  # 9 in a row: 4..12, 5..13
+    assert pattern_tests(shifted, 0.0)["trend"].tolist() == []
+    rising = np.array([0.0, 1, 2, 3, 4, 5, 4])
+    assert pattern_tests(rising, 10.0)["trend"].tolist() == [5]
+    on_the_line = np.array([1.0] * 4 + [0.0] + [1.0] * 4)  # a point on the centre breaks it
+    assert pattern_tests(on_the_line, 0.0)["run"].tolist() == []
+
+
+def test_the_chart_of_a_drifting_machine_points_to_history_drift(history_url, make_calibration):
+    """32 calibrations drifting 0.3 µm a run (noise 0.5 µm): the chart flags points out of
+    control and the run test fires (9 in a row on one side), so the document carries the
+    hint to the drift model; a stable machine's chart carries none."""
+    rng = np.random.default_rng(32)
+    j = MACHINE.parameter_names.index("E_X0C")
+    rows = np.zeros((32, 13))
+    rows[:, j] = 0.3 * np.arange(32) + rng.normal(0.0, 0.5, 32)
+    engine = open_history(history_url)
+    _record(engine, rows, make_calibration)
+    result = parameter_trend(engine, MACHINE.name, "E_X0C")
+    assert result.out_of_control.any()
+    assert result.special_causes["run"][0] == result.run_ids[8]  # the first 9 are below
+    document = result.to_dict()
+    assert document["hint"]["command"] == f"mtm history drift E_X0C --machine {MACHINE.name}"
+    assert TrendResult.from_dict(document).special_causes == result.special_causes
+    stable = parameter_trend(engine, MACHINE.name, "E_X0S")  # all zero: no sign, no run
+    assert stable.hint() is None and stable.to_dict()["hint"] is None

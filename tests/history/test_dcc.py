@@ -18,9 +18,9 @@ from mtmetrology.history.dcc import (
     CalibrationCertificate,
     calibration_certificate,
     coverage_probability,
-    read_certificate,
     validate_certificate,
 )
+from mtmetrology.history.dcc_read import certified_length, read_certificate
 from mtmetrology.history.records import document_covariance
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -55,10 +55,17 @@ def record(tmp_path):
     return add_result(engine, _correlated_calibration(), MACHINE)
 
 
+ISSUER = {
+    "laboratory": "Lab",
+    "email": "lab@example.org",
+    "country": "DE",
+    "responsible_person": "A. Person",
+    "manufacturer": "Maker GmbH",
+}
+
+
 def _certificate(record, k=2.0):
-    return calibration_certificate(
-        record, laboratory="Lab", email="lab@example.org", country="DE", coverage_factor=k
-    )
+    return calibration_certificate(record, **ISSUER, coverage_factor=k)
 
 
 def test_shipped_schemas_are_the_published_versions_with_their_notice():
@@ -184,12 +191,19 @@ def test_not_a_dcc_is_refused_naming_the_file(tmp_path):
 
 
 def test_bad_inputs_to_the_export_are_refused(record):
-    with pytest.raises(InputError, match="--country 'Germany'"):
-        calibration_certificate(record, laboratory="L", email="e", country="Germany")
-    with pytest.raises(InputError, match=r"--coverage-factor 0\.5"):
-        calibration_certificate(
-            record, laboratory="L", email="e", country="DE", coverage_factor=0.5
-        )
+    cases = {
+        "--country 'Germany': an ISO 3166-1 alpha-2 code such as DE": {"country": "Germany"},
+        "--laboratory: empty; a certificate names it": {"laboratory": "  "},
+        "--responsible-person: empty; a certificate names it": {"responsible_person": ""},
+        "--email 'lab@': not an e-mail address (name@domain.tld)": {"email": "lab@"},
+        "--email 'a b@lab.org': not an e-mail address (name@domain.tld)": {"email": "a b@lab.org"},
+        "--email 'lab.org': not an e-mail address (name@domain.tld)": {"email": "lab.org"},
+        "--coverage-factor 0.5: must be >= 1": {"coverage_factor": 0.5},
+    }
+    for message, change in cases.items():
+        with pytest.raises(InputError) as raised:
+            calibration_certificate(record, **{**ISSUER, **change})
+        assert str(raised.value) == message
 
 
 def test_a_run_without_uncertainty_is_refused(tmp_path):
@@ -203,7 +217,7 @@ def test_a_run_without_uncertainty_is_refused(tmp_path):
     ).to_document()
     stored = add_result(engine, document, MACHINE)
     with pytest.raises(InputError, match=r"run 1: parameter E_A0B: no uncertainty to certify"):
-        calibration_certificate(stored, laboratory="L", email="e", country="DE")
+        calibration_certificate(stored, **ISSUER)
 
 
 def _record_of(n: int, tmp_path, seed: int = 11):
@@ -287,3 +301,73 @@ def test_the_writer_writes_the_covariance_exactly_symmetric(record):
         ]
     )
     np.testing.assert_array_equal(written, written.T)
+
+
+def test_the_certificate_names_its_people_and_states_the_recorded_conditions(tmp_path):
+    """Customer, responsible person and manufacturer as given (the laboratory is not the
+    person), the run's temperature as an influence condition (°C) and its artefact as the
+    measuring equipment; all read back from the validated XML."""
+    engine = open_history(tmp_path / "h.sqlite")
+    stored = add_result(
+        engine, _correlated_calibration(), MACHINE, temperature_c=20.4, artefact="SAMBA 4 balls"
+    )
+    cert = calibration_certificate(stored, **ISSUER, customer="Plant 2")
+    path = tmp_path / "cert.xml"
+    path.write_bytes(cert.to_xml())
+    back = read_certificate(path)
+    assert (back.customer, back.responsible_person, back.manufacturer) == (
+        "Plant 2",
+        "A. Person",
+        "Maker GmbH",
+    )
+    assert (back.temperature_c, back.artefact) == (20.4, "SAMBA 4 balls")
+    assert CalibrationCertificate.from_dict(cert.to_dict()) == cert
+    in_house = read_certificate(_write(tmp_path, calibration_certificate(stored, **ISSUER)))
+    assert in_house.customer is None and in_house.laboratory == "Lab"
+
+
+def _write(tmp_path, cert) -> Path:
+    path = tmp_path / "c.xml"
+    path.write_bytes(cert.to_xml())
+    return path
+
+
+@pytest.mark.parametrize(
+    ("k", "p", "consistent"),
+    [
+        (2.0, 0.9545, True),
+        (2.0, 0.95, True),  # p stated rounded
+        (2.2, 0.95, True),  # k = t_0.95(ν_eff ≈ 14)
+        (4.30, 0.95, True),  # t_0.95(2)
+        (2.0, 0.5, False),  # the issue's: below even the Cauchy's 0.705
+        (1.0, 0.95, False),  # k too small for any t
+        (2.0, 0.99, False),
+    ],
+)
+def test_a_coverage_factor_and_probability_no_t_distribution_relates_are_refused(
+    tmp_path, k, p, consistent
+):
+    path = _artefact_certificate(tmp_path)
+    root = etree.parse(str(path))
+    expanded = root.find(".//si:expandedUncXMLList", NS)
+    expanded.find("si:coverageFactorXMLList", NS).text = repr(k)
+    expanded.find("si:coverageProbabilityXMLList", NS).text = repr(p)
+    root.write(str(path))
+    if consistent:
+        assert read_certificate(path).coverage_probability == p
+    else:
+        with pytest.raises(InputError, match=rf"coverage factor k = {k:g} with coverage .*"):
+            read_certificate(path)
+
+
+def test_a_length_that_is_not_positive_or_not_the_artefacts_is_refused(tmp_path):
+    path = _artefact_certificate(tmp_path)
+    cert = read_certificate(path)
+    assert certified_length(cert, nominal=305.0)[0] == pytest.approx(305.2105, rel=1e-15)
+    with pytest.raises(InputError, match=r"305\.211 mm, the artefact's length is 0\.305 mm"):
+        certified_length(cert, nominal=0.305)
+    root = etree.parse(str(path))
+    root.find(".//si:valueXMLList", NS).text = "-305.2105"
+    root.write(str(path))
+    with pytest.raises(InputError, match=r"^SB-2026-001: L_SB1_SB2: length -305\.211 mm is not"):
+        certified_length(read_certificate(path))

@@ -3,13 +3,21 @@
 from __future__ import annotations
 
 import hashlib
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta, timezone
 
 import numpy as np
 import pytest
+from sqlalchemy import text
 
 from mtmetrology.errors import InputError
-from mtmetrology.history import RunRecord, add_result, list_runs, open_history, show_run
+from mtmetrology.history import (
+    RunRecord,
+    add_result,
+    add_results,
+    list_runs,
+    open_history,
+    show_run,
+)
 from mtmetrology.history.records import export_rows
 from mtmetrology.kinematics.machine import Machine
 
@@ -47,8 +55,13 @@ def test_a_calibration_round_trips_with_its_fields(history_url, make_calibration
 
 def test_task_and_verification_results_go_to_their_tables(history_url):
     engine = open_history(history_url)
-    task = add_result(engine, {"kind": "uncertainty-result", "version": 2, "x": 1}, MACHINE)
-    check = add_result(engine, {"kind": "length-check", "version": 1, "e": 2}, MACHINE)
+    name = MACHINE.name
+    task = add_result(
+        engine, {"kind": "uncertainty-result", "version": 2, "machine": name, "x": 1}, MACHINE
+    )
+    check = add_result(
+        engine, {"kind": "length-check", "version": 1, "machine": name, "e": 2}, MACHINE
+    )
     assert (task.category, check.category) == ("task", "verification")
     assert [r.id for r in list_runs(engine, category="task")] == [task.id]
     assert list_runs(engine) == ()
@@ -63,11 +76,12 @@ def test_unknown_kind_is_refused_naming_the_file(history_url):
 def test_a_calibration_of_another_machine_is_refused(history_url, make_calibration):
     engine = open_history(history_url)
     other = Machine.load("three-axis-xfyz")
-    with pytest.raises(InputError, match="not in three-axis-xfyz"):
+    both = "a result of machine 'five-axis-wcbxfzyst', not of machine 'three-axis-xfyz'"
+    with pytest.raises(InputError, match=f"^cal.json: {both}"):
         add_result(engine, make_calibration([0.0] * 13), other, source="cal.json")
     document = make_calibration([0.0] * 13)
     document["machine"] = "another-machine"
-    with pytest.raises(InputError, match="made for machine 'another-machine'"):
+    with pytest.raises(InputError, match="machine 'another-machine', not of machine 'five-"):
         add_result(engine, document, MACHINE, source="cal.json")
     assert list_runs(engine) == ()
 
@@ -116,3 +130,99 @@ def test_a_recorded_covariance_asymmetric_by_rounding_comes_back_exactly_symmetr
     doc["covariance"]["matrix"][1][0] = 1e-7 + 1e-6
     with pytest.raises(InputFileError, match=r"^run 4: covariance\.matrix: covariance matrix"):
         document_covariance(doc, ["E_X0C", "E_A0B"], "run 4")
+
+
+def test_a_date_with_an_offset_is_the_same_instant_on_every_backend(history_url, make_calibration):
+    """08:00+02:00 is 06:00 UTC in the database on SQLite as on PostgreSQL (SQLite stored
+    08:00 before schema 0004), the record gives it back in the offset it was given in, and
+    runs sort by instant: 07:00+00:00 comes after 08:00+02:00."""
+    engine = open_history(history_url)
+    plus_two = timezone(timedelta(hours=2))
+    first = add_result(
+        engine,
+        make_calibration([1.0] * 13),
+        MACHINE,
+        performed_at=datetime(2025, 1, 6, 8, 0, tzinfo=plus_two),
+    )
+    add_result(
+        engine,
+        make_calibration([2.0] * 13),
+        MACHINE,
+        performed_at=datetime(2025, 1, 6, 7, 0, tzinfo=UTC),
+    )
+    assert first.performed_at == datetime(2025, 1, 6, 6, 0, tzinfo=UTC)
+    assert first.performed_at.utcoffset() == timedelta(hours=2)
+    assert show_run(engine, first.id).to_dict()["performed_at"] == "2025-01-06T08:00:00+02:00"
+    assert [r.performed_at.hour for r in list_runs(engine)] == [8, 7]
+    assert [r.id for r in list_runs(engine)] == [1, 2]
+    assert [r.id for r in list_runs(engine, since=datetime(2025, 1, 6, 6, 30))] == [2]
+    with engine.connect() as c:
+        if engine.dialect.name == "sqlite":
+            stored = c.execute(text("SELECT performed_at FROM calibration_runs WHERE id = 1"))
+            assert stored.scalar().startswith("2025-01-06 06:00:00")
+        else:
+            stored = c.execute(
+                text("SELECT performed_at AT TIME ZONE 'UTC' FROM calibration_runs WHERE id = 1")
+            )
+            assert stored.scalar() == datetime(2025, 1, 6, 6, 0)
+
+
+def _refused(engine, document, machine=MACHINE, **options) -> str:
+    with pytest.raises(InputError) as raised:
+        add_result(engine, document, machine, source="r.json", **options)
+    return str(raised.value)
+
+
+def test_documents_that_cannot_be_a_result_of_the_machine_are_refused_naming_both(
+    tmp_path, make_calibration
+):
+    engine = open_history(tmp_path / "h.sqlite")
+    cmm = Machine.load("three-axis-xfyz")
+    assert _refused(engine, {"a": 1}) == (
+        "r.json: not a result document (no kind; the history records the results of the "
+        "calibrate, task and verify commands)"
+    )
+    assert _refused(engine, [1, 2]).startswith("r.json: not a result document")
+    assert _refused(engine, make_calibration([0.0] * 13), cmm) == (
+        "r.json: a result of machine 'five-axis-wcbxfzyst', not of machine 'three-axis-xfyz' "
+        "(--machine)"
+    )
+    # a generic GUM result (mtm uncertainty, e.g. JCGM 100 H.1) is no machine's task result
+    gum = {"kind": "uncertainty-result", "version": 2, "method": "guf", "outputs": []}
+    assert _refused(engine, gum) == (
+        "r.json: a result of kind 'uncertainty-result' that names no machine (no machine "
+        "field) is not a task result of machine 'five-axis-wcbxfzyst'"
+    )
+    wrong = {"kind": "length-check", "version": 1, "machine": MACHINE.name, "category": "task"}
+    assert _refused(engine, wrong) == (
+        "r.json: category: 'task', but a 'length-check' is a verification result"
+    )
+    for temperature in (float("nan"), -300.0, 150.0):
+        message = _refused(engine, make_calibration([0.0] * 13), temperature_c=temperature)
+        assert message.endswith("°C: not a workshop temperature (-50 to 100 °C)")
+    assert list_runs(engine) == () and list_runs(engine, category="task") == ()
+
+
+def test_several_results_are_recorded_all_or_none(tmp_path, make_calibration):
+    engine = open_history(tmp_path / "h.sqlite")
+    add_result(engine, make_calibration([0.0] * 13), MACHINE, source="a.json")
+    items = [
+        {"document": make_calibration([float(k)] * 13), "machine": MACHINE, "source": f"{k}.json"}
+        for k in (1, 2, 0)
+    ]
+    with pytest.raises(InputError, match=r"^0\.json: already recorded as calibration run 1$"):
+        add_results(engine, items)
+    assert [r.id for r in list_runs(engine)] == [1]
+    with pytest.raises(InputError, match=r"^2\.json: the same result as 1\.json \(given twice\)"):
+        add_results(engine, [items[0], {**items[0], "source": "2.json"}])
+    records = add_results(engine, items[:2])
+    assert [r.parameters[0]["value"] for r in records] == [1.0, 2.0]
+    assert [r.id for r in list_runs(engine)] == [1, 2, 3]
+
+
+def test_the_calibration_kinds_are_those_of_the_parameter_set_reader():
+    """records spells them to keep kinematics off the read path; they must agree."""
+    from mtmetrology.history.records import CALIBRATION_KINDS
+    from mtmetrology.kinematics.parameter_set import KIND, RESULT_KINDS
+
+    assert CALIBRATION_KINDS == (KIND, *RESULT_KINDS)

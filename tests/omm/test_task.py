@@ -114,6 +114,8 @@ def test_guf_agrees_with_a_simulation_of_the_probing_and_the_compensation():
 def test_document_has_outputs_groups_and_points():
     doc = _task().to_dict()
     assert doc["kind"] == "uncertainty-result" and doc["method"] == "guf"
+    # it says what it is, for the calibration history (issue 32)
+    assert (doc["machine"], doc["category"]) == (MACHINE.name, "task")
     (out,) = doc["outputs"]
     assert out["name"] == "gauge_length" and out["unit"] == "mm" and out["p"] == 0.95
     assert set(doc["budget_groups"]["gauge_length"]) == {

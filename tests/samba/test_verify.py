@@ -49,6 +49,7 @@ def test_compensation_reduces_the_rms_length_error_below_5_percent(
     )
     doc = check.to_dict()
     assert doc["compensated"]["rms"] < 0.05 * doc["nominal"]["rms"]
+    assert (doc["machine"], doc["category"]) == (machine13.name, "verification")  # issue 32
     assert doc["nominal"]["rms"] > 5.0  # µm: the errors are there to be removed
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import csv
 import io
 import math
-from datetime import datetime, timedelta
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Annotated
 
@@ -26,7 +26,9 @@ from mtmetrology.io.files import atomic_write, write_json
 app = typer.Typer(
     help="Calibration history: record results, control charts, drift, long-term covariance."
     "\n\nThe database: --db FILE or URL, else $MTMETROLOGY_DB, else history.sqlite in the "
-    "user's data directory.",
+    "user's data directory. Dates are ISO 8601; a date without an offset is UTC "
+    "(2026-03-01T08:30+01:00 is 07:30 UTC). Reading commands never change the database: "
+    "an older schema is upgraded by add or by mtm history upgrade.",
     no_args_is_help=True,
 )
 
@@ -34,18 +36,41 @@ Db = Annotated[
     str | None,
     typer.Option("--db", help="SQLite file or URL (postgresql://...) [$MTMETROLOGY_DB]."),
 ]
+MachineName = Annotated[str | None, typer.Option("--machine", help="Machine name.")]
+#: The older positional machine of covariance and export (hidden; --machine is the form).
+OldMachine = Annotated[str | None, typer.Argument(hidden=True, show_default=False)]
+Since = Annotated[
+    str | None, typer.Option("--since", help="ISO 8601 date (UTC unless it has an offset).")
+]
 CATEGORIES = ("calibration", "task", "verification")
 
 
 def _date(text: str | None, option: str) -> datetime | None:
+    """An ISO 8601 date as an instant: with its offset, or UTC when it states none."""
     if text is None:
         return None
     try:
-        return datetime.fromisoformat(text)
+        moment = datetime.fromisoformat(text)
     except ValueError:
         raise InputError(
-            f"{option} {text!r}: not an ISO 8601 date (2026-03-01 or 2026-03-01T08:30)"
+            f"{option} {text!r}: not an ISO 8601 date (2026-03-01, 2026-03-01T08:30 UTC, "
+            "or 2026-03-01T08:30+01:00)"
         ) from None
+    return moment if moment.tzinfo is not None else moment.replace(tzinfo=UTC)
+
+
+def _machine_argument(positional: str | None, option: str | None) -> str | None:
+    """The machine of covariance/export: ``--machine`` (the form of every history
+    command), or the older positional argument, kept for compatibility."""
+    if positional is not None and option is not None and positional != option:
+        raise InputError(f"machine {positional!r} and --machine {option!r}: give one")
+    return option if option is not None else positional
+
+
+def _mpe(mpe: float | None) -> float | None:
+    if mpe is not None and not mpe > 0:
+        raise InputError(f"--mpe {mpe:g}: a maximum permissible error is positive")
+    return mpe
 
 
 def _category(category: str) -> str:
@@ -82,8 +107,9 @@ RwPrior = Annotated[
 @app.command("add")
 @user_errors
 def add(
-    result: Annotated[
-        Path, typer.Argument(help="RESULT.json of a calibrate, task or verify command.")
+    results: Annotated[
+        list[Path],
+        typer.Argument(help="RESULT.json of a calibrate, task or verify command (one or more)."),
     ],
     machine: Annotated[
         str | None,
@@ -91,50 +117,86 @@ def add(
     ] = None,
     note: Annotated[str | None, typer.Option("--note", help="Operator note.")] = None,
     date: Annotated[
-        str | None, typer.Option("--date", help="When it was measured (ISO 8601) [now].")
+        str | None,
+        typer.Option(
+            "--date",
+            help="When it was measured, ISO 8601; UTC unless an offset is given "
+            "(2026-03-01T08:30+01:00) [now].",
+        ),
     ] = None,
     artefact: Annotated[str | None, typer.Option("--artefact", help="Artefact used.")] = None,
     temperature: Annotated[
-        float | None, typer.Option("--temperature", help="Workshop temperature, °C.")
+        float | None,
+        typer.Option("--temperature", help="Workshop temperature, °C (-50 to 100)."),
     ] = None,
     serial: Annotated[str | None, typer.Option("--serial", help="Machine serial number.")] = None,
     inputs: Annotated[
         list[Path] | None, typer.Option("--input", help="Input file whose SHA-256 is kept.")
     ] = None,
     db: Db = None,
-    json: Annotated[bool, typer.Option("--json", help="Print the stored run.")] = False,
+    json: Annotated[bool, typer.Option("--json", help="Print the stored run(s).")] = False,
 ) -> None:
-    """Record a result in the history (one transaction: fully there or absent)."""
-    from mtmetrology.history import add_result, open_history
+    """Record results in the history. Several files are one transaction: all are recorded
+    or, if one is refused, none (the options apply to each)."""
+    from mtmetrology.history.database import open_history
+    from mtmetrology.history.records import add_results, check_temperature
     from mtmetrology.io.documents import load_document
     from mtmetrology.kinematics.machine import Machine
 
-    document = load_document(result, "result")
-    name = machine
-    if name is None:
-        name = document.get("machine") if isinstance(document, dict) else None
-        if not isinstance(name, str):
-            raise InputError(f"{result}: machine: missing; give --machine")
-    base = Machine.load(name)
     when = _date(date, "--date")
+    check_temperature(temperature, "--temperature")
+    machines: dict[str, Machine] = {}
+    items = []
+    for result in results:
+        document = load_document(result, "result")
+        name = machine
+        if name is None:
+            name = document.get("machine") if isinstance(document, dict) else None
+            if not isinstance(name, str):
+                raise InputError(
+                    f"{result}: no machine field (not a result document of a machine); "
+                    "give --machine"
+                )
+        if name not in machines:
+            machines[name] = Machine.load(name)
+        items.append(
+            {
+                "document": document,
+                "machine": machines[name],
+                "source": str(result),
+                "performed_at": when,
+                "note": note,
+                "artefact": artefact,
+                "temperature_c": temperature,
+                "serial": serial,
+                "input_files": tuple(inputs or ()),
+            }
+        )
+    records = add_results(open_history(db), items)
+
+    def summary() -> None:
+        for record in records:
+            typer.echo(
+                f"recorded {record.category} run {record.id} of {record.machine} "
+                f"({record.kind}, {record.performed_at.isoformat(timespec='minutes')})"
+            )
+
+    document = (
+        records[0].to_dict()
+        if len(records) == 1
+        else {"kind": "history-runs", "version": 1, "runs": [r.to_dict() for r in records]}
+    )
+    emit_result(document, summary, output=None, report=None, report_path=None, as_json=json)
+
+
+@app.command("upgrade")
+@user_errors
+def upgrade(db: Db = None) -> None:
+    """Bring the database to this version's schema (what add does before writing)."""
+    from mtmetrology.history.database import HEAD, open_history, schema_revision
+
     engine = open_history(db)
-    record = add_result(
-        engine,
-        document,
-        base,
-        source=str(result),
-        performed_at=when,
-        note=note,
-        artefact=artefact,
-        temperature_c=temperature,
-        serial=serial,
-        input_files=tuple(inputs or ()),
-    )
-    summary = (
-        f"recorded {record.category} run {record.id} of {record.machine} "
-        f"({record.kind}, {record.performed_at:%Y-%m-%d %H:%M} UTC)"
-    )
-    emit_result(record.to_dict(), summary, output=None, report=None, report_path=None, as_json=json)
+    typer.echo(f"database at schema revision {schema_revision(engine)} (current {HEAD})")
 
 
 @app.command("list")
@@ -144,15 +206,16 @@ def list_(
     category: Annotated[
         str, typer.Option("--category", help="calibration, task or verification.")
     ] = "calibration",
-    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    since: Since = None,
     db: Db = None,
     json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """List the recorded runs, oldest first."""
-    from mtmetrology.history import list_runs, open_history
+    from mtmetrology.history.database import open_history
+    from mtmetrology.history.records import list_runs
 
     runs = list_runs(
-        open_history(db),
+        open_history(db, read_only=True),
         machine=machine,
         category=_category(category),
         since=_date(since, "--since"),
@@ -161,7 +224,8 @@ def list_(
     def summary() -> None:
         for r in runs:
             typer.echo(
-                f"{r.id:>6}  {r.performed_at:%Y-%m-%d %H:%M}  {r.machine:<24} {r.kind:<22} "
+                f"{r.id:>6}  {r.performed_at.isoformat(timespec='minutes')}  {r.machine:<24} "
+                f"{r.kind:<22} "
                 f"{r.operator_note or ''}"
             )
         typer.echo(f"{len(runs)} {category} run(s)", err=True)
@@ -187,9 +251,10 @@ def show(
     json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Show one recorded run."""
-    from mtmetrology.history import open_history, show_run
+    from mtmetrology.history.database import open_history
+    from mtmetrology.history.records import show_run
 
-    record = show_run(open_history(db), run, _category(category))
+    record = show_run(open_history(db, read_only=True), run, _category(category))
 
     def summary() -> None:
         typer.echo(
@@ -220,8 +285,8 @@ def show(
 def trend(
     ctx: typer.Context,
     parameter: Annotated[str, typer.Argument(help="Parameter name, e.g. E_X0C.")],
-    machine: Annotated[str | None, typer.Option("--machine", help="Machine name.")] = None,
-    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    machine: MachineName = None,
+    since: Since = None,
     baseline: Annotated[
         int | None, typer.Option("--baseline", help="First runs that set the limits [all].")
     ] = None,
@@ -241,9 +306,10 @@ def trend(
     """Individuals control chart of a parameter (Shewhart limits x̄ ± 3 MR̄/1.128)."""
     from mtmetrology.history import open_history, parameter_drift, parameter_trend
 
-    engine = open_history(db)
-    name = _one_machine(engine, machine)
+    mpe = _mpe(mpe)
     when = _date(since, "--since")
+    engine = open_history(db, read_only=True)
+    name = _one_machine(engine, machine)
     result = parameter_trend(engine, name, parameter, since=when, baseline=baseline)
     drifted = None
     if mpe is not None:
@@ -268,6 +334,9 @@ def trend(
             if flag:
                 typer.echo(f"  out of control: run {i} ({d:%Y-%m-%d}) {v:.4f} {result.unit}")
         typer.echo(f"{int(result.out_of_control.sum())} point(s) out of control")
+        hint = result.hint()
+        if hint is not None:
+            typer.echo(f"hint: {hint['reason']}; see: {hint['command']}")
 
     emit_result(
         document, summary, output=output, report=report, report_path=report_path, as_json=json
@@ -331,9 +400,10 @@ def _trend_report(ctx: typer.Context, result, drifted):
 @app.command("covariance")
 @user_errors
 def covariance(
-    machine: Annotated[str, typer.Argument(help="Machine name.")],
     output: Annotated[Path, typer.Option("-o", "--output", help="COV.json (parameter set).")],
-    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    old_machine: OldMachine = None,
+    machine: MachineName = None,
+    since: Since = None,
     values: Annotated[str, typer.Option("--values", help="latest or mean.")] = "latest",
     add_within: Annotated[
         bool,
@@ -344,10 +414,12 @@ def covariance(
     """Long-term covariance of the machine's calibrations, for mtm task uncertainty --long-term."""
     from mtmetrology.history import long_term_covariance, open_history
 
+    when = _date(since, "--since")
+    engine = open_history(db, read_only=True)
     result = long_term_covariance(
-        open_history(db),
-        machine,
-        since=_date(since, "--since"),
+        engine,
+        _one_machine(engine, _machine_argument(old_machine, machine)),
+        since=when,
         values=values,
         add_within=add_within,
     )
@@ -361,16 +433,20 @@ def covariance(
 @app.command("export")
 @user_errors
 def export(
-    machine: Annotated[str, typer.Argument(help="Machine name.")],
     output: Annotated[Path, typer.Option("-o", "--output", help="FILE.csv or FILE.json.")],
-    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    old_machine: OldMachine = None,
+    machine: MachineName = None,
+    since: Since = None,
     db: Db = None,
 ) -> None:
     """Export a machine's calibrations: CSV (one row per run) or JSON (the full runs)."""
     from mtmetrology.history import export_rows, list_runs, open_history, show_run
 
-    engine = open_history(db)
     when = _date(since, "--since")
+    if output.suffix.lower() not in (".json", ".csv"):
+        raise InputError(f"{output}: give a .csv or .json file")
+    engine = open_history(db, read_only=True)
+    machine = _one_machine(engine, _machine_argument(old_machine, machine))
     if output.suffix.lower() == ".json":
         runs = list_runs(engine, machine=machine, since=when)
         write_json(
@@ -391,8 +467,6 @@ def export(
             writer.writerows(rows)
         with atomic_write(output) as fh:
             fh.write(buffer.getvalue())
-    else:
-        raise InputError(f"{output}: give a .csv or .json file")
     typer.echo(f"wrote {output}", err=True)
 
 
@@ -400,7 +474,7 @@ def export(
 @user_errors
 def drift(
     parameter: Annotated[str, typer.Argument(help="Parameter name, e.g. E_X0C.")],
-    machine: Annotated[str | None, typer.Option("--machine", help="Machine name.")] = None,
+    machine: MachineName = None,
     mpe: Annotated[
         float | None,
         typer.Option("--mpe", help="Maximum permissible error of |value|, parameter's unit."),
@@ -408,7 +482,7 @@ def drift(
     reliability: Annotated[
         float, typer.Option("--reliability", help="In-tolerance probability at the due date.")
     ] = 0.95,
-    since: Annotated[str | None, typer.Option("--since", help="ISO 8601 date.")] = None,
+    since: Since = None,
     rw_prior: RwPrior = "reference",
     db: Db = None,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="DRIFT.json.")] = None,
@@ -418,14 +492,16 @@ def drift(
     is due: P(|value| > MPE) passes 1 - reliability (ILAC-G24 / OIML D 10, NCSLI RP-1)."""
     from mtmetrology.history import open_history, parameter_drift
 
-    engine = open_history(db)
+    mpe = _mpe(mpe)
+    when = _date(since, "--since")
+    engine = open_history(db, read_only=True)
     result = parameter_drift(
         engine,
         _one_machine(engine, machine),
         parameter,
         mpe=mpe,
         reliability=reliability,
-        since=_date(since, "--since"),
+        since=when,
         prior=rw_prior,
     )
     document = result.to_dict()
@@ -490,21 +566,32 @@ def dcc(
     country: Annotated[
         str, typer.Option("--country", help="Laboratory country, ISO 3166-1 alpha-2 (DE).")
     ],
+    responsible_person: Annotated[
+        str, typer.Option("--responsible-person", help="Person responsible for the certificate.")
+    ],
+    manufacturer: Annotated[str, typer.Option("--manufacturer", help="Machine manufacturer.")],
+    customer: Annotated[
+        str | None, typer.Option("--customer", help="Customer [the laboratory: in-house].")
+    ] = None,
     coverage_factor: Annotated[
         float, typer.Option("--coverage-factor", help="k of U = k u (>= 1).")
     ] = 2.0,
     db: Db = None,
 ) -> None:
-    """Export a calibration run as a PTB Digital Calibration Certificate (DCC 3.1.2)."""
+    """Export a calibration run as a PTB Digital Calibration Certificate (DCC 3.1.2), with
+    the run's recorded temperature and artefact."""
     from mtmetrology.history import open_history, show_run
     from mtmetrology.history.dcc import calibration_certificate
 
-    record = show_run(open_history(db), run)
+    record = show_run(open_history(db, read_only=True), run)
     cert = calibration_certificate(
         record,
         laboratory=laboratory,
         email=email,
         country=country,
+        responsible_person=responsible_person,
+        manufacturer=manufacturer,
+        customer=customer,
         coverage_factor=coverage_factor,
     )
     xml = cert.to_xml()
@@ -543,7 +630,11 @@ def dcc_import(
     json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Read a DCC (a scale bar's or ball plate's certificate): values, u and covariance."""
-    from mtmetrology.history.dcc import certified_ball_centres, certified_length, read_certificate
+    from mtmetrology.history.dcc_read import (
+        certified_ball_centres,
+        certified_length,
+        read_certificate,
+    )
     from mtmetrology.io.documents import load_document
     from mtmetrology.units import from_internal
 
@@ -553,7 +644,10 @@ def dcc_import(
         document = load_document(scale_bar, "SAMBA artefact")
         if not isinstance(document.get("scale_bar"), dict):
             raise InputError(f"{scale_bar}: scale_bar: missing (ends, length_mm, u_mm)")
-        length, u = certified_length(cert, quantity)
+        nominal = document["scale_bar"].get("length_mm")
+        length, u = certified_length(
+            cert, quantity, nominal if isinstance(nominal, int | float) else None
+        )
         document["scale_bar"] = {**document["scale_bar"], "length_mm": length, "u_mm": u}
         typer.echo(
             f"scale bar {cert.identifier}: {length:.6f} mm, u = {from_internal(u, 'µm'):.2g} µm",

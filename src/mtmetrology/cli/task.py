@@ -89,8 +89,8 @@ def uncertainty(
         typer.Option(
             "--long-term",
             help="Parameter set whose covariance is the variation of the parameters between "
-            "calibrations (mtm long-term), or history:MACHINE (from the calibration "
-            "history); only its covariance is used.",
+            "calibrations (mtm long-term), or history:MACHINE[@DB] (from the calibration "
+            "history, DB a file or URL [$MTMETROLOGY_DB]); only its covariance is used.",
         ),
     ] = None,
     recalibrated: Annotated[

@@ -2,48 +2,46 @@
 
 Above the applications (beside ``report``): it reads their results through their documented
 JSON forms and no application imports it. SQLite by default, PostgreSQL by URL; the schema
-is migrated with Alembic on opening (:func:`open_history`).
+revision is checked on opening and migrated by a writer (:func:`open_history`).
+
+The names below are imported on first use (PEP 562): ``mtm history list`` loads the
+database layer and the records, not the drift model, SciPy or the certificates.
 """
 
-from mtmetrology.history.analysis import (
-    TrendResult,
-    long_term_covariance,
-    parameter_drift,
-    parameter_trend,
-)
-from mtmetrology.history.database import DB_ENV, database_url, open_history
-from mtmetrology.history.dcc import (
-    CalibrationCertificate,
-    calibration_certificate,
-    read_certificate,
-)
-from mtmetrology.history.drift import DriftResult, fit_drift
-from mtmetrology.history.records import (
-    RunRecord,
-    RunSummary,
-    add_result,
-    export_rows,
-    list_runs,
-    show_run,
-)
+from importlib import import_module
 
-__all__ = [
-    "DB_ENV",
-    "CalibrationCertificate",
-    "DriftResult",
-    "RunRecord",
-    "RunSummary",
-    "TrendResult",
-    "add_result",
-    "calibration_certificate",
-    "database_url",
-    "export_rows",
-    "fit_drift",
-    "list_runs",
-    "long_term_covariance",
-    "open_history",
-    "parameter_drift",
-    "parameter_trend",
-    "read_certificate",
-    "show_run",
-]
+_WHERE = {
+    "TrendResult": "analysis",
+    "long_term_covariance": "analysis",
+    "parameter_drift": "analysis",
+    "parameter_trend": "analysis",
+    "DB_ENV": "database",
+    "database_url": "database",
+    "open_history": "database",
+    "CalibrationCertificate": "dcc",
+    "calibration_certificate": "dcc",
+    "read_certificate": "dcc_read",
+    "DriftResult": "drift",
+    "fit_drift": "drift",
+    "RunRecord": "records",
+    "RunSummary": "records",
+    "add_result": "records",
+    "add_results": "records",
+    "export_rows": "records",
+    "list_runs": "records",
+    "show_run": "records",
+}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    if name not in _WHERE:
+        raise AttributeError(f"module 'mtmetrology.history' has no attribute {name!r}")
+    value = getattr(import_module(f"mtmetrology.history.{_WHERE[name]}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted([*globals(), *_WHERE])

@@ -14,7 +14,7 @@ database.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime
 
 import numpy as np
@@ -32,7 +32,15 @@ from mtmetrology.identification.long_term import long_term_parameters
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.units import parse_unit
 
-__all__ = ["D2", "TrendResult", "long_term_covariance", "parameter_drift", "parameter_trend"]
+__all__ = [
+    "D2",
+    "PATTERNS",
+    "TrendResult",
+    "long_term_covariance",
+    "parameter_drift",
+    "parameter_trend",
+    "pattern_tests",
+]
 
 #: d₂ for moving ranges of two consecutive values: E[|x₁ − x₂|] = d₂ σ, d₂ = 2/√π.
 D2 = 2.0 / np.sqrt(np.pi)
@@ -54,6 +62,10 @@ class TrendResult:
         How many of the first runs set the limits.
     out_of_control : ndarray of bool (K,)
         Outside [lower_limit, upper_limit].
+    special_causes : dict of str to tuple of int
+        The run ids where a test for a pattern fired (:func:`pattern_tests`): a shift
+        (``run``) or a trend (``trend``). Either means drift more than a special cause: the
+        document then carries a ``hint`` to ``mtm history drift``.
     """
 
     machine: str
@@ -68,9 +80,23 @@ class TrendResult:
     upper_limit: float
     baseline: int
     out_of_control: np.ndarray
+    special_causes: dict = field(default_factory=dict)
+
+    def hint(self) -> dict | None:
+        """What to run next when a pattern test fired: the drift model of the parameter."""
+        fired = [name for name, runs in self.special_causes.items() if runs]
+        if not fired:
+            return None
+        return {
+            "reason": f"{' and '.join(PATTERNS[name] for name in fired)}: the parameter "
+            "drifts; limits from a stable baseline do not describe it",
+            "command": f"mtm history drift {self.parameter} --machine {self.machine}",
+        }
 
     def to_dict(self) -> dict:
-        """The JSON form (``kind: history-trend``, version 1)."""
+        """The JSON form (``kind: history-trend``, version 1); ``special_causes`` and
+        ``hint`` (None when no pattern test fired) are additions that readers of version 1
+        may ignore."""
         return {
             "kind": "history-trend",
             "version": 1,
@@ -83,6 +109,8 @@ class TrendResult:
             "upper_limit": self.upper_limit,
             "baseline": self.baseline,
             "method": "individuals chart, sigma = mean moving range / 1.128 (ISO 7870-2)",
+            "special_causes": {k: list(v) for k, v in self.special_causes.items()},
+            "hint": self.hint(),
             "runs": [
                 {"id": i, "date": d.isoformat(), "value": float(v), "out_of_control": bool(o)}
                 for i, d, v, o in zip(
@@ -108,6 +136,7 @@ class TrendResult:
             upper_limit=doc["upper_limit"],
             baseline=doc["baseline"],
             out_of_control=np.array([r["out_of_control"] for r in runs], dtype=bool),
+            special_causes={k: tuple(v) for k, v in doc.get("special_causes", {}).items()},
         )
 
 
@@ -123,6 +152,41 @@ def control_limits(values: np.ndarray) -> tuple[float, float]:
     if values.size < 2:
         raise InputError(f"a control chart needs at least 2 runs, got {values.size}")
     return float(values.mean()), float(np.abs(np.diff(values)).mean() / D2)
+
+
+#: The pattern tests of an individuals chart (ISO 7870-2:2023, 8.4 and Annex B; the
+#: Western Electric rules): their names and what they detect.
+PATTERNS = {
+    "run": "9 points in a row on one side of the centre line (a shift)",
+    "trend": "6 points in a row steadily increasing or decreasing (a trend)",
+}
+
+
+def pattern_tests(values: np.ndarray, centre: float) -> dict[str, np.ndarray]:
+    """Where the run and trend tests fire: the index of the last point of each window.
+
+    ``run``: 9 consecutive points on the same side of the centre line (a point on it
+    breaks the run); ``trend``: 6 consecutive points each above (or each below) the one
+    before, i.e. 5 successive differences of one sign.
+
+    Examples
+    --------
+    >>> tests = pattern_tests(np.arange(7.0), 3.0)
+    >>> tests["trend"].tolist(), tests["run"].tolist()
+    ([5, 6], [])
+    """
+    from numpy.lib.stride_tricks import sliding_window_view
+
+    side = np.sign(values - centre)
+    fired = {"run": np.empty(0, dtype=int), "trend": np.empty(0, dtype=int)}
+    if values.size >= 9:
+        windows = sliding_window_view(side, 9)
+        same = np.abs(windows.sum(axis=1)) == 9
+        fired["run"] = np.nonzero(same)[0] + 8
+    if values.size >= 6:
+        steps = sliding_window_view(np.sign(np.diff(values)), 5)
+        fired["trend"] = np.nonzero(np.abs(steps.sum(axis=1)) == 5)[0] + 5
+    return fired
 
 
 def parameter_trend(
@@ -149,7 +213,8 @@ def parameter_trend(
     Returns
     -------
     TrendResult
-        Limits x̄ ± 3 MR̄/d₂ and the points outside them.
+        Limits x̄ ± 3 MR̄/d₂, the points outside them and the pattern tests that fired
+        (:func:`pattern_tests`).
     """
     ids, dates, unit, values, _ = parameter_series(engine, machine, parameter, since=since)
     n = len(values) if baseline is None else baseline
@@ -170,6 +235,10 @@ def parameter_trend(
         upper,
         n,
         (values < lower) | (values > upper),
+        {
+            name: tuple(ids[i] for i in where)
+            for name, where in pattern_tests(values, centre).items()
+        },
     )
 
 

@@ -1,17 +1,39 @@
-"""Where the calibration history lives, and opening it at the current schema version.
+"""Where the calibration history lives, opening it, and the one rule for its faults.
 
 The database is a SQLite file by default, in the user's data directory
 (``$XDG_DATA_HOME/mtmetrology/history.sqlite`` on Linux, the platform's equivalent
 elsewhere, from :mod:`platformdirs`); the environment variable ``MTMETROLOGY_DB`` or the
 ``--db`` option names another file or a database URL (``postgresql://user@host/db`` for a
-laboratory's server). :func:`open_history` brings the schema to the current version with
-the Alembic migrations shipped in ``mtmetrology/history/migrations`` before anything is
-read or written.
+laboratory's server).
+
+Opening (:func:`open_history`) reads the schema revision with one ``SELECT`` of
+``alembic_version``. At the current revision nothing more happens (Alembic is not even
+imported). A writer (the default) brings an older database to the current schema with the
+Alembic migrations shipped in ``mtmetrology/history/migrations``; a reader
+(``read_only=True``) never migrates and never takes the write lock: it refuses an older
+database with the command that upgrades it (``mtm history upgrade``), and reads a SQLite
+file on a read-only file system as immutable. An empty database (a new file) is given the
+schema by either.
 
 Writes are transactions: a run is recorded with its parameters in one ``COMMIT``, so a
 process killed in the middle leaves the run absent. On SQLite every write transaction
 starts with ``BEGIN IMMEDIATE`` (it takes the write lock at once and waits up to the busy
-timeout for another writer, instead of failing on a read-to-write upgrade).
+timeout for another writer, instead of failing on a read-to-write upgrade); reads begin
+with a plain ``BEGIN`` and, in WAL mode, never wait for a writer.
+
+Faults (:func:`database_fault`, attached to every engine): whatever the database driver
+raises becomes one line naming the database and the fault, never "a bug":
+
+- the machine refuses the operation (disk full, read-only file or directory, permissions,
+  I/O error, a lock held past the busy timeout, a server that does not answer):
+  :class:`~mtmetrology.errors.EnvironmentFailure`, exit 3;
+- the database itself cannot be used (not a database, a corrupted or truncated file,
+  tables of another application, a schema revision this version does not know or an
+  older one on a read, a violated constraint): :class:`~mtmetrology.errors.InputError`,
+  exit 2.
+
+Nothing is written before the fault is found: a file that is not a history is refused
+before any table is created in it.
 """
 
 from __future__ import annotations
@@ -19,35 +41,85 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import warnings
+from contextlib import nullcontext
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import platformdirs
-from alembic import command
-from alembic.config import Config
-from sqlalchemy import Engine, create_engine, event, inspect
+from sqlalchemy import create_engine, event
 from sqlalchemy.engine import make_url
-from sqlalchemy.exc import ArgumentError, OperationalError
+from sqlalchemy.exc import ArgumentError, IntegrityError
 from sqlalchemy.pool import NullPool
 
 from mtmetrology.errors import EnvironmentFailure, InputError
 
+if TYPE_CHECKING:
+    from sqlalchemy import Engine
+
 __all__ = [
     "DB_ENV",
     "HEAD",
+    "REVISIONS",
+    "HistoryUpgradeWarning",
     "canonical_sha256",
+    "database_fault",
     "database_url",
     "default_location",
     "migrate",
     "open_history",
+    "schema_revision",
     "writer",
 ]
 
 #: Environment variable naming the history database (a file or a URL).
 DB_ENV = "MTMETROLOGY_DB"
+#: The schema revisions this version knows, oldest first; the last is the current one.
+REVISIONS = ("0001", "0002", "0003", "0004")
 #: The current schema revision.
-HEAD = "0003"
+HEAD = REVISIONS[-1]
 _MIGRATIONS = Path(__file__).with_name("migrations")
 _BUSY_TIMEOUT_S = 60.0
+#: The tables of the history (any revision): a database holding other tables and not
+#: these is another application's and is refused.
+_OURS = frozenset(
+    {
+        "alembic_version",
+        "machines",
+        "calibration_runs",
+        "run_parameters",
+        "task_results",
+        "verification_results",
+        "duplicate_results",
+        "run_amendments",
+    }
+)
+#: Driver messages of faults of the machine (exit 3); any other is a fault of the database.
+_ENVIRONMENT = (
+    ("database or disk is full", "the disk is full"),
+    ("no space left", "the disk is full"),
+    ("readonly database", "the file or its directory is read-only"),
+    ("read-only", "the file or its directory is read-only"),
+    ("unable to open database file", "the file cannot be opened (permissions or directory)"),
+    ("disk i/o error", "input/output error of the disk"),
+    ("database is locked", "locked by another process beyond the busy timeout"),
+    ("connection", "does not answer"),
+    ("could not connect", "does not answer"),
+    ("timeout", "does not answer"),
+    ("permission denied", "permission denied"),
+)
+#: SQLite's words for faults the file system names better (:func:`_file_system`).
+_AMBIGUOUS = ("unable to open database file", "disk i/o error", "readonly database")
+_DATABASE = (
+    ("file is not a database", "not a database (or a corrupted one)"),
+    ("malformed", "corrupted or truncated"),
+    ("no such table", "a table of the history is missing (the database was altered)"),
+    ("no such column", "a column of the history is missing (the database was altered)"),
+    ("does not exist", "a table or database does not exist"),
+)
+
+
+class HistoryUpgradeWarning(UserWarning):
+    """A migration changed data to reach the current schema (say what, once)."""
 
 
 def canonical_sha256(document: dict) -> str:
@@ -58,6 +130,8 @@ def canonical_sha256(document: dict) -> str:
 
 def default_location() -> Path:
     """The default SQLite file, in the user's data directory."""
+    import platformdirs
+
     return Path(platformdirs.user_data_dir("mtmetrology", appauthor=False)) / "history.sqlite"
 
 
@@ -70,45 +144,153 @@ def database_url(db: str | os.PathLike | None = None) -> str:
     return f"sqlite:///{Path(chosen).expanduser().resolve()}"
 
 
-def _engine(url: str) -> Engine:
+def _shown(url) -> str:
+    """The database as a person names it: the file of a SQLite URL, else the URL without
+    its password."""
+    parsed = make_url(url) if isinstance(url, str) else url
+    if parsed.get_backend_name() == "sqlite" and parsed.database:
+        return parsed.database
+    return parsed.render_as_string(hide_password=True)
+
+
+def _file_system(path: str) -> str | None:
+    """What the file system says of a SQLite file's place: read-only, full, or nothing.
+
+    SQLite reports a full disk under a WAL file as "disk I/O error" and a read-only file
+    system as "unable to open database file"; the file system says which it is."""
+    try:
+        state = os.statvfs(Path(path).parent)
+    except OSError:
+        return None
+    if state.f_flag & os.ST_RDONLY:
+        return "on a read-only file system"
+    free = state.f_bavail * state.f_frsize
+    if free < 1 << 20:
+        return f"the disk is full ({free // 1024} KiB free)"
+    if Path(path).exists() and not os.access(path, os.W_OK):
+        return "the file is read-only"
+    return None
+
+
+def database_fault(
+    database: str, err: BaseException, path: str | None = None
+) -> InputError | EnvironmentFailure:
+    """The one refusal for a fault of the database driver (see the module docstring).
+
+    Parameters
+    ----------
+    database : str
+        The file or URL, as :func:`_shown` gives it.
+    err : BaseException
+        The DBAPI exception (``sqlite3`` or ``psycopg``), or SQLAlchemy's wrapper of it.
+    path : str, optional
+        The SQLite file: a fault of the machine is then named from its file system
+        (read-only, full) when the driver's words do not say it.
+
+    Returns
+    -------
+    InputError or EnvironmentFailure
+        One line: ``database <where>: <what> (<driver's words>)``.
+    """
+    original = getattr(err, "orig", None) or err
+    words = " ".join(str(original).split())[:200]
+    lowered = words.lower()
+    if isinstance(err, IntegrityError) or type(original).__name__ == "IntegrityError":
+        return InputError(f"database {database}: a constraint of the history fails ({words})")
+    for needle, what in _DATABASE:
+        if needle in lowered:
+            return InputError(f"database {database}: {what} ({words})")
+    needle = next((needle for needle, _ in _ENVIRONMENT if needle in lowered), None)
+    what = dict(_ENVIRONMENT).get(needle)
+    if path is not None and (needle is None or needle in _AMBIGUOUS):
+        what = _file_system(path) or what
+    if what is not None:
+        return EnvironmentFailure(f"database {database}: {what} ({words})")
+    if isinstance(original, OSError) or type(original).__name__ == "OperationalError":
+        return EnvironmentFailure(f"database {database}: {words}")
+    return InputError(f"database {database}: cannot be used as a history ({words})")
+
+
+def _read_only_medium(path: str) -> bool:
+    """Whether an existing SQLite file sits on a read-only file system (a CD, a snapshot, a
+    read-only mount): nobody can write it, so it is read as immutable."""
+    try:
+        return Path(path).is_file() and bool(os.statvfs(Path(path).parent).f_flag & os.ST_RDONLY)
+    except OSError:
+        return False
+
+
+def _engine(url: str, read_only: bool = False) -> Engine:
     try:
         parsed = make_url(url)
     except ArgumentError:
         raise InputError(f"database URL {url!r} is not a URL (dialect://user@host/name)") from None
+    shown = _shown(parsed)
+    path = None
     if parsed.get_backend_name() == "sqlite":
         path = parsed.database
-        if path and path != ":memory:":
-            Path(path).parent.mkdir(parents=True, exist_ok=True)
+        if path == ":memory:":
+            path = None
+        if path:
+            try:
+                Path(path).parent.mkdir(parents=True, exist_ok=True)
+            except OSError as err:
+                raise EnvironmentFailure(f"database {shown}: {err.strerror or err}") from None
+            if Path(path).is_dir():
+                raise InputError(f"database {shown}: a directory, not a SQLite file")
+        # A reader of a file on a read-only file system: WAL mode needs its -shm file,
+        # which cannot be made there; no writer can exist, so the file is immutable.
+        frozen = read_only and bool(path) and _read_only_medium(path)
+        options = {}
+        if frozen:
+            import sqlite3
+            from urllib.parse import quote
+
+            uri = f"file:{quote(path)}?mode=ro&immutable=1"
+            options["creator"] = lambda: sqlite3.connect(uri, uri=True, check_same_thread=False)
         engine = create_engine(
-            parsed, poolclass=NullPool, connect_args={"timeout": _BUSY_TIMEOUT_S}
+            parsed, poolclass=NullPool, connect_args={"timeout": _BUSY_TIMEOUT_S}, **options
         )
 
         @event.listens_for(engine, "connect")
         def _connect(dbapi_connection, _record):
             dbapi_connection.isolation_level = None  # SQLAlchemy, not pysqlite, begins
-            dbapi_connection.execute("PRAGMA foreign_keys = ON")
-            dbapi_connection.execute("PRAGMA journal_mode = WAL")
+            try:
+                dbapi_connection.execute("PRAGMA foreign_keys = ON")
+                if not frozen:
+                    dbapi_connection.execute("PRAGMA journal_mode = WAL")
+            except Exception as err:  # sqlite3.Error: raised outside SQLAlchemy's wrapping
+                raise database_fault(shown, err, path) from None
 
         @event.listens_for(engine, "begin")
         def _begin(connection):
             write = connection.get_execution_options().get("history_write", False)
             connection.exec_driver_sql("BEGIN IMMEDIATE" if write else "BEGIN")
 
-        return engine
-    if parsed.get_backend_name() == "postgresql":
+    elif parsed.get_backend_name() == "postgresql":
         if parsed.drivername == "postgresql":
             parsed = parsed.set(drivername="postgresql+psycopg")
         try:
-            return create_engine(parsed, poolclass=NullPool, connect_args={"connect_timeout": 10})
+            engine = create_engine(parsed, poolclass=NullPool, connect_args={"connect_timeout": 10})
         except ModuleNotFoundError as err:
             raise EnvironmentFailure(
-                f"database {url!r}: the driver {err.name} is not installed "
+                f"database {shown}: the driver {err.name} is not installed "
                 "(pip install 'psycopg[binary]')"
             ) from None
-    raise InputError(
-        f"database URL {url!r}: {parsed.get_backend_name()} is not supported "
-        "(a SQLite file or postgresql://...)"
-    )
+    else:
+        raise InputError(
+            f"database URL {url!r}: {parsed.get_backend_name()} is not supported "
+            "(a SQLite file or postgresql://...)"
+        )
+
+    @event.listens_for(engine, "handle_error")
+    def _fault(context):
+        # the duplicate check of add_result reads IntegrityError itself
+        if isinstance(context.sqlalchemy_exception, IntegrityError):
+            return
+        raise database_fault(shown, context.original_exception, path) from None
+
+    return engine
 
 
 def writer(engine: Engine) -> Engine:
@@ -117,37 +299,103 @@ def writer(engine: Engine) -> Engine:
     return engine.execution_options(history_write=True)
 
 
-def migrate(engine: Engine, revision: str = HEAD) -> None:
-    """Upgrade the database to ``revision`` (default: the current schema)."""
-    config = Config()
-    config.set_main_option("script_location", str(_MIGRATIONS))
-    with writer(engine).connect() as connection:
-        config.attributes["connection"] = connection
-        command.upgrade(config, revision)
+def _tables(connection) -> set[str]:
+    if connection.dialect.name == "sqlite":
+        query = "SELECT name FROM sqlite_master WHERE type = 'table'"
+    else:
+        query = (
+            "SELECT table_name FROM information_schema.tables WHERE table_schema = current_schema()"
+        )
+    return {row[0] for row in connection.exec_driver_sql(query)}
 
 
-def open_history(db: str | os.PathLike | None = None, *, revision: str = HEAD) -> Engine:
-    """The history database as an engine, migrated to ``revision``.
+def schema_revision(engine: Engine) -> str | None:
+    """The revision the database is at: one ``SELECT`` of ``alembic_version`` (None for
+    an empty database).
 
     Raises
     ------
     InputError
-        The URL is not one, names an unsupported database, or the server does not answer.
+        The database holds tables but no ``alembic_version``: another application's.
+    """
+    postgresql = engine.dialect.name == "postgresql"
+    with engine.connect() as connection:
+        try:
+            # a savepoint: PostgreSQL aborts the transaction on a missing table
+            with connection.begin_nested() if postgresql else nullcontext():
+                query = "SELECT version_num FROM alembic_version"
+                return connection.exec_driver_sql(query).scalar()
+        except InputError:
+            pass  # no such table: an empty database or another application's
+        tables = _tables(connection)
+    foreign = sorted(tables - _OURS)
+    if foreign or tables:
+        shown = _shown(engine.url)
+        listed = ", ".join(foreign[:5] or sorted(tables)[:5])
+        raise InputError(
+            f"database {shown}: not a calibration history (it holds other tables: {listed}); "
+            "give a new file or an empty database"
+        )
+    return None
+
+
+def migrate(engine: Engine, revision: str = HEAD) -> None:
+    """Upgrade the database to ``revision`` (default: the current schema) with Alembic,
+    under the write lock. Warns (:class:`HistoryUpgradeWarning`) when the upgrade set
+    duplicate results aside (revision 0002)."""
+    from alembic import command
+    from alembic.config import Config
+
+    config = Config()
+    config.set_main_option("script_location", str(_MIGRATIONS))
+    with writer(engine).connect() as connection:
+        config.attributes["connection"] = connection
+        config.attributes["notices"] = notices = []
+        command.upgrade(config, revision)
+    for notice in notices:
+        warnings.warn(f"database {_shown(engine.url)}: {notice}", HistoryUpgradeWarning, 2)
+
+
+def open_history(
+    db: str | os.PathLike | None = None, *, revision: str = HEAD, read_only: bool = False
+) -> Engine:
+    """The history database as an engine at ``revision``.
+
+    Parameters
+    ----------
+    db : str or path, optional
+        A SQLite file or a URL (:func:`database_url`).
+    revision : str
+        The schema wanted (tests make older databases with it).
+    read_only : bool
+        A reader: never migrates and never takes the write lock; a database at an older
+        revision is refused with the command that upgrades it; a file on a read-only file
+        system is read as immutable. A writer (default) migrates an older database.
+
+    Raises
+    ------
+    InputError
+        The URL is not one or names an unsupported database; the database is not a
+        history, is corrupted, or is at a revision this version does not know (or an older
+        one, for a reader).
+    EnvironmentFailure
+        The disk, the file system or the server refuses (full, read-only, unreachable).
     """
     url = database_url(db)
-    engine = _engine(url)
-    try:
-        migrate(engine, revision)
-    except OperationalError as err:
-        reason = " ".join(str(err.orig).split()) if err.orig is not None else str(err)
-        shown = make_url(url).render_as_string(hide_password=True)
-        raise InputError(f"database {shown}: does not answer ({reason})") from None
+    engine = _engine(url, read_only)
+    current = schema_revision(engine)
+    if current == revision:
+        return engine
+    shown = _shown(url)
+    if current is not None and current not in REVISIONS:
+        raise EnvironmentFailure(
+            f"database {shown}: schema revision {current!r} is newer than this mtmetrology "
+            f"knows (up to {HEAD}); upgrade mtmetrology"
+        )
+    if read_only and current is not None:
+        raise InputError(
+            f"database {shown}: schema revision {current}, this mtmetrology reads {revision}; "
+            f"upgrade it first: mtm history upgrade --db {shown}"
+        )
+    migrate(engine, revision)
     return engine
-
-
-def schema_revision(engine: Engine) -> str | None:
-    """The revision the database is at (None for an empty one)."""
-    with engine.connect() as connection:
-        if not inspect(connection).has_table("alembic_version"):
-            return None
-        return connection.exec_driver_sql("SELECT version_num FROM alembic_version").scalar()

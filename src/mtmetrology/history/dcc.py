@@ -2,9 +2,10 @@
 
 :func:`calibration_certificate` makes the certificate of a recorded calibration run,
 :meth:`CalibrationCertificate.to_xml` writes it as ``dcc:digitalCalibrationCertificate``
-(built element by element with lxml) and :func:`read_certificate` reads one back, or the
-certificate of an artefact (a scale bar's length, a ball plate's centres) as calibrated
-values with their uncertainty. Every certificate written or read is validated against the
+(built element by element with lxml) and
+:func:`mtmetrology.history.dcc_read.read_certificate` reads one back, or the certificate of
+an artefact (a scale bar's length, a ball plate's centres) as calibrated values with their
+uncertainty. Every certificate written or read is validated against the
 XSDs shipped in ``history/schemas`` (LGPL v3, see ``NOTICE.md``); nothing is fetched.
 
 The measurement result is one ``si:realListXMLList``: the parameter names
@@ -33,19 +34,20 @@ from lxml import etree
 
 from mtmetrology.errors import InputError
 from mtmetrology.history.records import RunRecord, document_covariance
-from mtmetrology.io.covariance import symmetric, symmetric_covariance
+from mtmetrology.io.covariance import symmetric
 from mtmetrology.uncertainty.normal_coverage import RegionCoverage, normal_region_coverage
 from mtmetrology.units import from_internal, parse_unit, to_internal
 
 __all__ = [
     "DCC_NS",
+    "NAMESPACES",
     "SCHEMA_VERSION",
     "SI_NS",
+    "SI_UNITS",
     "CalibrationCertificate",
     "calibration_certificate",
-    "certified_ball_centres",
-    "certified_length",
-    "read_certificate",
+    "coverage_probability",
+    "product_unit",
     "validate_certificate",
 ]
 
@@ -53,12 +55,11 @@ DCC_NS = "https://ptb.de/dcc"
 SI_NS = "https://ptb.de/si"
 SCHEMA_VERSION = "3.1.2"
 _SCHEMAS = Path(__file__).parent / "schemas"
-_NS = {"dcc": DCC_NS, "si": SI_NS}
-# Dimension of a parameter -> (mtmetrology symbol of its coherent SI unit, D-SI unit).
-_SI_UNITS = {"length": ("m", r"\metre"), "angle": ("rad", r"\radian"), "ratio": ("1", r"\one")}
-_PREFIXES = {"": "", "nano": "n", "micro": "µ", "milli": "m", "kilo": "k"}
-_BASES = {"metre": "m", "radian": "rad"}
-_D_SI_SIMPLE = re.compile(r"^(?:\\(nano|micro|milli|kilo))?\\(metre|radian)$")
+NAMESPACES = {"dcc": DCC_NS, "si": SI_NS}
+#: Dimension of a parameter -> (mtmetrology symbol of its coherent SI unit, D-SI unit).
+SI_UNITS = {"length": ("m", r"\metre"), "angle": ("rad", r"\radian"), "ratio": ("1", r"\one")}
+#: An e-mail address as a certificate states it: local@domain.tld, no spaces.
+_EMAIL = re.compile(r"[^@\s]+@[^@\s.]+(\.[^@\s.]+)+")
 
 
 class _LocalSchemas(etree.Resolver):
@@ -99,23 +100,13 @@ def coverage_probability(k: float) -> float:
     return normal_region_coverage(1, k=k).coverage_probability
 
 
-def _product_unit(a: str, b: str) -> str:
+def product_unit(a: str, b: str) -> str:
     """D-SI unit of the product of two D-SI units (covariance entries)."""
     if a == r"\one":
         return b
     if b == r"\one":
         return a
     return a + r"\tothe{2}" if a == b else a + b
-
-
-def _mtm_unit(d_si: str, source: str) -> str:
-    """mtmetrology symbol of a simple D-SI unit (``\\micro\\metre`` -> ``µm``)."""
-    if d_si == r"\one":
-        return "1"
-    match = _D_SI_SIMPLE.match(d_si)
-    if match is None:
-        raise InputError(f"{source}: unit {d_si!r}: not a D-SI length, angle or \\one")
-    return _PREFIXES[match.group(1) or ""] + _BASES[match.group(2)]
 
 
 @dataclass(frozen=True)
@@ -136,8 +127,7 @@ class CalibrationCertificate:
     item : str
         The calibrated item: the machine or artefact name.
     laboratory, email, country : str
-        Calibration laboratory, its e-mail address and ISO 3166-1 country code (the
-        laboratory is also the customer: an in-house calibration of the lab's machine).
+        Calibration laboratory, its e-mail address and ISO 3166-1 country code.
     begin, end : date
         Performance dates of the calibration (UTC).
     software_version : str
@@ -150,6 +140,14 @@ class CalibrationCertificate:
     covariance : tuple of tuple of float
         Covariance of the values (products of ``units``).
     coverage_factor, coverage_probability : float
+    customer : str or None
+        The customer's name (None: the laboratory itself, an in-house calibration).
+    responsible_person, manufacturer : str
+        The person responsible for the certificate; the item's manufacturer.
+    temperature_c : float or None
+        The recorded workshop temperature (an influence condition).
+    artefact : str or None
+        The artefact used (the measuring equipment).
     """
 
     identifier: str
@@ -168,6 +166,11 @@ class CalibrationCertificate:
     covariance: tuple[tuple[float, ...], ...]
     coverage_factor: float
     coverage_probability: float
+    customer: str | None = None
+    responsible_person: str = ""
+    manufacturer: str = ""
+    temperature_c: float | None = None
+    artefact: str | None = None
 
     @property
     def region(self) -> RegionCoverage:
@@ -206,6 +209,11 @@ class CalibrationCertificate:
             "covariance": [list(row) for row in self.covariance],
             "coverage_factor": self.coverage_factor,
             "coverage_probability": self.coverage_probability,
+            "customer": self.customer,
+            "responsible_person": self.responsible_person,
+            "manufacturer": self.manufacturer,
+            "temperature_c": self.temperature_c,
+            "artefact": self.artefact,
             "region": self.region.to_dict(),
         }
 
@@ -230,6 +238,11 @@ class CalibrationCertificate:
             covariance=tuple(tuple(float(c) for c in row) for row in doc["covariance"]),
             coverage_factor=float(doc["coverage_factor"]),
             coverage_probability=float(doc["coverage_probability"]),
+            customer=doc.get("customer"),
+            responsible_person=doc.get("responsible_person", ""),
+            manufacturer=doc.get("manufacturer", ""),
+            temperature_c=doc.get("temperature_c"),
+            artefact=doc.get("artefact"),
         )
 
     def to_xml(self) -> bytes:
@@ -271,15 +284,15 @@ def _decimals(values) -> str:
     return " ".join(repr(float(v)) for v in values)
 
 
-def _contact(element, cert: CalibrationCertificate) -> None:
-    _named(element, "name", cert.laboratory)
+def _contact(element, cert: CalibrationCertificate, name: str | None = None) -> None:
+    _named(element, "name", name or cert.laboratory)
     _sub(element, _d("eMail"), cert.email)
     _sub(_sub(element, _d("location")), _d("countryCode"), cert.country)
 
 
 def _certificate_element(cert: CalibrationCertificate):
-    d_units = [_SI_UNITS[parse_unit(unit).dimension][1] for unit in cert.units]
-    root = etree.Element(_d("digitalCalibrationCertificate"), nsmap=_NS)
+    d_units = [SI_UNITS[parse_unit(unit).dimension][1] for unit in cert.units]
+    root = etree.Element(_d("digitalCalibrationCertificate"), nsmap=NAMESPACES)
     root.set("schemaVersion", SCHEMA_VERSION)
     admin = _sub(root, _d("administrativeData"))
     software = _sub(_sub(admin, _d("dccSoftware")), _d("software"))
@@ -296,17 +309,26 @@ def _certificate_element(cert: CalibrationCertificate):
     items = _sub(admin, _d("items"))
     item = _sub(items, _d("item"))
     _named(item, "name", cert.item)
-    _named(_sub(item, _d("manufacturer")), "name", "not stated")
+    _named(_sub(item, _d("manufacturer")), "name", cert.manufacturer)
     identification = _sub(_sub(item, _d("identifications")), _d("identification"))
     _sub(identification, _d("issuer"), "customer")
     _sub(identification, _d("value"), cert.item)
     _contact(_sub(_sub(admin, _d("calibrationLaboratory")), _d("contact")), cert)
     person = _sub(_sub(admin, _d("respPersons")), _d("respPerson"))
-    _named(_sub(person, _d("person")), "name", cert.laboratory)
-    _contact(_sub(admin, _d("customer")), cert)
+    _named(_sub(person, _d("person")), "name", cert.responsible_person)
+    _contact(_sub(admin, _d("customer")), cert, cert.customer)
 
     result = _sub(_sub(root, _d("measurementResults")), _d("measurementResult"))
     _named(result, "name", cert.result)
+    if cert.artefact is not None:
+        equipment = _sub(_sub(result, _d("measuringEquipments")), _d("measuringEquipment"))
+        _named(equipment, "name", cert.artefact)
+    if cert.temperature_c is not None:
+        condition = _sub(_sub(result, _d("influenceConditions")), _d("influenceCondition"))
+        _named(condition, "name", "workshop temperature")
+        real = _sub(_sub(_sub(condition, _d("data")), _d("quantity")), _s("real"))
+        _sub(real, _s("value"), repr(float(cert.temperature_c)))
+        _sub(real, _s("unit"), r"\degreecelsius")
     one = _sub(_sub(result, _d("results")), _d("result"))
     _named(one, "name", "parameters")
     quantity = _sub(_sub(one, _d("data")), _d("quantity"))
@@ -328,7 +350,7 @@ def _certificate_element(cert: CalibrationCertificate):
         for i, row_unit in enumerate(d_units):
             entry = _sub(column, _s("covariance"))
             _sub(entry, _s("value"), repr(float(covariance[i, j])))
-            _sub(entry, _s("unit"), _product_unit(row_unit, column_unit))
+            _sub(entry, _s("unit"), product_unit(row_unit, column_unit))
     # the joint region of n quantities: k of n dimensions for the certificate's p
     joint = cert.region
     _sub(region, _s("coverageFactor"), repr(joint.coverage_factor))
@@ -343,6 +365,9 @@ def calibration_certificate(
     laboratory: str,
     email: str,
     country: str,
+    responsible_person: str,
+    manufacturer: str,
+    customer: str | None = None,
     coverage_factor: float = 2.0,
 ) -> CalibrationCertificate:
     """The certificate of a recorded calibration run.
@@ -356,6 +381,12 @@ def calibration_certificate(
         Name and e-mail address of the calibration laboratory.
     country : str
         Its ISO 3166-1 alpha-2 country code (two capital letters).
+    responsible_person, manufacturer : str
+        The person responsible for the certificate; the machine's manufacturer.
+    customer : str, optional
+        The customer (default: the laboratory, an in-house calibration). The run's
+        recorded temperature and artefact are stated as an influence condition and the
+        measuring equipment.
     coverage_factor : float
         ``k`` of the expanded uncertainties ``U = k u``, ``k >= 1``; the coverage probability
         stated is ``p = 2 Φ(k) − 1`` (normal distribution). The ellipsoidal region of the
@@ -371,11 +402,21 @@ def calibration_certificate(
     ------
     InputError
         Not a calibration run, a parameter without ``u`` or without a D-SI unit, a bad
-        country code or coverage factor.
+        country code or coverage factor, an empty name or a malformed e-mail address.
     """
     source = f"run {record.id}"
     if record.category != "calibration":
         raise InputError(f"{source}: a {record.category} run; a certificate needs a calibration")
+    for option, text in (
+        ("--laboratory", laboratory),
+        ("--responsible-person", responsible_person),
+        ("--manufacturer", manufacturer),
+        ("--customer", "given" if customer is None else customer),
+    ):
+        if not text.strip():
+            raise InputError(f"{option}: empty; a certificate names it")
+    if not _EMAIL.fullmatch(email):
+        raise InputError(f"--email {email!r}: not an e-mail address (name@domain.tld)")
     if not re.fullmatch(r"[A-Z]{2}", country):
         raise InputError(f"--country {country!r}: an ISO 3166-1 alpha-2 code such as DE")
     if not (math.isfinite(coverage_factor) and coverage_factor >= 1.0):
@@ -384,14 +425,14 @@ def calibration_certificate(
     si_units = []
     for p in record.parameters:
         dimension = parse_unit(p["unit"]).dimension
-        if dimension not in _SI_UNITS:
+        if dimension not in SI_UNITS:
             raise InputError(
                 f"{source}: parameter {p['name']}: unit {p['unit']!r} has no D-SI "
                 "form here (length, angle or ratio)"
             )
         if re.search(r"\s", p["name"]):
             raise InputError(f"{source}: parameter {p['name']!r}: a D-SI label has no spaces")
-        si_units.append(_SI_UNITS[dimension][0])
+        si_units.append(SI_UNITS[dimension][0])
     internal = np.array([to_internal(p["value"], p["unit"]) for p in record.parameters])
     covariance = document_covariance(record.result, names, source)
     if covariance is None:
@@ -418,214 +459,9 @@ def calibration_certificate(
         covariance=tuple(tuple(float(c) for c in row) for row in cov_si),
         coverage_factor=float(coverage_factor),
         coverage_probability=coverage_probability(coverage_factor),
+        customer=customer,
+        responsible_person=responsible_person,
+        manufacturer=manufacturer,
+        temperature_c=record.temperature_c,
+        artefact=record.artefact,
     )
-
-
-def _text(element, path: str, source: str) -> str:
-    found = element.find(path, _NS)
-    if found is None or found.text is None:
-        raise InputError(f"{source}: element {path} missing")
-    return found.text.strip()
-
-
-def _floats(element, path: str, source: str) -> np.ndarray:
-    return np.array([float(t) for t in _text(element, path, source).split()])
-
-
-def _per_quantity(values: np.ndarray, n: int, field: str, source: str) -> np.ndarray:
-    """A D-SI XML list of length n, or of length 1 meaning the same for all."""
-    if values.size == 1:
-        return np.full(n, values[0])
-    if values.size != n:
-        raise InputError(f"{source}: {field}: {values.size} entries for {n} values")
-    return values
-
-
-def read_certificate(path: str | Path) -> CalibrationCertificate:
-    """Read a DCC: the first ``si:realListXMLList`` of its measurement results.
-
-    The file is validated against the shipped XSDs. Standard uncertainties are
-    ``u_i = U_i / k_i`` (``expandedUncXMLList``; ``coverage_factor`` and
-    ``coverage_probability`` of the result are the first quantity's); the covariance is the
-    ``ellipsoidalRegionXMLList`` matrix when present (symmetric to 1e-9 of its largest
-    entry, then symmetrised: :func:`mtmetrology.io.covariance.symmetric_covariance`), else
-    ``diag(u²)``; the region's own k and p are not read (:attr:`CalibrationCertificate.region`
-    derives them from p and n). Values are converted to coherent SI units (m, rad, 1) by
-    :mod:`mtmetrology.units`.
-
-    Raises
-    ------
-    InputError
-        Naming the file and the element: not XML, not a valid DCC, no list of real values,
-        units other than length, angle or one, inconsistent list lengths, an asymmetric
-        covariance matrix.
-    """
-    source = str(path)
-    try:
-        tree = etree.parse(source, etree.XMLParser(no_network=True, resolve_entities=False))
-    except (OSError, etree.XMLSyntaxError) as exc:
-        raise InputError(f"{source}: not a readable XML file: {exc}") from None
-    validate_certificate(tree, source)
-    root = tree.getroot()
-    listed = root.find(".//dcc:measurementResults//si:realListXMLList", _NS)
-    if listed is None:
-        raise InputError(f"{source}: measurementResults: no si:realListXMLList of values")
-    values = _floats(listed, "si:valueXMLList", source)
-    n = values.size
-    d_units = _text(listed, "si:unitXMLList", source).split()
-    if len(d_units) == 1:
-        d_units = d_units * n
-    elif len(d_units) != n:
-        raise InputError(f"{source}: si:unitXMLList: {len(d_units)} entries for {n} values")
-    labels = listed.find("si:labelXMLList", _NS)
-    names = (labels.text or "").split() if labels is not None else [f"q{i + 1}" for i in range(n)]
-    if len(names) != n:
-        raise InputError(f"{source}: si:labelXMLList: {len(names)} labels for {n} values")
-    units = [_mtm_unit(unit, source) for unit in d_units]
-    si = [_SI_UNITS[parse_unit(unit).dimension] for unit in units]
-    f = np.array(
-        [
-            from_internal(to_internal(1.0, unit), mtm)
-            for unit, (mtm, _) in zip(units, si, strict=True)
-        ]
-    )
-    expanded = listed.find("si:expandedUncXMLList", _NS)
-    if expanded is None:
-        raise InputError(f"{source}: si:expandedUncXMLList missing: no uncertainty stated")
-    big_u = _per_quantity(
-        _floats(expanded, "si:uncertaintyXMLList", source), n, "si:uncertaintyXMLList", source
-    )
-    k = _per_quantity(
-        _floats(expanded, "si:coverageFactorXMLList", source), n, "si:coverageFactorXMLList", source
-    )
-    p = _per_quantity(
-        _floats(expanded, "si:coverageProbabilityXMLList", source),
-        n,
-        "si:coverageProbabilityXMLList",
-        source,
-    )
-    u = big_u / k * f
-    matrix = listed.find("si:ellipsoidalRegionXMLList/si:covarianceMatrix", _NS)
-    if matrix is None:
-        covariance = np.diag(u**2)
-    else:
-        columns = matrix.findall("si:column", _NS)
-        entries = [[c for c in column.findall("si:covariance", _NS)] for column in columns]
-        if len(columns) != n or any(len(column) != n for column in entries):
-            raise InputError(f"{source}: si:covarianceMatrix: not {n} columns of {n} entries")
-        covariance = np.empty((n, n))
-        for j, column in enumerate(entries):
-            for i, entry in enumerate(column):
-                unit = _text(entry, "si:unit", source)
-                if unit != _product_unit(d_units[i], d_units[j]):
-                    raise InputError(
-                        f"{source}: si:covarianceMatrix column {j + 1} entry "
-                        f"{i + 1}: unit {unit!r}, expected "
-                        f"{_product_unit(d_units[i], d_units[j])!r}"
-                    )
-                covariance[i, j] = float(_text(entry, "si:value", source)) * f[i] * f[j]
-        covariance = symmetric_covariance(
-            covariance, f"{source}: si:ellipsoidalRegionXMLList/si:covarianceMatrix"
-        )
-    core = root.find("dcc:administrativeData/dcc:coreData", _NS)
-    contact = root.find("dcc:administrativeData/dcc:calibrationLaboratory/dcc:contact", _NS)
-    item = root.find("dcc:administrativeData/dcc:items/dcc:item/dcc:name/dcc:content", _NS)
-    software = root.find("dcc:administrativeData/dcc:dccSoftware/dcc:software/dcc:release", _NS)
-    result = root.find(".//dcc:measurementResult/dcc:name/dcc:content", _NS)
-    return CalibrationCertificate(
-        identifier=_text(core, "dcc:uniqueIdentifier", source),
-        item="" if item is None else (item.text or ""),
-        laboratory=_text(contact, "dcc:name/dcc:content", source),
-        email=_text(contact, "dcc:eMail", source),
-        country=_text(core, "dcc:countryCodeISO3166_1", source),
-        begin=date.fromisoformat(_text(core, "dcc:beginPerformanceDate", source)),
-        end=date.fromisoformat(_text(core, "dcc:endPerformanceDate", source)),
-        software_version="" if software is None else (software.text or ""),
-        result="" if result is None else (result.text or ""),
-        names=tuple(names),
-        units=tuple(mtm for mtm, _ in si),
-        values=tuple(float(v) for v in values * f),
-        u=tuple(float(s) for s in u),
-        covariance=tuple(tuple(float(c) for c in row) for row in covariance),
-        coverage_factor=float(k[0]),
-        coverage_probability=float(p[0]),
-    )
-
-
-def certified_length(
-    cert: CalibrationCertificate, quantity: str | None = None
-) -> tuple[float, float]:
-    """A certified length and its standard uncertainty, in mm (e.g. a scale bar's).
-
-    Parameters
-    ----------
-    cert : CalibrationCertificate
-    quantity : str, optional
-        Its name in the certificate; by default the certificate's only length.
-
-    Returns
-    -------
-    (length, u) : (float, float)
-        In mm, ``u = U / k`` of the certificate.
-
-    Raises
-    ------
-    InputError
-        No such quantity, not a length, or several lengths and no ``quantity``.
-    """
-    values, u, _ = cert.internal()
-    lengths = [i for i, unit in enumerate(cert.units) if parse_unit(unit).dimension == "length"]
-    if quantity is None:
-        if len(lengths) != 1:
-            raise InputError(
-                f"{cert.identifier}: {len(lengths)} lengths certified; name one with --quantity"
-            )
-        i = lengths[0]
-    else:
-        if quantity not in cert.names:
-            raise InputError(f"--quantity {quantity!r}: not a quantity of {cert.identifier}")
-        i = cert.names.index(quantity)
-        if i not in lengths:
-            raise InputError(f"--quantity {quantity!r}: not a length ({cert.units[i]})")
-    return float(values[i]), float(u[i])
-
-
-def certified_ball_centres(
-    cert: CalibrationCertificate, ball_ids: list[str]
-) -> tuple[np.ndarray, np.ndarray]:
-    """Ball centres of a ball plate's certificate and their covariance, in mm and mm².
-
-    The certificate names each coordinate ``ID_x``, ``ID_y``, ``ID_z`` (its labels); the
-    result is ordered as ``ball_ids``, coordinates ``x0 y0 z0 x1 ...`` (the order of the
-    ``covariance_mm2`` of a ``ball-plate`` file).
-
-    Parameters
-    ----------
-    cert : CalibrationCertificate
-    ball_ids : list of str
-        The balls wanted, in order.
-
-    Returns
-    -------
-    centres : ndarray, shape (n, 3)
-        mm.
-    covariance : ndarray, shape (3n, 3n)
-        mm², the certificate's covariance (or diag(u²)) of these coordinates.
-
-    Raises
-    ------
-    InputError
-        A coordinate of a ball missing from the certificate, or not a length.
-    """
-    values, _, covariance = cert.internal()
-    index = []
-    for ball in ball_ids:
-        for axis in "xyz":
-            name = f"{ball}_{axis}"
-            if name not in cert.names:
-                raise InputError(f"{cert.identifier}: ball {ball!r}: no quantity {name!r}")
-            i = cert.names.index(name)
-            if parse_unit(cert.units[i]).dimension != "length":
-                raise InputError(f"{cert.identifier}: {name}: not a length ({cert.units[i]})")
-            index.append(i)
-    return values[index].reshape(-1, 3), covariance[np.ix_(index, index)]

@@ -77,6 +77,7 @@ JCGM 101:2008, *Propagation of distributions using a Monte Carlo method*, 5.3.3.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from datetime import datetime, timedelta
 
@@ -389,6 +390,8 @@ def fit_drift(
             f"{parameter}: every calibration needs its standard uncertainty u > 0 for the drift "
             "model (record calibrations with a covariance)"
         )
+    if mpe is not None and not (math.isfinite(mpe) and mpe > 0):
+        raise InputError(f"mpe {mpe}: a maximum permissible error is a positive number")
     if not 0.5 < reliability < 1:
         raise InputError(f"reliability {reliability}: must be between 0.5 and 1")
     if not 0.5 < coverage_probability < 1:

@@ -11,9 +11,11 @@ same error model and parameter names), then stored with its parameters in one tr
 from __future__ import annotations
 
 import hashlib
+import math
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta, timezone
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from sqlalchemy import Engine, select, text
@@ -23,26 +25,38 @@ from sqlalchemy.orm import Session
 import mtmetrology
 from mtmetrology.errors import InputError
 from mtmetrology.history import schema
-from mtmetrology.history.database import canonical_sha256, writer
-from mtmetrology.io.covariance import symmetric_covariance
-from mtmetrology.kinematics.machine import Machine
-from mtmetrology.kinematics.parameter_set import KIND as PARAMETER_SET
-from mtmetrology.kinematics.parameter_set import RESULT_KINDS, ParameterSet
-from mtmetrology.units import parse_unit
+from mtmetrology.history.database import canonical_sha256, database_fault, writer
+
+if TYPE_CHECKING:  # the read path (list, show) imports no machine model
+    from mtmetrology.kinematics.machine import Machine
 
 __all__ = [
     "CALIBRATION_KINDS",
     "TASK_KINDS",
+    "TEMPERATURE_RANGE_C",
     "VERIFICATION_KINDS",
     "RunRecord",
     "add_result",
+    "add_results",
     "list_runs",
     "show_run",
 ]
 
-CALIBRATION_KINDS = (PARAMETER_SET, *RESULT_KINDS)
+#: mtmetrology.kinematics.parameter_set KIND and RESULT_KINDS, spelled here so that reading
+#: the history does not import the kinematics (test_history_records checks they agree).
+CALIBRATION_KINDS = (
+    "parameter-set",
+    "samba-calibration",
+    "ballplate-calibration",
+    "tracker-calibration",
+    "iso230-2-positioning",
+    "iso230-4-calibration",
+    "r-test",
+)
 TASK_KINDS = ("uncertainty-result",)
 VERIFICATION_KINDS = ("length-check", "conformity-decision", "iso230-4-circular")
+#: Plausible workshop temperatures, °C (issue 32: a value outside is a unit or a typo).
+TEMPERATURE_RANGE_C = (-50.0, 100.0)
 _TABLES = {
     "calibration": schema.CalibrationRun,
     "task": schema.TaskResult,
@@ -135,7 +149,13 @@ class RunRecord:
 
 
 def category_of(kind: object, source: str) -> str:
-    """``calibration``, ``task`` or ``verification`` for a result kind; else InputError."""
+    """``calibration``, ``task`` or ``verification`` for a result kind; else InputError
+    (a mapping without a ``kind`` is not a result document at all)."""
+    if not isinstance(kind, str):
+        raise InputError(
+            f"{source}: not a result document (no kind; the history records the results of "
+            "the calibrate, task and verify commands)"
+        )
     for category, kinds in (
         ("calibration", CALIBRATION_KINDS),
         ("task", TASK_KINDS),
@@ -157,9 +177,61 @@ def file_sha256(path: str | Path) -> str:
 
 
 def _utc(moment: datetime | None) -> datetime:
+    """``moment`` as an instant: now when None, UTC when naive (the documented rule of a
+    date given without an offset)."""
     if moment is None:
         return datetime.now(UTC)
     return moment if moment.tzinfo is not None else moment.replace(tzinfo=UTC)
+
+
+def _offset_min(moment: datetime) -> int:
+    """Minutes east of UTC of an aware datetime."""
+    return round(moment.utcoffset().total_seconds() / 60)
+
+
+def _as_given(instant: datetime, offset_min: int | None) -> datetime:
+    """A stored instant in the offset it was given in (UTC when not recorded)."""
+    if offset_min is None:
+        return instant
+    return instant.astimezone(timezone(timedelta(minutes=offset_min)))
+
+
+def _check_document(document: object, machine: Machine, source: str) -> str:
+    """The category of a result document for ``machine``; refuse what it cannot be.
+
+    A result document says what it is: ``kind`` (which sets the category), ``machine``
+    (required of task and verification results: a generic ``uncertainty-result`` of
+    ``mtm uncertainty`` is no machine's) and, when present, ``category``.
+    """
+    if not isinstance(document, dict):
+        raise InputError(f"{source}: not a result document (a JSON mapping with a kind)")
+    kind = document.get("kind")
+    category = category_of(kind, source)
+    stated = document.get("category")
+    if stated is not None and stated != category:
+        raise InputError(f"{source}: category: {stated!r}, but a {kind!r} is a {category} result")
+    named = document.get("machine")
+    if named is not None and named != machine.name:
+        raise InputError(
+            f"{source}: a result of machine {named!r}, not of machine {machine.name!r} (--machine)"
+        )
+    if named is None and category != "calibration":
+        raise InputError(
+            f"{source}: a result of kind {kind!r} that names no machine (no machine field) "
+            f"is not a {category} result of machine {machine.name!r}"
+        )
+    return category
+
+
+def check_temperature(temperature_c: float | None, option: str = "temperature") -> None:
+    """Refuse a workshop temperature that is not a number within :data:`TEMPERATURE_RANGE_C`."""
+    if temperature_c is None:
+        return
+    low, high = TEMPERATURE_RANGE_C
+    if not (math.isfinite(temperature_c) and low <= temperature_c <= high):
+        raise InputError(
+            f"{option} {temperature_c} °C: not a workshop temperature ({low:g} to {high:g} °C)"
+        )
 
 
 def _residual_statistics(doc: dict) -> dict:
@@ -253,11 +325,12 @@ def add_result(
     document : dict
         The result as its application wrote it (a JSON mapping with ``kind``).
     machine : Machine
-        The machine it belongs to; a calibration made for another machine is refused.
+        The machine it belongs to; a result of another machine is refused.
     source : str
         The file it came from (messages, and its SHA-256 when it exists).
     performed_at : datetime, optional
-        When the measurement was made (default: now), UTC when naive.
+        When the measurement was made (default: now); UTC when naive. Stored as the UTC
+        instant, with the offset it was given in.
     note, artefact, temperature_c, serial
         Operator note, artefact identification, workshop temperature (°C), the machine's
         serial number (recorded with the machine on its first run).
@@ -271,79 +344,172 @@ def add_result(
     Raises
     ------
     InputError
-        Unknown kind, a calibration of another machine or error model, parameters that
-        differ from the machine's earlier runs, or a result already recorded.
+        Not a result document, an unknown kind, a result of another machine or category
+        (naming both), a task or verification result that names no machine, a calibration
+        of another error model, parameters that differ from the machine's earlier runs, a
+        temperature outside -50...100 °C, or a result already recorded.
     """
-    if not isinstance(document, dict):
-        raise InputError(f"{source}: a result must be a JSON mapping")
-    category = category_of(document.get("kind"), source)
+    return add_results(
+        engine,
+        [
+            {
+                "document": document,
+                "machine": machine,
+                "source": source,
+                "performed_at": performed_at,
+                "note": note,
+                "artefact": artefact,
+                "temperature_c": temperature_c,
+                "serial": serial,
+                "input_files": input_files,
+            }
+        ],
+    )[0]
+
+
+@dataclass(frozen=True)
+class _Prepared:
+    """A result checked and ready to insert."""
+
+    category: str
+    machine: Machine
+    serial: str | None
+    source: str
+    pset: object
+    columns: dict
+
+
+def _prepare(
+    document,
+    machine: Machine,
+    *,
+    source: str = "<result>",
+    performed_at: datetime | None = None,
+    note: str | None = None,
+    artefact: str | None = None,
+    temperature_c: float | None = None,
+    serial: str | None = None,
+    input_files: tuple[str | Path, ...] = (),
+) -> _Prepared:
+    category = _check_document(document, machine, source)
+    check_temperature(temperature_c, "temperature")
     pset = None
+    columns = {}
     if category == "calibration":
+        from mtmetrology.kinematics.parameter_set import ParameterSet
+
         pset = ParameterSet.from_document(document, machine, source)
-    elif document.get("machine") not in (None, machine.name):
-        raise InputError(f"{source}: machine: {document['machine']!r} is not {machine.name!r}")
+        columns = {
+            "artefact": artefact,
+            "temperature_c": temperature_c,
+            "residual_statistics": _residual_statistics(document),
+        }
+    when = _utc(performed_at)
     hashes = {str(p): file_sha256(p) for p in input_files}
     if Path(source).is_file():
         hashes[str(source)] = file_sha256(source)
-    sha = canonical_sha256(document)
-    table = _TABLES[category]
-    common = {
-        "kind": document["kind"],
-        "performed_at": _utc(performed_at),
-        "recorded_at": datetime.now(UTC),
-        "software_version": mtmetrology.__version__,
-        "operator_note": note,
-        "input_hashes": hashes,
-        "result": document,
-        "content_sha256": sha,
-    }
+    columns.update(
+        kind=document["kind"],
+        performed_at=when,
+        performed_at_offset_min=_offset_min(when),
+        recorded_at=datetime.now(UTC),
+        software_version=mtmetrology.__version__,
+        operator_note=note,
+        input_hashes=hashes,
+        result=document,
+        content_sha256=canonical_sha256(document),
+    )
+    return _Prepared(category, machine, serial, source, pset, columns)
+
+
+def _insert(session: Session, item: _Prepared) -> int:
+    """Insert one prepared result (and a calibration's parameters); its id."""
+    table = _TABLES[item.category]
+    row = _machine_row(session, item.machine, item.serial)
+    if item.category != "calibration":
+        run = table(machine_id=row.id, **item.columns)
+        session.add(run)
+        session.flush()
+        return run.id
+    pset = item.pset
+    order = _check_against_history(session, row, pset, item.source)
+    index = [pset.names.index(name) for name in order]
+    f = pset.scales()[index]
+    values = pset.values[index] / f
+    u = pset.standard_uncertainty
+    u = [None] * len(order) if u is None else (u[index] / f).tolist()
+    run = table(machine_id=row.id, parameter_vector=values.astype("<f8").tobytes(), **item.columns)
+    session.add(run)
+    session.flush()
+    session.add_all(
+        schema.RunParameter(
+            run_id=run.id,
+            position=k,
+            name=name,
+            unit=pset.units[i],
+            value=float(values[k]),
+            u=u[k],
+        )
+        for k, (name, i) in enumerate(zip(order, index, strict=True))
+    )
+    session.flush()
+    return run.id
+
+
+def add_results(engine: Engine, items: list[dict]) -> list[RunRecord]:
+    """Record several results in ONE transaction: all of them or none.
+
+    Every document is checked (:func:`add_result`'s rules) before anything is written; a
+    refusal of any (a document, a result recorded earlier or twice in ``items``) leaves
+    the history as it was and names the file.
+
+    Parameters
+    ----------
+    engine : Engine
+    items : list of dict
+        The keyword arguments of :func:`add_result` for each result (``document``,
+        ``machine`` and the optional ones).
+
+    Returns
+    -------
+    list of RunRecord
+        In the order of ``items``.
+
+    Raises
+    ------
+    InputError
+        As :func:`add_result`, naming the file refused.
+    """
+    prepared = [_prepare(**item) for item in items]
+    seen: dict[tuple[str, str], str] = {}
+    for item in prepared:
+        key = (item.category, item.columns["content_sha256"])
+        if key in seen:
+            raise InputError(f"{item.source}: the same result as {seen[key]} (given twice)")
+        seen[key] = item.source
     try:
         with Session(writer(engine)) as session, session.begin():
             if engine.dialect.name == "postgresql":
                 # writers queue (SQLite's BEGIN IMMEDIATE does the same): two first runs of
                 # a new machine would otherwise both insert it
                 session.execute(text("SELECT pg_advisory_xact_lock(24025)"))
-            row = _machine_row(session, machine, serial)
-            if category == "calibration":
-                order = _check_against_history(session, row, pset, source)
-                index = [pset.names.index(name) for name in order]
-                f = pset.scales()[index]
-                values = pset.values[index] / f
-                u = pset.standard_uncertainty
-                u = [None] * len(order) if u is None else (u[index] / f).tolist()
-                run = table(
-                    machine_id=row.id,
-                    artefact=artefact,
-                    temperature_c=temperature_c,
-                    residual_statistics=_residual_statistics(document),
-                    parameter_vector=values.astype("<f8").tobytes(),
-                    **common,
-                )
-                session.add(run)
-                session.flush()
-                session.add_all(
-                    schema.RunParameter(
-                        run_id=run.id,
-                        position=k,
-                        name=name,
-                        unit=pset.units[i],
-                        value=float(values[k]),
-                        u=u[k],
-                    )
-                    for k, (name, i) in enumerate(zip(order, index, strict=True))
-                )
-            else:
-                run = table(machine_id=row.id, **common)
-                session.add(run)
-            session.flush()
-            run_id = run.id
-    except IntegrityError:
+            ids = [_insert(session, item) for item in prepared]
+    except IntegrityError as err:
         with Session(engine) as session:
-            earlier = session.scalar(select(table.id).where(table.content_sha256 == sha))
-        if earlier is None:
-            raise
-        raise InputError(f"{source}: already recorded as {category} run {earlier}") from None
-    return show_run(engine, run_id, category)
+            for item in prepared:
+                table = _TABLES[item.category]
+                sha = item.columns["content_sha256"]
+                earlier = session.scalar(select(table.id).where(table.content_sha256 == sha))
+                if earlier is not None:
+                    raise InputError(
+                        f"{item.source}: already recorded as {item.category} run {earlier}"
+                    ) from None
+        raise database_fault(str(engine.url), err) from None
+    with Session(engine) as session:
+        return [
+            _record(session, session.get(_TABLES[item.category], i), item.category)
+            for item, i in zip(prepared, ids, strict=True)
+        ]
 
 
 def _record(session: Session, run, category: str) -> RunRecord:
@@ -363,8 +529,8 @@ def _record(session: Session, run, category: str) -> RunRecord:
         category=category,
         machine=machine.name,
         kind=run.kind,
-        performed_at=_utc(run.performed_at),
-        recorded_at=_utc(run.recorded_at),
+        performed_at=_as_given(run.performed_at, run.performed_at_offset_min),
+        recorded_at=run.recorded_at,
         software_version=run.software_version,
         operator_note=run.operator_note,
         artefact=getattr(run, "artefact", None),
@@ -423,7 +589,14 @@ def list_runs(
         raise InputError(f"category {category!r}: not one of {', '.join(_TABLES)}")
     table = _TABLES[category]
     query = (
-        select(table.id, schema.Machine.name, table.kind, table.performed_at, table.operator_note)
+        select(
+            table.id,
+            schema.Machine.name,
+            table.kind,
+            table.performed_at,
+            table.performed_at_offset_min,
+            table.operator_note,
+        )
         .join(schema.Machine, schema.Machine.id == table.machine_id)
         .order_by(table.performed_at, table.id)
     )
@@ -433,7 +606,7 @@ def list_runs(
         query = query.where(table.performed_at >= _utc(since))
     with Session(engine) as session:
         rows = session.execute(query).all()
-    return tuple(RunSummary(r[0], category, r[1], r[2], _utc(r[3]), r[4]) for r in rows)
+    return tuple(RunSummary(r[0], category, r[1], r[2], _as_given(r[3], r[4]), r[5]) for r in rows)
 
 
 def machine_names(engine: Engine) -> list[str]:
@@ -483,7 +656,7 @@ def parameter_matrix(
         ).all()
     matrix = np.frombuffer(b"".join(r[2] for r in runs), dtype="<f8").reshape(len(runs), -1)
     ids = [r[0] for r in runs]
-    return ids, [_utc(r[1]) for r in runs], [f[0] for f in first], [f[1] for f in first], matrix
+    return ids, [r[1] for r in runs], [f[0] for f in first], [f[1] for f in first], matrix
 
 
 def parameter_series(
@@ -509,7 +682,9 @@ def parameter_series(
             query = query.where(cal.performed_at >= _utc(since))
         rows = session.execute(query.order_by(cal.performed_at, cal.id)).all()
         if not rows:
-            first = session.scalar(select(cal.id).where(cal.machine_id == machine_id).limit(1))
+            first = session.scalar(
+                select(cal.id).where(cal.machine_id == machine_id).order_by(cal.id).limit(1)
+            )
             names = (
                 []
                 if first is None
@@ -519,13 +694,17 @@ def parameter_series(
                     )
                 )
             )
+            if parameter in names:
+                raise InputError(
+                    f"--since {since.isoformat()}: no calibration of {machine!r} on or after it"
+                )
             shown = f" ({', '.join(names[:6])}{' ...' if len(names) > 6 else ''})" if names else ""
             raise InputError(
                 f"parameter {parameter!r}: not a parameter of the runs of {machine!r}{shown}"
             )
     values = np.array([r[3] for r in rows], dtype=float)
     u = np.array([np.nan if r[4] is None else r[4] for r in rows], dtype=float)
-    return [r[0] for r in rows], [_utc(r[1]) for r in rows], rows[0][2], values, u
+    return [r[0] for r in rows], [r[1] for r in rows], rows[0][2], values, u
 
 
 def document_covariance(
@@ -539,6 +718,9 @@ def document_covariance(
     (:func:`mtmetrology.io.covariance.symmetric_covariance`: ``max |C − Cᵀ| ≤ 1e-9 max |C|``,
     then ``(C + Cᵀ)/2``); an asymmetric one raises InputFileError naming ``source``.
     """
+    from mtmetrology.io.covariance import symmetric_covariance
+    from mtmetrology.units import parse_unit
+
     declared = {e["name"]: parse_unit(e["unit"]).factor for e in doc["parameters"]}
     block = doc.get("covariance")
     if block is not None:

@@ -12,25 +12,59 @@ parameter is one indexed query), task results and verification results.
 float64 bytes) in the order of ``run_parameters.position``: the long-term covariance reads
 one row per run and decodes all of them at once.
 
+Dates (schema version 4) are instants: :class:`UtcDateTime` stores them in UTC on every
+backend (SQLite has no time zone type: before version 4 the offset of a date given with
+one was dropped there, so SQLite and PostgreSQL disagreed), and
+``performed_at_offset_min`` keeps the offset the date was given in (minutes east of UTC;
+NULL for runs recorded before version 4). ``duplicate_results`` keeps the results that a
+schema-1 database held twice and the upgrade to version 2 set aside (the first kept).
+
 Values in ``run_parameters`` are in the parameter's customary unit (µm, µrad, µm/m), the
 unit stored beside them, exactly as the result document states them.
 """
 
 from __future__ import annotations
 
-from datetime import datetime
+from datetime import UTC, datetime
 
 from sqlalchemy import JSON, DateTime, Float, ForeignKey, Index, Integer, LargeBinary, String, Text
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
+from sqlalchemy.types import TypeDecorator
 
 __all__ = [
     "Base",
     "CalibrationRun",
+    "DuplicateResult",
     "Machine",
     "RunParameter",
     "TaskResult",
+    "UtcDateTime",
     "VerificationResult",
 ]
+
+
+class UtcDateTime(TypeDecorator):
+    """A time-zone-aware instant stored in UTC on every backend.
+
+    Bound: an aware datetime converted to UTC (a naive one is a programming error: the
+    caller states the zone). Read: an aware datetime in UTC (SQLite gives back the naive
+    UTC text written; PostgreSQL's ``timestamptz`` an instant in the session's zone).
+    """
+
+    impl = DateTime(timezone=True)
+    cache_ok = True
+
+    def process_bind_param(self, value, dialect):
+        if value is None:
+            return None
+        if value.tzinfo is None:
+            raise TypeError(f"{value!r}: a naive datetime has no instant (state its zone)")
+        return value.astimezone(UTC)
+
+    def process_result_value(self, value, dialect):
+        if value is None:
+            return None
+        return value.replace(tzinfo=UTC) if value.tzinfo is None else value.astimezone(UTC)
 
 
 class Base(DeclarativeBase):
@@ -55,8 +89,9 @@ class CalibrationRun(Base):
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     machine_id: Mapped[int] = mapped_column(ForeignKey("machines.id"), index=True)
     kind: Mapped[str] = mapped_column(String(100))
-    performed_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), index=True)
-    recorded_at: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+    performed_at: Mapped[datetime] = mapped_column(UtcDateTime, index=True)
+    performed_at_offset_min: Mapped[int | None] = mapped_column(Integer)
+    recorded_at: Mapped[datetime] = mapped_column(UtcDateTime)
     software_version: Mapped[str] = mapped_column(String(100))
     operator_note: Mapped[str | None] = mapped_column(Text)
     artefact: Mapped[str | None] = mapped_column(String(500))
@@ -87,8 +122,9 @@ class RunParameter(Base):
 class _Document:
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     kind: Mapped[str] = mapped_column(String(100))
-    performed_at: Mapped[datetime] = mapped_column(DateTime(timezone=True))
-    recorded_at: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+    performed_at: Mapped[datetime] = mapped_column(UtcDateTime)
+    performed_at_offset_min: Mapped[int | None] = mapped_column(Integer)
+    recorded_at: Mapped[datetime] = mapped_column(UtcDateTime)
     software_version: Mapped[str] = mapped_column(String(100))
     operator_note: Mapped[str | None] = mapped_column(Text)
     input_hashes: Mapped[dict] = mapped_column(JSON)
@@ -108,3 +144,20 @@ class VerificationResult(_Document, Base):
 
     __tablename__ = "verification_results"
     machine_id: Mapped[int] = mapped_column(ForeignKey("machines.id"), index=True)
+
+
+class DuplicateResult(Base):
+    """A result a schema-1 database held twice, set aside by the upgrade to version 2:
+    the category, the run kept (the first), the duplicate's own fields and document."""
+
+    __tablename__ = "duplicate_results"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    category: Mapped[str] = mapped_column(String(20))
+    kept_id: Mapped[int] = mapped_column(Integer)
+    duplicate_id: Mapped[int] = mapped_column(Integer)
+    content_sha256: Mapped[str] = mapped_column(String(64))
+    performed_at: Mapped[datetime | None] = mapped_column(UtcDateTime)
+    recorded_at: Mapped[datetime | None] = mapped_column(UtcDateTime)
+    operator_note: Mapped[str | None] = mapped_column(Text)
+    result: Mapped[dict] = mapped_column(JSON)
+    set_aside_at: Mapped[datetime] = mapped_column(UtcDateTime)

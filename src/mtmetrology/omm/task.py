@@ -179,6 +179,9 @@ class TaskResult(OMMNotebookRepr):
     source : dict or None
         The files of the request, recorded as ``source`` in the document
         (:func:`~mtmetrology.omm.task_request.task_uncertainty_from_files`).
+    machine : str or None
+        The machine's name: the document then says what it is (``machine``, ``category``
+        "task") for the calibration history.
     """
 
     method: str
@@ -193,6 +196,7 @@ class TaskResult(OMMNotebookRepr):
     decision: ConformityDecision | None = None
     target: int = 0
     source: dict | None = None
+    machine: str | None = None
 
     @property
     def result(self) -> GUFResult | MCMResult:
@@ -219,6 +223,8 @@ class TaskResult(OMMNotebookRepr):
             doc["decision"] = self.decision.to_dict()
         if self.source is not None:
             doc["source"] = dict(self.source)
+        if self.machine is not None:
+            doc.update(machine=self.machine, category="task")
         return doc
 
 
@@ -385,4 +391,5 @@ def task_uncertainty(
         0.5 * (u_q + u_q.T),
         shares,
         long_term,
+        machine=machine.name,
     )

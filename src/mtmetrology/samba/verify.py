@@ -236,6 +236,9 @@ class LengthCheck(SambaNotebookRepr):
     u_calibration : (n,) ndarray or None
         ``sqrt(g_i U_θ g_iᵀ)`` of each pair's compensated length (module notes), mm; None
         without the calibration's covariance.
+    machine : str or None
+        The machine's name: the document then says what it is (``machine``, ``category``
+        "verification") for the calibration history.
     """
 
     pairs: tuple[str, ...]
@@ -247,6 +250,7 @@ class LengthCheck(SambaNotebookRepr):
     thermal: ThermalReference | None = None
     u_tip_diameter: float | None = None
     u_calibration: np.ndarray | None = field(default=None, repr=False)
+    machine: str | None = None
 
     @property
     def reference_length(self) -> float:
@@ -293,9 +297,11 @@ class LengthCheck(SambaNotebookRepr):
             return None if values is None else float(from_internal(values[i], "µm"))
 
         u_error = self.u_error
+        said = {} if self.machine is None else {"machine": self.machine, "category": "verification"}
         return {
             "kind": "length-check",
             "version": 1,
+            **said,
             "length_mm": self.length,
             "u_length_mm": self.u_length,
             "tip_radius_mm": self.tip_radius,
@@ -422,6 +428,7 @@ def verify_length(
         thermal,
         u_tip_diameter,
         u_calibration,
+        machine=machine.name,
     )
 
 

@@ -1,0 +1,123 @@
+"""Benchmark: ``mtm history list``, ``show`` and ``add`` on a one-run SQLite database at
+the current schema, in fresh processes (issue 32).
+
+Issue 32 measured ``mtm history list`` at 1.6 s wall and 150 MiB (median of 5): every
+command imported the drift model, SciPy and Alembic and ran the migration check under the
+write lock. Target: list, show and add within 3x of ``python -c "import numpy"`` (the floor:
+no command starts without numpy); the revision is checked with one SELECT and Alembic runs
+only when it differs.
+
+Contenders, each a fresh interpreter timed over 5 repeats (min and median), with the peak
+resident set of the child (``VmHWM``):
+
+- ours: ``mtm history list``, ``mtm history show 1``, ``mtm history add`` of one new
+  calibration (a new document each repeat: the same one is refused as recorded), and
+  ``mtm history add`` of 16 calibrations in one call (one transaction);
+- baseline: ``mtm --help`` (the command line's own start-up);
+- floor: ``python -c "import numpy"`` (first: the yardstick); second, ``import
+  sqlalchemy.orm`` (the database layer the history is written on, imported by any of
+  its commands).
+
+Run: ``python bench/bench_history_cli.py``. On a shared host the wall times mostly measure
+the other processes: the notes give each command's CPU seconds (user + system, least of
+the repeats) over the floor's, the ratio that load does not inflate.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from bench_csv import MTM, OWN_PEAK, Child
+from harness import Benchmark
+from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.parameter_set import ParameterSet
+
+FLOOR = [sys.executable, "-c", f"{OWN_PEAK}; import numpy"]
+ORM_FLOOR = [sys.executable, "-c", f"{OWN_PEAK}; import numpy, sqlalchemy.orm"]
+MACHINE = Machine.load("five-axis-wcbxfzyst")
+BATCH = 16
+
+
+class Documents:
+    """New calibration documents of MACHINE (distinct values: none is a duplicate)."""
+
+    def __init__(self, directory: Path, seed: int = 32):
+        self.directory = directory
+        self.rng = np.random.default_rng(seed)
+        self.count = 0
+
+    def write(self, n: int = 1) -> list[str]:
+        paths = []
+        for _ in range(n):
+            self.count += 1
+            path = self.directory / f"cal{self.count}.json"
+            values = self.rng.normal(size=13) * MACHINE.parameter_scales
+            ParameterSet(
+                MACHINE.parameter_names,
+                values,
+                MACHINE.parameter_units,
+                np.diag((0.5 * MACHINE.parameter_scales) ** 2),
+                machine=MACHINE.name,
+                model="13",
+            ).save(path)
+            paths.append(str(path))
+        return paths
+
+
+class Adding(Child):
+    """``mtm history add`` of ``n`` new documents, written before each run (not timed
+    apart: writing a 3 kB file is microseconds next to a process start)."""
+
+    def __init__(self, db: Path, documents: Documents, n: int):
+        super().__init__([])
+        self.db, self.documents, self.n = db, documents, n
+
+    def __call__(self) -> None:
+        self.args = [*MTM, "history", "add", *self.documents.write(self.n), "--db", str(self.db)]
+        super().__call__()
+
+
+def main() -> None:
+    bench = Benchmark("history_cli", "fresh interpreter, mtm history on a one-run SQLite file")
+    with tempfile.TemporaryDirectory() as tmp:
+        directory = Path(tmp)
+        documents = Documents(directory)
+        one = directory / "one.sqlite"
+        Adding(one, documents, 1)()  # the database, at the current schema, with one run
+        floor = Child(FLOOR)
+        bench.time('python -c "import numpy"', "floor", floor)
+        bench.timings[-1].note = floor.note()
+        orm = Child(ORM_FLOOR)
+        bench.time("import numpy, sqlalchemy.orm", "floor", orm)
+        bench.timings[-1].note = orm.note()
+        children = {
+            "mtm --help": Child([*MTM, "--help"]),
+            "mtm history list": Child([*MTM, "history", "list", "--db", str(one)]),
+            "mtm history show 1": Child([*MTM, "history", "show", "1", "--db", str(one)]),
+            "mtm history add (1 file)": Adding(directory / "add.sqlite", documents, 1),
+            f"mtm history add ({BATCH} files)": Adding(
+                directory / "batch.sqlite", documents, BATCH
+            ),
+        }
+        for label, child in children.items():
+            bench.time(label, "baseline" if label == "mtm --help" else "ours", child)
+            bench.timings[-1].note = child.note()
+            if label != "mtm --help":
+                bench.target(label, 3.0, relative_to='python -c "import numpy"')
+        for label, child in children.items():
+            ratio = min(child.cpu) / min(floor.cpu)
+            bench.notes.append(
+                f"CPU {label}: {ratio:.1f}x the numpy floor's ({'met' if ratio <= 3 else 'over'}"
+                f" 3x), {min(child.cpu) / min(orm.cpu):.1f}x numpy + sqlalchemy.orm"
+            )
+        bench.notes.append(json.dumps({"batch": BATCH}))
+        bench.report()
+
+
+if __name__ == "__main__":
+    main()
