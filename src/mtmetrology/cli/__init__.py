@@ -212,7 +212,7 @@ TOP_LEVEL_VERBS = frozenset({"fit", "predict", "export", "demo", "serve", "forma
 VERBS = frozenset(
     {"simulate", "calibrate", "verify", "plan", "compare-plans", "compare", "predict", "fit",
      "validate", "validate-pooling", "list", "show", "export", "check", "add", "run",
-     "budget", "import", "dcc-import", "analyse"}
+     "budget", "import", "dcc-import", "analyse", "upgrade", "amend"}
 )  # fmt: skip
 QUANTITIES = frozenset(
     {"uncertainty", "unexplained", "long-term", "identifiability", "hysteresis", "trend",
