@@ -15,8 +15,11 @@ from typing import Annotated
 import typer
 
 from mtmetrology.cli._common import (
+    CoverageK,
+    CoverageP,
     ReportOption,
     command_line,
+    coverage_from_options,
     emit_result,
     user_errors,
 )
@@ -187,6 +190,7 @@ def show(
     json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Show one recorded run."""
+    from mtmetrology.formatting import format_result
     from mtmetrology.history import open_history, show_run
 
     record = show_run(open_history(db), run, _category(category))
@@ -209,8 +213,7 @@ def show(
         for path, sha in record.input_hashes.items():
             typer.echo(f"  sha256 {sha}  {path}")
         for p in record.parameters:
-            u = "" if p["u"] is None else f" ± {p['u']:.2g}"
-            typer.echo(f"  {p['name']:<8} {p['value']:>12.4f}{u} {p['unit']}")
+            typer.echo("  " + format_result(p["value"], p["u"], p["unit"], name=p["name"]))
 
     emit_result(record.to_dict(), summary, output=None, report=None, report_path=None, as_json=json)
 
@@ -237,10 +240,13 @@ def trend(
     output: Annotated[Path | None, typer.Option("-o", "--output", help="TREND.json.")] = None,
     report_path: ReportOption = None,
     json: Annotated[bool, typer.Option("--json", help="Print TREND.json.")] = False,
+    k: CoverageK = None,
+    p: CoverageP = None,
 ) -> None:
     """Individuals control chart of a parameter (Shewhart limits x̄ ± 3 MR̄/1.128)."""
     from mtmetrology.history import open_history, parameter_drift, parameter_trend
 
+    policy = coverage_from_options(k, p)
     engine = open_history(db)
     name = _one_machine(engine, machine)
     when = _date(since, "--since")
@@ -248,7 +254,14 @@ def trend(
     drifted = None
     if mpe is not None:
         drifted = parameter_drift(
-            engine, name, parameter, mpe=mpe, reliability=reliability, since=when, prior=rw_prior
+            engine,
+            name,
+            parameter,
+            mpe=mpe,
+            reliability=reliability,
+            since=when,
+            prior=rw_prior,
+            coverage_probability=policy.p,
         )
     document = result.to_dict()
     if drifted is not None:
@@ -275,6 +288,7 @@ def trend(
 
 
 def _trend_report(ctx: typer.Context, result, drifted):
+    from mtmetrology.formatting import format_result
     from mtmetrology.report import Report, figures
 
     report = Report(
@@ -296,9 +310,11 @@ def _trend_report(ctx: typer.Context, result, drifted):
         mean, std = drifted.predict(ahead)
         prediction = (ahead, mean, 2 * std)
         due, mpe = drifted.due_date, drifted.mpe
+        slope = format_result(
+            drifted.slope * 365.25, drifted.u_slope * 365.25, f"{result.unit}/year", name="slope"
+        )
         report.text(
-            f"Drift: slope {drifted.slope * 365.25:.3g} ± {drifted.u_slope * 365.25:.2g} "
-            f"{result.unit}/year; the band is the prediction ± 2 standard deviations; due "
+            f"Drift: {slope}; the band is the prediction ± 2 standard deviations; due "
             f"{'beyond the horizon' if due is None else f'{due:%Y-%m-%d}'} (P(|x| > "
             f"{mpe:g} {result.unit}) passes {1 - drifted.reliability:.3g})."
         )
@@ -413,11 +429,15 @@ def drift(
     db: Db = None,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="DRIFT.json.")] = None,
     json: Annotated[bool, typer.Option("--json", help="Print DRIFT.json.")] = False,
+    k: CoverageK = None,
+    p: CoverageP = None,
 ) -> None:
     """Drift (constant slope + random walk, Kalman filter) and the date the next calibration
     is due: P(|value| > MPE) passes 1 - reliability (ILAC-G24 / OIML D 10, NCSLI RP-1)."""
+    from mtmetrology.formatting import format_result, format_value
     from mtmetrology.history import open_history, parameter_drift
 
+    policy = coverage_from_options(k, p)
     engine = open_history(db)
     result = parameter_drift(
         engine,
@@ -427,17 +447,20 @@ def drift(
         reliability=reliability,
         since=_date(since, "--since"),
         prior=rw_prior,
+        coverage_probability=policy.p,
     )
     document = result.to_dict()
 
     def summary() -> None:
         per_year = 365.25
         lo, hi = (v * per_year for v in result.slope_interval)
+        u_year = result.u_slope * per_year
+        slope = format_result(result.slope * per_year, u_year, f"{result.unit}/year", name="slope")
         typer.echo(
             f"{result.parameter}: {result.level:.4f} {result.unit} on "
-            f"{result.last_date:%Y-%m-%d}; slope {result.slope * per_year:.3g} "
-            f"{result.unit}/year, u {result.u_slope * per_year:.2g}, "
-            f"{100 * result.coverage_probability:.4g} % interval [{lo:.3g}, {hi:.3g}]; random "
+            f"{result.last_date:%Y-%m-%d}; {slope}, "
+            f"{100 * result.coverage_probability:.4g} % interval [{format_value(lo, u_year)}, "
+            f"{format_value(hi, u_year)}]; random "
             f"walk {math.sqrt(result.random_walk_variance * per_year):.2g} {result.unit}/√year "
             f"(estimate; marginalised under the {result.prior} prior, mean "
             f"{math.sqrt(result.random_walk_variance_mean * per_year):.2g})"

@@ -15,7 +15,7 @@
   campaigns against the pooled within-campaign estimate, with the estimator's terms.
 
 Values are in customary units (µm, µrad, µm/m, mm); U = k u in the parameter table with
-the document's one coverage factor (``coverage.k``: 1.96 for p = 0.95, the k of the GUF
+the document's one coverage factor (``coverage.k``: 2 by default, the k of the GUF
 outputs; :func:`mtmetrology.samba.calibrate.coverage`).
 
 References
@@ -87,9 +87,10 @@ def _setup_identifiability(rep: Report, result, **_) -> None:
 
 
 @renders(SambaCalibration, "SAMBA calibration")
-def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
-    """``uncertainty``: the SambaUncertainty that sets the parameter covariance."""
-    doc = cal.to_dict(uncertainty)
+def _calibration(rep: Report, cal, *, uncertainty=None, policy=None, **_) -> None:
+    """``uncertainty``: the SambaUncertainty that sets the parameter covariance; ``policy``
+    the coverage policy of U (default k = 2)."""
+    doc = cal.to_dict(uncertainty, policy=policy)
     ident, rec, vol = doc["identification"], doc["records"], doc["volumetric_error"]
     rep.section(f"SAMBA calibration of {cal.machine.name}", ident["message"])
     rep.table(
@@ -119,7 +120,7 @@ def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
     )
     k = doc["coverage"]["k"]
     rep.table(
-        figures.parameter_table_columns(round(k, 2)),
+        figures.parameter_table_columns(k),
         figures.parameter_table_rows(doc, coverage_factor=k),
     )
     cov = doc.get("covariance")

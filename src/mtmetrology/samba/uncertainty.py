@@ -62,6 +62,7 @@ from mtmetrology.rng import SeedLike
 from mtmetrology.samba.calibrate import SambaCalibration
 from mtmetrology.samba.notebook import SambaNotebookRepr
 from mtmetrology.uncertainty import GUFResult, InputQuantity, InputSet, MCMResult, Normal
+from mtmetrology.uncertainty.coverage import DEFAULT_P
 from mtmetrology.uncertainty.validation import ValidationReport
 
 __all__ = [
@@ -257,7 +258,7 @@ def evaluate_uncertainty(
     digits: int = 2,
     seed: SeedLike = None,
     executor=None,
-    p: float = 0.95,
+    p: float = DEFAULT_P,
 ) -> SambaUncertainty:
     """GUF, MCM or both (``method``), and the validation when both ran.
 
