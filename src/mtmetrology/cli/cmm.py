@@ -16,11 +16,14 @@ from typing import Annotated
 import typer
 
 from mtmetrology.cli._common import (
+    CoverageK,
+    CoverageP,
     KeepAPrioriOption,
     MachineOption,
     ReportOption,
     adequacy_rule,
     command_line,
+    coverage_from_options,
     emit_result,
     machine_with_parameters,
     user_errors,
@@ -190,8 +193,9 @@ def calibrate_ballplate_cmd(
             )
         typer.echo(
             f"{cal.model}: {cal.machine.n_params} parameters, rms residual "
-            f"{doc['fit']['rms_residual_um']:.3g} µm; U1 {_rounded(u['U1_um'])} "
-            f"U2 {_rounded(u['U2_um'])} U3 {_rounded(u['U3_um'])} µm; "
+            f"{doc['fit']['rms_residual_um']:.3g} µm; mean standard uncertainties (the "
+            f"source's U1-U3) u1 {_rounded(u['U1_um'])} u2 {_rounded(u['U2_um'])} "
+            f"u3 {_rounded(u['U3_um'])} µm; "
             f"wrote {output}",
             err=True,
         )
@@ -207,9 +211,11 @@ def calibrate_ballplate_cmd(
     )
 
 
-def _rounded(values) -> list[float]:
-    """Values to 3 decimals, as a list (the console line)."""
-    return [round(float(v), 3) for v in values]
+def _rounded(values) -> str:
+    """Standard uncertainties with two significant digits, ``[0.48, 0.78, 0.29]``."""
+    from mtmetrology.formatting import format_uncertainty
+
+    return "[" + ", ".join(format_uncertainty(float(v)) for v in values) + "]"
 
 
 def _print_selection(selection: dict) -> None:
@@ -251,12 +257,15 @@ def budget_cmd(
     output: OutOpt,
     json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
     report_path: ReportOption = None,
+    k: CoverageK = None,
+    p: CoverageP = None,
 ) -> None:
     """Uncertainty budget of a ball-plate length (15 items, Edlén refractive index, GUF)."""
     from mtmetrology.cmm.budget import ballplate_budget_file
-    from mtmetrology.units import from_internal
+    from mtmetrology.formatting import format_coverage, format_result, format_uncertainty
+    from mtmetrology.units import convert
 
-    result = ballplate_budget_file(budget)
+    result = ballplate_budget_file(budget, coverage_from_options(k, p).p)
     doc = result.to_dict()
     report = None
     if report_path is not None:
@@ -265,17 +274,20 @@ def budget_cmd(
 
     def messages() -> None:
         o = doc["outputs"][0]
+        u_um = float(convert(o["u"], o["unit"], "µm"))
         typer.echo(
-            f"l_x = {o['value']:.6f} mm, u = {from_internal(o['u'], 'µm'):.3g} µm, "
-            f"U = {from_internal(o['U'], 'µm'):.3g} µm (k = {o['k']:.2f}); wrote {output}",
+            format_result(o["value"], u_um, "mm", name="l_x", u_unit="µm", k=o["k"], p=o["p"])
+            + f"; wrote {output}",
             err=True,
         )
         if "statement" in doc:
             st = doc["statement"]
             typer.echo(
-                f"at {st['length_mm']:g} mm: CMM U {st['U_cmm_um']:.3f} µm, plate U "
-                f"{st['U_plate_um']:.3f} µm, MPE {st['mpe_um']:.3f} µm; "
-                f"U(P) {st['U_P_um']:.2g} µm, U(E) {st['U_E_um']:.2g} µm (k = {st['k']:g})",
+                f"at {st['length_mm']:g} mm ({format_coverage(st['k'])}): CMM U = "
+                f"{format_uncertainty(st['U_cmm_um'])} µm, plate U = "
+                f"{format_uncertainty(st['U_plate_um'])} µm, MPE {st['mpe_um']:.3g} µm; "
+                f"U(P) = {format_uncertainty(st['U_P_um'])} µm, "
+                f"U(E) = {format_uncertainty(st['U_E_um'])} µm",
                 err=True,
             )
 
