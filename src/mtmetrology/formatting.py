@@ -32,6 +32,7 @@ __all__ = [
     "decimals_for",
     "format_cell",
     "format_coverage",
+    "format_fitted",
     "format_k",
     "format_result",
     "format_share",
@@ -153,6 +154,29 @@ def _no_negative_zero(text: str) -> str:
     if text.startswith("-") and not any(c in "123456789" for c in text.split("e")[0]):
         return text[1:]
     return text
+
+
+def format_fitted(value: float, unit: str, rms_um: float) -> str:
+    """A fitted parameter or form error, which states no uncertainty, rounded to the second
+    significant digit of the rms of the fit's residuals (in the value's unit).
+
+    The residual rms bounds the standard uncertainty of a least-squares element's size and
+    position from above (their u is about rms·sqrt(p/n)), so the digits shown are no more
+    than JCGM 100:2008, 7.2.6 would allow.  A value whose unit is not a length (a direction
+    cosine, an angle) keeps six decimals.
+
+    Examples
+    --------
+    >>> format_fitted(10.00059524, "mm", 2.325), format_fitted(8.186795993, "µm", 2.325)
+    ('10.0006', '8.2')
+    >>> format_fitted(-0.7071067811, "", 2.325)
+    '-0.707107'
+    """
+    try:
+        scale = float(convert(rms_um, "µm", unit)) if rms_um > 0 else None
+    except ValueError:  # not a length: no residual scale
+        return format_signed(value, 6)
+    return format_value(value, scale)
 
 
 def format_signed(value: float, digits: int = 2) -> str:

@@ -25,6 +25,7 @@ from mtmetrology.formatting import (
     SHARE_DEFINITION,
     budget_cells,
     budget_columns,
+    format_fitted,
     format_uncertainty,
     format_value,
 )
@@ -360,20 +361,27 @@ def add_fit_document(rep: Report, document: dict, residuals, points=None) -> Rep
         The points, to draw their deviations in three projections.
     """
     form = document["form_error"]
+    stats = document["residuals"]
+    rms = float(convert(stats["rms"], stats["unit"], "µm"))
+
+    def cell(value: float, unit: str) -> str:
+        return format_fitted(value, unit, rms)
+
     rep.section(f"{document['element']} ({document['method']})", document.get("message"))
     rep.table(
         ["parameter", "value", "unit"],
-        [[p["name"], p["value"], p["unit"]] for p in document["parameters"]],
+        [[p["name"], cell(p["value"], p["unit"]), p["unit"]] for p in document["parameters"]],
+        caption="No uncertainty is stated for a fit: values are rounded to the second "
+        "significant digit of the residual rms, which bounds their standard uncertainty.",
     )
-    stats = document["residuals"]
     rep.table(
         ["quantity", "value", "unit"],
         [
-            [form["name"], form["value"], form["unit"]],
+            [form["name"], cell(form["value"], form["unit"]), form["unit"]],
             ["points", stats["n"], ""],
-            ["rms of the residuals", stats["rms"], stats["unit"]],
-            ["smallest residual", stats["min"], stats["unit"]],
-            ["largest residual", stats["max"], stats["unit"]],
+            ["rms of the residuals", cell(stats["rms"], stats["unit"]), stats["unit"]],
+            ["smallest residual", cell(stats["min"], stats["unit"]), stats["unit"]],
+            ["largest residual", cell(stats["max"], stats["unit"]), stats["unit"]],
         ],
     )
     for note in document.get("notes", []):
