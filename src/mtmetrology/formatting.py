@@ -34,6 +34,7 @@ __all__ = [
     "format_coverage",
     "format_fitted",
     "format_k",
+    "format_parameters",
     "format_result",
     "format_share",
     "format_signed",
@@ -177,6 +178,26 @@ def format_fitted(value: float, unit: str, rms_um: float) -> str:
     except ValueError:  # not a length: no residual scale
         return format_signed(value, 6)
     return format_value(value, scale)
+
+
+def format_parameters(
+    names: Sequence[str], values, u, units: Sequence[str], *, limit: int = 12
+) -> list[str]:
+    """``E_X0C = -104.59 µm, u = 0.73 µm`` for each parameter (customary units), the first
+    ``limit`` and a line that counts the rest: what a ``repr`` shows.
+
+    Examples
+    --------
+    >>> format_parameters(["E_X0C", "E_BBb"], [-104.5912, -0.01], [0.734, 3.1], ["µm", "µrad"])
+    ['E_X0C = -104.59 µm, u = 0.73 µm', 'E_BBb = 0.0 µrad, u = 3.1 µrad']
+    """
+    lines = [
+        format_result(float(values[i]), None if u is None else float(u[i]), units[i], name=n)
+        for i, n in enumerate(names[:limit])
+    ]
+    if len(names) > limit:
+        lines.append(f"… {len(names) - limit} more")
+    return lines
 
 
 def format_signed(value: float, digits: int = 2) -> str:

@@ -422,7 +422,9 @@ def gp_predict(
     probes: ProbesOpt,
     output: OutOpt,
 ) -> None:
-    """Compensated x,y,z (mm) with standard uncertainties u_x,u_y,u_z (µm)."""
+    """Compensated x,y,z (mm) with standard uncertainties u_x_um,u_y_um,u_z_um (µm), the
+    columns of ``mtm predict --u``."""
+    from mtmetrology.cli.predict import U_COLUMNS
     from mtmetrology.cmm.files import load_probes, probe_tools
     from mtmetrology.cmm.gp import GPErrorModel
     from mtmetrology.io.documents import load_document
@@ -440,7 +442,7 @@ def gp_predict(
     u_um = from_internal(u, "µm")
     columns = {c: table.text.column(c) for c in table.header}
     columns.update({c: pts[:, k] for k, c in enumerate("xyz")})
-    columns.update({f"u_{c}": u_um[:, k] for k, c in enumerate("xyz")})
+    columns.update({c: u_um[:, k] for k, c in enumerate(U_COLUMNS)})
     with atomic_write(output, "wb") as fh:
         write_columns(fh, columns, decimals=6, plain=() if table.quoted else table.header)
     typer.echo(f"wrote {len(table)} rows to {output}", err=True)

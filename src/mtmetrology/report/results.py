@@ -36,6 +36,7 @@ from mtmetrology.kinematics.compensation import Compensation, correction_statist
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
+from mtmetrology.uncertainty.coverage import DEFAULT_K
 from mtmetrology.uncertainty.evaluation import ModelEvaluation
 from mtmetrology.uncertainty.guf import GUFResult
 from mtmetrology.uncertainty.mcm import MCMResult
@@ -419,7 +420,7 @@ def _fit(rep: Report, result, *, points=None, source: str = "points", **_) -> No
 
 
 @renders(ParameterSet, "Parameter set")
-def _parameter_set(rep: Report, pset, *, coverage_factor: float = 2.0, **_) -> None:
+def _parameter_set(rep: Report, pset, *, coverage_factor: float = DEFAULT_K, **_) -> None:
     where = ", ".join(
         f"{k} {v}" for k, v in (("machine", pset.machine), ("model", pset.model)) if v
     )

@@ -115,6 +115,9 @@ class SambaCalibration(SambaNotebookRepr):
     parameters : ParameterSet
         The machine's error parameters with ``(JᵀJ)⁻¹`` of the weighted problem, and the
         identified tool vector when it was estimated.
+    uncertainty : SambaUncertainty or None
+        The GUF/Monte Carlo evaluation attached by :meth:`with_uncertainty` (its covariance
+        is then the parameters' in :meth:`to_dict`).
     """
 
     machine: Machine
@@ -124,6 +127,33 @@ class SambaCalibration(SambaNotebookRepr):
     identification: IdentificationResult = field(repr=False)
     nominal: IdentificationResult = field(repr=False)
     parameters: ParameterSet
+
+    uncertainty: object = field(default=None, repr=False)
+
+    def with_uncertainty(self, uncertainty) -> SambaCalibration:
+        """This calibration with its uncertainty evaluation (:func:`evaluate_uncertainty`),
+        so that :meth:`to_dict` and the ``repr`` state it."""
+        return replace(self, uncertainty=uncertainty)
+
+    def __repr__(self) -> str:
+        """Machine, status and the parameters in customary units with u (GUM 7.2.6), from
+        the attached uncertainty evaluation when there is one."""
+        from mtmetrology.formatting import format_parameters
+
+        doc = self.to_dict()
+        p = doc["parameters"]
+        lines = format_parameters(
+            [e["name"] for e in p],
+            [e["value"] for e in p],
+            None if "u" not in p[0] else [e["u"] for e in p],
+            [e["unit"] for e in p],
+        )
+        return (
+            f"SambaCalibration(machine={self.machine.name!r}, {len(self.records)} indications, "
+            f"{self.identification.message}; u from {doc['covariance_source']}:\n  "
+            + "\n  ".join(lines)
+            + ")"
+        )
 
     @property
     def minimum_norm(self) -> bool:
@@ -237,6 +267,7 @@ class SambaCalibration(SambaNotebookRepr):
         policy : CoveragePolicy, optional
             The coverage factor of U = k u (default k = 2; :func:`coverage`).
         """
+        uncertainty = self.uncertainty if uncertainty is None else uncertainty
         pset = self.parameters
         source = "identification: (JᵀJ)⁻¹ of the weighted problem"
         if uncertainty is not None:

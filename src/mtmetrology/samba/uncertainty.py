@@ -160,6 +160,30 @@ class SambaUncertainty(SambaNotebookRepr):
     mcm: MCMResult | None = field(default=None, repr=False)
     validation: ValidationReport | None = field(default=None, repr=False)
 
+    def __repr__(self) -> str:
+        """The methods run, the validation, and each parameter's value and u (customary
+        units, GUM 7.2.6 digits) from the covariance :attr:`covariance` takes."""
+        from mtmetrology.formatting import format_parameters
+
+        use_mcm = self.mcm is not None and (
+            self.guf is None or (self.validation is not None and not self.validation.passed)
+        )
+        run = self.mcm if use_mcm else self.guf
+        methods = [m for m, r in (("GUF", self.guf), ("Monte Carlo", self.mcm)) if r is not None]
+        if self.mcm is not None:
+            methods[-1] += f" ({self.mcm.trials} trials)"
+        checked = "" if self.validation is None else f"; GUF validated: {self.validation.passed}"
+        o = run.outputs
+        lines = format_parameters(
+            [x.name for x in o], [x.value for x in o], [x.u for x in o], [x.unit for x in o]
+        )
+        return (
+            f"SambaUncertainty(input covariance from {self.source}; {', '.join(methods)}"
+            f"{checked}; u from the {'Monte Carlo' if use_mcm else 'GUF'}:\n  "
+            + "\n  ".join(lines)
+            + ")"
+        )
+
     @property
     def covariance(self) -> np.ndarray:
         """The best covariance (customary units): GUF when validated or alone, else MCM."""
