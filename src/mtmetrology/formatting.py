@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import re
 from collections.abc import Sequence
 
 from mtmetrology.units import convert, display_unit, display_unit_of
@@ -40,6 +41,7 @@ __all__ = [
     "format_signed",
     "format_uncertainty",
     "format_value",
+    "overstated_digits",
 ]
 
 #: What a machine-readable result says of its numbers (JSON ``precision`` field, CSV
@@ -369,3 +371,69 @@ def budget_cells(rows: Sequence, output_unit: str) -> tuple[list[list[str]], lis
         label = f"{len(zero)} inputs with u = 0" if len(zero) > 1 else "1 input with u = 0"
         lines.append([f"{label}: {', '.join(zero)}", "—", "0", "", "", "0", "", "0.0 %"])
     return lines, shown
+
+
+_NUMBER = r"\d+(?:\.\d+)?(?:e[-+]?\d+)?"
+_UNIT = r"[^\s,;()]+"
+#: ``NAME = VALUE UNIT, u = U UNIT`` as :func:`format_result` writes it.
+_WITH_U = re.compile(rf"(?P<v>-?{_NUMBER}) (?P<vu>{_UNIT}), u = (?P<u>{_NUMBER}) (?P<uu>{_UNIT})")
+_SMALL_U = re.compile(rf"(?<![\w(])u = (?P<u>{_NUMBER})")
+_BIG_U = re.compile(rf"(?<![\w(])U = (?P<u>{_NUMBER})")
+_NEGATIVE_ZERO = re.compile(r"(?<![\w.:/-])-0(?:\.0+)?(?![\w.])")
+_BARE_PLUS_MINUS = re.compile(r"±\s*\d[\d.]*\s*(?:[µμ]m|mm|nm|[µμ]rad|%)")
+
+
+def _significant(text: str) -> int:
+    """Significant digits of a printed uncertainty (``0.0012`` 2, ``9600`` 2, ``1.2e-06`` 2)."""
+    mantissa = text.split("e")[0]
+    digits = mantissa.replace(".", "").lstrip("0")
+    return len(digits if "." in mantissa else digits.rstrip("0"))
+
+
+def overstated_digits(text: str) -> list[str]:
+    """Lines of ``text`` (console output, a report's text) that break the digits policy.
+
+    The policy (JCGM 100:2008, 7.2.6; this module): u and U with at most two significant
+    digits, a value stated with u to no more decimals than u's second significant digit,
+    U = … only with ``k = …`` on the same line, no ``-0`` / ``-0.00``, and no ``±`` before
+    a quantity (write ``u = `` or ``U = … (k = …)``).
+
+    Returns
+    -------
+    list of str
+        ``what: the line`` for each breach; empty when the text follows the policy.
+
+    Examples
+    --------
+    >>> overstated_digits("l_x = 532.0143 mm, u = 2.1 µm, U = 4.1 µm (k = 2)")
+    []
+    >>> [p.split(":")[0] for p in overstated_digits("l_x = 532.014299 mm, u = 2.06 µm")]
+    ['value with more decimals than its u allows', 'u with more than two significant digits']
+    >>> [p.split(":")[0] for p in overstated_digits("E_BBb -0 µrad; 1.9 ± 0.3 µm; U = 4.1 µm")]
+    ['-0 printed', '± without naming u or U', 'U without k on its line']
+    """
+    problems = []
+    for line in text.splitlines():
+        found = []
+        for m in _WITH_U.finditer(line):
+            u = float(m["u"])
+            try:
+                u = u if m["uu"] == m["vu"] else float(convert(u, m["uu"], m["vu"]))
+            except ValueError:  # not a unit pair that converts: nothing to compare
+                continue
+            value = m["v"].split("e")[0]
+            shown = len(value.split(".")[1]) if "." in value else 0
+            if u > 0 and "e" not in m["v"] and shown > decimals_for(u):
+                found.append("value with more decimals than its u allows")
+        if any(_significant(m["u"]) > 2 for m in _SMALL_U.finditer(line)):
+            found.append("u with more than two significant digits")
+        if any(_significant(m["u"]) > 2 for m in _BIG_U.finditer(line)):
+            found.append("U with more than two significant digits")
+        if _NEGATIVE_ZERO.search(line):
+            found.append("-0 printed")
+        if _BARE_PLUS_MINUS.search(line):
+            found.append("± without naming u or U")
+        if _BIG_U.search(line) and "k = " not in line[_BIG_U.search(line).start() :]:
+            found.append("U without k on its line")
+        problems += [f"{what}: {line.strip()}" for what in found]
+    return problems

@@ -25,11 +25,19 @@ output is normal.  A user who states p instead (``--p 0.95``) gets k = Φ⁻¹((
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 
 from mtmetrology.errors import InputError
 
-__all__ = ["DEFAULT", "DEFAULT_K", "DEFAULT_P", "CoveragePolicy", "coverage_policy"]
+__all__ = [
+    "DEFAULT",
+    "DEFAULT_K",
+    "DEFAULT_P",
+    "CoveragePolicy",
+    "coverage_policy",
+    "unstated_coverage",
+]
 
 #: The default coverage factor (EA-4/02, ILAC-P14: k = 2, about 95 %).
 DEFAULT_K = 2.0
@@ -135,3 +143,99 @@ def coverage_policy(k: float | None = None, p: float | None = None) -> CoverageP
             raise InputError(f"--p: the coverage probability must be between 0 and 1, got {p}")
         return CoveragePolicy(_normal_k(float(p)), float(p), "p")
     return DEFAULT
+
+
+#: Keys of an expanded uncertainty in a result document: ``U``, ``U_um``, ``Ux_um``,
+#: ``U_cmm_um`` (not ``U1_um``: the source's name of a mean *standard* uncertainty).
+_EXPANDED = re.compile(r"^U[xyz]?(_\w+)?$")
+_K_KEYS = ("k", "coverage_factor")
+
+
+def _k_of(chain: list[dict]) -> float | None:
+    """The k of the nearest dict (innermost first) that states one, or its ``coverage``."""
+    for d in reversed(chain):
+        for key in _K_KEYS:
+            if isinstance(d.get(key), int | float) and not isinstance(d.get(key), bool):
+                return float(d[key])
+        cov = d.get("coverage")
+        if isinstance(cov, dict) and isinstance(cov.get("k"), int | float):
+            return float(cov["k"])
+    return None
+
+
+def _numbers(value) -> list[float] | None:
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, int | float):
+        return [float(value)]
+    if (
+        isinstance(value, list)
+        and value
+        and all(isinstance(v, int | float) and not isinstance(v, bool) for v in value)
+    ):
+        return [float(v) for v in value]
+    return None
+
+
+def unstated_coverage(document, rtol: float = 1e-6) -> list[str]:
+    """Where a result document breaks the policy: a U without its k, a U ≠ k u, an
+    interval without its coverage probability.
+
+    A dict key ``U`` (or ``U_um``, ``Ux_um``, ``U_cmm_um`` …) is an expanded uncertainty;
+    its k is the ``k`` / ``coverage_factor`` of that dict or of the nearest enclosing one
+    (or its ``coverage.k``); when the dict also holds the matching standard uncertainty
+    (``u``, ``u_um`` …) U must equal k u (JCGM 100:2008, 6.2.1; a Monte Carlo output's k
+    is U/u of its interval, JCGM 101:2008, 7.7).  A key ``interval`` needs ``p`` or
+    ``coverage_probability`` beside it or above it.
+
+    Parameters
+    ----------
+    document : dict or list
+        A JSON result document.
+    rtol : float
+        Relative tolerance of U = k u.
+
+    Returns
+    -------
+    list of str
+        One line per breach, ``path: what``; empty when the document follows the policy.
+
+    Examples
+    --------
+    >>> unstated_coverage({"outputs": [{"u": 1.0, "U": 2.0, "k": 2.0, "p": 0.95}]})
+    []
+    >>> unstated_coverage({"u_um": 1.0, "U_um": 1.96})
+    ['/U_um: U without its coverage factor k']
+    """
+    errors: list[str] = []
+
+    def walk(node, path: str, chain: list[dict]) -> None:
+        if isinstance(node, list):
+            for i, v in enumerate(node):
+                walk(v, f"{path}[{i}]", chain)
+            return
+        if not isinstance(node, dict):
+            return
+        chain = [*chain, node]
+        for key, value in node.items():
+            if isinstance(key, str) and _EXPANDED.match(key) and _numbers(value) is not None:
+                k = _k_of(chain)
+                if k is None:
+                    errors.append(f"{path}/{key}: U without its coverage factor k")
+                    continue
+                u = _numbers(node.get("u" + key[1:]))
+                big = _numbers(value)
+                if u is not None and len(u) == len(big):
+                    for a, b in zip(big, u, strict=True):
+                        if not math.isclose(a, k * b, rel_tol=rtol, abs_tol=1e-300):
+                            errors.append(f"{path}/{key}: U = {a:g} is not k u = {k:g} × {b:g}")
+                            break
+            if key == "interval" and not any(
+                "p" in d or "coverage_probability" in d for d in chain
+            ):
+                errors.append(f"{path}/interval: an interval without its coverage probability")
+        for key, value in node.items():
+            walk(value, f"{path}/{key}", chain)
+
+    walk(document, "", [])
+    return errors
