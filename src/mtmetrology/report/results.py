@@ -26,6 +26,7 @@ from mtmetrology.formatting import (
     budget_cells,
     budget_columns,
     format_fitted,
+    format_k,
     format_uncertainty,
     format_value,
 )
@@ -113,7 +114,7 @@ def _guf(rep: Report, g, **_) -> None:
                 format_value(float(g.estimate[j]), u),
                 _uncertainty(u, g.units[j]),
                 _uncertainty(float(g.expanded_uncertainty[j]), g.units[j]),
-                f"{float(g.coverage_factor[j]):.3f}",
+                format_k(float(g.coverage_factor[j])),
                 _interval(*g.interval[j], u),
                 _dof(float(g.dof_effective[j])),
                 g.units[j],
