@@ -151,15 +151,15 @@ _EXPANDED = re.compile(r"^U[xyz]?(_\w+)?$")
 _K_KEYS = ("k", "coverage_factor")
 
 
-def _k_of(chain: list[dict]) -> float | None:
-    """The k of the nearest dict (innermost first) that states one, or its ``coverage``."""
+def _k_of(chain: list[dict]) -> list[float] | None:
+    """The k (one, or one per U) of the nearest dict that states one, or its ``coverage``."""
     for d in reversed(chain):
         for key in _K_KEYS:
-            if isinstance(d.get(key), int | float) and not isinstance(d.get(key), bool):
-                return float(d[key])
+            if _numbers(d.get(key)) is not None:
+                return _numbers(d[key])
         cov = d.get("coverage")
-        if isinstance(cov, dict) and isinstance(cov.get("k"), int | float):
-            return float(cov["k"])
+        if isinstance(cov, dict) and _numbers(cov.get("k")) is not None:
+            return _numbers(cov["k"])
     return None
 
 
@@ -225,10 +225,11 @@ def unstated_coverage(document, rtol: float = 1e-6) -> list[str]:
                     continue
                 u = _numbers(node.get("u" + key[1:]))
                 big = _numbers(value)
-                if u is not None and len(u) == len(big):
-                    for a, b in zip(big, u, strict=True):
-                        if not math.isclose(a, k * b, rel_tol=rtol, abs_tol=1e-300):
-                            errors.append(f"{path}/{key}: U = {a:g} is not k u = {k:g} × {b:g}")
+                ks = k * len(big) if len(k) == 1 else k
+                if u is not None and len(u) == len(big) == len(ks):
+                    for a, b, f in zip(big, u, ks, strict=True):
+                        if not math.isclose(a, f * b, rel_tol=rtol, abs_tol=1e-300):
+                            errors.append(f"{path}/{key}: U = {a:g} is not k u = {f:g} × {b:g}")
                             break
             if key == "interval" and not any(
                 "p" in d or "coverage_probability" in d for d in chain
