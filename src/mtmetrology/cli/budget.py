@@ -347,6 +347,7 @@ def volumetric_map(
         tolerances[name.strip()] = Tolerance.parse(spec, parameter=f"--tolerance {name.strip()}")
     if trials < 2:
         raise InputError(f"--trials must be at least 2, got {trials}")
+    k = coverage_from_options(k, p).k
     m = Machine.load(machine)
     table = read_csv_table(points, required=["x", "y", "z"])
     xyz = table.vectors("xyz")
@@ -375,7 +376,7 @@ def volumetric_map(
         seed=seed,
         probe_error=_um(probe_u, "--probe-u"),
         machine_class=machine_class,
-        k=coverage_from_options(k, p).k,
+        k=k,
         inner=not outer,
         tip_diameter=tip_diameter,
         tolerances=tolerances,
@@ -395,14 +396,14 @@ def volumetric_map(
                 for row in budget.table()
             ],
             f"{feature}, {budget.cycles} cycle(s) of {budget.n_points} points, mode {mode} "
-            f"(P_true = P - e(P)), u_cal by {u_cal}, k = {k:g}; largest map correction "
+            f"(P_true = P - e(P)), u_cal by {u_cal}, k = {k:.3g}; largest map correction "
             f"{doc['largest_correction_um']:.2f} µm.",
         )
 
     def summary() -> None:
         typer.echo(
             f"VDI/VDE 2617-11 budget of {points.name}: {feature}, {budget.cycles} cycle(s) of "
-            f"{budget.n_points} points, mode {mode}, u_cal by {u_cal}, k = {k:g} (µm); largest "
+            f"{budget.n_points} points, mode {mode}, u_cal by {u_cal}, k = {k:.3g} (µm); largest "
             f"map correction {doc['largest_correction_um']:.2f} µm"
         )
         typer.echo(
