@@ -13,7 +13,7 @@ An uncertainty is never printed after a bare ``±``: :func:`format_result` names
 ``l = 532.0143 mm, u = 2.1 µm`` or ``…, U = 4.1 µm (k = 2)``, the value in its unit and
 the uncertainty in its display unit (:func:`mtmetrology.units.display_unit`), k beside
 every U (:mod:`mtmetrology.uncertainty.coverage`).  Machine-readable files (JSON, CSV
-for programs) keep full precision and say so (:data:`FULL_PRECISION`).
+for programs) keep their precision.
 """
 
 from __future__ import annotations
@@ -26,7 +26,6 @@ from collections.abc import Sequence
 from mtmetrology.units import convert, display_unit, display_unit_of
 
 __all__ = [
-    "FULL_PRECISION",
     "SHARE_DEFINITION",
     "budget_cells",
     "budget_columns",
@@ -43,13 +42,6 @@ __all__ = [
     "format_value",
     "overstated_digits",
 ]
-
-#: What a machine-readable result says of its numbers (JSON ``precision`` field, CSV
-#: comment line): full binary precision, not rounded to their uncertainty.
-FULL_PRECISION = (
-    "full: numbers are not rounded to their uncertainty (JCGM 100:2008, 7.2.6 applies to "
-    "what a person reads); u is a standard uncertainty, U = k u with k stated"
-)
 
 #: What the "share" column and the budget figure show (JCGM 100:2008, 5.2.2).
 SHARE_DEFINITION = (

@@ -480,6 +480,7 @@ _DISPLAY = {"m": "µm", "rad": "µrad", "1": "µm/m"}
 
 
 def _print_certificate(cert) -> None:
+    from mtmetrology.formatting import format_k, format_uncertainty, format_value
     from mtmetrology.units import from_internal
 
     typer.echo(
@@ -497,9 +498,11 @@ def _print_certificate(cert) -> None:
     values, u, _ = cert.internal()
     for name, si, value, s in zip(cert.names, cert.units, values, u, strict=True):
         unit = _DISPLAY[si]
+        big_u = float(from_internal(cert.coverage_factor * s, unit))
         typer.echo(
-            f"  {name:<10} {from_internal(value, unit):>14.4f} "
-            f"U = {from_internal(cert.coverage_factor * s, unit):.2g} {unit}"
+            f"  {name:<10} {format_value(float(from_internal(value, unit)), big_u / 2):>14} "
+            f"{unit}, U = {format_uncertainty(big_u)} {unit} "
+            f"(k = {format_k(cert.coverage_factor)})"
         )
 
 
