@@ -34,7 +34,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from mtmetrology.formatting import format_uncertainty, format_value
+from mtmetrology.formatting import format_k, format_uncertainty, format_value
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
 from mtmetrology.report.results import add_result, renders
@@ -90,6 +90,7 @@ def _setup_identifiability(rep: Report, result, **_) -> None:
 def _calibration(rep: Report, cal, *, uncertainty=None, policy=None, **_) -> None:
     """``uncertainty``: the SambaUncertainty that sets the parameter covariance; ``policy``
     the coverage policy of U (default k = 2)."""
+    uncertainty = cal.uncertainty if uncertainty is None else uncertainty
     doc = cal.to_dict(uncertainty, policy=policy)
     ident, rec, vol = doc["identification"], doc["records"], doc["volumetric_error"]
     rep.section(f"SAMBA calibration of {cal.machine.name}", ident["message"])
@@ -134,7 +135,8 @@ def _calibration(rep: Report, cal, *, uncertainty=None, policy=None, **_) -> Non
         "Uncertainty propagation factors",
         f"UPF = u / σ (Alami Mchichi (2018) eq. 6.14): u = sqrt(diag((JᵀWJ)⁻¹)) of the "
         f"identification for σ = {rec['sigma_um']:.3g} µm per coordinate and the scale bar's "
-        "u, per µm of probing noise; the figure `mtm design samba` predicts for the same "
+        "u together, over σ in µm (not a sensitivity to σ alone: for a scale parameter "
+        "such as E_XX1 the bar's u dominates); the figure `mtm design samba` predicts for the same "
         "set-up.",
     )
     if doc["propagation_factors"] and doc["propagation_factors"][0]["upf"] is not None:
@@ -204,7 +206,7 @@ def _uncertainty(rep: Report, unc, **_) -> None:
                     format_value(o.value, o.u),
                     format_uncertainty(o.u),
                     format_uncertainty(o.U),
-                    "—" if o.k is None else f"{o.k:.3f}",
+                    "—" if o.k is None else format_k(o.k),
                     f"[{format_value(o.interval[0], o.u)}, {format_value(o.interval[1], o.u)}]",
                     o.unit,
                 ]
