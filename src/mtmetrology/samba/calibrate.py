@@ -36,6 +36,7 @@ Tool Metrology*. PhD thesis, Polytechnique Montréal, Ch. 5 (eqs 5-1 to 5-6).
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -53,6 +54,9 @@ from mtmetrology.samba.artefact import SambaArtefact
 from mtmetrology.samba.notebook import SambaNotebookRepr
 from mtmetrology.samba.records import SambaRecords
 from mtmetrology.units import from_internal
+
+if TYPE_CHECKING:  # it imports this module
+    from mtmetrology.samba.uncertainty import SambaUncertainty
 
 __all__ = ["SambaCalibration", "calibrate", "coverage", "separation_advice"]
 
@@ -128,7 +132,7 @@ class SambaCalibration(SambaNotebookRepr):
     nominal: IdentificationResult = field(repr=False)
     parameters: ParameterSet
 
-    uncertainty: object = field(default=None, repr=False)
+    uncertainty: SambaUncertainty | None = field(default=None, repr=False)
 
     def with_uncertainty(self, uncertainty) -> SambaCalibration:
         """This calibration with its uncertainty evaluation (:func:`evaluate_uncertainty`),
