@@ -31,6 +31,7 @@ from mtmetrology.cmm.files import load_plate, load_positions, load_probes, write
 from mtmetrology.cmm.gp import fit_gp
 from mtmetrology.cmm.report import COVERAGE_FACTOR
 from mtmetrology.cmm.simulate import simulate_ballplate
+from mtmetrology.formatting import format_uncertainty
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.report.demo import DemoContext
@@ -200,8 +201,9 @@ def main(ctx: DemoContext) -> None:
         f"{gpr['rms_error_um']:.2f} µm GP ({100 * gpr['coverage']:.0f} % within 2u"
         f"{', GP at a bound' if comparison.gp_at_bounds else ''}); with a "
         f"{NON_RIGID_UM:g} µm non-rigid error {_row(non_rigid, 'kinematic')['rms_error_um']:.2f}"
-        f" µm kinematic, {_row(non_rigid, 'GP')['rms_error_um']:.2f} µm GP; U3 "
-        f"{np.round(cal.summary['U3_um'], 2).tolist()} µm"
+        f" µm kinematic, {_row(non_rigid, 'GP')['rms_error_um']:.2f} µm GP; mean standard "
+        f"uncertainty over the volume u3 = "
+        f"[{', '.join(format_uncertainty(v) for v in cal.summary['U3_um'])}] µm"
     )
 
 

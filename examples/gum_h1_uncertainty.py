@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from mtmetrology.formatting import format_uncertainty
 from mtmetrology.report.demo import DemoContext
 from mtmetrology.report.results import add_result
 from mtmetrology.uncertainty.evaluation import evaluate_model
@@ -65,8 +66,8 @@ def main(ctx: DemoContext) -> None:
         "0.99",
     )
     ctx.summary.append(
-        f"GUM H.1: GUF u = {g.standard_uncertainty[0]:.1f} nm, Monte Carlo u = "
-        f"{r.standard_uncertainty[0]:.1f} nm ({r.trials} trials), GUF "
+        f"GUM H.1: GUF u = {format_uncertainty(g.standard_uncertainty[0])} nm, Monte Carlo "
+        f"u = {format_uncertainty(r.standard_uncertainty[0])} nm ({r.trials} trials), GUF "
         f"{'validated' if validation.passed else 'not validated'} at p = 0.99"
     )
 

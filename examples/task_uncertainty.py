@@ -29,7 +29,7 @@ from scipy.stats import binom
 from _five_axis import GAUGE_TOLERANCE, NOISE_UM, PRESET
 from mtmetrology.fitting.composite import CombinedFeature
 from mtmetrology.fitting.features import GaugeLength, SphereDiameter, Sphericity
-from mtmetrology.formatting import format_uncertainty, format_value
+from mtmetrology.formatting import format_k, format_uncertainty, format_value
 from mtmetrology.io import read_csv_table
 from mtmetrology.io.tables import write_csv_table
 from mtmetrology.kinematics.machine import Machine
@@ -221,7 +221,8 @@ def sphere_task_section(ctx: DemoContext, *, preset: str) -> None:
     coverage = _coverage(ctx, m, pset, unexplained, intervals)
     ctx.summary.append(
         f"sphere {SPHERE_DIAMETER_MM:g} mm at {len(SPHERE_BC)} (B, C): U = "
-        f"{min(big_u_um):.2f}–{max(big_u_um):.2f} µm; "
+        f"{format_uncertainty(min(big_u_um))}–{format_uncertainty(max(big_u_um))} µm "
+        f"(k = {format_k(intervals[0][3])}); "
         f"ISO 14253-1: {decisions.count('conformance')} conformance of {len(decisions)}"
     )
     ctx.summary.append(
@@ -330,8 +331,9 @@ def task_section(ctx: DemoContext, *, preset: str) -> None:
         ["length (mm)", "u (µm)", "U (µm)", "k", "acceptance zone (mm)", "decision"],
         [[
             format_value(g.value, g.u), format_uncertainty(u_um), format_uncertainty(big_u_um),
-            f"{g.k:.2f}",
-            "[{:.6f}, {:.6f}]".format(*decision.acceptance_zone), decision.decision.value,
+            format_k(g.k),
+            "[{}, {}]".format(*(format_value(x, g.u) for x in decision.acceptance_zone)),
+            decision.decision.value,
         ]],
     )  # fmt: skip
     add_result(ctx.report, result.guf)
@@ -344,7 +346,7 @@ def task_section(ctx: DemoContext, *, preset: str) -> None:
     ctx.summary.append(
         f"task: gauge length {format_value(g.value, g.u)} mm, u = {format_uncertainty(u_um)} µm, "
         f"U = {format_uncertainty(big_u_um)} µm "
-        f"(k = {g.k:.2f}, Monte Carlo, {result.mcm.trials} trials; GUF {validated}); "
+        f"(k = {format_k(g.k)}, Monte Carlo, {result.mcm.trials} trials; GUF {validated}); "
         f"ISO 14253-1: {decision.decision.value}"
     )
 

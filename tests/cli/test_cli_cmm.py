@@ -197,7 +197,7 @@ def test_gp_fit_predict_and_predict_with_gp_file(files):
     )  # fmt: skip
     assert res.exit_code == 0, res.output
     rows = list(csv.DictReader(out.open()))
-    assert list(rows[0])[-6:] == ["x", "y", "z", "u_x", "u_y", "u_z"]
+    assert list(rows[0])[-6:] == ["x", "y", "z", "u_x_um", "u_y_um", "u_z_um"]
     out2 = files["dir"] / "gp2.csv"
     res = runner.invoke(
         app,

@@ -139,8 +139,14 @@ def test_human_output_names_parameters_residuals_and_form_error(csv_files):
     assert result.exit_code == 0, result.output
     for text in ("x0", "r", "residuals: n = 24", "roundness (inscribed)", "contact points"):
         assert text in result.stdout
+    # the radius to the second significant digit of the residual rms (no u is stated)
+    from mtmetrology.formatting import format_fitted
+
     points = np.loadtxt(csv_files["circle"], delimiter=",", skiprows=1)
-    assert f"{inscribed_circle(points).element.radius:.6f}" in result.stdout
+    rms = _run_json("circle", csv_files["circle"], "--method", "inscribed")["residuals"]["rms"]
+    radius = format_fitted(inscribed_circle(points).element.radius, "mm", rms)
+    cells = [[c.strip() for c in line.split("│")][1:3] for line in result.stdout.splitlines()]
+    assert ["r", radius] in cells
 
 
 # --------------------------------------------------------------------------------------

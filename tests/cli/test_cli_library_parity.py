@@ -22,6 +22,7 @@ from mtmetrology.cli import app
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.uncertainty.conformity import Tolerance
+from mtmetrology.uncertainty.coverage import unstated_coverage
 
 runner = CliRunner()
 MACHINE = Machine.load("five-axis-wcbxfzyst")
@@ -720,8 +721,10 @@ CASES = {
 
 @pytest.mark.parametrize("command", sorted(CASES))
 def test_command_output_is_the_library_result(command, tmp_path):
+    """... and states k beside every U with U = k u (issue 31, the coverage policy)."""
     cli, library = CASES[command](tmp_path)
     assert cli == _plain(library)
+    assert unstated_coverage(cli) == []
 
 
 def test_parity_detects_a_field_the_command_would_add(tmp_path):

@@ -425,9 +425,12 @@ def test_predict_compensates_with_the_identified_tool_and_gives_u(calibrated, re
 
 def test_one_coverage_factor_in_console_json_and_report(records, tmp_path):
     """The console printed ``E_A0B -9.5874 ± 1.8433 µrad`` with ± = u, the JSON k = 1.96 and
-    the HTML parameter table k = 2 (issue 18 §3). Now: ``u = …`` and ``U = …`` with two
-    significant digits and one k, the GUF's k for p = 0.95, in all three."""
+    the HTML parameter table k = 2 (issue 18 §3). Now: ``u = …`` and ``U = … (k = 2)`` with
+    two significant digits and one k, the policy's k = 2 (p = 2 Φ(2) − 1, issue 31), in all
+    three, and the GUF's k for that p is 2 as well."""
     import re
+
+    from scipy import stats
 
     from mtmetrology.formatting import format_uncertainty
 
@@ -438,11 +441,12 @@ def test_one_coverage_factor_in_console_json_and_report(records, tmp_path):
     assert result.exit_code == 0, result.output
     doc = json.loads(out.read_text(encoding="utf-8"))
     k = doc["coverage"]["k"]
-    assert doc["coverage"]["p"] == 0.95 and k == pytest.approx(1.959964, abs=1e-6)
-    assert all(o["k"] == pytest.approx(k) for o in doc["uncertainty"]["guf"]["outputs"])
+    p = doc["coverage"]["coverage_probability"]
+    assert k == 2.0 and p == pytest.approx(2 * stats.norm.cdf(2.0) - 1, abs=1e-12)
+    assert all(o["k"] == pytest.approx(k, abs=1e-9) for o in doc["uncertainty"]["guf"]["outputs"])
     assert "±" not in result.stdout
-    assert "U = k u (k = 1.96, p = 95 %)" in result.stdout.splitlines()[1]
-    line = re.compile(r"^  (\S+) +(\S+) (\S+) +u = (\S+) (\S+)  U = (\S+) (\S+)$")
+    assert "U = k u (k = 2, p ≈ 95.45 %)" in result.stdout.splitlines()[1]
+    line = re.compile(r"^  (\S+) +(\S+) (\S+) +u = (\S+) (\S+)  U = (\S+) (\S+) \(k = 2\)$")
     printed = {m[1]: m for m in map(line.match, result.stdout.splitlines()) if m}
     assert list(printed) == [p["name"] for p in doc["parameters"]]
     for p in doc["parameters"]:
@@ -452,7 +456,25 @@ def test_one_coverage_factor_in_console_json_and_report(records, tmp_path):
         assert len(m[4].replace(".", "").lstrip("0")) == 2  # two significant digits
     html = page.read_text(encoding="utf-8")
     heads = re.findall(r"<th scope=\"col\">(.*?)</th>", html)
-    assert "U (k = 1.96)" in heads and not any(h.startswith("U (k = 2") for h in heads)
+    assert "U (k = 2)" in heads and not any(h.startswith("U (k = 1.96") for h in heads)
+
+
+def test_coverage_option_sets_k_everywhere(records, tmp_path):
+    """--p 0.95 gives k = Φ⁻¹(0.975) = 1.96 in the JSON, the GUF outputs and the console;
+    --k with --p, or --k 0, is refused (exit 2) and writes nothing."""
+    out = tmp_path / "r.json"
+    common = (records, "--noise-um", "0.5", "--uncertainty", "guf", "-o", out)
+    result = calibrate_samba(*common, "--p", "0.95")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(out.read_text(encoding="utf-8"))
+    assert doc["coverage"]["k"] == pytest.approx(1.959964, abs=1e-6)
+    assert doc["coverage"]["stated"] == "p"
+    assert all(o["p"] == 0.95 for o in doc["uncertainty"]["guf"]["outputs"])
+    assert "(k = 1.96, p ≈ 95 %)" in result.stdout.splitlines()[1]
+    out.unlink()
+    for bad in (("--k", "2", "--p", "0.9"), ("--k", "0"), ("--p", "1")):
+        refused = calibrate_samba(*common, *bad)
+        assert refused.exit_code == 2 and not out.exists(), refused.output
 
 
 def test_calibrate_history_records_the_written_result(records, tmp_path, monkeypatch):

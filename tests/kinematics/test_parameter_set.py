@@ -164,3 +164,24 @@ def test_a_set_of_another_machine_is_refused_naming_both_machines_first():
     doc["machine"] = "five-axis-wcbxfzyst"
     del doc["model"]
     assert ParameterSet.from_document(doc, five, "p.json").names == ("E_XX1",)
+
+
+def test_repr_shows_customary_units_with_u():
+    """Issue 31: the repr showed ``values=array([3.90e-03, …]), units=('µm', …)`` (mm values
+    labelled µm); now each value in its customary unit with u to two significant digits."""
+    pset = ParameterSet(
+        ("E_X0C", "E_A0B", "E_XX1"),
+        np.array([-0.1045912, 3.9e-6, 7.94e-5]),
+        ("µm", "µrad", "µm/m"),
+        covariance=np.diag([7.34e-4, 1.8e-6, 5.2e-6]) ** 2,
+        machine="m",
+    )
+    lines = repr(pset).splitlines()
+    assert lines[0] == "ParameterSet(machine='m', 3 parameters:"
+    assert [line.strip() for line in lines[1:]] == [
+        "E_X0C = -104.59 µm, u = 0.73 µm",
+        "E_A0B = 3.9 µrad, u = 1.8 µrad",
+        "E_XX1 = 79.4 µm/m, u = 5.2 µm/m)",
+    ]
+    bare = repr(ParameterSet(("E_X0C",), np.array([0.0039]), ("µm",)))
+    assert "E_X0C = 3.9 µm (no uncertainty)" in bare and "no covariance" in bare

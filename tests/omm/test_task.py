@@ -10,6 +10,7 @@ from mtmetrology.fitting.features import GaugeLength, SphereDiameter
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.omm.repeatability import sphere_normal
 from mtmetrology.omm.task import pose_factors, task_uncertainty
+from mtmetrology.uncertainty.coverage import DEFAULT_P
 from mtmetrology.units import to_internal
 
 MACHINE = Machine.load("five-axis-wcbxfzyst")
@@ -117,7 +118,7 @@ def test_document_has_outputs_groups_and_points():
     # it says what it is, for the calibration history (issue 32)
     assert (doc["machine"], doc["category"]) == (MACHINE.name, "task")
     (out,) = doc["outputs"]
-    assert out["name"] == "gauge_length" and out["unit"] == "mm" and out["p"] == 0.95
+    assert out["name"] == "gauge_length" and out["unit"] == "mm" and out["p"] == DEFAULT_P
     assert set(doc["budget_groups"]["gauge_length"]) == {
         "repeatability",
         "calibration",

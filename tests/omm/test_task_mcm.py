@@ -53,6 +53,7 @@ def _gauge(feature, **kw):
         method="both",
         tolerance=THESIS,
         seed=2021,
+        p=0.95,  # the thesis' coverage probability (Tables 7-1, 7-2), not the policy's k = 2
         **kw,
     )
 

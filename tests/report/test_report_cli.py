@@ -128,7 +128,7 @@ def test_ballplate_report_shows_parameters_datum_residuals_and_selection(
         assert re.search(rf"<tr><td>{re.escape(p['name'])}</td>", page), p["name"]
     assert int(_cell_after(page, "rank")) == int(_cell_after(page, "unknowns"))
     assert int(_cell_after(page, "unknowns")) == doc["fit"]["n_unknowns"]
-    for row, key in (("U1: ball centres", "U1_um"), ("U3: whole volume", "U3_um")):
+    for row, key in (("u1: ball centres", "U1_um"), ("u3: whole volume", "U3_um")):
         shown = [float(v) for v in _cells(page, row)]
         assert all(_two_digits(a, b) for a, b in zip(shown, doc["uncertainty"][key], strict=True))
     chosen = doc["model_selection"]["chosen"]
@@ -245,8 +245,8 @@ def test_samba_calibration_report_shows_parameters_uncertainty_and_validation(
     assert int(_cell_after(page, "rank")) == doc["identification"]["rank"]
     rows = {r[0]: r for r in _table(page, "parameter", "value", "unit", "u")}
     assert list(rows) == names
-    k = doc["coverage"]["k"]  # the one k of the document (the GUF's, 1.96 for p = 0.95)
-    assert f"U (k = {k:.2f})" in _tables_with_head(page, "parameter", "value", "unit", "u")
+    k = doc["coverage"]["k"]  # the one k of the document (the policy: k = 2)
+    assert f"U (k = {k:.3g})" in _tables_with_head(page, "parameter", "value", "unit", "u")
     for p in doc["parameters"]:  # u and U = k u, rounded to two significant digits
         assert rows[p["name"]][2] == p["unit"]
         assert rows[p["name"]][3] == format_uncertainty(p["u"])

@@ -15,10 +15,20 @@ from test_report_browser import check_page
 from typer.testing import CliRunner
 
 from mtmetrology.cli import app
+from mtmetrology.formatting import overstated_digits
 from mtmetrology.report import demo as demo_runner
 from mtmetrology.report.demo import MARKER
+from mtmetrology.uncertainty.coverage import DEFAULT_P, unstated_coverage
 
 runner = CliRunner()
+
+
+def report_text(page: Path) -> str:
+    """The text a reader sees in a report: tags, styles, scripts and figures removed."""
+    import html
+
+    body = re.sub(r"(?s)<(style|script|svg)\b.*?</\1>", " ", page.read_text(encoding="utf-8"))
+    return html.unescape(re.sub(r"<[^>]+>", " ", body))
 
 
 @pytest.fixture(scope="module")
@@ -198,7 +208,7 @@ def test_demo_task_intervals_cover_the_truth(demo_run):
     assert [t["covered"] for t in tasks] == [abs(t["value"] - t["true"]) <= t["U"] for t in tasks]
     assert doc["covered"] == covered
     p = doc["coverage_probability"]
-    assert p == pytest.approx(0.95)
+    assert p == pytest.approx(DEFAULT_P)  # the coverage policy: k = 2, p = 2 Φ(2) − 1
     assert doc["binomial_p_at_most_covered"] == pytest.approx(binom.cdf(covered, len(tasks), p))
     assert binom.cdf(covered, len(tasks), p) >= 0.01
     assert any(
@@ -249,12 +259,34 @@ def test_printed_commands_rerun_and_rewrite_the_same_files(demo_run):
     before = {p: p.read_bytes() for p in out.rglob("*.csv")}
     lines = [line for line in stdout.splitlines() if "$ mtm " in line]
     assert len(lines) >= 6 and any(" predict " in line for line in lines)
+    overstated = []  # issue 31: every command's console follows the digits policy
     for line in lines:
         argv = shlex.split(line.split("$ mtm ", 1)[1])
-        result = runner.invoke(app, argv)
+        result = runner.invoke(app, argv, env={"COLUMNS": "400"})
         expected = 2 if "exits with code 2" in line else 0
         assert result.exit_code == expected, f"{line}\n{result.output}"
+        overstated += overstated_digits(f"{result.stdout}\n{result.stderr}")
     assert {p: p.read_bytes() for p in out.rglob("*.csv")} == before
+    assert overstated == []
+
+
+def test_demo_states_k_beside_every_u_and_the_digits_u_allows(demo_run):
+    """Issue 31: every result document the demo writes states k beside each U and U = k u,
+    and neither its console nor its report prints more digits than u allows, a -0, a bare
+    ± or a U without its k."""
+    out, stdout = demo_run
+    documents = sorted(out.rglob("*.json"))
+    assert len(documents) >= 10
+    unstated = {p.name: unstated_coverage(json.loads(p.read_text())) for p in documents}
+    assert {name: e for name, e in unstated.items() if e} == {}
+    # the samba calibration states the policy's k = 2 (p = 2 Φ(2) − 1) beside its U's
+    samba = json.loads((out / "samba" / "params.json").read_text())
+    assert samba["coverage"]["k"] == 2.0
+    assert all(
+        o["k"] == pytest.approx(2.0, abs=1e-9) for o in samba["uncertainty"]["guf"]["outputs"]
+    )
+    assert overstated_digits(stdout) == []
+    assert overstated_digits(report_text(out / "report.html")) == []
 
 
 def test_demo_report_in_the_browser(demo_run, browser, artefacts):

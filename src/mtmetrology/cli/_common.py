@@ -56,10 +56,13 @@ __all__ = [
     "CLICK_EXCEPTION",
     "INTERRUPTED",
     "ArtefactOption",
+    "CoverageK",
+    "CoverageP",
     "ErrorModelOption",
     "MachineOption",
     "MtmGroup",
     "ParamsOnlyOption",
+    "coverage_from_options",
     "describe_failure",
     "fail",
     "finite_number",
@@ -307,6 +310,31 @@ KeepAPrioriOption = Annotated[
         "(chi-squared p < 0.01); by default it is then scaled by the variance factor s².",
     ),
 ]
+
+
+#: ``--k``: the coverage factor of every U the command states (with :data:`CoverageP`).
+CoverageK = Annotated[
+    float | None,
+    typer.Option("--k", help="Coverage factor k of U = k u [2, about 95 %; EA-4/02]."),
+]
+#: ``--p``: the coverage probability instead (k = Φ⁻¹((1 + p)/2) for a normal output).
+CoverageP = Annotated[
+    float | None,
+    typer.Option("--p", help="Coverage probability instead of --k (0 < p < 1)."),
+]
+
+
+def coverage_from_options(k: float | None, p: float | None):
+    """The :class:`~mtmetrology.uncertainty.coverage.CoveragePolicy` of ``--k`` / ``--p``.
+
+    Raises
+    ------
+    InputError
+        Both given, k not finite and > 0, p outside (0, 1).
+    """
+    from mtmetrology.uncertainty.coverage import coverage_policy
+
+    return coverage_policy(k, p)
 
 
 def adequacy_rule(keep_a_priori: bool) -> str:

@@ -9,9 +9,12 @@ import typer
 
 from mtmetrology.budgets.choices import FEATURE_KINDS, Policy, RepeatabilityMethod
 from mtmetrology.cli._common import (
+    CoverageK,
+    CoverageP,
     MachineOption,
     ReportOption,
     command_line,
+    coverage_from_options,
     emit_result,
     user_errors,
 )
@@ -81,7 +84,10 @@ def _workpiece(alpha, half_width, temperature, u_temperature, length, form):
 
 def _iso_lines(budget, doc: dict) -> list[str]:
     """The console and report lines of the part, the u_w inputs and the decision."""
-    from mtmetrology.formatting import format_uncertainty
+    from mtmetrology.formatting import format_result, format_uncertainty, format_value
+    from mtmetrology.units import to_internal
+
+    u_mm = float(to_internal(doc["um"]["u"], "µm"))
 
     lines = []
     if budget.workpiece is not None:
@@ -92,9 +98,9 @@ def _iso_lines(budget, doc: dict) -> list[str]:
         part = budget.part
         how = "y − b" if part.bias_corrected else "y, b not corrected"
         lines.append(
-            f"production part {part.name}: {part.n} reading(s), mean {part.mean:.6f} mm, result "
-            f"({how}) {part.result:.6f} mm ± {format_uncertainty(doc['um']['U'])} µm "
-            f"(k = {budget.k:g})"
+            f"production part {part.name}: {part.n} reading(s), mean "
+            f"{format_value(part.mean, u_mm)} mm, result "
+            f"({how}) " + format_result(part.result, doc["um"]["u"], "mm", u_unit="µm", k=budget.k)
         )
         if part.decision is not None:
             lines.append(f"decision (ISO 14253-1) on {part.name}: {part.decision.decision}")
@@ -134,7 +140,8 @@ def iso15530_3(
     machine_class: Annotated[
         str, typer.Option("--machine-class", help="small (1 µm) or large (3 µm) probe threshold.")
     ] = "small",
-    k: Annotated[float, typer.Option("--k", help="Coverage factor.")] = 2.0,
+    k: CoverageK = None,
+    p: CoverageP = None,
     part: Annotated[
         Path | None,
         typer.Option("--part", help="READINGS.csv: value (mm) of a production part."),
@@ -167,9 +174,15 @@ def iso15530_3(
     report_path: ReportOption = None,
 ) -> None:
     from mtmetrology.budgets.iso15530 import iso15530_3_budget
-    from mtmetrology.formatting import format_uncertainty
+    from mtmetrology.formatting import (
+        format_coverage,
+        format_result,
+        format_uncertainty,
+        format_value,
+    )
     from mtmetrology.io import check_output, read_csv_table
     from mtmetrology.uncertainty.conformity import Tolerance
+    from mtmetrology.units import to_internal
 
     inputs = [runs] if part is None else [runs, part]
     for target in (output, report_path):
@@ -191,7 +204,7 @@ def iso15530_3(
         repeatability_method=u_p_method,
         probe_error=_um(probe_u, "--probe-u"),
         machine_class=machine_class,
-        k=k,
+        k=coverage_from_options(k, p).k,
         tolerance=tol,
         name=runs.stem,
         provenance={"runs": str(runs)} | ({} if part is None else {"part": str(part)}),
@@ -201,6 +214,7 @@ def iso15530_3(
         workpiece=workpiece,
     )
     doc = budget.to_dict()
+    u_mm = float(to_internal(doc["um"]["u"], "µm"))
     extra = _iso_lines(budget, doc)
     report = None
     if report_path is not None:
@@ -212,9 +226,11 @@ def iso15530_3(
             inputs,
             ["quantity", "µm"],
             [[n, um[n]] for n in names],
-            f"Policy {budget.policy.value}, n = {budget.n}, k = {budget.k:g}; mean "
-            f"{budget.mean:.6f} mm, calibrated {budget.calibrated:.6f} mm, result "
-            f"{budget.result:.6f} mm. "
+            f"Policy {budget.policy.value}, n = {budget.n}, {format_coverage(budget.k)}; mean "
+            f"{format_value(budget.mean, u_mm)} mm, calibrated "
+            f"{format_value(budget.calibrated, u_mm)} mm, "
+            + format_result(budget.result, um["u"], "mm", name="result", u_unit="µm", k=budget.k)
+            + ". "
             + " ".join(f"{line}." for line in extra)
             + "".join(f" Deviation from ISO 15530-3: {d}." for d in budget.deviations),
         )
@@ -223,14 +239,18 @@ def iso15530_3(
         um = doc["um"]
         typer.echo(
             f"ISO 15530-3 budget of {runs.name}, policy {budget.policy.value}, "
-            f"n = {budget.n}, k = {budget.k:g} (µm)"
+            f"n = {budget.n}, {format_coverage(budget.k)} (µm)"
         )
         typer.echo(
-            f"  mean {budget.mean:.6f} mm  calibrated {budget.calibrated:.6f} mm  b {um['b']:.2f}"
+            f"  mean {format_value(budget.mean, u_mm)} mm  calibrated "
+            f"{format_value(budget.calibrated, u_mm)} mm  b {format_value(um['b'], um['u_b'])}"
         )
         for name in ("u_b", "u_p", "u_cal", "u_w", "u_probe", "u", "U"):
             typer.echo(f"  {name:<8} {format_uncertainty(um[name])}")
-        typer.echo(f"  result {budget.result:.6f} mm ± {format_uncertainty(um['U'])} µm")
+        typer.echo(
+            "  "
+            + format_result(budget.result, um["u"], "mm", name="result", u_unit="µm", k=budget.k)
+        )
         for line in extra:
             typer.echo(f"  {line}")
 
@@ -292,7 +312,8 @@ def volumetric_map(
     machine_class: Annotated[
         str, typer.Option("--machine-class", help="small (1 µm) or large (3 µm) probe threshold.")
     ] = "small",
-    k: Annotated[float, typer.Option("--k", help="Coverage factor.")] = 2.0,
+    k: CoverageK = None,
+    p: CoverageP = None,
     outer: Annotated[
         bool, typer.Option("--outer", help="A shaft or ball (sizes probed from outside).")
     ] = False,
@@ -326,6 +347,7 @@ def volumetric_map(
         tolerances[name.strip()] = Tolerance.parse(spec, parameter=f"--tolerance {name.strip()}")
     if trials < 2:
         raise InputError(f"--trials must be at least 2, got {trials}")
+    k = coverage_from_options(k, p).k
     m = Machine.load(machine)
     table = read_csv_table(points, required=["x", "y", "z"])
     xyz = table.vectors("xyz")
@@ -374,14 +396,14 @@ def volumetric_map(
                 for row in budget.table()
             ],
             f"{feature}, {budget.cycles} cycle(s) of {budget.n_points} points, mode {mode} "
-            f"(P_true = P - e(P)), u_cal by {u_cal}, k = {k:g}; largest map correction "
+            f"(P_true = P - e(P)), u_cal by {u_cal}, k = {k:.3g}; largest map correction "
             f"{doc['largest_correction_um']:.2f} µm.",
         )
 
     def summary() -> None:
         typer.echo(
             f"VDI/VDE 2617-11 budget of {points.name}: {feature}, {budget.cycles} cycle(s) of "
-            f"{budget.n_points} points, mode {mode}, u_cal by {u_cal}, k = {k:g} (µm); largest "
+            f"{budget.n_points} points, mode {mode}, u_cal by {u_cal}, k = {k:.3g} (µm); largest "
             f"map correction {doc['largest_correction_um']:.2f} µm"
         )
         typer.echo(

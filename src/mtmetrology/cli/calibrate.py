@@ -11,6 +11,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from mtmetrology.cli._common import (
     ArtefactOption,
+    CoverageK,
+    CoverageP,
     ErrorModelOption,
     KeepAPrioriOption,
     MachineOption,
@@ -18,6 +20,7 @@ from mtmetrology.cli._common import (
     ReportOption,
     adequacy_rule,
     command_line,
+    coverage_from_options,
     emit_result,
     fail,
     user_errors,
@@ -44,8 +47,9 @@ uncertainty of a reading per axis. Formats: mtm formats samba-calibration.
 RESULT.json (kind samba-calibration) is a parameter set that 'mtm predict --params'
 reads as it is, plus the ball centres, tool vector, residuals, volumetric errors,
 identifiability indices, sign conventions and, with --uncertainty, the GUF and Monte
-Carlo outputs and their JCGM 102 validation. U = k u with one coverage factor (k of
-the normal distribution for p = 0.95) in the console, RESULT.json and the report.
+Carlo outputs and their JCGM 102 validation. U = k u with one coverage factor in the
+console, RESULT.json and the report: k = 2 (p = 95.45 % for a normal output, EA-4/02),
+or --k / --p.
 
 --tool-prior-um U (or UX,UY,UZ) with --estimate-tool: the tool vector is known to U µm
 (standard uncertainty of each component) about the machine's nominal tool vector
@@ -227,6 +231,8 @@ def samba(
         ),
     ] = None,
     history: HistoryOption = False,
+    k: CoverageK = None,
+    p: CoverageP = None,
 ) -> None:
     from mtmetrology.samba import (
         calibrate,
@@ -240,6 +246,7 @@ def samba(
 
     if uncertainty not in ("none", "guf", "mcm", "both"):
         raise InputError(f"--uncertainty must be none, guf, mcm or both, got {uncertainty!r}")
+    policy = coverage_from_options(k, p)
     if noise_um is not None and repeatability is not None:
         raise InputError("give --noise-um or --repeatability, not both")
     if noise_um is not None and not noise_um > 0:
@@ -310,11 +317,12 @@ def samba(
                     digits=digits,
                     seed=seed,
                     executor=executor,
+                    p=policy.p,
                     progress=progress,
                 )
         except ConvergenceError as err:
             fail(str(err))
-    doc = cal.to_dict(unc, described)
+    doc = cal.to_dict(unc, described, policy)
     if campaigns is not None:
         doc["records"]["uncertainty_of"] = (
             f"mean of {rec.n_campaigns} campaigns" if campaign_uncertainty == "mean" else "one run"
@@ -325,7 +333,7 @@ def samba(
         if repeatability is not None:
             inputs.append(repeatability)
         report = samba_report(
-            ctx, f"SAMBA calibration: {records.name}", inputs, cal, uncertainty=unc
+            ctx, f"SAMBA calibration: {records.name}", inputs, cal, uncertainty=unc, policy=policy
         )
     cov_e = None if unexplained_out is None else unexplained_from_calibration(cal, sigma)
     if history:
@@ -360,27 +368,30 @@ def unexplained_from_calibration(cal, sigma: float):
 
 
 def _parameter_line(p: dict, k: float) -> str:
-    """``E_A0B  -9.6 µrad  u = 1.8 µrad  U = 3.6 µrad``: u and U with two significant
-    digits, the value to the same decimal (JCGM 100:2008, 7.2.6; report.format)."""
-    from mtmetrology.formatting import format_uncertainty, format_value
+    """``E_A0B  -9.6 µrad  u = 1.8 µrad  U = 3.7 µrad (k = 2)``: u and U with two
+    significant digits, the value to the same decimal (JCGM 100:2008, 7.2.6)."""
+    from mtmetrology.formatting import format_k, format_uncertainty, format_value
 
     u, unit = p.get("u"), p["unit"]
     if u is None:
         return f"{p['name']:<8} {format_value(p['value']):>12} {unit}  (no uncertainty)"
     return (
         f"{p['name']:<8} {format_value(p['value'], u):>12} {unit:<4}  "
-        f"u = {format_uncertainty(u)} {unit}  U = {format_uncertainty(k * u)} {unit}"
+        f"u = {format_uncertainty(u)} {unit}  U = {format_uncertainty(k * u)} {unit} "
+        f"(k = {format_k(k)})"
     )
 
 
 def _propagation_factors(factors: list[dict]) -> None:
-    """UPF = u/σ of each parameter (Alami Mchichi (2018) eq. 6.14), four to a line."""
+    """UPF = u/σ of each parameter (Alami Mchichi (2018) eq. 6.14), four to a line: u
+    includes the scale bar's u, so it is u over σ, not a sensitivity to σ alone (for a
+    scale parameter such as E_XX1 the bar dominates)."""
     from mtmetrology.formatting import format_uncertainty
 
     cells = [f"{f['name']} {format_uncertainty(f['upf'])} {f['upf_unit']}" for f in factors]
     if not cells or factors[0]["upf"] is None:
         return
-    typer.echo("UPF = u of the identification per µm of probing noise:")
+    typer.echo("UPF = u/σ: each parameter's u (probing noise and scale-bar u) over the σ in µm:")
     for i in range(0, len(cells), 4):
         typer.echo("  " + ";  ".join(cells[i : i + 4]))
 
@@ -390,10 +401,12 @@ def _summary(doc: dict, output: Path | None) -> None:
     typer.echo(f"SAMBA calibration: {ident['message']}")
     if ident["minimum_norm"]:
         typer.echo("WARNING: minimum-norm solution of a rank-deficient problem", err=True)
+    from mtmetrology.formatting import format_coverage
+
     cov = doc["coverage"]
     typer.echo(
-        f"parameters: value, standard uncertainty u, expanded uncertainty U = k u "
-        f"(k = {cov['k']:.2f}, p = {100 * cov['p']:g} %)"
+        "parameters: value, standard uncertainty u, expanded uncertainty U = k u "
+        f"({format_coverage(cov['k'], cov['coverage_probability'])})"
     )
     for p in doc["parameters"]:
         typer.echo("  " + _parameter_line(p, cov["k"]))

@@ -16,10 +16,13 @@ from typing import Annotated
 import typer
 
 from mtmetrology.cli._common import (
+    CoverageK,
+    CoverageP,
     MachineOption,
     ReportOption,
     adequacy_rule,
     command_line,
+    coverage_from_options,
     emit_result,
     machine_with_parameters,
     user_errors,
@@ -169,8 +172,9 @@ def calibrate_ballplate(
             )
         typer.echo(
             f"{cal.model}: {cal.machine.n_params} parameters, rms residual "
-            f"{doc['fit']['rms_residual_um']:.3g} µm; U1 {_rounded(u['U1_um'])} "
-            f"U2 {_rounded(u['U2_um'])} U3 {_rounded(u['U3_um'])} µm; "
+            f"{doc['fit']['rms_residual_um']:.3g} µm; mean standard uncertainties (the "
+            f"source's U1-U3) u1 {_rounded(u['U1_um'])} u2 {_rounded(u['U2_um'])} "
+            f"u3 {_rounded(u['U3_um'])} µm; "
             f"wrote {output}",
             err=True,
         )
@@ -186,9 +190,11 @@ def calibrate_ballplate(
     )
 
 
-def _rounded(values) -> list[float]:
-    """Values to 3 decimals, as a list (the console line)."""
-    return [round(float(v), 3) for v in values]
+def _rounded(values) -> str:
+    """Standard uncertainties with two significant digits, ``[0.48, 0.78, 0.29]``."""
+    from mtmetrology.formatting import format_uncertainty
+
+    return "[" + ", ".join(format_uncertainty(float(v)) for v in values) + "]"
 
 
 def _print_selection(selection: dict) -> None:
@@ -230,12 +236,15 @@ def budget_cmd(
     output: OutOpt,
     json_out: Annotated[bool, typer.Option("--json", help="Also print the result.")] = False,
     report_path: ReportOption = None,
+    k: CoverageK = None,
+    p: CoverageP = None,
 ) -> None:
     """Uncertainty budget of a ball-plate length (15 items, Edlén refractive index, GUF)."""
     from mtmetrology.cmm.budget import ballplate_budget_file
-    from mtmetrology.units import from_internal
+    from mtmetrology.formatting import format_coverage, format_result, format_uncertainty
+    from mtmetrology.units import convert
 
-    result = ballplate_budget_file(budget)
+    result = ballplate_budget_file(budget, coverage_from_options(k, p).p)
     doc = result.to_dict()
     report = None
     if report_path is not None:
@@ -244,17 +253,20 @@ def budget_cmd(
 
     def messages() -> None:
         o = doc["outputs"][0]
+        u_um = float(convert(o["u"], o["unit"], "µm"))
         typer.echo(
-            f"l_x = {o['value']:.6f} mm, u = {from_internal(o['u'], 'µm'):.3g} µm, "
-            f"U = {from_internal(o['U'], 'µm'):.3g} µm (k = {o['k']:.2f}); wrote {output}",
+            format_result(o["value"], u_um, "mm", name="l_x", u_unit="µm", k=o["k"], p=o["p"])
+            + f"; wrote {output}",
             err=True,
         )
         if "statement" in doc:
             st = doc["statement"]
             typer.echo(
-                f"at {st['length_mm']:g} mm: CMM U {st['U_cmm_um']:.3f} µm, plate U "
-                f"{st['U_plate_um']:.3f} µm, MPE {st['mpe_um']:.3f} µm; "
-                f"U(P) {st['U_P_um']:.2g} µm, U(E) {st['U_E_um']:.2g} µm (k = {st['k']:g})",
+                f"at {st['length_mm']:g} mm ({format_coverage(st['k'])}): CMM U = "
+                f"{format_uncertainty(st['U_cmm_um'])} µm, plate U = "
+                f"{format_uncertainty(st['U_plate_um'])} µm, MPE {st['mpe_um']:.3g} µm; "
+                f"U(P) = {format_uncertainty(st['U_P_um'])} µm, "
+                f"U(E) = {format_uncertainty(st['U_E_um'])} µm",
                 err=True,
             )
 
@@ -389,7 +401,9 @@ def gp_predict(
     probes: ProbesOpt,
     output: OutOpt,
 ) -> None:
-    """Compensated x,y,z (mm) with standard uncertainties u_x,u_y,u_z (µm)."""
+    """Compensated x,y,z (mm) with standard uncertainties u_x_um,u_y_um,u_z_um (µm), the
+    columns of ``mtm predict --u``."""
+    from mtmetrology.cli.predict import U_COLUMNS
     from mtmetrology.cmm.files import load_probes, probe_tools
     from mtmetrology.cmm.gp import GPErrorModel
     from mtmetrology.io.documents import load_document
@@ -407,7 +421,7 @@ def gp_predict(
     u_um = from_internal(u, "µm")
     columns = {c: table.text.column(c) for c in table.header}
     columns.update({c: pts[:, k] for k, c in enumerate("xyz")})
-    columns.update({f"u_{c}": u_um[:, k] for k, c in enumerate("xyz")})
+    columns.update({c: u_um[:, k] for k, c in enumerate(U_COLUMNS)})
     with atomic_write(output, "wb") as fh:
         write_columns(fh, columns, decimals=6, plain=() if table.quoted else table.header)
     typer.echo(f"wrote {len(table)} rows to {output}", err=True)

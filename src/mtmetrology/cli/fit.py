@@ -45,27 +45,39 @@ class Method(enum.StrEnum):
 
 
 def _print(console: Console, document: dict) -> None:
+    """The fit, every number to the second significant digit of the residual rms
+    (:func:`mtmetrology.formatting.format_fitted`)."""
+    from mtmetrology.formatting import format_fitted
+
+    res = document["residuals"]
+    rms = res["rms"]
+
+    def um(value: float) -> str:
+        return format_fitted(value, "µm", rms)
+
     title = f"{document['element']} ({document['method']}) from {document['source']}"
     table = RichTable(title=title)
     table.add_column("parameter")
     table.add_column("value", justify="right")
     table.add_column("unit")
     for row in document["parameters"]:
-        table.add_row(row["name"], f"{row['value']:.6f}", row["unit"])
+        table.add_row(row["name"], format_fitted(row["value"], row["unit"], rms), row["unit"])
     console.print(table)
-    res = document["residuals"]
     console.print(
-        f"residuals: n = {res['n']}, rms = {res['rms']:.3f} µm, "
-        f"min = {res['min']:.3f} µm, max = {res['max']:.3f} µm"
+        f"residuals: n = {res['n']}, rms = {um(rms)} µm, "
+        f"min = {um(res['min'])} µm, max = {um(res['max'])} µm"
     )
     form = document["form_error"]
-    console.print(f"{form['name']} ({document['method']}): {form['value']:.3f} µm")
+    console.print(f"{form['name']} ({document['method']}): {um(form['value'])} µm")
     if "least_squares_form_error" in document:
         ls = document["least_squares_form_error"]
-        console.print(f"{form['name']} (least-squares peak-to-valley): {ls['value']:.3f} µm")
+        console.print(f"{form['name']} (least-squares peak-to-valley): {um(ls['value'])} µm")
     if "zone" in document:
         zone = document["zone"]
-        console.print(f"zone bounds: {zone['low']:.6f} mm to {zone['high']:.6f} mm")
+        console.print(
+            f"zone bounds: {format_fitted(zone['low'], 'mm', rms)} mm to "
+            f"{format_fitted(zone['high'], 'mm', rms)} mm"
+        )
         lines = ", ".join(str(line) for line in document["contact_lines"])
         console.print(f"contact points (CSV lines): {lines}")
     for note in document.get("notes", []):

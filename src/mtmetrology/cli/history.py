@@ -15,8 +15,11 @@ from typing import Annotated
 import typer
 
 from mtmetrology.cli._common import (
+    CoverageK,
+    CoverageP,
     ReportOption,
     command_line,
+    coverage_from_options,
     emit_result,
     user_errors,
 )
@@ -251,6 +254,7 @@ def show(
     json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Show one recorded run."""
+    from mtmetrology.formatting import format_result
     from mtmetrology.history.database import open_history
     from mtmetrology.history.records import show_run
 
@@ -274,8 +278,7 @@ def show(
         for path, sha in record.input_hashes.items():
             typer.echo(f"  sha256 {sha}  {path}")
         for p in record.parameters:
-            u = "" if p["u"] is None else f" ± {p['u']:.2g}"
-            typer.echo(f"  {p['name']:<8} {p['value']:>12.4f}{u} {p['unit']}")
+            typer.echo("  " + format_result(p["value"], p["u"], p["unit"], name=p["name"]))
 
     emit_result(record.to_dict(), summary, output=None, report=None, report_path=None, as_json=json)
 
@@ -302,11 +305,14 @@ def trend(
     output: Annotated[Path | None, typer.Option("-o", "--output", help="TREND.json.")] = None,
     report_path: ReportOption = None,
     json: Annotated[bool, typer.Option("--json", help="Print TREND.json.")] = False,
+    k: CoverageK = None,
+    p: CoverageP = None,
 ) -> None:
     """Individuals control chart of a parameter (Shewhart limits x̄ ± 3 MR̄/1.128)."""
     from mtmetrology.history import open_history, parameter_drift, parameter_trend
 
     mpe = _mpe(mpe)
+    policy = coverage_from_options(k, p)
     when = _date(since, "--since")
     engine = open_history(db, read_only=True)
     name = _one_machine(engine, machine)
@@ -314,7 +320,14 @@ def trend(
     drifted = None
     if mpe is not None:
         drifted = parameter_drift(
-            engine, name, parameter, mpe=mpe, reliability=reliability, since=when, prior=rw_prior
+            engine,
+            name,
+            parameter,
+            mpe=mpe,
+            reliability=reliability,
+            since=when,
+            prior=rw_prior,
+            coverage_probability=policy.p,
         )
     document = result.to_dict()
     if drifted is not None:
@@ -344,6 +357,7 @@ def trend(
 
 
 def _trend_report(ctx: typer.Context, result, drifted):
+    from mtmetrology.formatting import format_result
     from mtmetrology.report import Report, figures
 
     report = Report(
@@ -365,9 +379,11 @@ def _trend_report(ctx: typer.Context, result, drifted):
         mean, std = drifted.predict(ahead)
         prediction = (ahead, mean, 2 * std)
         due, mpe = drifted.due_date, drifted.mpe
+        slope = format_result(
+            drifted.slope * 365.25, drifted.u_slope * 365.25, f"{result.unit}/year", name="slope"
+        )
         report.text(
-            f"Drift: slope {drifted.slope * 365.25:.3g} ± {drifted.u_slope * 365.25:.2g} "
-            f"{result.unit}/year; the band is the prediction ± 2 standard deviations; due "
+            f"Drift: {slope}; the band is the prediction ± 2 standard deviations; due "
             f"{'beyond the horizon' if due is None else f'{due:%Y-%m-%d}'} (P(|x| > "
             f"{mpe:g} {result.unit}) passes {1 - drifted.reliability:.3g})."
         )
@@ -487,12 +503,16 @@ def drift(
     db: Db = None,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="DRIFT.json.")] = None,
     json: Annotated[bool, typer.Option("--json", help="Print DRIFT.json.")] = False,
+    k: CoverageK = None,
+    p: CoverageP = None,
 ) -> None:
     """Drift (constant slope + random walk, Kalman filter) and the date the next calibration
     is due: P(|value| > MPE) passes 1 - reliability (ILAC-G24 / OIML D 10, NCSLI RP-1)."""
+    from mtmetrology.formatting import format_result, format_value
     from mtmetrology.history import open_history, parameter_drift
 
     mpe = _mpe(mpe)
+    policy = coverage_from_options(k, p)
     when = _date(since, "--since")
     engine = open_history(db, read_only=True)
     result = parameter_drift(
@@ -503,17 +523,20 @@ def drift(
         reliability=reliability,
         since=when,
         prior=rw_prior,
+        coverage_probability=policy.p,
     )
     document = result.to_dict()
 
     def summary() -> None:
         per_year = 365.25
         lo, hi = (v * per_year for v in result.slope_interval)
+        u_year = result.u_slope * per_year
+        slope = format_result(result.slope * per_year, u_year, f"{result.unit}/year", name="slope")
         typer.echo(
             f"{result.parameter}: {result.level:.4f} {result.unit} on "
-            f"{result.last_date:%Y-%m-%d}; slope {result.slope * per_year:.3g} "
-            f"{result.unit}/year, u {result.u_slope * per_year:.2g}, "
-            f"{100 * result.coverage_probability:.4g} % interval [{lo:.3g}, {hi:.3g}]; random "
+            f"{result.last_date:%Y-%m-%d}; {slope}, "
+            f"{100 * result.coverage_probability:.4g} % interval [{format_value(lo, u_year)}, "
+            f"{format_value(hi, u_year)}]; random "
             f"walk {math.sqrt(result.random_walk_variance * per_year):.2g} {result.unit}/√year "
             f"(estimate; marginalised under the {result.prior} prior, mean "
             f"{math.sqrt(result.random_walk_variance_mean * per_year):.2g})"
@@ -533,6 +556,7 @@ _DISPLAY = {"m": "µm", "rad": "µrad", "1": "µm/m"}
 
 
 def _print_certificate(cert) -> None:
+    from mtmetrology.formatting import format_k, format_uncertainty, format_value
     from mtmetrology.units import from_internal
 
     typer.echo(
@@ -550,9 +574,11 @@ def _print_certificate(cert) -> None:
     values, u, _ = cert.internal()
     for name, si, value, s in zip(cert.names, cert.units, values, u, strict=True):
         unit = _DISPLAY[si]
+        big_u = float(from_internal(cert.coverage_factor * s, unit))
         typer.echo(
-            f"  {name:<10} {from_internal(value, unit):>14.4f} "
-            f"U = {from_internal(cert.coverage_factor * s, unit):.2g} {unit}"
+            f"  {name:<10} {format_value(float(from_internal(value, unit)), big_u / 2):>14} "
+            f"{unit}, U = {format_uncertainty(big_u)} {unit} "
+            f"(k = {format_k(cert.coverage_factor)})"
         )
 
 

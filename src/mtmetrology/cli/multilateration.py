@@ -124,7 +124,7 @@ def calibrate_multilateration_cmd(
     output: Annotated[Path | None, typer.Option("-o", "--output", help="MAP.json.")] = None,
     report_path: ReportOption = None,
 ) -> None:
-    from mtmetrology.formatting import format_uncertainty
+    from mtmetrology.formatting import format_uncertainty, format_value
     from mtmetrology.io import check_output
     from mtmetrology.kinematics.machine import Machine
     from mtmetrology.multilateration.requests import calibrate_multilateration_file
@@ -178,10 +178,13 @@ def calibrate_multilateration_cmd(
         if result.setup_terms.candidates:
             typer.echo(f"  constants of the tool-side axes: {result.setup_terms.message}")
         for s, u in zip(result.stations, result.station_u, strict=True):
-            pos = ", ".join(f"{v:.4f}" for v in s.position)
-            u_um = format_uncertainty(from_internal(u[:3].max(), "µm"))
+            # each coordinate to the decimal of the largest u of the three (GUM 7.2.6)
+            u_mm = float(u[:3].max())
+            pos = ", ".join(format_value(v, u_mm) for v in s.position)
+            u_um = format_uncertainty(from_internal(u_mm, "µm"))
+            dead = format_value(s.dead_path, float(u[3]))
             typer.echo(
-                f"  station {s.name}: ({pos}) mm ± {u_um} µm, dead path {s.dead_path:.4f} mm"
+                f"  station {s.name}: ({pos}) mm, largest u = {u_um} µm; dead path {dead} mm"
             )
         if check is not None:
             u_map = format_uncertainty(from_internal(check.u_guf.max(), "µm"))

@@ -85,6 +85,8 @@ def predict(
     vector identified by the calibration (tool_mm) replaces the machine's nominal one.
     With --u, u_x_um, u_y_um, u_z_um (µm) follow: √diag(G U_θ Gᵀ), G = ∂f/∂δ, the
     compensation with the estimate δ̂ of covariance U_θ (readings taken as exact).
+    The CSV is for programs: every number to 6 decimals of its unit (x, y, z to 1 nm),
+    not rounded to its uncertainty.
     """
     from mtmetrology._memory import release_free_memory
     from mtmetrology.io import (

@@ -18,9 +18,12 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from mtmetrology.cli._common import (
+    CoverageK,
+    CoverageP,
     MachineOption,
     ReportOption,
     command_line,
+    coverage_from_options,
     emit_result,
     user_errors,
 )
@@ -146,7 +149,8 @@ def uncertainty(
     guard_band_factor: Annotated[
         float, typer.Option(help="Guard bands h·U (ISO 14253-1:2017 default h = 1).")
     ] = 1.0,
-    p: Annotated[float, typer.Option("--p", help="Coverage probability.")] = 0.95,
+    k: CoverageK = None,
+    p: CoverageP = None,
     json_output: Annotated[bool, typer.Option("--json", help="Print the result document.")] = False,
     output: Annotated[Path | None, typer.Option("-o", "--output", help="Write it here.")] = None,
     report_path: ReportOption = None,
@@ -196,7 +200,7 @@ def uncertainty(
         tolerance=tolerance,
         tolerance_output=tolerance_output,
         guard_band_factor=guard_band_factor,
-        p=p,
+        p=coverage_from_options(k, p).p,
     )
     report = None
     if report_path is not None:
@@ -239,7 +243,12 @@ NOT_GIVEN = {
 
 def _print(result: TaskResult, given: dict[str, Path | None]) -> None:
     """Console summary; a source without its file is named as absent, not as 0.0 %."""
-    from mtmetrology.formatting import format_share, format_uncertainty, format_value
+    from mtmetrology.formatting import (
+        format_coverage,
+        format_share,
+        format_uncertainty,
+        format_value,
+    )
     from mtmetrology.omm.simulator import group_label
     from mtmetrology.units import from_internal
 
@@ -252,7 +261,7 @@ def _print(result: TaskResult, given: dict[str, Path | None]) -> None:
         u_um, big_u_um = float(from_internal(o.u, "µm")), float(from_internal(o.U, "µm"))
         typer.echo(
             f"{o.name} = {format_value(o.value, o.u)} mm, u = {format_uncertainty(u_um)} µm, "
-            f"U = {format_uncertainty(big_u_um)} µm (k = {o.k:.2f}, p = {o.p})"
+            f"U = {format_uncertainty(big_u_um)} µm ({format_coverage(o.k, o.p)})"
         )
         shares = ", ".join(
             f"{group_label(k)} {format_share(v[j])}"

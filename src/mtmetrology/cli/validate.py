@@ -123,14 +123,19 @@ def task(
 
 
 def _print(doc: dict) -> None:
+    from mtmetrology.formatting import format_k, format_result, format_uncertainty
+
     s, ref = doc["summary"], doc["reference"]
-    typer.echo(
-        f"reference length {ref['value_mm']:.5f} mm, u = {ref['u_um']:.2g} µm (eqs. 6-17, 6-19)"
+    reference = format_result(
+        ref["value_mm"], ref["u_um"], "mm", name="reference length", u_unit="µm"
     )
+    typer.echo(f"{reference} (eqs. 6-17, 6-19)")
+    ks = doc["bipoints"]["k"]
+    k = format_k(ks[0]) if max(ks) - min(ks) < 1e-9 else f"{min(ks):.3g} to {max(ks):.3g}"
     typer.echo(
         f"{s['bipoints']} bipoints: mean coverage (eq. 6-16) {100 * s['mean_coverage']:.1f} % "
         f"for p = {s['p']}, {s['holding']} intervals hold the reference, mean U = "
-        f"{s['mean_U_um']:.3g} µm"
+        f"{format_uncertainty(s['mean_U_um'])} µm (k = {k})"
     )
     if s["mean_coverage_without_e"] is not None:
         typer.echo(f"  without cov(e): {100 * s['mean_coverage_without_e']:.1f} %")

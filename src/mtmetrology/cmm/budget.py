@@ -49,6 +49,7 @@ from mtmetrology.io.documents import load_document
 from mtmetrology.io.files import InputFileError
 from mtmetrology.io.schema import describe_validation_error
 from mtmetrology.uncertainty import GUFResult, InputQuantity, InputSet, Normal, Rectangular, guf
+from mtmetrology.uncertainty.coverage import DEFAULT_P
 from mtmetrology.units import from_internal, to_internal
 
 __all__ = [
@@ -166,8 +167,15 @@ def _rect(name, half, unit):
     return InputQuantity(name, Rectangular(-half, half) if half > 0 else Normal(0.0, 0.0), unit)
 
 
-def ballplate_budget(spec: BudgetSpec):
+def ballplate_budget(spec: BudgetSpec, p: float = DEFAULT_P):
     """GUF of the calibrated length with its 15-item budget.
+
+    Parameters
+    ----------
+    spec : BudgetSpec
+    p : float
+        Coverage probability of U (default 2 Φ(2) − 1: k = 2 for a normal output,
+        :mod:`mtmetrology.uncertainty.coverage`).
 
     Returns
     -------
@@ -212,7 +220,7 @@ def ballplate_budget(spec: BudgetSpec):
         thermal = l0 * (alpha * dt + alpha * x[..., 11] + alpha * x[..., 12] + dt * x[..., 13])
         return x[..., 0] + x[..., 1] + x[..., 2] + x[..., 3] + dl_n - x[..., 10] - thermal
 
-    return guf(model, InputSet(q), output_names=["l_x"], output_units=["mm"])
+    return guf(model, InputSet(q), output_names=["l_x"], output_units=["mm"], p=p)
 
 
 def cmm_statement(spec) -> CMMStatement:
@@ -286,9 +294,10 @@ class BallPlateLengthBudget(CMMNotebookRepr):
         return doc
 
 
-def ballplate_budget_file(path: str | Path) -> BallPlateLengthBudget:
+def ballplate_budget_file(path: str | Path, p: float = DEFAULT_P) -> BallPlateLengthBudget:
     """The budget (and statement) of a ``ballplate-budget`` inputs file (what ``mtm cmm
-    budget`` computes); errors name the file and the field."""
+    budget`` computes), U at coverage probability ``p``; errors name the file and the
+    field."""
     spec = load_budget(path)
     statement = cmm_statement(spec) if spec.specification is not None else None
-    return BallPlateLengthBudget(ballplate_budget(spec), statement)
+    return BallPlateLengthBudget(ballplate_budget(spec, p), statement)

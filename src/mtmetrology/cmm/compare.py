@@ -32,11 +32,12 @@ from mtmetrology.cmm.gp import fit_gp
 from mtmetrology.cmm.notebook import CMMNotebookRepr
 from mtmetrology.cmm.simulate import SimulatedCampaign
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.uncertainty.coverage import DEFAULT_K
 from mtmetrology.units import from_internal
 
 __all__ = ["ModelComparison", "compare_models", "length_errors"]
 
-COVERAGE_FACTOR = 2.0
+COVERAGE_FACTOR = DEFAULT_K  # the coverage policy (mtmetrology.uncertainty.coverage)
 
 
 def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:

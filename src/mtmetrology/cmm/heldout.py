@@ -37,13 +37,14 @@ from mtmetrology.cmm.gp import fit_gp
 from mtmetrology.cmm.notebook import CMMNotebookRepr
 from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.uncertainty.coverage import DEFAULT_K
 from mtmetrology.units import from_internal
 
 __all__ = ["HeldOutComparison", "compare_held_out"]
 
 KIND = "cmm-held-out-comparison"
 VERSION = 1
-COVERAGE_FACTOR = 2.0
+COVERAGE_FACTOR = DEFAULT_K  # the coverage policy (mtmetrology.uncertainty.coverage)
 
 
 @dataclass(frozen=True)

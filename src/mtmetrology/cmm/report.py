@@ -39,12 +39,13 @@ from mtmetrology.formatting import format_uncertainty
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
 from mtmetrology.report.results import add_result, renders
+from mtmetrology.uncertainty.coverage import DEFAULT_K
 from mtmetrology.units import from_internal
 
 __all__ = ["COVERAGE_FACTOR", "ball_residuals", "uncertainty_map"]
 
 #: k of the expanded uncertainties shown.
-COVERAGE_FACTOR = 2.0
+COVERAGE_FACTOR = DEFAULT_K  # the coverage policy (mtmetrology.uncertainty.coverage)
 #: Correlation maps of the error parameters are drawn up to this many parameters.
 MAX_MAPPED = 80
 #: Grid of the uncertainty maps (points per axis).
@@ -257,17 +258,18 @@ def _model_selection(rep: Report, selection: dict) -> None:
 def _uncertainty(rep: Report, cal) -> None:
     s = cal.summary
     rep.section(
-        "Uncertainty of the compensated coordinates: U1, U2, U3",
-        f"Mean standard uncertainty per axis at the ball centres (U1), over the measured "
-        f"region (U2) and over the whole volume (U3), from the {s['method']}; U2 and U3 "
-        f"are averages over {s['n_points']} random points.",
+        "Uncertainty of the compensated coordinates: u1, u2, u3",
+        f"Mean standard uncertainty per axis at the ball centres (u1), over the measured "
+        f"region (u2) and over the whole volume (u3), from the {s['method']}; u2 and u3 "
+        f"are averages over {s['n_points']} random points (the source's U1, U2, U3: "
+        "standard uncertainties, not expanded).",
     )
     rep.table(
         ["quantity", "x (µm)", "y (µm)", "z (µm)"],
         [
-            ["U1: ball centres", *(format_uncertainty(v) for v in s["U1_um"])],
-            ["U2: measured region", *(format_uncertainty(v) for v in s["U2_um"])],
-            ["U3: whole volume", *(format_uncertainty(v) for v in s["U3_um"])],
+            ["u1: ball centres", *(format_uncertainty(v) for v in s["U1_um"])],
+            ["u2: measured region", *(format_uncertainty(v) for v in s["U2_um"])],
+            ["u3: whole volume", *(format_uncertainty(v) for v in s["U3_um"])],
         ],
     )
     region = np.round(np.asarray(s["region_mm"]), 1).tolist()
@@ -277,7 +279,7 @@ def _uncertainty(rep: Report, cal) -> None:
             a, b, u, name="u of the compensated point", title="Model uncertainty over the XY travel"
         ),
         caption=f"sqrt(u_x² + u_y² + u_z²) over the XY travel, Z at the middle of the measured "
-        f"region {region[0]} to {region[1]} mm: U2 inside that region, U3 beyond it.",
+        f"region {region[0]} to {region[1]} mm: u2 inside that region, u3 beyond it.",
     )
 
 
@@ -430,8 +432,8 @@ def _selfcal(rep: Report, d, **_) -> None:
     rows = []
     for label, table in (("full", d.U_full), (f"K = {d.truncation}", d.U_truncated)):
         for key in ("U1", "U2", "U3"):
-            vals = ["—"] * 3 if table is None else [f"{v:.2g}" for v in table[key]]
-            rows.append([label, key, *vals])
+            vals = ["—"] * 3 if table is None else [format_uncertainty(v) for v in table[key]]
+            rows.append([label, key.lower(), *vals])  # the source's U1-U3 are standard u
     rep.table(["covariance", "", "x", "y", "z"], rows)
     rep.table(
         ["constraints", "free directions", "what is free"],

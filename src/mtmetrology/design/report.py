@@ -88,7 +88,8 @@ def _samba_design(
     rep.section(
         "Predicted standard uncertainties",
         f"u = sqrt(diag((JᵀWJ)⁻¹)) for a probing noise of {doc['probing_sigma_um']:g} µm "
-        "per coordinate and the scale bar's u; UPF = u per µm of probing noise.",
+        "per coordinate and the scale bar's u; UPF = u/σ, that u over σ in µm (the scale "
+        "bar's u included: for a scale parameter the bar dominates).",
     )
     rep.table(
         ["parameter", "u", "unit", "UPF", "UPF unit"],

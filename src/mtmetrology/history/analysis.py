@@ -30,6 +30,7 @@ from mtmetrology.history.records import (
 )
 from mtmetrology.identification.long_term import long_term_parameters
 from mtmetrology.kinematics.parameter_set import ParameterSet
+from mtmetrology.uncertainty.coverage import DEFAULT_P
 from mtmetrology.units import parse_unit
 
 __all__ = [
@@ -305,12 +306,22 @@ def parameter_drift(
     reliability: float = 0.95,
     since: datetime | None = None,
     prior: str = "reference",
+    coverage_probability: float = DEFAULT_P,
 ) -> DriftResult:
     """The drift model of one parameter over a machine's calibrations and its due date
     (:func:`mtmetrology.history.drift.fit_drift`; each run's u is its measurement
     uncertainty; ``mpe`` in the parameter's customary unit; ``prior`` of the random-walk
-    variance, which is marginalised)."""
+    variance, which is marginalised; ``coverage_probability`` of the slope's interval,
+    the policy's 2 Φ(2) − 1 by default, :mod:`mtmetrology.uncertainty.coverage`)."""
     _, dates, unit, values, u = parameter_series(engine, machine, parameter, since=since)
     return fit_drift(
-        parameter, unit, dates, values, u, mpe=mpe, reliability=reliability, prior=prior
+        parameter,
+        unit,
+        dates,
+        values,
+        u,
+        mpe=mpe,
+        reliability=reliability,
+        prior=prior,
+        coverage_probability=coverage_probability,
     )

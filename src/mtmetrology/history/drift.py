@@ -86,6 +86,7 @@ from scipy.optimize import brentq, minimize_scalar
 from scipy.special import ndtr
 
 from mtmetrology.errors import InputError
+from mtmetrology.uncertainty.coverage import DEFAULT_P
 
 __all__ = ["PRIORS", "DriftResult", "fit_drift", "kalman_filter"]
 
@@ -342,7 +343,7 @@ def fit_drift(
     reliability: float = 0.95,
     horizon_days: int = 3650,
     prior: str = "reference",
-    coverage_probability: float = 0.9545,
+    coverage_probability: float = DEFAULT_P,
 ) -> DriftResult:
     """Fit the drift model to one parameter's calibrations and find the due date.
 
@@ -362,7 +363,8 @@ def fit_drift(
     prior : {"reference", "half-cauchy"}
         Prior of the random-walk variance (module notes).
     coverage_probability : float
-        Probability of the slope's interval (0.9545: the ``2u`` of a Gaussian).
+        Probability of the slope's interval (default 2 Φ(2) − 1 = 0.9545, the ``2u``
+        of a Gaussian: :mod:`mtmetrology.uncertainty.coverage`).
 
     Returns
     -------

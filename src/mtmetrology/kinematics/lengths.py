@@ -39,7 +39,7 @@ import numpy as np
 
 from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
-from mtmetrology.formatting import format_uncertainty
+from mtmetrology.formatting import format_k, format_uncertainty, format_value
 from mtmetrology.io.tables import read_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.units import from_internal, to_internal
@@ -124,8 +124,9 @@ class PairLengths(NotebookRepr):
         for i, name in enumerate(self.names):
             u = float(from_internal(self.u[i], "µm"))
             text = (
-                f"  {name}: L = {self.predicted[i]:.4f} mm (nominal {self.nominal[i]:.4f} mm), "
-                f"u(L) = {format_uncertainty(u)} µm, U = {format_uncertainty(self.k * u)} µm"
+                f"  {name}: L = {format_value(self.predicted[i], self.u[i])} mm (nominal "
+                f"{self.nominal[i]:.4f} mm), u(L) = {format_uncertainty(u)} µm, "
+                f"U = {format_uncertainty(self.k * u)} µm (k = {format_k(self.k)})"
             )
             if self.reference is not None:
                 e = float(from_internal(self.errors[i], "µm"))

@@ -105,6 +105,21 @@ class ParameterSet(NotebookRepr):
     model: str | None = None
     tool: np.ndarray | None = None
 
+    def __repr__(self) -> str:
+        """The values and u in their customary units (µm, µrad, µm/m), GUM 7.2.6 digits."""
+        from mtmetrology.formatting import format_parameters
+
+        f = self.scales()
+        u = self.standard_uncertainty
+        lines = format_parameters(
+            self.names, self.values / f, None if u is None else u / f, self.units
+        )
+        head = ", ".join(
+            f"{k}={v!r}" for k, v in (("machine", self.machine), ("model", self.model)) if v
+        )
+        what = f"{len(self.names)} parameters" + ("" if u is not None else ", no covariance")
+        return f"ParameterSet({head + ', ' if head else ''}{what}:\n  " + "\n  ".join(lines) + ")"
+
     @property
     def standard_uncertainty(self) -> np.ndarray | None:
         """Square roots of the covariance diagonal (internal units), None without one."""

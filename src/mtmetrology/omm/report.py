@@ -23,7 +23,13 @@ from __future__ import annotations
 
 import math
 
-from mtmetrology.formatting import SHARE_DEFINITION, format_share, format_uncertainty, format_value
+from mtmetrology.formatting import (
+    SHARE_DEFINITION,
+    format_k,
+    format_share,
+    format_uncertainty,
+    format_value,
+)
 from mtmetrology.omm.hysteresis import HysteresisResult, summary_line
 from mtmetrology.omm.repeatability import COVARIANCE_OUTPUTS, STD_OUTPUTS
 from mtmetrology.omm.repeatability_records import RepeatabilityFit
@@ -69,7 +75,7 @@ def _task(rep: Report, result: TaskResult, **_) -> None:
                 f"{format_value(o.value, o.u)} mm",
                 f"{format_uncertainty(u_um)} µm",
                 f"{format_uncertainty(big_u_um)} µm",
-                f"{o.k:.3f}",
+                format_k(o.k),
                 o.p,
                 f"[{format_value(low, o.u)}, {format_value(high, o.u)}] mm",
             ]
@@ -215,7 +221,7 @@ def _hysteresis(rep: Report, result: HysteresisResult, **_) -> None:
         ["ψ (deg)", "H (µm)", "u (µm)", "ν_eff", "k", "U (µm)"],
         [
             [f"{r['psi']:g}", format_value(o["value"], o["u"]), format_uncertainty(o["u"]),
-             f"{r['dof']:.1f}", f"{o['k']:.2f}", format_uncertainty(o["U"])]
+             f"{r['dof']:.1f}", format_k(o["k"]), format_uncertainty(o["U"])]
             for r, o in zip(rows, outputs, strict=True)
         ],
     )  # fmt: skip

@@ -62,6 +62,7 @@ from mtmetrology.omm.repeatability_model import RepeatabilityModel
 from mtmetrology.omm.simulator import MeasurementModel, TaskInputs, covariance_simulator
 from mtmetrology.rng import SeedLike, chunk_generators
 from mtmetrology.uncertainty.conformity import ConformityDecision
+from mtmetrology.uncertainty.coverage import DEFAULT_P
 from mtmetrology.uncertainty.guf import GUFResult, guf
 from mtmetrology.uncertainty.mcm import MCMResult, monte_carlo
 from mtmetrology.uncertainty.outputs import result_document
@@ -240,7 +241,7 @@ def task_uncertainty(
     reading_covariance: np.ndarray | None = None,
     unexplained_covariance: np.ndarray | None = None,
     senses: np.ndarray | None = None,
-    p: float = 0.95,
+    p: float = DEFAULT_P,
     method: str = "guf",
     simulator: str = "linear",
     draws: int = 10_000,

@@ -42,6 +42,7 @@ from mtmetrology.omm.repeatability_file import load_repeatability_model
 from mtmetrology.omm.task import TaskResult, reading_covariance, task_uncertainty
 from mtmetrology.omm.unexplained import load_unexplained_covariance
 from mtmetrology.uncertainty.conformity import Tolerance, decide
+from mtmetrology.uncertainty.coverage import DEFAULT_P
 
 __all__ = [
     "DEFAULT_SIDE",
@@ -210,7 +211,7 @@ def task_uncertainty_from_files(
     tolerance: str | Tolerance | None = None,
     tolerance_output: str | None = None,
     guard_band_factor: float = 1.0,
-    p: float = 0.95,
+    p: float = DEFAULT_P,
 ) -> TaskResult:
     """Value, u, U, budget and ISO 14253-1 decision of a feature probed on the machine.
 

@@ -80,6 +80,8 @@ class GaugeValidation:
         validate_gauge_from_files`).
     source : dict or None
         The files of the request, recorded as ``source`` in the document.
+    coverage_factor : (N,) ndarray or None
+        k of each U (the GUF's, for p and its ν_eff), stated beside the U's.
     """
 
     reference_value: float
@@ -94,6 +96,7 @@ class GaugeValidation:
     p: float
     thermal_reference: dict | None = None
     source: dict | None = None
+    coverage_factor: np.ndarray | None = None
 
     @property
     def mean_coverage(self) -> float:
@@ -153,6 +156,7 @@ class GaugeValidation:
                 "length_mm": self.length.tolist(),
                 "length_uncompensated_mm": self.length_uncompensated.tolist(),
                 "U_um": um(self.expanded_uncertainty),
+                "k": None if self.coverage_factor is None else self.coverage_factor.tolist(),
                 "coverage": self.coverage.tolist(),
                 "U_without_e_um": um(self.expanded_uncertainty_without_e),
                 "coverage_without_e": None
@@ -186,6 +190,7 @@ class GaugeValidation:
             float(doc["summary"]["p"]),
             thermal_reference=doc["reference"].get("thermal"),
             source=doc.get("source"),
+            coverage_factor=None if b.get("k") is None else np.array(b["k"], float),
         )
 
 
@@ -254,7 +259,7 @@ def validate_gauge(
     zero = np.zeros(machine.n_params)
     pairs = np.array([(i, j) for i in range(len(a)) for j in range(len(b))], int)
     n = len(pairs)
-    length, nominal, big_u = np.empty(n), np.empty(n), np.empty(n)
+    length, nominal, big_u, k_u = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     big_u0 = np.empty(n) if unexplained_covariance is not None else None
     for k, (i, j) in enumerate(pairs):
         readings = np.vstack([a[i], b[j]])
@@ -275,7 +280,7 @@ def validate_gauge(
             unexplained_covariance=unexplained_covariance,
             p=p,
         )
-        length[k], big_u[k] = r.guf.estimate[0], r.guf.outputs[0].U
+        length[k], big_u[k], k_u[k] = r.guf.estimate[0], r.guf.outputs[0].U, r.guf.outputs[0].k
         nominal[k] = float(gauge.value(machine.forward(readings, zero)))
         if big_u0 is not None:
             # the budget groups add exactly to u², so the ablation is u² less the E group
@@ -298,6 +303,7 @@ def validate_gauge(
         big_u0,
         None if cov0 is None else np.atleast_1d(cov0),
         p,
+        coverage_factor=k_u,
     )
 
 

@@ -25,6 +25,8 @@ from mtmetrology.formatting import (
     SHARE_DEFINITION,
     budget_cells,
     budget_columns,
+    format_fitted,
+    format_k,
     format_uncertainty,
     format_value,
 )
@@ -35,6 +37,7 @@ from mtmetrology.kinematics.compensation import Compensation, correction_statist
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
+from mtmetrology.uncertainty.coverage import DEFAULT_K
 from mtmetrology.uncertainty.evaluation import ModelEvaluation
 from mtmetrology.uncertainty.guf import GUFResult
 from mtmetrology.uncertainty.mcm import MCMResult
@@ -118,7 +121,7 @@ def _guf(rep: Report, g, **_) -> None:
                 format_value(float(g.estimate[j]), u),
                 _uncertainty(u, g.units[j]),
                 _uncertainty(float(g.expanded_uncertainty[j]), g.units[j]),
-                f"{float(g.coverage_factor[j]):.3f}",
+                format_k(float(g.coverage_factor[j])),
                 _interval(*g.interval[j], u),
                 _dof(float(g.dof_effective[j])),
                 _unit_cell(g.units[j], "u, U"),
@@ -367,20 +370,27 @@ def add_fit_document(rep: Report, document: dict, residuals, points=None) -> Rep
         The points, to draw their deviations in three projections.
     """
     form = document["form_error"]
+    stats = document["residuals"]
+    rms = float(convert(stats["rms"], stats["unit"], "µm"))
+
+    def cell(value: float, unit: str) -> str:
+        return format_fitted(value, unit, rms)
+
     rep.section(f"{document['element']} ({document['method']})", document.get("message"))
     rep.table(
         ["parameter", "value", "unit"],
-        [[p["name"], p["value"], p["unit"]] for p in document["parameters"]],
+        [[p["name"], cell(p["value"], p["unit"]), p["unit"]] for p in document["parameters"]],
+        caption="No uncertainty is stated for a fit: values are rounded to the second "
+        "significant digit of the residual rms, which bounds their standard uncertainty.",
     )
-    stats = document["residuals"]
     rep.table(
         ["quantity", "value", "unit"],
         [
-            [form["name"], form["value"], form["unit"]],
+            [form["name"], cell(form["value"], form["unit"]), form["unit"]],
             ["points", stats["n"], ""],
-            ["rms of the residuals", stats["rms"], stats["unit"]],
-            ["smallest residual", stats["min"], stats["unit"]],
-            ["largest residual", stats["max"], stats["unit"]],
+            ["rms of the residuals", cell(stats["rms"], stats["unit"]), stats["unit"]],
+            ["smallest residual", cell(stats["min"], stats["unit"]), stats["unit"]],
+            ["largest residual", cell(stats["max"], stats["unit"]), stats["unit"]],
         ],
     )
     for note in document.get("notes", []):
@@ -418,7 +428,7 @@ def _fit(rep: Report, result, *, points=None, source: str = "points", **_) -> No
 
 
 @renders(ParameterSet, "Parameter set")
-def _parameter_set(rep: Report, pset, *, coverage_factor: float = 2.0, **_) -> None:
+def _parameter_set(rep: Report, pset, *, coverage_factor: float = DEFAULT_K, **_) -> None:
     where = ", ".join(
         f"{k} {v}" for k, v in (("machine", pset.machine), ("model", pset.model)) if v
     )

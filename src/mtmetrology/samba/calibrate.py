@@ -36,6 +36,7 @@ Tool Metrology*. PhD thesis, Polytechnique Montréal, Ch. 5 (eqs 5-1 to 5-6).
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -54,46 +55,45 @@ from mtmetrology.samba.notebook import SambaNotebookRepr
 from mtmetrology.samba.records import SambaRecords
 from mtmetrology.units import from_internal
 
-__all__ = ["COVERAGE_PROBABILITY", "SambaCalibration", "calibrate", "coverage", "separation_advice"]
+if TYPE_CHECKING:  # it imports this module
+    from mtmetrology.samba.uncertainty import SambaUncertainty
+
+__all__ = ["SambaCalibration", "calibrate", "coverage", "separation_advice"]
 
 KIND = "samba-calibration"
-#: Coverage probability of the expanded uncertainties U = k u of the parameters when no
-#: uncertainty evaluation states its own (the identification covariance alone).
-COVERAGE_PROBABILITY = 0.95
 
 
-def coverage(uncertainty=None) -> dict:
+def coverage(uncertainty=None, policy=None) -> dict:
     """The one coverage factor of a calibration's parameters: console, JSON and report.
 
-    ``k`` is the normal quantile of the coverage probability ``p`` of the uncertainty
-    evaluation (its GUF, else its Monte Carlo run, else :data:`COVERAGE_PROBABILITY`):
-    ``k = Φ⁻¹((1 + p)/2)``, 1.96 for p = 0.95 (JCGM 100:2008, G.1.3), the k the GUF
-    outputs of the same document state.
+    The policy of :mod:`mtmetrology.uncertainty.coverage` (default k = 2, p = 2 Φ(2) − 1
+    = 95.45 %, EA-4/02): U = k u of every parameter.  An uncertainty evaluation run at
+    another probability ``p`` (a library call with its own ``p``) states
+    ``k = Φ⁻¹((1 + p)/2)`` (JCGM 100:2008, G.1.3) instead, the k its GUF outputs state.
 
     Parameters
     ----------
     uncertainty : SambaUncertainty, optional
+    policy : CoveragePolicy, optional
+        The user's (``--k``/``--p``); default :data:`mtmetrology.uncertainty.coverage.DEFAULT`.
 
     Returns
     -------
     dict
-        ``{"p": p, "k": k, "rule": ...}``.
+        :meth:`CoveragePolicy.to_dict`: ``k``, ``coverage_probability``, ``stated``, ``rule``.
 
     References
     ----------
-    JCGM 100:2008, 6.2.1 (U = k u) and G.1.3 (Table G.1).
+    JCGM 100:2008, 6.2.1 (U = k u) and G.1.3 (Table G.1); EA-4/02 M:2022, 5.1.
     """
-    from scipy import stats
+    from mtmetrology.uncertainty.coverage import DEFAULT, coverage_policy
 
-    p = COVERAGE_PROBABILITY
+    policy = DEFAULT if policy is None else policy
     if uncertainty is not None:
         run = uncertainty.guf if uncertainty.guf is not None else uncertainty.mcm
-        p = run.p if run is not None else p
-    return {
-        "p": p,
-        "k": float(stats.norm.ppf((1.0 + p) / 2.0)),
-        "rule": "U = k u of every parameter, k = normal quantile of p",
-    }
+        if run is not None and not np.isclose(run.p, policy.p, rtol=0, atol=1e-12):
+            policy = coverage_policy(p=run.p)
+    return policy.to_dict()
 
 
 #: Converged when the scaled Gauss–Newton step is below a millionth of the input standard
@@ -119,6 +119,9 @@ class SambaCalibration(SambaNotebookRepr):
     parameters : ParameterSet
         The machine's error parameters with ``(JᵀJ)⁻¹`` of the weighted problem, and the
         identified tool vector when it was estimated.
+    uncertainty : SambaUncertainty or None
+        The GUF/Monte Carlo evaluation attached by :meth:`with_uncertainty` (its covariance
+        is then the parameters' in :meth:`to_dict`).
     """
 
     machine: Machine
@@ -128,6 +131,33 @@ class SambaCalibration(SambaNotebookRepr):
     identification: IdentificationResult = field(repr=False)
     nominal: IdentificationResult = field(repr=False)
     parameters: ParameterSet
+
+    uncertainty: SambaUncertainty | None = field(default=None, repr=False)
+
+    def with_uncertainty(self, uncertainty) -> SambaCalibration:
+        """This calibration with its uncertainty evaluation (:func:`evaluate_uncertainty`),
+        so that :meth:`to_dict` and the ``repr`` state it."""
+        return replace(self, uncertainty=uncertainty)
+
+    def __repr__(self) -> str:
+        """Machine, status and the parameters in customary units with u (GUM 7.2.6), from
+        the attached uncertainty evaluation when there is one."""
+        from mtmetrology.formatting import format_parameters
+
+        doc = self.to_dict()
+        p = doc["parameters"]
+        lines = format_parameters(
+            [e["name"] for e in p],
+            [e["value"] for e in p],
+            None if "u" not in p[0] else [e["u"] for e in p],
+            [e["unit"] for e in p],
+        )
+        return (
+            f"SambaCalibration(machine={self.machine.name!r}, {len(self.records)} indications, "
+            f"{self.identification.message}; u from {doc['covariance_source']}:\n  "
+            + "\n  ".join(lines)
+            + ")"
+        )
 
     @property
     def minimum_norm(self) -> bool:
@@ -227,7 +257,7 @@ class SambaCalibration(SambaNotebookRepr):
         names = self.identification.names
         return np.array([names.index(n) for n in self.machine.parameter_names], dtype=int)
 
-    def to_dict(self, uncertainty=None, input_covariance: str = "") -> dict:
+    def to_dict(self, uncertainty=None, input_covariance: str = "", policy=None) -> dict:
         """The RESULT document: a parameter set ``mtm predict --params`` reads as it is,
         plus the calibration's own keys (customary units: µm, µrad, µm/m, mm, degrees).
 
@@ -238,7 +268,10 @@ class SambaCalibration(SambaNotebookRepr):
             parameter covariance, and its GUF/MCM outputs and validation are included.
         input_covariance : str
             How the indication covariance was stated (reported).
+        policy : CoveragePolicy, optional
+            The coverage factor of U = k u (default k = 2; :func:`coverage`).
         """
+        uncertainty = self.uncertainty if uncertainty is None else uncertainty
         pset = self.parameters
         source = "identification: (JᵀJ)⁻¹ of the weighted problem"
         if uncertainty is not None:
@@ -265,7 +298,7 @@ class SambaCalibration(SambaNotebookRepr):
         res = from_internal(self.residual_vectors, "µm")
         norms = np.linalg.norm(res, axis=1)
         nominal = np.linalg.norm(from_internal(self.nominal_vectors, "µm"), axis=1)
-        doc["coverage"] = coverage(uncertainty)
+        doc["coverage"] = coverage(uncertainty, policy)
         doc["conventions"] = [c.to_dict() for c in describe_parameters(self.machine)]
         doc["identification"] = {
             "status": ident.status,

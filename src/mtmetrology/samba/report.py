@@ -15,7 +15,7 @@
   campaigns against the pooled within-campaign estimate, with the estimator's terms.
 
 Values are in customary units (µm, µrad, µm/m, mm); U = k u in the parameter table with
-the document's one coverage factor (``coverage.k``: 1.96 for p = 0.95, the k of the GUF
+the document's one coverage factor (``coverage.k``: 2 by default, the k of the GUF
 outputs; :func:`mtmetrology.samba.calibrate.coverage`).
 
 References
@@ -34,7 +34,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from mtmetrology.formatting import format_uncertainty, format_value
+from mtmetrology.formatting import format_k, format_uncertainty, format_value
 from mtmetrology.report import figures
 from mtmetrology.report.document import Report
 from mtmetrology.report.figures.style import legend_below
@@ -88,9 +88,11 @@ def _setup_identifiability(rep: Report, result, **_) -> None:
 
 
 @renders(SambaCalibration, "SAMBA calibration")
-def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
-    """``uncertainty``: the SambaUncertainty that sets the parameter covariance."""
-    doc = cal.to_dict(uncertainty)
+def _calibration(rep: Report, cal, *, uncertainty=None, policy=None, **_) -> None:
+    """``uncertainty``: the SambaUncertainty that sets the parameter covariance; ``policy``
+    the coverage policy of U (default k = 2)."""
+    uncertainty = cal.uncertainty if uncertainty is None else uncertainty
+    doc = cal.to_dict(uncertainty, policy=policy)
     ident, rec, vol = doc["identification"], doc["records"], doc["volumetric_error"]
     rep.section(f"SAMBA calibration of {cal.machine.name}", ident["message"])
     rep.table(
@@ -120,7 +122,7 @@ def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
     )
     k = doc["coverage"]["k"]
     rep.table(
-        figures.parameter_table_columns(round(k, 2)),
+        figures.parameter_table_columns(k),
         figures.parameter_table_rows(doc, coverage_factor=k),
     )
     cov = doc.get("covariance")
@@ -134,7 +136,9 @@ def _calibration(rep: Report, cal, *, uncertainty=None, **_) -> None:
         "Uncertainty propagation factors",
         f"UPF = u / σ (Alami Mchichi (2018) eq. 6.14): u = sqrt(diag((JᵀWJ)⁻¹)) of the "
         f"identification for σ = {rec['sigma_um']:.3g} µm per coordinate and the scale bar's "
-        "u, per µm of probing noise; the figure `mtm samba plan` predicts for the same "
+        "u together, over σ in µm (not a sensitivity to σ alone: for a scale parameter "
+        "such as E_XX1 the bar's u dominates); the figure `mtm samba plan` predicts for the "
+        "same "
         "set-up.",
     )
     if doc["propagation_factors"] and doc["propagation_factors"][0]["upf"] is not None:
@@ -204,7 +208,7 @@ def _uncertainty(rep: Report, unc, **_) -> None:
                     format_value(o.value, o.u),
                     format_uncertainty(o.u),
                     format_uncertainty(o.U),
-                    "—" if o.k is None else f"{o.k:.3f}",
+                    "—" if o.k is None else format_k(o.k),
                     f"[{format_value(o.interval[0], o.u)}, {format_value(o.interval[1], o.u)}]",
                     o.unit,
                 ]

@@ -62,6 +62,7 @@ from mtmetrology.rng import SeedLike
 from mtmetrology.samba.calibrate import SambaCalibration
 from mtmetrology.samba.notebook import SambaNotebookRepr
 from mtmetrology.uncertainty import GUFResult, InputQuantity, InputSet, MCMResult, Normal
+from mtmetrology.uncertainty.coverage import DEFAULT_P
 from mtmetrology.uncertainty.validation import ValidationReport
 
 __all__ = [
@@ -158,6 +159,30 @@ class SambaUncertainty(SambaNotebookRepr):
     guf: GUFResult | None = field(default=None, repr=False)
     mcm: MCMResult | None = field(default=None, repr=False)
     validation: ValidationReport | None = field(default=None, repr=False)
+
+    def __repr__(self) -> str:
+        """The methods run, the validation, and each parameter's value and u (customary
+        units, GUM 7.2.6 digits) from the covariance :attr:`covariance` takes."""
+        from mtmetrology.formatting import format_parameters
+
+        use_mcm = self.mcm is not None and (
+            self.guf is None or (self.validation is not None and not self.validation.passed)
+        )
+        run = self.mcm if use_mcm else self.guf
+        methods = [m for m, r in (("GUF", self.guf), ("Monte Carlo", self.mcm)) if r is not None]
+        if self.mcm is not None:
+            methods[-1] += f" ({self.mcm.trials} trials)"
+        checked = "" if self.validation is None else f"; GUF validated: {self.validation.passed}"
+        o = run.outputs
+        lines = format_parameters(
+            [x.name for x in o], [x.value for x in o], [x.u for x in o], [x.unit for x in o]
+        )
+        return (
+            f"SambaUncertainty(input covariance from {self.source}; {', '.join(methods)}"
+            f"{checked}; u from the {'Monte Carlo' if use_mcm else 'GUF'}:\n  "
+            + "\n  ".join(lines)
+            + ")"
+        )
 
     @property
     def covariance(self) -> np.ndarray:
@@ -257,7 +282,7 @@ def evaluate_uncertainty(
     digits: int = 2,
     seed: SeedLike = None,
     executor=None,
-    p: float = 0.95,
+    p: float = DEFAULT_P,
     progress=None,
 ) -> SambaUncertainty:
     """GUF, MCM or both (``method``), and the validation when both ran.

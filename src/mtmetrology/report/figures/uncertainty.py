@@ -16,7 +16,7 @@ from collections.abc import Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
-from mtmetrology.formatting import format_uncertainty, format_value
+from mtmetrology.formatting import format_signed, format_uncertainty, format_value
 from mtmetrology.report.figures.style import (
     BLUE,
     GREEN,
@@ -43,7 +43,7 @@ __all__ = [
 
 def parameter_table_columns(coverage_factor: float = 2.0) -> list[str]:
     """Column headings matching :func:`parameter_table_rows`."""
-    return ["parameter", "value", "unit", "u", f"U (k = {coverage_factor:g})"]
+    return ["parameter", "value", "unit", "u", f"U (k = {coverage_factor:.3g})"]
 
 
 def parameter_table_rows(parameter_set, *, coverage_factor: float = 2.0) -> list[list[str]]:
@@ -114,7 +114,9 @@ def correlation_heatmap(names: Sequence[str], correlation, *, title: str | None 
         for i in range(n):
             for j in range(n):
                 colour = "white" if abs(r[i, j]) > 0.6 else "black"
-                ax.text(j, i, f"{r[i, j]:.2f}", ha="center", va="center", fontsize=7, color=colour)
+                ax.text(
+                    j, i, format_signed(r[i, j]), ha="center", va="center", fontsize=7, color=colour
+                )
     fig.colorbar(image, ax=ax, shrink=0.8, label="correlation coefficient")
     ax.set_title(title or "Correlation of the estimates")
     return plain_ticks(fig)
