@@ -45,7 +45,7 @@ __all__ = [
 #: Environment variable naming the history database (a file or a URL).
 DB_ENV = "MTMETROLOGY_DB"
 #: The current schema revision.
-HEAD = "0003"
+HEAD = "0005"
 _MIGRATIONS = Path(__file__).with_name("migrations")
 _BUSY_TIMEOUT_S = 60.0
 
