@@ -63,6 +63,7 @@ COMMANDS = {
     "history": ("mtmetrology.cli.history", "app", True),
     "cmm": ("mtmetrology.cli.cmm_studies", "app", True),
     "validate": ("mtmetrology.cli.validate", "app", True),
+    "serve": ("mtmetrology.cli.serve", "app", True),
 }
 
 #: Groups whose subcommands come from several applications (``mtm calibrate samba``,
@@ -111,6 +112,7 @@ SUMMARIES = {
     "history": "Calibration history: record results, control charts, drift, long-term covariance.",
     "cmm": "Bridge-CMM studies on ball-plate records.",
     "validate": "Validate uncertainty statements against calibrated artefacts.",
+    "serve": "The laboratory's web application over the calibration history (mtm serve [run]).",
     "calibrate": SHARED_GROUPS["calibrate"][0],
     "simulate": SHARED_GROUPS["simulate"][0],
 }
