@@ -15,6 +15,7 @@ import secrets
 from importlib import resources
 from pathlib import Path
 
+import jinja2
 from fastapi import FastAPI, Request
 from fastapi.responses import HTMLResponse, JSONResponse, RedirectResponse
 from fastapi.staticfiles import StaticFiles
@@ -160,7 +161,13 @@ def create_app(
     app.state.engine = engine
     app.state.lab = Lab(engine)
     app.state.max_upload = max_upload_bytes
-    templates = Jinja2Templates(directory=str(resources.files("mtmetrology.web") / "templates"))
+    # every template escapes what it shows (select_autoescape would miss the .j2 suffix)
+    templates = Jinja2Templates(
+        env=jinja2.Environment(
+            loader=jinja2.FileSystemLoader(str(resources.files("mtmetrology.web") / "templates")),
+            autoescape=True,
+        )
+    )
     app.state.templates = templates
     app.mount(
         "/static",
