@@ -55,7 +55,7 @@ def _cases(lab, client, headers):
                 "country": "DE",
                 "due_soon_days": "10",
             },
-        ),  # fmt: skip
+        ),
         ("POST", "/api/v1/runs"): lambda: client.post(
             "/api/v1/runs",
             headers=headers,
