@@ -162,8 +162,12 @@ def test_a_revoked_token_is_refused(lab):
     assert api.get("/api/v1/machines", headers=headers).status_code == 401
     # another user cannot revoke (or see) someone else's token
     other = lab.client("engineer")
-    assert other.post(f"/tokens/{token_id}/revoke",
-                      data={"csrf": csrf_of(other, "/tokens")}).status_code == 400  # fmt: skip
+    assert (
+        other.post(
+            f"/tokens/{token_id}/revoke", data={"csrf": csrf_of(other, "/tokens")}
+        ).status_code
+        == 400
+    )
 
 
 def test_ten_wrong_passwords_lock_the_login(lab):

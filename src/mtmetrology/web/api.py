@@ -99,8 +99,9 @@ def _trend_summary(trend) -> dict:
 
 
 @router.get("/machines/{name}/trend")
-def trend(request: Request, name: str, parameter: Annotated[str, Query(max_length=50)],
-          _: Viewer) -> dict:  # fmt: skip
+def trend(
+    request: Request, name: str, parameter: Annotated[str, Query(max_length=50)], _: Viewer
+) -> dict:
     """The parameter's control chart (``history-trend``) and its drift (where an MPE is set)."""
     row = next(
         (r for r in request.app.state.lab.parameter_table(name) if r["parameter"] == parameter),
@@ -167,8 +168,9 @@ class AmendmentIn(BaseModel):
 
 
 @router.post("/runs/{category}/{run_id}/amendments", status_code=201)
-def amend(request: Request, category: Category, run_id: int, body: AmendmentIn,
-          user: Engineer) -> list[dict]:  # fmt: skip
+def amend(
+    request: Request, category: Category, run_id: int, body: AmendmentIn, user: Engineer
+) -> list[dict]:
     """Amend a run's metadata (``mtm history amend``; engineer)."""
     from datetime import datetime
 
@@ -193,9 +195,12 @@ def amend(request: Request, category: Category, run_id: int, body: AmendmentIn,
 
 
 @router.get("/audit")
-def audit_log(request: Request, _: Viewer,
-              action: Annotated[str | None, Query(max_length=50)] = None,
-              limit: Annotated[int, Query(ge=1, le=1000)] = 200) -> list[dict]:  # fmt: skip
+def audit_log(
+    request: Request,
+    _: Viewer,
+    action: Annotated[str | None, Query(max_length=50)] = None,
+    limit: Annotated[int, Query(ge=1, le=1000)] = 200,
+) -> list[dict]:
     """The latest audit rows, newest first."""
     with Session(request.app.state.engine) as session:
         return audit_entries(session, limit=limit, action=action)

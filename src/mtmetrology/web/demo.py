@@ -89,12 +89,23 @@ def build_demo_lab(engine, demo: str | Path, now: datetime | None = None) -> str
             )
             count += 1
     five = Machine.load("five-axis-wcbxfzyst")
-    add_result(engine, json.loads(needed["length"].read_text()), five,
-               source=str(needed["length"]), performed_at=now - timedelta(days=3),
-               note="length check after the last calibration")  # fmt: skip
+    add_result(
+        engine,
+        json.loads(needed["length"].read_text()),
+        five,
+        source=str(needed["length"]),
+        performed_at=now - timedelta(days=3),
+        note="length check after the last calibration",
+    )
     for task in sorted((demo / "task").glob("sphere-*.json"))[:3]:
-        add_result(engine, json.loads(task.read_text()), five, source=str(task),
-                   performed_at=now - timedelta(days=2), note=task.stem)  # fmt: skip
+        add_result(
+            engine,
+            json.loads(task.read_text()),
+            five,
+            source=str(task),
+            performed_at=now - timedelta(days=2),
+            note=task.stem,
+        )
     by = "demo"
     set_machine_limit(engine, five.name, "E_X0C", 40.0, 0.95, by=by)
     set_machine_limit(engine, "cmm-moving-bridge", "E_XX1", 25.0, 0.95, by=by)

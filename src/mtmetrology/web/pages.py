@@ -94,9 +94,11 @@ async def login(request: Request):
         raise Refused(403, "the form's CSRF token is missing or wrong: reload the page")
     client = request.client.host if request.client else "?"
     user, outcome = security.authenticate(
-        request.app.state.engine, str(form.get("username", "")), str(form.get("password", "")),
+        request.app.state.engine,
+        str(form.get("username", "")),
+        str(form.get("password", "")),
         client,
-    )  # fmt: skip
+    )
     if user is None:
         message = (
             f"too many wrong passwords: this login is locked for "
@@ -104,8 +106,9 @@ async def login(request: Request):
             if outcome == "locked"
             else "wrong user name or password"
         )
-        return render(request, "login.html.j2", None, 429 if outcome == "locked" else 401,
-                      message=message)  # fmt: skip
+        return render(
+            request, "login.html.j2", None, 429 if outcome == "locked" else 401, message=message
+        )
     request.session.clear()
     request.session.update(uid=user.id, csrf=security.new_csrf())
     return _back("/machines")
@@ -149,9 +152,18 @@ def machines(
     key = sort if sort in SORTS else "name"
     rows.sort(key=lambda m: _sort_key(m, key), reverse=order == "desc")
     template = "machines_rows.html.j2" if request.headers.get("HX-Request") else "machines.html.j2"
-    return render(request, template, user, machines=rows, q=q, status=status, sort=key,
-                  order=order, statuses=("ok", "due soon", "overdue", "out of control"),
-                  settings=lab_settings(request.app.state.engine))  # fmt: skip
+    return render(
+        request,
+        template,
+        user,
+        machines=rows,
+        q=q,
+        status=status,
+        sort=key,
+        order=order,
+        statuses=("ok", "due soon", "overdue", "out of control"),
+        settings=lab_settings(request.app.state.engine),
+    )
 
 
 def _sort_key(m, key: str):
@@ -235,8 +247,9 @@ def trend_svg(request: Request, name: str, parameter: Annotated[str, Query(max_l
 def covariance_json(request: Request, name: str):
     user_of(request)
     pset = long_term_covariance(request.app.state.engine, name)
-    return _download(json.dumps(pset.to_document(), indent=2), f"{name}-covariance.json",
-                     "application/json")  # fmt: skip
+    return _download(
+        json.dumps(pset.to_document(), indent=2), f"{name}-covariance.json", "application/json"
+    )
 
 
 @router.post("/machines/{name}/limits")
@@ -246,8 +259,14 @@ async def set_limit(request: Request, name: str):
         mpe, reliability = float(form.get("mpe", "")), float(form.get("reliability", "0.95"))
     except ValueError:
         raise InputError("mpe and reliability: numbers") from None
-    set_machine_limit(request.app.state.engine, name, str(form.get("parameter", "")), mpe,
-                      reliability, by=user.username)  # fmt: skip
+    set_machine_limit(
+        request.app.state.engine,
+        name,
+        str(form.get("parameter", "")),
+        mpe,
+        reliability,
+        by=user.username,
+    )
     return _back(f"/machines/{name}")
 
 
@@ -286,8 +305,9 @@ def run_report_page(request: Request, category: Category, run_id: int):
 def run_result(request: Request, category: Category, run_id: int):
     user_of(request)
     record, _ = show_amended(request.app.state.engine, run_id, category)
-    return _download(json.dumps(record.result, indent=2), f"{category}-{run_id}.json",
-                     "application/json")  # fmt: skip
+    return _download(
+        json.dumps(record.result, indent=2), f"{category}-{run_id}.json", "application/json"
+    )
 
 
 @router.get("/runs/{category}/{run_id}/certificate.xml")
@@ -301,8 +321,11 @@ def run_certificate(request: Request, category: Category, run_id: int):
 
 def _download(content, filename: str, media_type: str) -> Response:
     safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in filename)
-    return Response(content, media_type=media_type,
-                    headers={"Content-Disposition": f'attachment; filename="{safe}"'})  # fmt: skip
+    return Response(
+        content,
+        media_type=media_type,
+        headers={"Content-Disposition": f'attachment; filename="{safe}"'},
+    )
 
 
 @router.post("/runs/{category}/{run_id}/amend")
@@ -319,8 +342,14 @@ async def amend(request: Request, category: Category, run_id: int):
         }
     except ValueError as err:
         raise InputError(f"amendment: {err}") from None
-    amend_run(request.app.state.engine, run_id, changes, reason=str(form.get("why", "")),
-              by=user.username, category=category)  # fmt: skip
+    amend_run(
+        request.app.state.engine,
+        run_id,
+        changes,
+        reason=str(form.get("why", "")),
+        by=user.username,
+        category=category,
+    )
     return _back(f"/runs/{category}/{run_id}")
 
 
@@ -346,10 +375,13 @@ async def upload(request: Request):
         raise InputError("upload: choose a result JSON file")
     data = await file.read()
     record = upload_result(
-        request.app.state.engine, data, file.filename or "upload.json",
-        user=user, note=str(form.get("note", "")).strip() or None,
+        request.app.state.engine,
+        data,
+        file.filename or "upload.json",
+        user=user,
+        note=str(form.get("note", "")).strip() or None,
         date=str(form.get("date", "")).strip() or None,
-    )  # fmt: skip
+    )
     return _back(f"/runs/{record.category}/{record.id}")
 
 
@@ -367,16 +399,25 @@ def audit_page(request: Request, action: Annotated[str | None, Query(max_length=
 @router.get("/users", response_class=HTMLResponse)
 def users_page(request: Request):
     user = user_of(request, "admin")
-    return render(request, "users.html.j2", user, users=security.list_users(
-        request.app.state.engine), roles=ROLES)  # fmt: skip
+    return render(
+        request,
+        "users.html.j2",
+        user,
+        users=security.list_users(request.app.state.engine),
+        roles=ROLES,
+    )
 
 
 @router.post("/users")
 async def create_user(request: Request):
     user, form = await checked_form(request, "admin")
-    security.create_user(request.app.state.engine, str(form.get("username", "")),
-                         str(form.get("password", "")), str(form.get("role", "")),
-                         by=user.username)  # fmt: skip
+    security.create_user(
+        request.app.state.engine,
+        str(form.get("username", "")),
+        str(form.get("password", "")),
+        str(form.get("role", "")),
+        by=user.username,
+    )
     return _back("/users")
 
 
@@ -397,8 +438,13 @@ async def change_user(request: Request, user_id: int):
 @router.get("/tokens", response_class=HTMLResponse)
 def tokens_page(request: Request):
     user = user_of(request)
-    return render(request, "tokens.html.j2", user, secret=None,
-                  tokens=security.list_tokens(request.app.state.engine, user.id))  # fmt: skip
+    return render(
+        request,
+        "tokens.html.j2",
+        user,
+        secret=None,
+        tokens=security.list_tokens(request.app.state.engine, user.id),
+    )
 
 
 @router.post("/tokens")
@@ -406,8 +452,9 @@ async def create_token(request: Request):
     user, form = await checked_form(request)
     engine = request.app.state.engine
     secret = security.create_token(engine, user.id, str(form.get("name", "")), by=user.username)
-    return render(request, "tokens.html.j2", user, secret=secret,
-                  tokens=security.list_tokens(engine, user.id))  # fmt: skip
+    return render(
+        request, "tokens.html.j2", user, secret=secret, tokens=security.list_tokens(engine, user.id)
+    )
 
 
 @router.post("/tokens/{token_id}/revoke")
@@ -420,8 +467,9 @@ async def revoke_token(request: Request, token_id: int):
 @router.get("/settings", response_class=HTMLResponse)
 def settings_page(request: Request):
     user = user_of(request, "admin")
-    return render(request, "settings.html.j2", user,
-                  settings=lab_settings(request.app.state.engine))  # fmt: skip
+    return render(
+        request, "settings.html.j2", user, settings=lab_settings(request.app.state.engine)
+    )
 
 
 @router.post("/settings")

@@ -12,7 +12,7 @@ who, the file name, its SHA-256 and the run it became.
 from __future__ import annotations
 
 import hashlib
-from datetime import datetime
+from datetime import UTC, datetime
 
 from sqlalchemy.orm import Session
 
@@ -78,6 +78,8 @@ def upload_result(
             when = datetime.fromisoformat(date)
         except ValueError:
             raise InputError(f"date {date!r}: not an ISO 8601 date (2026-03-01T08:30)") from None
+        # the instant in UTC (naive: UTC), so that every backend stores the same instant
+        when = when.replace(tzinfo=UTC) if when.tzinfo is None else when.astimezone(UTC)
     record = add_result(
         engine,
         document,
