@@ -141,8 +141,9 @@ def test_a_lab_in_the_browser(browser, server):
     # login, then the machines list
     assert _login(browser, base, "engineer") == []
     assert browser.evaluate("location.pathname") == "/machines"
-    rows = browser.evaluate("[...document.querySelectorAll('#machines tr[data-machine]')]"
-                            ".map(r => r.dataset.machine)")  # fmt: skip
+    rows = browser.evaluate(
+        "[...document.querySelectorAll('#machines tr[data-machine]')].map(r => r.dataset.machine)"
+    )
     assert rows == [MACHINE.name]
     # the filter (htmx, no inline script) narrows the list without a page load
     browser.evaluate(

@@ -112,8 +112,10 @@ def test_upload_by_role(lab):
     # the same validation as mtm history add: not a result, a machine that is a file path
     for bad in ({"kind": "nonsense", "machine": MACHINE.name}, {"machine": "/etc/passwd"}):
         body = {"result": ("x.json", json.dumps(bad).encode(), "application/json")}
-        assert admin.post("/upload", data={"csrf": csrf_of(admin, "/upload")},
-                          files=body).status_code == 400  # fmt: skip
+        assert (
+            admin.post("/upload", data={"csrf": csrf_of(admin, "/upload")}, files=body).status_code
+            == 400
+        )
 
 
 def _three_axis():

@@ -26,6 +26,7 @@ from mtmetrology.history.records import list_runs
 from mtmetrology.history.settings import lab_settings
 from mtmetrology.web import security
 from mtmetrology.web.figures import certificate_xml
+from mtmetrology.web.security import Refused
 from mtmetrology.web.upload import upload_result
 
 router = APIRouter(prefix="/api/v1", tags=["api"])
@@ -34,8 +35,6 @@ Category = Literal["calibration", "task", "verification"]
 
 def token_user(request: Request):
     """The user of the request's bearer token; Refused(401) otherwise."""
-    from mtmetrology.web.app import Refused
-
     header = request.headers.get("authorization", "")
     scheme, _, secret = header.partition(" ")
     user = None
@@ -48,8 +47,6 @@ def token_user(request: Request):
 
 def engineer(user=Depends(token_user)):  # noqa: B008 (FastAPI dependency)
     """The token's user, who must be an engineer or administrator."""
-    from mtmetrology.web.app import Refused
-
     if not security.may(user, "engineer"):
         raise Refused(403, f"{user.username} ({user.role}): this needs the engineer role")
     return user

@@ -24,24 +24,16 @@ from starlette.middleware.sessions import SessionMiddleware
 
 from mtmetrology.errors import InputError
 from mtmetrology.history.database import open_history
+from mtmetrology.web import api, pages
 from mtmetrology.web.lab import Lab
-from mtmetrology.web.security import SECURITY_HEADERS, SESSION_SECONDS
+from mtmetrology.web.security import SECURITY_HEADERS, SESSION_SECONDS, Refused
 
-__all__ = ["MAX_UPLOAD_BYTES", "SECRET_ENV", "Refused", "create_app"]
+__all__ = ["MAX_UPLOAD_BYTES", "SECRET_ENV", "create_app"]
 
 #: Largest request body accepted (a result document with its covariance is well below).
 MAX_UPLOAD_BYTES = 8 * 1024 * 1024
 #: Environment variable holding the session-signing secret (else a file beside the data).
 SECRET_ENV = "MTMETROLOGY_WEB_SECRET"
-
-
-class Refused(Exception):
-    """A request the user may not make: ``status`` 401 (no login), 403 (no right)."""
-
-    def __init__(self, status: int, message: str) -> None:
-        super().__init__(message)
-        self.status = status
-        self.message = message
 
 
 class SecurityHeaders:
@@ -148,7 +140,6 @@ def create_app(
         Mark the session cookie ``Secure`` (behind a TLS proxy).
     """
     from mtmetrology.history.database import database_url
-    from mtmetrology.web import api, pages
 
     engine = open_history(db)
     app = FastAPI(

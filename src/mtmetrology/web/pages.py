@@ -29,7 +29,7 @@ from mtmetrology.history.settings import (
 )
 from mtmetrology.web import security
 from mtmetrology.web.figures import certificate_xml, run_report
-from mtmetrology.web.security import DOCUMENT_CSP
+from mtmetrology.web.security import DOCUMENT_CSP, Refused
 from mtmetrology.web.upload import upload_result
 
 router = APIRouter()
@@ -40,8 +40,6 @@ PAGE_RUNS = 50
 
 def user_of(request: Request, role: str = "viewer"):
     """The session's active user with at least ``role``; Refused (401/403) otherwise."""
-    from mtmetrology.web.app import Refused
-
     user = security.session_user(request.app.state.engine, request.session.get("uid"))
     if user is None:
         raise Refused(401, "log in first")
@@ -52,8 +50,6 @@ def user_of(request: Request, role: str = "viewer"):
 
 async def checked_form(request: Request, role: str = "viewer"):
     """The user and the posted form, after the session, the CSRF token and the role."""
-    from mtmetrology.web.app import Refused
-
     user_of(request)
     form = await request.form(max_files=1, max_fields=20, max_part_size=64 * 1024)
     if not security.csrf_valid(request.session, form.get("csrf")):
@@ -87,8 +83,6 @@ def login_page(request: Request):
 
 @router.post("/login")
 async def login(request: Request):
-    from mtmetrology.web.app import Refused
-
     form = await request.form(max_files=0, max_fields=5, max_part_size=4096)
     if not security.csrf_valid(request.session, form.get("csrf")):
         raise Refused(403, "the form's CSRF token is missing or wrong: reload the page")
@@ -361,8 +355,6 @@ def upload_page(request: Request):
 
 @router.post("/upload")
 async def upload(request: Request):
-    from mtmetrology.web.app import Refused
-
     user_of(request)
     form = await request.form(
         max_files=1, max_fields=10, max_part_size=request.app.state.max_upload

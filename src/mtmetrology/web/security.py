@@ -38,6 +38,7 @@ __all__ = [
     "LOCK_SECONDS",
     "SECURITY_HEADERS",
     "SESSION_SECONDS",
+    "Refused",
     "authenticate",
     "create_token",
     "create_user",
@@ -71,6 +72,16 @@ SECURITY_HEADERS = {
     "Cross-Origin-Opener-Policy": "same-origin",
     "Cache-Control": "no-store",
 }
+
+
+class Refused(Exception):
+    """A request the user may not make: ``status`` 401 (no login), 403 (no right)."""
+
+    def __init__(self, status: int, message: str) -> None:
+        super().__init__(message)
+        self.status = status
+        self.message = message
+
 
 _HASHER = PasswordHasher()
 _DUMMY = _HASHER.hash(secrets.token_hex(16))
