@@ -2,7 +2,9 @@
 calibrations of the 84-coefficient model in the history (issue 34).
 
 Problem: the history of ``bench_history.setup`` (one machine, 10^4 runs × 84 parameters,
-SQLite), MPEs set on 3 parameters (their drift model and due date are on the page);
+SQLite), no MPE set: the drift model of one parameter over 10^4 runs
+(:func:`~mtmetrology.history.parameter_drift`) takes minutes, beyond what a page can wait
+for, so the page shows the control charts only (a finding for the history's drift model);
 uvicorn (one process, the default ``mtm serve`` settings) on a loopback port. 50 clients
 (asyncio + httpx, one logged-in session), each reading ``/machines/NAME?parameter=P&page=N``
 10 times in a row (P, N drawn from a fixed seed); one round = 500 requests. The time of a
@@ -17,7 +19,13 @@ floor  uvicorn serving a static file of the same size (Starlette ``StaticFiles``
 
 The first request after a change computes the 84 charts (``cold``, reported once in the
 notes); the rounds read the cached results, as a laboratory's readers do between uploads.
-Target: ours' p95 under 0.3 s (issue 34). Run: ``python bench/bench_web.py``.
+Target: ours' p95 under 0.3 s (issue 34). Measured 2026-11-28 (2 cores shared by ~7 busy
+processes; server, 50 clients and other work on the same cores): ours p95 3.0 s min / 4.7 s
+median of 5 rounds, the static-file floor 1.1 / 1.3 s (ours 3.6× the floor); one request
+alone 16–21 ms warm, 18 s for the first page (84 control charts over 10^4 runs). MISSED:
+even the floor misses 0.3 s here, the client loop in Python is part of it; a quiet machine
+and a second uvicorn worker are the next measurements to make.
+Run: ``python bench/bench_web.py``.
 """
 
 from __future__ import annotations
@@ -39,10 +47,10 @@ from pathlib import Path
 
 import httpx
 import numpy as np
+from sqlalchemy import text
 
 from bench_history import RUNS, setup
 from harness import Benchmark, Timing
-from mtmetrology.history.settings import set_machine_limit
 from mtmetrology.web.security import create_user
 
 CLIENTS = 50
@@ -100,7 +108,9 @@ def _login(base: str) -> dict:
 async def _round(base: str, paths: list[list[str]], cookies: dict) -> list[float]:
     latencies: list[float] = []
     limits = httpx.Limits(max_connections=CLIENTS, max_keepalive_connections=CLIENTS)
-    async with httpx.AsyncClient(base_url=base, cookies=cookies, limits=limits) as client:
+    async with httpx.AsyncClient(
+        base_url=base, cookies=cookies, limits=limits, timeout=120
+    ) as client:
 
         async def one_client(mine: list[str]):
             for path in mine:
@@ -118,9 +128,9 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "history.sqlite"
         engine, machine, _ = setup(path)
+        with engine.begin() as c:  # the drift model needs each run's u
+            c.execute(text("UPDATE run_parameters SET u = 0.5"))
         create_user(engine, "bench", PASSWORD, "viewer", by="bench")
-        for name in machine.parameter_names[:3]:
-            set_machine_limit(engine, machine.name, name, 3.0, 0.95, by="bench")
         engine.dispose()
         rng = np.random.default_rng(34)
         names = machine.parameter_names
@@ -169,8 +179,14 @@ def main() -> None:
         bench.timings.append(Timing("floor: static file p95 (same size)", "floor", floor))
         bench.target("ours: machine page p95", 0.3, text="issue 34")
         bench.notes.append(
-            json.dumps({"cold_first_page_s": round(cold, 2), "page_bytes": size,
-                        "clients": CLIENTS, "requests_per_client": REQUESTS})
+            json.dumps(
+                {
+                    "cold_first_page_s": round(cold, 2),
+                    "page_bytes": size,
+                    "clients": CLIENTS,
+                    "requests_per_client": REQUESTS,
+                }
+            )
         )
         bench.report()
 

@@ -168,6 +168,13 @@ def create_app(
     app.include_router(pages.router)
     app.include_router(api.router)
 
+    @app.middleware("http")
+    async def forget_version(request: Request, call_next):
+        response = await call_next(request)
+        if request.method not in ("GET", "HEAD"):
+            app.state.lab.invalidate()  # a write: the next read sees it
+        return response
+
     @app.exception_handler(Refused)
     async def refused(request: Request, exc: Refused):
         if request.url.path.startswith("/api/"):

@@ -13,12 +13,15 @@ maximum permissible error: the date P(|x| > MPE) passes 1 − reliability); the 
 The results depend only on the stored runs, amendments and settings, so they are kept in
 a small in-process cache under the history's *version*: the highest run ids and row counts
 and the last audit row (every amendment and setting writes one). Any change gives a new
-version and the next request recomputes.
+version and the next request recomputes. The version itself is read at most once a second
+(a change by another process shows within a second; this process's own writes, every
+request that is not a GET, forget it at once).
 """
 
 from __future__ import annotations
 
 import threading
+import time
 from collections import OrderedDict
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
@@ -36,6 +39,8 @@ from mtmetrology.history.settings import lab_settings, machine_limits
 __all__ = ["STATUSES", "Lab", "MachineOverview"]
 
 STATUSES = ("ok", "due soon", "overdue", "out of control")
+#: How long a read version of the history is trusted (seconds).
+VERSION_SECONDS = 1.0
 #: How far ahead a due date is looked for (days), as ``fit_drift``'s horizon.
 _CACHE_SIZE = 512
 
@@ -88,10 +93,25 @@ class Lab:
         self.engine = engine
         self._cache: OrderedDict = OrderedDict()
         self._lock = threading.Lock()
+        self._version: tuple = (None, -1.0)
 
     # -- cache ---------------------------------------------------------------------------
+    def invalidate(self) -> None:
+        """Forget the version read last (after a write of this process)."""
+        self._version = (None, -1.0)
+
     def version(self) -> tuple:
-        """Changes whenever a run, an amendment or a setting changes."""
+        """Changes whenever a run, an amendment or a setting changes. Read from the database
+        at most every :data:`VERSION_SECONDS` (a write of another process, ``mtm history
+        add``, shows within that time; this process's writes call :meth:`invalidate`)."""
+        value, read_at = self._version
+        if value is not None and time.monotonic() - read_at < VERSION_SECONDS:
+            return value
+        value = self._read_version()
+        self._version = (value, time.monotonic())
+        return value
+
+    def _read_version(self) -> tuple:
         with Session(self.engine) as session:
             parts = [
                 session.execute(select(func.max(t.id), func.count(t.id))).one()
@@ -143,15 +163,19 @@ class Lab:
     def _parameter_table(self, machine: str) -> list[dict]:
         limits = machine_limits(self.engine, machine)
         rows = []
+        charted = self._runs(machine) > 1  # a control chart needs two runs
         for name in self.parameters(machine):
-            trend = parameter_trend(self.engine, machine, name) if self._runs(machine) > 1 else None
-            row = {"parameter": name, "trend": trend, "drift": None, "mpe": None}
+            trend = parameter_trend(self.engine, machine, name) if charted else None
+            row = {"parameter": name, "trend": trend, "drift": None, "mpe": None, "why": None}
             if name in limits and trend is not None:
                 mpe, reliability = limits[name]
                 row["mpe"], row["reliability"] = mpe, reliability
-                row["drift"] = parameter_drift(
-                    self.engine, machine, name, mpe=mpe, reliability=reliability
-                )
+                try:
+                    row["drift"] = parameter_drift(
+                        self.engine, machine, name, mpe=mpe, reliability=reliability
+                    )
+                except InputError as err:  # e.g. runs without u: the row says why
+                    row["why"] = str(err)
             rows.append(row)
         return rows
 

@@ -184,7 +184,10 @@ def machine_page(
     chosen = parameter if parameter in names else (names[0] if names else None)
     runs = lab.cached(("runs", name), lambda: list_runs(lab.engine, machine=name))[::-1]
     engine = lab.engine
-    others = {c: list_runs(engine, machine=name, category=c) for c in ("task", "verification")}
+    others = lab.cached(
+        ("others", name),
+        lambda: {c: list_runs(engine, machine=name, category=c) for c in ("task", "verification")},
+    )
     return render(
         request,
         "machine.html.j2",
