@@ -8,10 +8,9 @@ import json
 import re
 
 import pytest
-from conftest import MACHINE, PASSWORD, calibration, csrf_of
 from sqlalchemy import text
 from sqlalchemy.exc import DBAPIError
-from test_web_security import app_routes
+from webtools import MACHINE, PASSWORD, app_routes, calibration, csrf_of
 
 
 def _token(client) -> str:

@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import MACHINE, PASSWORD, Lab, calibration
+from webtools import MACHINE, PASSWORD, Lab, calibration
 
 _spec = importlib.util.spec_from_file_location(
     "mtm_chromium", Path(__file__).resolve().parents[1] / "report" / "chromium.py"

@@ -7,37 +7,11 @@ import re
 
 import itsdangerous
 import pytest
-from conftest import PASSWORD, csrf_of, login
-from fastapi.routing import APIRoute
+from webtools import PASSWORD, app_routes, csrf_of, login
 
 from mtmetrology.web.security import LOCK_AFTER
 
-#: Path parameter values that name existing things (a refusal must not be a 404).
-PATH_VALUES = {
-    "name": "five-axis-wcbxfzyst",
-    "category": "calibration",
-    "run_id": "1",
-    "user_id": "1",
-    "token_id": "1",
-}
 OPEN = {("/login", "GET"), ("/login", "POST")}
-
-
-def _flat(routes):
-    for route in routes:
-        if hasattr(route, "original_router"):  # FastAPI >= 0.16x keeps included routers
-            yield from _flat(route.original_router.routes)
-        elif isinstance(route, APIRoute):
-            yield route
-
-
-def app_routes(app) -> list[tuple[str, str]]:
-    """Every (path, method) of the application's routes, path parameters filled in."""
-    out = []
-    for route in _flat(app.routes):
-        path = re.sub(r"\{(\w+)\}", lambda m: PATH_VALUES[m.group(1)], route.path)
-        out += [(path, method) for method in sorted(route.methods - {"HEAD"})]
-    return out
 
 
 def test_every_route_refuses_an_anonymous_request(lab):
