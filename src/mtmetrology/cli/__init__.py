@@ -112,7 +112,7 @@ SUMMARIES = {
     "history": "Calibration history: record results, control charts, drift, long-term covariance.",
     "cmm": "Bridge-CMM studies on ball-plate records.",
     "validate": "Validate uncertainty statements against calibrated artefacts.",
-    "serve": "The laboratory's web application over the calibration history (machines, due dates, trends).",
+    "serve": "The laboratory's web application: machines, due dates, trends, audit trail.",
     "calibrate": SHARED_GROUPS["calibrate"][0],
     "simulate": SHARED_GROUPS["simulate"][0],
 }

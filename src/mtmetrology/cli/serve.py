@@ -17,7 +17,7 @@ from mtmetrology.cli._common import user_errors
 from mtmetrology.errors import InputError
 
 app = typer.Typer(
-    help="The laboratory's web application over the calibration history (machines, due dates, trends).",
+    help="The laboratory's web application: machines, due dates, trends, audit trail.",
     invoke_without_command=True,
 )
 
