@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 # Material for MkDocs prints a banner about MkDocs 2.0 on every build; it is not a warning.
 export NO_MKDOCS_2_WARNING := 1
 
-.PHONY: demo test docs lint format bench fuzz mutation clean
+.PHONY: demo serve test docs lint format bench fuzz mutation clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -18,6 +18,14 @@ $(STAMP): $(BIN)/python pyproject.toml
 
 demo: $(STAMP)
 	$(BIN)/mtm demo --out mtm-demo
+
+# The web application on http://127.0.0.1:8000 over a demonstration laboratory built from
+# `mtm demo`'s output (users admin, engineer, viewer; password demo-password).
+serve: $(STAMP)
+	test -f mtm-demo/.mtm-demo || $(BIN)/mtm demo --out mtm-demo
+	test -f mtm-demo/lab.sqlite || \
+		$(BIN)/mtm serve demo-lab --from mtm-demo --db mtm-demo/lab.sqlite
+	$(BIN)/mtm serve --db mtm-demo/lab.sqlite
 
 test: $(STAMP)
 	$(BIN)/ruff check .

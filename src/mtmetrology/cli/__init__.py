@@ -71,6 +71,7 @@ COMMANDS = {
     "rtest": ("mtmetrology.cli.rtest", "app", True),
     "laser": ("mtmetrology.cli.laser", "app", True),
     "formats": ("mtmetrology.cli.formats", "formats", False),
+    "serve": ("mtmetrology.cli.serve", "app", True),
 }
 
 #: Noun groups whose subcommands come from several applications (``mtm samba calibrate``,
@@ -197,6 +198,7 @@ SUMMARIES = {
     "laser": "ISO 230-2 positioning tests with a laser interferometer: simulate, analyse.",
     "demo": "Run the engines end to end on built-in virtual machines and write a report.",
     "formats": "The file formats mtm reads and writes: list them, or describe one.",
+    "serve": "The laboratory's web application: machines, due dates, trends, audit trail.",
 }
 
 #: The grammar (docs/cli.md; tests/cli/test_cli_grammar.py walks the tree against it):

@@ -255,10 +255,11 @@ def show(
 ) -> None:
     """Show one recorded run."""
     from mtmetrology.formatting import format_result
+    from mtmetrology.history.amendments import show_amended
     from mtmetrology.history.database import open_history
-    from mtmetrology.history.records import show_run
 
-    record = show_run(open_history(db, read_only=True), run, _category(category))
+    record, amendments = show_amended(open_history(db, read_only=True), run, _category(category))
+    document = {**record.to_dict(), "amendments": [a.to_dict() for a in amendments]}
 
     def summary() -> None:
         typer.echo(
@@ -279,8 +280,70 @@ def show(
             typer.echo(f"  sha256 {sha}  {path}")
         for p in record.parameters:
             typer.echo("  " + format_result(p["value"], p["u"], p["unit"], name=p["name"]))
+        for a in amendments:
+            typer.echo(
+                f"  amended {a.amended_at:%Y-%m-%d %H:%M} UTC by {a.amended_by}: {a.field} "
+                f"{a.old_value!r} -> {a.new_value!r} ({a.reason})"
+            )
 
-    emit_result(record.to_dict(), summary, output=None, report=None, report_path=None, as_json=json)
+    emit_result(document, summary, output=None, report=None, report_path=None, as_json=json)
+
+
+@app.command("amend")
+@user_errors
+def amend(
+    run: Annotated[int, typer.Argument(help="Run number (mtm history list).")],
+    why: Annotated[str, typer.Option("--why", help="Why the record is corrected (kept).")],
+    date: Annotated[
+        str | None, typer.Option("--date", help="When it was measured (ISO 8601).")
+    ] = None,
+    note: Annotated[str | None, typer.Option("--note", help="Operator note.")] = None,
+    temperature: Annotated[
+        float | None, typer.Option("--temperature", help="Workshop temperature, °C.")
+    ] = None,
+    operator: Annotated[str | None, typer.Option("--operator", help="Who measured.")] = None,
+    by: Annotated[str | None, typer.Option("--by", help="Who amends [the login name].")] = None,
+    category: Annotated[
+        str, typer.Option("--category", help="calibration, task or verification.")
+    ] = "calibration",
+    db: Db = None,
+    json: Annotated[bool, typer.Option("--json", help="Print the amendments.")] = False,
+) -> None:
+    """Correct a run's date, note, temperature or operator: an audited amendment that keeps
+    the original value (mtm history show lists them)."""
+    import getpass
+
+    from mtmetrology.history import open_history
+    from mtmetrology.history.amendments import amend_run
+
+    amendments = amend_run(
+        open_history(db),
+        run,
+        {
+            "performed_at": _date(date, "--date"),
+            "operator_note": note,
+            "temperature_c": temperature,
+            "operator": operator,
+        },
+        reason=why,
+        by=f"cli:{by or getpass.getuser()}",
+        category=_category(category),
+    )
+    emit_result(
+        {
+            "kind": "history-amendments",
+            "version": 1,
+            "amendments": [a.to_dict() for a in amendments],
+        },
+        "\n".join(
+            f"amended {category} run {run}: {a.field} {a.old_value!r} -> {a.new_value!r}"
+            for a in amendments
+        ),
+        output=None,
+        report=None,
+        report_path=None,
+        as_json=json,
+    )
 
 
 @app.command("trend")

@@ -74,7 +74,7 @@ __all__ = [
 #: Environment variable naming the history database (a file or a URL).
 DB_ENV = "MTMETROLOGY_DB"
 #: The schema revisions this version knows, oldest first; the last is the current one.
-REVISIONS = ("0001", "0002", "0003", "0004")
+REVISIONS = ("0001", "0002", "0003", "0004", "0005")
 #: The current schema revision.
 HEAD = REVISIONS[-1]
 _MIGRATIONS = Path(__file__).with_name("migrations")
@@ -90,7 +90,12 @@ _OURS = frozenset(
         "task_results",
         "verification_results",
         "duplicate_results",
-        "run_amendments",
+        "amendments",
+        "audit_log",
+        "users",
+        "api_tokens",
+        "machine_limits",
+        "lab_settings",
     }
 )
 #: Driver messages of faults of the machine (exit 3); any other is a fault of the database.
@@ -115,6 +120,7 @@ _DATABASE = (
     ("no such table", "a table of the history is missing (the database was altered)"),
     ("no such column", "a column of the history is missing (the database was altered)"),
     ("does not exist", "a table or database does not exist"),
+    ("append-only", "the amendments and the audit log are append-only"),
 )
 
 

@@ -39,6 +39,7 @@ __all__ = [
     "add_result",
     "add_results",
     "list_runs",
+    "offset_minutes",
     "show_run",
 ]
 
@@ -184,7 +185,7 @@ def _utc(moment: datetime | None) -> datetime:
     return moment if moment.tzinfo is not None else moment.replace(tzinfo=UTC)
 
 
-def _offset_min(moment: datetime) -> int:
+def offset_minutes(moment: datetime) -> int:
     """Minutes east of UTC of an aware datetime."""
     return round(moment.utcoffset().total_seconds() / 60)
 
@@ -411,7 +412,7 @@ def _prepare(
     columns.update(
         kind=document["kind"],
         performed_at=when,
-        performed_at_offset_min=_offset_min(when),
+        performed_at_offset_min=offset_minutes(when),
         recorded_at=datetime.now(UTC),
         software_version=mtmetrology.__version__,
         operator_note=note,

@@ -1,0 +1,267 @@
+"""What the pages and the API show, from the same library calls as ``mtm history``.
+
+A machine's status comes from :func:`~mtmetrology.history.parameter_trend` (the Shewhart
+chart of each parameter: is the latest run out of control?) and
+:func:`~mtmetrology.history.parameter_drift` (the drift model of each parameter with a
+maximum permissible error: the date P(|x| > MPE) passes 1 − reliability); the machine is
+
+- ``out of control`` when its latest calibration is outside a parameter's control limits,
+- else ``overdue`` when the earliest due date has passed,
+- else ``due soon`` when it falls within the laboratory's window (``due_soon_days``),
+- else ``ok`` (with no MPE set there is no due date: ``ok`` says only "in control").
+
+The results depend only on the stored runs, amendments and settings, so they are kept in
+a small in-process cache under the history's *version*: the highest run ids and row counts
+and the last audit row (every amendment and setting writes one). Any change gives a new
+version and the next request recomputes. The version itself is read at most once a second
+(a change by another process shows within a second; this process's own writes, every
+request that is not a GET, forget it at once).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import OrderedDict
+from dataclasses import dataclass
+from datetime import UTC, datetime, timedelta
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from mtmetrology.errors import InputError
+from mtmetrology.history import schema
+from mtmetrology.history.analysis import parameter_drift, parameter_trend
+from mtmetrology.history.audit import AuditEntry
+from mtmetrology.history.records import list_runs, machine_names
+from mtmetrology.history.settings import lab_settings, machine_limits
+
+__all__ = ["STATUSES", "Lab", "MachineOverview"]
+
+STATUSES = ("ok", "due soon", "overdue", "out of control")
+#: How long a read version of the history is trusted (seconds).
+VERSION_SECONDS = 1.0
+#: How far ahead a due date is looked for (days), as ``fit_drift``'s horizon.
+_CACHE_SIZE = 512
+
+
+@dataclass(frozen=True)
+class MachineOverview:
+    """One line of the machines page."""
+
+    name: str
+    topology: str | None
+    model: str | None
+    serial: str | None
+    runs: int
+    last_calibration: datetime | None
+    due_date: datetime | None
+    due_parameter: str | None
+    reliability: float | None
+    status: str
+    out_of_control: tuple[str, ...]
+
+    def to_dict(self) -> dict:
+        """JSON form."""
+        return {
+            "name": self.name,
+            "topology": self.topology,
+            "model": self.model,
+            "serial": self.serial,
+            "calibrations": self.runs,
+            "last_calibration": _iso(self.last_calibration),
+            "due_date": _iso(self.due_date),
+            "due_parameter": self.due_parameter,
+            "reliability": self.reliability,
+            "status": self.status,
+            "out_of_control": list(self.out_of_control),
+        }
+
+
+def _iso(moment: datetime | None) -> str | None:
+    return None if moment is None else moment.isoformat()
+
+
+def _utc(moment: datetime) -> datetime:
+    return moment if moment.tzinfo is not None else moment.replace(tzinfo=UTC)
+
+
+class Lab:
+    """The history as the web application reads it (one engine, a version-keyed cache)."""
+
+    def __init__(self, engine) -> None:
+        self.engine = engine
+        self._cache: OrderedDict = OrderedDict()
+        self._lock = threading.Lock()
+        self._version: tuple = (None, -1.0)
+
+    # -- cache ---------------------------------------------------------------------------
+    def invalidate(self) -> None:
+        """Forget the version read last (after a write of this process)."""
+        self._version = (None, -1.0)
+
+    def version(self) -> tuple:
+        """Changes whenever a run, an amendment or a setting changes. Read from the database
+        at most every :data:`VERSION_SECONDS` (a write of another process, ``mtm history
+        add``, shows within that time; this process's writes call :meth:`invalidate`)."""
+        value, read_at = self._version
+        if value is not None and time.monotonic() - read_at < VERSION_SECONDS:
+            return value
+        value = self._read_version()
+        self._version = (value, time.monotonic())
+        return value
+
+    def _read_version(self) -> tuple:
+        with Session(self.engine) as session:
+            parts = [
+                session.execute(select(func.max(t.id), func.count(t.id))).one()
+                for t in (schema.CalibrationRun, schema.TaskResult, schema.VerificationResult)
+            ]
+            parts.append(session.scalar(select(func.max(AuditEntry.id))))
+        return tuple(parts)
+
+    def cached(self, key: tuple, compute):
+        """``compute()`` under ``key`` and the current version (recomputed after a change)."""
+        full = (self.version(), *key)
+        with self._lock:
+            if full in self._cache:
+                self._cache.move_to_end(full)
+                return self._cache[full]
+        value = compute()
+        with self._lock:
+            self._cache[full] = value
+            while len(self._cache) > _CACHE_SIZE:
+                self._cache.popitem(last=False)
+        return value
+
+    # -- machines ------------------------------------------------------------------------
+    def parameters(self, machine: str) -> list[str]:
+        """Parameter names of a machine's calibrations (its first run's order)."""
+        with Session(self.engine) as session:
+            first = session.scalar(
+                select(schema.CalibrationRun.id)
+                .join(schema.Machine, schema.Machine.id == schema.CalibrationRun.machine_id)
+                .where(schema.Machine.name == machine)
+                .order_by(schema.CalibrationRun.id)
+                .limit(1)
+            )
+            if first is None:
+                return []
+            return list(
+                session.scalars(
+                    select(schema.RunParameter.name)
+                    .where(schema.RunParameter.run_id == first)
+                    .order_by(schema.RunParameter.position)
+                )
+            )
+
+    def parameter_table(self, machine: str) -> list[dict]:
+        """Per parameter: its control chart (latest value, limits, points out of control)
+        and, where an MPE is set, its drift and due date."""
+        return self.cached(("parameters", machine), lambda: self._parameter_table(machine))
+
+    def _parameter_table(self, machine: str) -> list[dict]:
+        limits = machine_limits(self.engine, machine)
+        rows = []
+        charted = self._runs(machine) > 1  # a control chart needs two runs
+        for name in self.parameters(machine):
+            trend = parameter_trend(self.engine, machine, name) if charted else None
+            row = {"parameter": name, "trend": trend, "drift": None, "mpe": None, "why": None}
+            if name in limits and trend is not None:
+                mpe, reliability = limits[name]
+                row["mpe"], row["reliability"] = mpe, reliability
+                try:
+                    row["drift"] = parameter_drift(
+                        self.engine, machine, name, mpe=mpe, reliability=reliability
+                    )
+                except InputError as err:  # e.g. runs without u: the row says why
+                    row["why"] = str(err)
+            rows.append(row)
+        return rows
+
+    def _runs(self, machine: str) -> int:
+        return len(list_runs(self.engine, machine=machine))
+
+    def overview(self, now: datetime | None = None) -> list[MachineOverview]:
+        """Every machine with its status (see the module notes)."""
+        now = now or datetime.now(UTC)
+        window = timedelta(days=int(lab_settings(self.engine)["due_soon_days"]))
+        return self.cached(("overview", now.date(), window), lambda: self._overview(now, window))
+
+    def _overview(self, now: datetime, window: timedelta) -> list[MachineOverview]:
+        out = []
+        with Session(self.engine) as session:
+            machines = {m.name: m for m in session.scalars(select(schema.Machine))}
+            stats = dict(
+                (row[0], row[1:])
+                for row in session.execute(
+                    select(
+                        schema.CalibrationRun.machine_id,
+                        func.count(schema.CalibrationRun.id),
+                        func.max(schema.CalibrationRun.performed_at),
+                    ).group_by(schema.CalibrationRun.machine_id)
+                )
+            )
+        for name in machine_names(self.engine):
+            m = machines[name]
+            runs, last = stats.get(m.id, (0, None))
+            table = self.parameter_table(name)
+            flagged = tuple(
+                r["parameter"]
+                for r in table
+                if r["trend"] is not None and bool(r["trend"].out_of_control[-1])
+            )
+            due = [(r["drift"].due_date, r) for r in table if r["drift"] is not None]
+            due = [d for d in due if d[0] is not None]
+            first = min(due, key=lambda d: d[0]) if due else None
+            due_date = None if first is None else _utc(first[0])
+            if flagged:
+                status = "out of control"
+            elif due_date is not None and due_date <= now:
+                status = "overdue"
+            elif due_date is not None and due_date <= now + window:
+                status = "due soon"
+            else:
+                status = "ok"
+            out.append(
+                MachineOverview(
+                    name=name,
+                    topology=m.topology,
+                    model=m.model,
+                    serial=m.serial,
+                    runs=runs,
+                    last_calibration=None if last is None else _utc(last),
+                    due_date=due_date,
+                    due_parameter=None if first is None else first[1]["parameter"],
+                    reliability=None if first is None else first[1]["reliability"],
+                    status=status,
+                    out_of_control=flagged,
+                )
+            )
+        return out
+
+    def machine(self, name: str) -> MachineOverview:
+        """One machine's overview line; InputError when it is not in the history."""
+        for m in self.overview():
+            if m.name == name:
+                return m
+        raise InputError(f"machine {name!r}: not in the history")
+
+    def trend_svg(self, machine: str, parameter: str) -> str:
+        """The control chart of one parameter with its drift band, as SVG (cached)."""
+        return self.cached(("svg", machine, parameter), lambda: self._svg(machine, parameter))
+
+    def _svg(self, machine: str, parameter: str) -> str:
+        from mtmetrology.report.document import figure_svg
+        from mtmetrology.web.figures import trend_figure
+
+        row = next((r for r in self.parameter_table(machine) if r["parameter"] == parameter), None)
+        if row is None or row["trend"] is None:
+            raise InputError(f"parameter {parameter!r}: no control chart for {machine!r}")
+        fig = trend_figure(row["trend"], row["drift"])
+        try:
+            return figure_svg(fig, prefix="trend")
+        finally:
+            import matplotlib.pyplot as plt
+
+            plt.close(fig)
