@@ -83,8 +83,13 @@ def test_run_page_report_json_and_validated_certificate(lab):
     # no laboratory set: the certificate is refused with the reason
     refused = client.get("/runs/calibration/2/certificate.xml")
     assert refused.status_code == 400 and "laboratory" in refused.text
+    identity = {"laboratory": "Lab", "email": "lab@example.org", "country": "DE"}
+    set_lab_settings(lab.engine, identity, by="t")
+    # who signs and the machine's maker are stated on a DCC too (issue 32)
+    refused = client.get("/runs/calibration/2/certificate.xml")
+    assert refused.status_code == 400 and "responsible person" in refused.text
     set_lab_settings(
-        lab.engine, {"laboratory": "Lab", "email": "lab@example.org", "country": "DE"}, by="t"
+        lab.engine, {"responsible_person": "A. Person", "manufacturer": "Maker"}, by="t"
     )
     xml = client.get("/runs/calibration/2/certificate.xml")
     assert xml.status_code == 200

@@ -26,8 +26,17 @@ __all__ = [
     "set_machine_limit",
 ]
 
-#: Laboratory settings and their defaults (``due_soon_days``: the "due soon" window).
-DEFAULTS = {"laboratory": "", "email": "", "country": "", "due_soon_days": 30}
+#: Laboratory settings and their defaults (``due_soon_days``: the "due soon" window;
+#: ``responsible_person`` and ``manufacturer``: who signs the certificates and the maker
+#: of the laboratory's machines, as the DCC states them).
+DEFAULTS = {
+    "laboratory": "",
+    "email": "",
+    "country": "",
+    "responsible_person": "",
+    "manufacturer": "",
+    "due_soon_days": 30,
+}
 
 
 class MachineLimit(schema.Base):

@@ -111,7 +111,13 @@ def build_demo_lab(engine, demo: str | Path, now: datetime | None = None) -> str
     set_machine_limit(engine, "cmm-moving-bridge", "E_XX1", 25.0, 0.95, by=by)
     set_lab_settings(
         engine,
-        {"laboratory": "Demonstration laboratory", "email": "lab@example.org", "country": "DE"},
+        {
+            "laboratory": "Demonstration laboratory",
+            "email": "lab@example.org",
+            "country": "DE",
+            "responsible_person": "A. Metrologist",
+            "manufacturer": "Virtual machine tools",
+        },
         by=by,
     )
     for role in ("admin", "engineer", "viewer"):

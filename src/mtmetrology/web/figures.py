@@ -98,12 +98,13 @@ def certificate_xml(record, settings: dict, coverage_factor: float = 2.0) -> byt
     Raises
     ------
     InputError
-        The laboratory's name, e-mail or country is not set, or the run cannot be
-        certified (no uncertainties, not a calibration).
+        The laboratory's name, e-mail, country, responsible person or manufacturer is not
+        set, or the run cannot be certified (no uncertainties, not a calibration).
     """
     from mtmetrology.history.dcc import calibration_certificate
 
-    missing = [k for k in ("laboratory", "email", "country") if not settings.get(k)]
+    needed = ("laboratory", "email", "country", "responsible_person", "manufacturer")
+    missing = [k.replace("_", " ") for k in needed if not settings.get(k)]
     if missing:
         raise InputError(
             f"certificate: the laboratory's {', '.join(missing)} not set (Settings page)"
@@ -113,6 +114,8 @@ def certificate_xml(record, settings: dict, coverage_factor: float = 2.0) -> byt
         laboratory=settings["laboratory"],
         email=settings["email"],
         country=settings["country"],
+        responsible_person=settings["responsible_person"],
+        manufacturer=settings["manufacturer"],
         coverage_factor=coverage_factor,
     )
     return cert.to_xml()

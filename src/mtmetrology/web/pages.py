@@ -480,6 +480,8 @@ async def change_settings(request: Request):
             "laboratory": str(form.get("laboratory", "")).strip(),
             "email": str(form.get("email", "")).strip(),
             "country": str(form.get("country", "")).strip(),
+            "responsible_person": str(form.get("responsible_person", "")).strip(),
+            "manufacturer": str(form.get("manufacturer", "")).strip(),
             "due_soon_days": days,
         },
         by=user.username,
