@@ -20,6 +20,7 @@ from mtmetrology.budgets.iso15530 import (
 from mtmetrology.cli import build_app
 from mtmetrology.errors import InputError
 from mtmetrology.uncertainty.conformity import Tolerance
+from mtmetrology.uncertainty.coverage import BIAS_ADDED, unstated_coverage
 from mtmetrology.units import to_internal
 
 # Seed 003, Table 1 (µm): feature, u_b, u_p, u_cal, u_MS, U_VDI, U_ISO.
@@ -149,6 +150,21 @@ def test_budget_policies_and_reported_result():
     p11 = iso15530_3_budget(y, calibrated=cal, u_cal=ucal, policy="2011", u_b=0.0003, **few)
     assert p11.result == pytest.approx(10.0)
     assert p11.U == pytest.approx(2 * math.sqrt(0.001**2 + 0.0005**2 + 0.0003**2))
+
+
+def test_the_2004_document_states_its_expanded_rule():
+    """Under the 2004 policy U = k·u + |b| (ISO 15530-3:2004): the document says so
+    (``U_rule``) and the coverage check accepts exactly that sum, not k·u."""
+    y = _values()
+    few = {"allow_few_repeats": True}
+    doc = iso15530_3_budget(y, calibrated=10.0, u_cal=0.0005, policy="2004", **few).to_dict()
+    assert doc["U_rule"] == BIAS_ADDED
+    assert unstated_coverage(doc) == []
+    # without the rule the same numbers break U = k u
+    assert unstated_coverage({**doc, "U_rule": "U = k·u"}) != []
+    # a corrected policy states plain k·u and meets it
+    p11 = iso15530_3_budget(y, calibrated=10.0, u_cal=0.0005, policy="2011", **few).to_dict()
+    assert p11["U_rule"] == "U = k·u" and unstated_coverage(p11) == []
 
 
 def test_budget_round_trip_and_decision():

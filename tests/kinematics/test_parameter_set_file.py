@@ -172,7 +172,7 @@ def test_check_machine_names_the_models(machine):
             {**HEADER, "kind": "x", "parameters": [X0C]},
             "p.json: kind: 'x' is not a parameter set (expected 'parameter-set' or a "
             "calibration result: samba-calibration, ballplate-calibration, tracker-calibration, "
-            "iso230-2-positioning)",
+            "iso230-2-positioning, iso230-4-calibration, r-test)",
         ),
         (
             {**HEADER, "version": 2, "parameters": [X0C]},

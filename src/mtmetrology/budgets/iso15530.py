@@ -73,6 +73,7 @@ from mtmetrology.budgets.repeats import repeat_shortfall, repeatability
 from mtmetrology.budgets.workpiece import WorkpieceVariation, checked_number
 from mtmetrology.errors import InputError
 from mtmetrology.uncertainty.conformity import ConformityDecision, Tolerance, decide
+from mtmetrology.uncertainty.coverage import BIAS_ADDED
 from mtmetrology.uncertainty.outputs import Output
 from mtmetrology.units import from_internal, to_internal
 
@@ -409,6 +410,7 @@ class ISO15530Budget:
             "k": self.k,
             "u": self.u,
             "U": self.U,
+            "U_rule": BIAS_ADDED if self.policy is Policy.ISO_2004 else "U = k·u",
             "um": {
                 "b": _um(self.b),
                 "u_p": _um(self.u_p),

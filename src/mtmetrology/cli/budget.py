@@ -176,7 +176,6 @@ def iso15530_3(
     from mtmetrology.budgets.iso15530 import iso15530_3_budget
     from mtmetrology.formatting import (
         format_coverage,
-        format_result,
         format_uncertainty,
         format_value,
     )
@@ -229,7 +228,7 @@ def iso15530_3(
             f"Policy {budget.policy.value}, n = {budget.n}, {format_coverage(budget.k)}; mean "
             f"{format_value(budget.mean, u_mm)} mm, calibrated "
             f"{format_value(budget.calibrated, u_mm)} mm, "
-            + format_result(budget.result, um["u"], "mm", name="result", u_unit="µm", k=budget.k)
+            + _result_line(budget, um)
             + ". "
             + " ".join(f"{line}." for line in extra)
             + "".join(f" Deviation from ISO 15530-3: {d}." for d in budget.deviations),
@@ -247,10 +246,7 @@ def iso15530_3(
         )
         for name in ("u_b", "u_p", "u_cal", "u_w", "u_probe", "u", "U"):
             typer.echo(f"  {name:<8} {format_uncertainty(um[name])}")
-        typer.echo(
-            "  "
-            + format_result(budget.result, um["u"], "mm", name="result", u_unit="µm", k=budget.k)
-        )
+        typer.echo("  " + _result_line(budget, um))
         for line in extra:
             typer.echo(f"  {line}")
 
@@ -415,3 +411,19 @@ def volumetric_map(
             typer.echo(f"  decision (ISO 14253-1) on {name}: {decision.decision.value}")
 
     emit_result(doc, summary, output=output, report=report, report_path=report_path, as_json=json)
+
+
+def _result_line(budget, um: dict) -> str:
+    """``result = …, u = …, U = … (k = 2)``; under the 2004 policy U = k·u + |b| (the bias
+    is not corrected), which the line says instead of implying U = k·u."""
+    from mtmetrology.budgets.choices import Policy
+    from mtmetrology.formatting import format_coverage, format_result, format_uncertainty
+
+    if budget.policy is not Policy.ISO_2004:
+        return format_result(budget.result, um["u"], "mm", name="result", u_unit="µm", k=budget.k)
+    head = format_result(budget.result, um["U"], "mm", name="result", u_unit="µm")
+    head = head.rsplit(", u = ", 1)[0]
+    return (
+        f"{head}, u = {format_uncertainty(um['u'])} µm, U = {format_uncertainty(um['U'])} µm "
+        f"(k·u + |b|, {format_coverage(budget.k)})"
+    )

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from mtmetrology.errors import InputError
 
 __all__ = [
+    "BIAS_ADDED",
     "DEFAULT",
     "DEFAULT_K",
     "DEFAULT_P",
@@ -177,6 +178,20 @@ def _numbers(value) -> list[float] | None:
     return None
 
 
+#: The rule of an expanded uncertainty that adds the uncorrected bias (ISO 15530-3:2004,
+#: 8: U = k·u + |b|), stated as ``U_rule`` in the documents that use it.
+BIAS_ADDED = "U = k·u + |b| (bias b not corrected, ISO 15530-3:2004)"
+
+
+def _bias_added(chain: list[dict]) -> float:
+    """|b| added to k u when an enclosing dict states :data:`BIAS_ADDED` (the nearest
+    ``b``, in the unit of the U beside it), else 0."""
+    if not any(d.get("U_rule") == BIAS_ADDED for d in chain):
+        return 0.0
+    b = next((d["b"] for d in reversed(chain) if isinstance(d.get("b"), int | float)), 0.0)
+    return abs(float(b))
+
+
 def unstated_coverage(document, rtol: float = 1e-6) -> list[str]:
     """Where a result document breaks the policy: a U without its k, a U ≠ k u, an
     interval without its coverage probability.
@@ -185,7 +200,8 @@ def unstated_coverage(document, rtol: float = 1e-6) -> list[str]:
     its k is the ``k`` / ``coverage_factor`` of that dict or of the nearest enclosing one
     (or its ``coverage.k``); when the dict also holds the matching standard uncertainty
     (``u``, ``u_um`` …) U must equal k u (JCGM 100:2008, 6.2.1; a Monte Carlo output's k
-    is U/u of its interval, JCGM 101:2008, 7.7).  A key ``interval`` needs ``p`` or
+    is U/u of its interval, JCGM 101:2008, 7.7), or k u + |b| where an enclosing dict
+    states ``U_rule`` :data:`BIAS_ADDED`.  A key ``interval`` needs ``p`` or
     ``coverage_probability`` beside it or above it.
 
     Parameters
@@ -226,9 +242,15 @@ def unstated_coverage(document, rtol: float = 1e-6) -> list[str]:
                 u = _numbers(node.get("u" + key[1:]))
                 big = _numbers(value)
                 ks = k * len(big) if len(k) == 1 else k
+                bias = _bias_added(chain)
                 if u is not None and len(u) == len(big) == len(ks):
                     for a, b, f in zip(big, u, ks, strict=True):
-                        if not math.isclose(a, f * b, rel_tol=rtol, abs_tol=1e-300):
+                        # under the bias rule a U is k u + |b|, or k_eff u where its own
+                        # dict states the effective k = U/u (an output record)
+                        if not any(
+                            math.isclose(a, f * b + extra, rel_tol=rtol, abs_tol=1e-300)
+                            for extra in {0.0, bias}
+                        ):
                             errors.append(f"{path}/{key}: U = {a:g} is not k u = {f:g} × {b:g}")
                             break
             if key == "interval" and not any(
