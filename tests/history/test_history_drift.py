@@ -37,6 +37,23 @@ def test_sign_convention_and_due_date_of_a_noise_free_linear_drift():
     assert DriftResult.from_dict(fit.to_dict()).to_dict() == fit.to_dict()
 
 
+def test_a_long_history_takes_the_half_cauchy_prior_and_says_so():
+    """Above REFERENCE_PRIOR_MAX_RUNS calibrations the O(K³) reference prior gives way to
+    the half-Cauchy one, which the result names; the slope is still recovered."""
+    from mtmetrology.history.drift import REFERENCE_PRIOR_MAX_RUNS
+
+    rng = np.random.default_rng(8)
+    short = _series(rng, 0.01, 0.0, 0.3, REFERENCE_PRIOR_MAX_RUNS, every=1.0)
+    assert fit_drift("E_X0C", "µm", *short, np.full(REFERENCE_PRIOR_MAX_RUNS, 0.3)).prior == (
+        "reference"
+    )
+    k = REFERENCE_PRIOR_MAX_RUNS + 1
+    dates, y = _series(rng, 0.01, 0.0, 0.3, k, every=1.0)
+    fit = fit_drift("E_X0C", "µm", dates, y, np.full(k, 0.3))
+    assert fit.prior == "half-cauchy"
+    assert abs(fit.slope - 0.01) < 3 * fit.u_slope
+
+
 def test_simulated_drift_is_recovered_within_its_uncertainty():
     """200 series of 120 weekly calibrations, slope 0.05 µm/day, random walk q = 0.05
     µm²/day, u = 0.5 µm. The slope lies within ±2 u(slope) for a fraction in the 99.9 %

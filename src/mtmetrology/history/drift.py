@@ -93,6 +93,10 @@ __all__ = ["PRIORS", "DriftResult", "fit_drift", "kalman_filter"]
 _DAY = 86400.0
 #: Priors of the random-walk variance q (module notes).
 PRIORS = ("reference", "half-cauchy")
+#: Above this many calibrations the reference prior (an eigendecomposition of the K × K
+#: random-walk covariance: O(K³) time, 8K² bytes) gives way to the half-Cauchy prior, which
+#: the result then names: with so many runs the likelihood decides the posterior of q.
+REFERENCE_PRIOR_MAX_RUNS = 1000
 #: Grid of √q: nodes per decade and decades below the prior's scale (the node q = 0 holds
 #: the mass beneath); enough for the narrow posterior of a long series (±30 % at 120 runs).
 _PER_DECADE, _BELOW = 40, 6
@@ -361,7 +365,9 @@ def fit_drift(
     horizon_days : int
         How far ahead the due date is searched (days).
     prior : {"reference", "half-cauchy"}
-        Prior of the random-walk variance (module notes).
+        Prior of the random-walk variance (module notes); "reference" on more than
+        :data:`REFERENCE_PRIOR_MAX_RUNS` calibrations is taken as "half-cauchy", and the
+        result's ``prior`` says which was used.
     coverage_probability : float
         Probability of the slope's interval (default 2 Φ(2) − 1 = 0.9545, the ``2u``
         of a Gaussian: :mod:`mtmetrology.uncertainty.coverage`).
@@ -398,6 +404,8 @@ def fit_drift(
         raise InputError(f"reliability {reliability}: must be between 0.5 and 1")
     if not 0.5 < coverage_probability < 1:
         raise InputError(f"coverage probability {coverage_probability}: must be between 0.5 and 1")
+    if prior == "reference" and len(y) > REFERENCE_PRIOR_MAX_RUNS:
+        prior = "half-cauchy"
     t = np.array([(d - dates[0]).total_seconds() / _DAY for d in dates])
     if np.any(np.diff(t) <= 0):
         raise InputError(f"{parameter}: two calibrations at the same time; dates must increase")
