@@ -329,7 +329,7 @@ def volumetric_map(
     m = Machine.load(machine)
     table = read_csv_table(points, required=["x", "y", "z"])
     xyz = table.vectors("xyz")
-    vmap = load_map(m, params, xyz)
+    vmap = load_map(m, params, xyz, lambda i: f"{points}, line {table.lines[i]}")
     runs = None
     if repeats is not None:
         r = read_csv_table(repeats, required=["characteristic", "value"], min_rows=2)

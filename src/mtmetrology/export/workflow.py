@@ -19,6 +19,7 @@ import numpy as np
 from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
 from mtmetrology.export import etalon, fanuc, grid, isg, linuxcnc, siemens
+from mtmetrology.export._common import check_points
 from mtmetrology.export.control import ControlTable, residual
 from mtmetrology.export.emulation import (
     SIGN_NOT_ESTABLISHED,
@@ -26,7 +27,7 @@ from mtmetrology.export.emulation import (
     default_axis_names,
     emulate,
 )
-from mtmetrology.export.model import CompensationModel, compensation_model
+from mtmetrology.export.model import CompensationModel, compensation_model, table_sizes
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.topology import LINEAR_AXES
@@ -175,6 +176,17 @@ def check_readings(machine: Machine, per_axis: int = 5) -> np.ndarray:
             k = np.arange(per_axis) + _CHECK_OFFSET
             columns.append(travel[0] + (travel[1] - travel[0]) * k / per_axis)
     return np.array(list(itertools.product(*columns)))
+
+
+def check_table_limit(fmt: str, machine: Machine, pitch, points, axes) -> None:
+    """Refuse, from the travels alone and before any table is built, a grid with more
+    points in one table than the control accepts (the format's ``MAX_POINTS``: FANUC
+    1024 over all axes, LinuxCNC 256, SINUMERIK 200 per table)."""
+    limit = getattr(FORMATS[fmt], "MAX_POINTS", None)
+    if limit is None:
+        return
+    for function, n in table_sizes(machine, pitch=pitch, points=points, axes=axes).items():
+        check_points(fmt, function, n, limit, "checked before the tables are built")
 
 
 def _build(fmt: str, model: CompensationModel, functions):
@@ -533,6 +545,8 @@ def export_compensation(
         raise InputError(f"format: {fmt!r} is not one of {', '.join(FORMATS)}, grid")
     if pitch is None and points is None:
         raise InputError("give --pitch or --points")
+    if bound_um is not None and not (np.isfinite(bound_um) and bound_um > 0):
+        raise InputError(f"--bound: the interpolation-error bound must be > 0 µm, got {bound_um:g}")
     if fmt == "grid":
         return _export_grid(machine, parameters, pitch, points, region, check_per_axis, at)
     if isinstance(parameters, VolumetricMap):
@@ -541,6 +555,7 @@ def export_compensation(
             "exported by the grid format only"
         )
     names = _axis_names(fmt, machine, axis_names)
+    check_table_limit(fmt, parameters.machine_for(machine), pitch, points, axes)
     model = compensation_model(
         machine, parameters, pitch=pitch, points=points, axes=axes, reference=reference
     )

@@ -32,6 +32,9 @@ STATIONS_KIND = "multilateration-stations"
 _TOOL = ("tool_x", "tool_y", "tool_z")
 
 
+_STATION_KEYS = ("name", "position_mm", "dead_path_mm")
+
+
 def read_stations(path: str | Path) -> list[Station]:
     """Stations of a STATIONS.yaml (strict: kind, version, names unique, numbers finite)."""
     doc = load_document(path, "stations file")
@@ -43,10 +46,18 @@ def read_stations(path: str | Path) -> list[Station]:
     if not isinstance(entries, list) or not entries:
         raise InputFileError(f"{path}: stations: a non-empty list is needed")
     out = []
+    unknown = sorted(set(doc) - {"kind", "version", "stations"})
+    if unknown:
+        raise InputFileError(f"{path}: {unknown[0]}: unknown key (kind, version, stations)")
     for k, e in enumerate(entries):
         where = f"{path}: stations[{k}]"
         if not isinstance(e, dict) or not {"name", "position_mm"} <= set(e):
             raise InputFileError(f"{where}: needs name and position_mm")
+        unknown = sorted(set(e) - set(_STATION_KEYS))
+        if unknown:
+            raise InputFileError(
+                f"{where}: {unknown[0]}: unknown key (a station has {', '.join(_STATION_KEYS)})"
+            )
         pos = e["position_mm"]
         if (
             not isinstance(pos, list)
@@ -55,8 +66,13 @@ def read_stations(path: str | Path) -> list[Station]:
         ):
             raise InputFileError(f"{where}: position_mm must be three numbers")
         dead = e.get("dead_path_mm", 0.0)
-        if not isinstance(dead, int | float) or not math.isfinite(dead):
+        if isinstance(dead, bool) or not isinstance(dead, int | float) or not math.isfinite(dead):
             raise InputFileError(f"{where}: dead_path_mm must be a number")
+        if dead < 0:
+            raise InputFileError(
+                f"{where}: dead_path_mm must be >= 0 (the interferometer's path before the "
+                f"reflector), got {dead:g}"
+            )
         out.append(Station(str(e["name"]), tuple(float(v) for v in pos), float(dead)))
     names = [s.name for s in out]
     if len(set(names)) != len(names):
