@@ -38,6 +38,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from mtmetrology._memory import require_memory
 from mtmetrology.budgets.choices import FEATURE_KINDS
 from mtmetrology.budgets.iso15530 import (
     Policy,
@@ -47,9 +48,7 @@ from mtmetrology.budgets.iso15530 import (
     probe_contribution,
     repeatability,
 )
-from mtmetrology._memory import require_memory
 from mtmetrology.errors import InputError
-from mtmetrology.io.plausibility import check_within
 from mtmetrology.fitting import (
     BallCentre,
     CircleCentre,
@@ -63,6 +62,7 @@ from mtmetrology.fitting import (
     Sphericity,
 )
 from mtmetrology.formatting import format_uncertainty
+from mtmetrology.io.plausibility import check_within
 from mtmetrology.kinematics.volumetric_map import VolumetricMap
 from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.uncertainty.conformity import Tolerance, decide

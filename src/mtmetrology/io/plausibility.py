@@ -217,7 +217,7 @@ def check_scale(value: float, measured: float, where: str, unit: str = "mm") -> 
     >>> check_scale(0.30521, 305.2, "artefact.yaml: scale_bar.length_mm")
     Traceback (most recent call last):
     ...
-    mtmetrology.errors.InputError: artefact.yaml: scale_bar.length_mm: 0.30521 mm, but the machine measures 305.2 mm between its ends (1e+03 times more); is the length in mm?
+    mtmetrology.errors.InputError: artefact.yaml: scale_bar.length_mm: 0.30521 mm, but ...
     """
     if not (value > 0 and measured > 0):
         return
