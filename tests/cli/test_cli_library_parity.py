@@ -139,7 +139,7 @@ def case_budget(tmp_path):
     from mtmetrology.budgets.iso15530 import iso15530_3_budget
     from mtmetrology.uncertainty.conformity import Tolerance
 
-    values = 50.0 + 0.001 * np.random.default_rng(4).normal(size=12)
+    values = 50.0 + 0.001 * np.random.default_rng(4).normal(size=20)
     runs = tmp_path / "runs.csv"
     runs.write_text("value\n" + "\n".join(f"{v:.6f}" for v in values) + "\n", "utf-8")
     cli = _json(

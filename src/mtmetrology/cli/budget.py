@@ -27,8 +27,8 @@ U = k·√(u_cal²+u_p²+u_w²) + |b|; 2011: b corrected, U = k·√(u_cal²+u_p
 paper003 (default): u_b = |b| inside the root.  The probe error enters in quadrature
 above 1 µm (small machine) or 3 µm (large).
 
-The policies 2004 and 2011, and --u-p max-over-series, need the standard's 20 repeats in
-series of at least 10 cycles; --allow-few-repeats proceeds with fewer, says so and records
+Every policy and --u-p method needs the standard's 20 repeats in series of at least 10
+cycles; --allow-few-repeats proceeds with fewer, says so and records
 the deviation in the result.  Repeats, part readings and VALUE must all be in mm.
 
 --part READINGS.csv (value, mm): a production part measured the same way; its result

@@ -193,7 +193,13 @@ def check_within(
         )
 
 
-def check_scale(value: float, measured: float, where: str, unit: str = "mm") -> None:
+def check_scale(
+    value: float,
+    measured: float,
+    where: str,
+    unit: str = "mm",
+    against: str = "the distance the machine measures between its ends",
+) -> None:
     """Refuse a stated length more than :data:`SCALE_FACTOR` from the length measured for
     it (a length in metres or µm where mm are read; a wrong artefact).
 
@@ -205,6 +211,10 @@ def check_scale(value: float, measured: float, where: str, unit: str = "mm") -> 
         What the machine reads for it, nominally (> 0).
     where : str
         The file and field, or the option, of ``value``.
+    unit : str
+        Unit of both.
+    against : str
+        What ``measured`` is, in the refusal.
 
     Raises
     ------
@@ -225,8 +235,8 @@ def check_scale(value: float, measured: float, where: str, unit: str = "mm") -> 
     if not 1.0 / SCALE_FACTOR <= ratio <= SCALE_FACTOR:
         times = f"{ratio:.2g} times more" if ratio > 1 else f"{1 / ratio:.2g} times less"
         raise InputError(
-            f"{where}: {value:g} {unit}, but the machine measures {measured:.6g} {unit} "
-            f"between its ends ({times}); is the length in {unit}?"
+            f"{where}: {value:g} {unit}, but {against} is {measured:.6g} {unit} "
+            f"({times}); is the length in {unit}?"
         )
 
 

@@ -57,6 +57,12 @@ from pathlib import Path
 import numpy as np
 
 from mtmetrology.io.files import InputFileError
+from mtmetrology.io.plausibility import (
+    check_positive,
+    check_temperatures,
+    check_uncertainty,
+    checked_number,
+)
 from mtmetrology.io.tables import read_csv_table, write_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.readings_table import readings_from_table
@@ -129,6 +135,12 @@ def thermal_reference(
     ThermalReference
         ``L_T = L₂₀ (1 + α (T − 20))`` and ``u(L_T)`` by the law of propagation.
 
+    Raises
+    ------
+    InputError
+        A length not > 0, a temperature outside −50 to 100 °C, a negative uncertainty or
+        a non-finite input (each named by its option).
+
     References
     ----------
     Alami Mchichi (2018), §6.5.3; JCGM 100:2008, 5.1.2.
@@ -139,15 +151,12 @@ def thermal_reference(
     >>> round(r.length, 6), round(r.sensitivities["temperature"] * 1e3, 3)
     (500.0054, 5.4)
     """
-    for name, v in (
-        ("u of the length", u_length20),
-        ("u of the temperature", u_temperature_c),
-        ("u of the expansion coefficient", u_cte),
-    ):
-        if not (v >= 0 and np.isfinite(v)):
-            raise InputFileError(f"{name} must be >= 0, got {v}")
-    if not (np.isfinite(temperature_c) and np.isfinite(cte)):
-        raise InputFileError("temperature and expansion coefficient must be finite numbers")
+    check_positive(length20, "--length")
+    check_uncertainty(u_length20, "--u-length", "mm")
+    check_temperatures(temperature_c, "--temperature-c")
+    check_uncertainty(u_temperature_c, "--u-temperature-c", "°C")
+    checked_number(cte, "--cte")
+    check_uncertainty(u_cte, "--u-cte")
     dt = temperature_c - REFERENCE_TEMPERATURE_C
     sens = {"length20": 1.0 + cte * dt, "cte": length20 * dt, "temperature": length20 * cte}
     contrib = {
