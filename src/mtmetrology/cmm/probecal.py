@@ -36,9 +36,9 @@ from mtmetrology.cmm.models import parse_model
 from mtmetrology.cmm.notebook import CMMNotebookRepr
 from mtmetrology.cmm.problem import BallPlateProblem
 from mtmetrology.errors import InputError, RankDeficientError
-from mtmetrology.io.plausibility import check_scale
 from mtmetrology.identification.diagnostics import analyse_identifiability
 from mtmetrology.identification.solver import levenberg_marquardt
+from mtmetrology.io.plausibility import check_scale
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.units import from_internal
 

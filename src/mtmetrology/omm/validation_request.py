@@ -25,9 +25,9 @@ from pathlib import Path
 import numpy as np
 
 from mtmetrology.errors import InputError
-from mtmetrology.io.plausibility import check_positive, check_uncertainty, distinct_files
 from mtmetrology.fitting.features import SphereDiameter, Sphericity
 from mtmetrology.io import read_csv_table
+from mtmetrology.io.plausibility import check_positive, check_uncertainty, distinct_files
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.readings_table import readings_from_table
