@@ -39,10 +39,10 @@ The standard's minimum, at least 20 repeats in series of at least 10 cycles, is 
 under every policy and u_p method (a u_p from 2 repeats has one degree of freedom, from 19
 it is still not the standard's); fewer repeats are accepted only when asked
 (``allow_few_repeats``), and the deviation is then recorded in the result
-(:attr:`ISO15530Budget.deviations`).  The repeats, the production part's readings and the calibrated value must be in the same unit (mm): magnitudes that differ
-by more than a factor √10³ (half of the three decades of a µm/mm or mm/m slip, on a log
-scale; magnitudes below 0.1 mm count as 0.1 mm, for form and position near zero) are
-refused, naming both.
+(:attr:`ISO15530Budget.deviations`). The repeats, the production part's readings and the
+calibrated value must be in the same unit (mm): magnitudes that differ by more than a
+factor √10³ (half of the three decades of a µm/mm or mm/m slip, on a log scale; magnitudes
+below 0.1 mm count as 0.1 mm, for form and position near zero) are refused, naming both.
 
 A production part's readings (``part``) give its result, the same U and the ISO 14253-1
 decision against the tolerance (:class:`PartResult`).
