@@ -193,7 +193,7 @@ def iso15530_3(
         machine_class=machine_class,
         k=k,
         tolerance=tol,
-        name=runs.stem,
+        name=str(runs),
         provenance={"runs": str(runs)} | ({} if part is None else {"part": str(part)}),
         allow_few_repeats=allow_few_repeats,
         part=readings,

@@ -186,7 +186,8 @@ def check_table_limit(fmt: str, machine: Machine, pitch, points, axes) -> None:
     if limit is None:
         return
     for function, n in table_sizes(machine, pitch=pitch, points=points, axes=axes).items():
-        check_points(fmt, function, n, limit, "checked before the tables are built")
+        given = f"--pitch {pitch:g}" if pitch is not None else f"--points {points}"
+        check_points(fmt, f"{given}: {function}", n, limit, "checked before the tables are built")
 
 
 def _build(fmt: str, model: CompensationModel, functions):

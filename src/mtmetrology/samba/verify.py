@@ -398,7 +398,7 @@ def verify_length(
     0.0
     """
     if not (length > 0 and np.isfinite(length)):
-        raise InputFileError(f"the calibrated length must be positive, got {length}")
+        raise InputFileError(f"--length: the calibrated length must be > 0 mm, got {length}")
     if not (tip_radius >= 0 and np.isfinite(tip_radius)):
         raise InputFileError(f"the tip radius must be >= 0, got {tip_radius}")
 

@@ -223,7 +223,7 @@ def check_plausible(machine: Machine, meas: TrackerMeasurements, where) -> None:
                 lambda i, a=a: f"{where(i)}: column '{a}'",
                 what=f"travel of {a} of {machine.name}",
             )
-    TrackerLimits().check(meas.spherical, "measurement")
+    TrackerLimits().check(meas.spherical, where=where)
     q = np.zeros((len(meas), machine.n_axes))
     for k, a in enumerate("XYZ"):
         if a in machine.axis_names:
