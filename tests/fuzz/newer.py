@@ -12,7 +12,6 @@ traceback, nothing written); the ``accepted`` ones (the valid inputs themselves)
 
 from __future__ import annotations
 
-import json
 import math
 import tempfile
 from pathlib import Path
@@ -310,6 +309,7 @@ def _param_u(value: float):
 
 
 # (id, mutation, command, placeholder or literal the one line must name)
+# fmt: off
 REFUSED = [
     # calibrate tracker: MEASUREMENTS.csv (point,X,Y,Z,tool_x..z,range,azimuth,elevation,T_X..Z)
     ("tracker-outside-travel", _csv_cell("meas", 6, 1, "5000"), TRACKER, "meas"),
@@ -325,26 +325,26 @@ REFUSED = [
         _replace("pose", "delta_deg: 0", "delta_deg: 0\ngamma_deg: 3"),
         TRACKER_POSE,
         "pose",
-    ),  # fmt: skip
+    ),
     ("tracker-pose-nan", _replace("pose", "D_mm: -1200", "D_mm: .nan"), TRACKER_POSE, "pose"),
     (
         "tracker-conditions-unknown-key",
         _replace("conditions", "u_sensor_K", "u_sensors_K"),
         TRACKER_CONDITIONS,
         "conditions",
-    ),  # fmt: skip
+    ),
     (
         "tracker-conditions-2000",
         _replace("conditions", "[[20.1,", "[[2000,"),
         TRACKER_CONDITIONS,
         "conditions",
-    ),  # fmt: skip
+    ),
     (
         "tracker-tools-nan",
         _replace("tools", "[0, 0, -100]", "[0, .nan, -100]"),
         SIM_TRACKER,
         "tools",
-    ),  # fmt: skip
+    ),
     (
         "tracker-tools-empty",
         _replace(
@@ -352,32 +352,32 @@ REFUSED = [
         ),
         SIM_TRACKER,
         "tools",
-    ),  # fmt: skip
+    ),
     # multilateration
     (
         "stations-unknown-key",
         _replace("stations", "dead_path_mm: 100}", "dead_path_mm: 100, colour: red}"),
         SIM_MULTI,
         "stations",
-    ),  # fmt: skip
+    ),
     (
         "stations-negative-dead-path",
         _replace("stations", "dead_path_mm: 100}", "dead_path_mm: -100}"),
         SIM_MULTI,
         "stations",
-    ),  # fmt: skip
+    ),
     (
         "stations-nan",
         _replace("stations", "[750, 50, 30]", "[750, .nan, 30]"),
         SIM_MULTI,
         "stations",
-    ),  # fmt: skip
+    ),
     ("stations-empty", _set("stations", ""), SIM_MULTI, "stations"),
     ("lengths-nan", _csv_cell("lengths", 4, 7, "nan"), CAL_MULTI, "lengths"),
     ("lengths-header-only", _header_only("lengths"), CAL_MULTI, "lengths"),
     # budget iso15530-3
-    ("runs-19", _csv_lines("runs", lambda ls: ls[:20] + [""]), ISO, "runs"),
-    ("runs-2", _csv_lines("runs", lambda ls: ls[:3] + [""]), ISO, "runs"),
+    ("runs-19", _csv_lines("runs", lambda ls: [*ls[:20], ""]), ISO, "runs"),
+    ("runs-2", _csv_lines("runs", lambda ls: [*ls[:3], ""]), ISO, "runs"),
     ("runs-nan", _csv_cell("runs", 4, 0, "nan"), ISO, "runs"),
     ("runs-header-only", _header_only("runs"), ISO, "runs"),
     ("runs-micrometres", _scaled("runs", (0,), 1e3), ISO, "runs"),
@@ -394,13 +394,13 @@ REFUSED = [
         lambda f: f,
         _with(CMM_CAL, "--length", "00,08,0.752362,0.2"),
         "--length",
-    ),  # fmt: skip
+    ),
     (
         "plate-length-negative",
         lambda f: f,
         _with(CMM_CAL, "--length", "00,08,-752.362,0.2"),
         "--length",
-    ),  # fmt: skip
+    ),
     ("cmm-gp-mean-word", lambda f: f, (*CMM_COMPARE, "--gp-mean", "foo"), "--gp-mean"),
     ("cmm-records-header-only", _header_only("records"), CMM_COMPARE, "records"),
     # samba scale bar, repeated campaigns and calibrations
@@ -409,20 +409,20 @@ REFUSED = [
         _replace("artefact", "length_mm: 305.569", "length_mm: 0.305569"),
         SAMBA_CAL,
         "scale_bar",
-    ),  # fmt: skip
+    ),
     (
         "samba-scale-bar-um",
         _replace("artefact", "length_mm: 305.569", "length_mm: 305569"),
         SAMBA_CAL,
         "scale_bar",
-    ),  # fmt: skip
+    ),
     ("unexplained-same-file-twice", lambda f: f, UNEXPLAINED, "samba"),
     (
         "long-term-same-file-twice",
         lambda f: f,
         ("calibrate", "long-term", "{params5}", "{params5}", "-o", "{out}"),
         "params5",
-    ),  # fmt: skip
+    ),
     ("long-term-copy", lambda f: {**f, "lt5": f["params5"]}, LONG_TERM, "lt5"),
     # task, validate, verify length
     ("task-params-u-negative", _param_u(-1.0), TASK, "params5"),
@@ -431,46 +431,46 @@ REFUSED = [
         _replace("params5", '"value": ', '"value": NaN, "x": '),
         TASK,
         "params5",
-    ),  # fmt: skip
+    ),
     ("task-points-header-only", _header_only("task"), TASK, "task"),
     (
         "validate-reference-zero",
         lambda f: f,
         _with(VALIDATE_TASK, "--reference-mm", "0"),
         "--reference-mm",
-    ),  # fmt: skip
+    ),
     (
         "validate-reference-negative",
         lambda f: f,
         _with(VALIDATE_TASK, "--reference-mm", "-282"),
         "--reference-mm",
-    ),  # fmt: skip
+    ),
     ("validate-side-header-only", _header_only("side_a"), VALIDATE_TASK, "side_a"),
     (
         "pooling-diameter-zero",
         lambda f: f,
         _with(POOLING, "--diameter-mm", "0"),
         "--diameter-mm",
-    ),  # fmt: skip
+    ),
     (
         "pooling-diameter-negative",
         lambda f: f,
         _with(POOLING, "--diameter-mm", "-25"),
         "--diameter-mm",
-    ),  # fmt: skip
+    ),
     ("pooling-same-set-twice", lambda f: {**f, "set1": f["set0"]}, POOLING, "set1"),
     (
         "verify-length-temperature-300",
         lambda f: f,
         (*VERIFY_LENGTH, "--temperature-c", "-300"),
         "--temperature-c",
-    ),  # fmt: skip
+    ),
     (
         "verify-length-kelvin",
         lambda f: f,
         (*VERIFY_LENGTH, "--temperature-c", "293.15"),
         "--temperature-c",
-    ),  # fmt: skip
+    ),
     ("verify-length-zero", lambda f: f, _with(VERIFY_LENGTH, "--length", "0"), "--length"),
     ("verify-length-gauge-header-only", _header_only("gauge"), VERIFY_LENGTH, "gauge"),
     # huge sizes: refused before the work starts, saying how much
@@ -479,19 +479,19 @@ REFUSED = [
         lambda f: f,
         _with(VERIFY_TRACKER, "--trials", "1000000000"),
         "--trials",
-    ),  # fmt: skip
+    ),
     (
         "placement-trials-huge",
         lambda f: f,
         _with(PLACEMENT, "--trials", "1000000000"),
         "--trials",
-    ),  # fmt: skip
+    ),
     (
         "multilateration-grid-huge",
         lambda f: f,
         _with(SIM_MULTI, "--grid", "1000,1000,1000"),
         "--grid",
-    ),  # fmt: skip
+    ),
     ("fanuc-pitch-tiny", lambda f: f, (*FANUC[:5], "--pitch", "0.01", *FANUC[7:]), "--pitch"),
     ("isg-pitch-tiny", lambda f: f, (*ISG[:5], "--pitch", "0.001", *ISG[7:]), "pitch"),
     # options that are numbers but not plausible ones
@@ -500,6 +500,7 @@ REFUSED = [
     ("iso-calibrated-nan", lambda f: f, _with(ISO, "--calibrated", "nan"), "--calibrated"),
     ("iso-u-cal-negative", lambda f: f, _with(ISO, "--u-cal", "-1"), "--u-cal"),
 ]
+# fmt: on
 
 #: The valid inputs of each command: exit 0 (the base of the refusals above is valid).
 ACCEPTED = [
