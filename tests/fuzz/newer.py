@@ -54,6 +54,8 @@ NAMES = {
     "set0": "set0.csv",
     "set1": "set1.csv",
     "gauge": "gauge.csv",
+    "dballs": "balls.yaml",
+    "pairs": "pairs.csv",
 }
 
 
@@ -186,6 +188,12 @@ def _make(d: Path) -> None:
                 for j, s in enumerate(np.linspace(0, 6, 7))
             )
         )
+    (d / "balls.yaml").write_text(
+        'kind: samba-balls\nballs:\n  - {id: "1", centre_mm: [-80, -40, 100]}\n'
+    )
+    (d / "pairs.csv").write_text(
+        "B,C\n" + "".join(f"{b},{c}\n" for b in range(-90, 91, 30) for c in range(0, 360, 45))
+    )
     _mtm("simulate", "length", "--machine", M5, "--end-a", "-100,-100,40", "--end-b",
          "100,100,40", "--pairs", 5, "--noise-um", 0.5, "--seed", 8,
          "-o", d / "gauge.csv")  # fmt: skip
@@ -259,6 +267,10 @@ POOLING = ("validate", "pooling", "{set0}", "{set1}", "--machine", M5, "--params
 VERIFY_LENGTH = ("verify", "length", "{gauge}", "--machine", M5, "--length",
                  repr(float(np.hypot(200.0, 200.0))), "-o", "{out}")  # fmt: skip
 
+DESIGN_COMPARE = ("design", "compare", "--machine", M5, "--model", "13", "--balls", "{dballs}",
+                  "--indexations", "{pairs}", "--n-balls", "1", "--k", "3", "--starts", "1",
+                  "--criterion", "D", "--seed", "5", "-o", "{out}")  # fmt: skip
+
 
 def _with(args: tuple, option: str, value: str) -> tuple:
     """``args`` with ``option``'s value replaced (or the option added)."""
@@ -309,7 +321,6 @@ def _param_u(value: float):
 
 
 # (id, mutation, command, placeholder or literal the one line must name)
-# fmt: off
 REFUSED = [
     # calibrate tracker: MEASUREMENTS.csv (point,X,Y,Z,tool_x..z,range,azimuth,elevation,T_X..Z)
     ("tracker-outside-travel", _csv_cell("meas", 6, 1, "5000"), TRACKER, "meas"),
@@ -475,6 +486,25 @@ REFUSED = [
     ("verify-length-gauge-header-only", _header_only("gauge"), VERIFY_LENGTH, "gauge"),
     # huge sizes: refused before the work starts, saying how much
     (
+        "design-compare-starts-huge",
+        lambda f: f,
+        _with(DESIGN_COMPARE, "--starts", "100000000"),
+        "--starts",
+    ),
+    ("design-compare-indexations-header-only", _header_only("pairs"), DESIGN_COMPARE, "pairs"),
+    (
+        "design-compare-balls-nan",
+        _replace("dballs", "[-80, -40, 100]", "[-80, .nan, 100]"),
+        DESIGN_COMPARE,
+        "dballs",
+    ),
+    (
+        "design-compare-gauge-negative",
+        lambda f: f,
+        (*DESIGN_COMPARE, "--gauge-mm", "-100"),
+        "--gauge-mm",
+    ),
+    (
         "verify-tracker-trials-huge",
         lambda f: f,
         _with(VERIFY_TRACKER, "--trials", "1000000000"),
@@ -500,7 +530,6 @@ REFUSED = [
     ("iso-calibrated-nan", lambda f: f, _with(ISO, "--calibrated", "nan"), "--calibrated"),
     ("iso-u-cal-negative", lambda f: f, _with(ISO, "--u-cal", "-1"), "--u-cal"),
 ]
-# fmt: on
 
 #: The valid inputs of each command: exit 0 (the base of the refusals above is valid).
 ACCEPTED = [
@@ -518,6 +547,7 @@ ACCEPTED = [
     ("validate-task", VALIDATE_TASK),
     ("pooling", POOLING),
     ("verify-length", (*VERIFY_LENGTH, "--temperature-c", "21.5")),
+    ("design-compare", DESIGN_COMPARE),
 ]
 
 
