@@ -55,13 +55,13 @@ from functools import partial
 
 import numpy as np
 
+from mtmetrology._memory import require_memory
 from mtmetrology.design.choices import SCALED_CRITERIA
 from mtmetrology.design.criteria import (
     check_criterion,
     criterion_from_spectrum,
     scaled_spectrum,
 )
-from mtmetrology._memory import require_memory
 from mtmetrology.errors import InputError, ResourceLimitError
 from mtmetrology.rng import SeedLike, chunk_generators
 from mtmetrology.uncertainty.executors import resolve_executor
