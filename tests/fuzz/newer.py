@@ -386,6 +386,7 @@ REFUSED = [
     ("stations-empty", _set("stations", ""), SIM_MULTI, "stations"),
     ("lengths-nan", _csv_cell("lengths", 4, 7, "nan"), CAL_MULTI, "lengths"),
     ("lengths-header-only", _header_only("lengths"), CAL_MULTI, "lengths"),
+    ("lengths-outside-travel", _csv_cell("lengths", 4, 1, "5000"), CAL_MULTI, "lengths"),
     # budget iso15530-3
     ("runs-19", _csv_lines("runs", lambda ls: [*ls[:20], ""]), ISO, "runs"),
     ("runs-2", _csv_lines("runs", lambda ls: [*ls[:3], ""]), ISO, "runs"),

@@ -24,6 +24,7 @@ from mtmetrology.io import InputFileError, read_csv_table
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.tables import write_csv_table
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.readings_table import readings_from_table
 from mtmetrology.multilateration.workflow import LengthRecord, Station
 
 __all__ = ["STATIONS_KIND", "read_lengths", "read_stations", "write_lengths"]
@@ -81,9 +82,10 @@ def read_stations(path: str | Path) -> list[Station]:
 
 
 def read_lengths(path: str | Path, machine: Machine) -> LengthRecord:
-    """LENGTHS.csv of ``machine`` (module notes): readings in internal units."""
+    """LENGTHS.csv of ``machine`` (module notes): readings in internal units; a reading
+    outside the travel, a NaN or a missing column is refused naming the file and line."""
     table = read_csv_table(path, required=["station", *machine.axis_names, *_TOOL, "length"])
-    q = machine.readings_from_customary({a: table.floats(a) for a in machine.axis_names})
+    q = readings_from_table(machine, table)  # a reading outside the travel is refused
     tools = np.column_stack([table.floats(c) for c in _TOOL])
     lengths = table.floats("length")
     return LengthRecord(q, tools, tuple(table.strings("station")), lengths)
