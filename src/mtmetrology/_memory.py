@@ -1,4 +1,5 @@
-"""Keeping the resident memory of a run on millions of rows close to what it holds.
+"""Keeping the resident memory of a run on millions of rows close to what it holds, and
+refusing a run that would not fit.
 
 Two allocators serve a run: glibc's ``malloc`` (numpy arrays, Python objects) and
 Arrow's pool (the CSV reader's and writer's buffers).  Both keep freed memory for reuse,
@@ -19,9 +20,14 @@ otherwise stay as large as its largest moment, and the peaks of later steps add 
 - :func:`release_free_memory` hands back, after a large file is read, what both
   allocators hold free (Arrow's ``release_unused``, glibc's ``malloc_trim``).
 
-Both are for the command line (``mtm``), which owns its process; a library call leaves
-the allocators of its host alone.  Elsewhere than on glibc (macOS, Windows, musl) the
-glibc calls are skipped without a word.
+And one check bounds a run before it starts: :func:`require_memory` refuses a request
+whose estimated peak (from the sizes asked: trials, grid nodes, table points) exceeds half
+of the memory available, saying how much it needs (issue 32: runs that grew until the
+system killed them).
+
+The allocator settings are for the command line (``mtm``), which owns its process; a
+library call leaves the allocators of its host alone.  Elsewhere than on glibc (macOS,
+Windows, musl) the glibc calls are skipped without a word.
 
 References
 ----------
