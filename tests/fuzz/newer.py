@@ -141,6 +141,7 @@ def _make(d: Path) -> None:
     (d / "conditions.yaml").write_text(
         "kind: tracker-conditions\nversion: 1\n"
         "sensor_temperatures_C: [[20.1, 20.3], [20.0, 20.2], [19.9, 20.1]]\nu_sensor_K: 0.05\n"
+        "cte_per_K: [11.5e-6, 11.5e-6, 11.5e-6]\n"
     )
     (d / "stations.yaml").write_text(
         "kind: multilateration-stations\nversion: 1\nstations:\n"
@@ -347,6 +348,12 @@ REFUSED = [
     (
         "tracker-conditions-2000",
         _replace("conditions", "[[20.1,", "[[2000,"),
+        TRACKER_CONDITIONS,
+        "conditions",
+    ),
+    (
+        "tracker-conditions-cte-um-per-m",
+        _replace("conditions", "[11.5e-6,", "[11.5,"),
         TRACKER_CONDITIONS,
         "conditions",
     ),

@@ -65,3 +65,9 @@ def test_distinct_files_by_content(tmp_path):
         pl.distinct_files([a, b, a])
     with pytest.raises(InputError, match=rf"^{c}: has the content of {a}"):
         pl.distinct_files([a, c])
+
+
+def test_expansion_coefficient_in_per_kelvin():
+    assert pl.check_expansion_coefficient(-2e-4, "a").tolist() == -2e-4
+    with pytest.raises(InputError, match=r"^cte: 11.5 1/K is not an expansion coefficient"):
+        pl.check_expansion_coefficient([11.5e-6, 11.5], "cte")

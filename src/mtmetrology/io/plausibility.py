@@ -13,6 +13,8 @@ workflows call them, never their own copies:
 - :func:`check_positive`: a length (or diameter, or step) that must be > 0;
 - :func:`check_uncertainty`: a standard uncertainty, finite and >= 0;
 - :func:`check_within`: values inside an interval (a travel), with a margin;
+- :func:`check_expansion_coefficient`: |α| <= :data:`EXPANSION_MAX` (1/K): every solid
+  of a machine or workpiece is far below it; 11.5 is µm/(m·K) read as 1/K;
 - :func:`check_scale`: a stated length against the length the machine measures for it:
   a ratio beyond :data:`SCALE_FACTOR` is a unit slip (µm, mm, m), not a machine error;
 - :func:`distinct_files`: several input files of one kind, none given twice (by content).
@@ -32,8 +34,10 @@ import numpy as np
 from mtmetrology.errors import InputError
 
 __all__ = [
+    "EXPANSION_MAX",
     "SCALE_FACTOR",
     "TEMPERATURE_RANGE",
+    "check_expansion_coefficient",
     "check_positive",
     "check_scale",
     "check_temperatures",
@@ -49,6 +53,10 @@ TEMPERATURE_RANGE = (-50.0, 100.0)
 #: of one decade on a log scale, far beyond any machine error (a scale error of 10 % is
 #: 10⁵ µm/m) and well short of the 10³ of a µm/mm/m slip.
 SCALE_FACTOR = math.sqrt(10.0)
+
+#: Largest plausible magnitude of a linear expansion coefficient, 1/K: polymers reach about
+#: 2e-4, metals 3e-5, invar and ceramics 1e-6.
+EXPANSION_MAX = 5e-4
 
 Where = str | Callable[[int], str]
 
@@ -115,6 +123,29 @@ def check_temperatures(values, where: Where) -> np.ndarray:
             f"{high:g} °C{hint}"
         )
     return t
+
+
+def check_expansion_coefficient(values, where: Where) -> np.ndarray:
+    """Expansion coefficients (1/K) of magnitude <= :data:`EXPANSION_MAX`, as an array.
+
+    Raises
+    ------
+    InputError
+        A value that is not finite or is larger (µm/(m·K) given where 1/K is read).
+
+    Examples
+    --------
+    >>> check_expansion_coefficient([11.5e-6, 23e-6], "cte_per_K").tolist()
+    [1.15e-05, 2.3e-05]
+    """
+    a = np.asarray(values, dtype=float)
+    bad = np.flatnonzero(~(np.abs(a) <= EXPANSION_MAX))
+    if bad.size:
+        raise InputError(
+            f"{_at(where, int(bad[0]))}: {a.ravel()[bad[0]]:g} 1/K is not an expansion "
+            f"coefficient (at most {EXPANSION_MAX:g} 1/K; µm/(m·K) given as 1/K?)"
+        )
+    return a
 
 
 def check_positive(value, where: str, unit: str = "mm") -> float:
