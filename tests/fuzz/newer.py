@@ -403,6 +403,7 @@ REFUSED = [
     # budget volumetric-map
     ("ring-micrometres", _scaled("ring", (0, 1, 2), 1e3), MAP, "ring"),
     ("ring-5-m-outside", _scaled("ring", (0,), 6.0), MAP, "ring"),
+    ("map-trials-huge", lambda f: f, (*MAP, "--u-cal", "mc", "--trials", "1000000000"), "--trials"),
     ("ring-nan", _csv_cell("ring", 3, 1, "nan"), MAP, "ring"),
     ("ring-header-only", _header_only("ring"), MAP, "ring"),
     ("map-u-negative", _json("map", lambda d: d["parameters"][0].update(u=-1.0)), FANUC, "map"),

@@ -482,6 +482,14 @@ def volumetric_map_budget(
         raise InputError(f"mode: one of {', '.join(MODES)}, got {mode!r}")
     if u_cal_method not in ("guf", "mc"):
         raise InputError(f"u_cal method: 'guf' or 'mc', got {u_cal_method!r}")
+    if u_cal_method == "mc":
+        # the draws of the map at every point of a cycle (3 coordinates) and the points
+        # displaced by them, with the temporaries of the fit: about 4 such arrays
+        n_points = np.asarray(points).size
+        require_memory(
+            4 * 8 * int(trials) * n_points,
+            f"--trials {trials}: map draws at {n_points // 3} points",
+        )
     if u_p is not None and not (math.isfinite(u_p) and u_p >= 0):
         raise InputError(f"u_p: must be >= 0, got {u_p}")
     chars = characteristics(kind, inner=inner, tip_diameter=tip_diameter)
