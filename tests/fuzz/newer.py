@@ -465,6 +465,12 @@ REFUSED = [
         _with(VALIDATE_TASK, "--reference-mm", "-282"),
         "--reference-mm",
     ),
+    (
+        "validate-reference-metres",
+        lambda f: f,
+        _with(VALIDATE_TASK, "--reference-mm", "0.15"),
+        "--reference-mm",
+    ),
     ("validate-side-header-only", _header_only("side_a"), VALIDATE_TASK, "side_a"),
     (
         "pooling-diameter-zero",

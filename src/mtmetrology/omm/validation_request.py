@@ -27,7 +27,12 @@ import numpy as np
 from mtmetrology.errors import InputError
 from mtmetrology.fitting.features import SphereDiameter, Sphericity
 from mtmetrology.io import read_csv_table
-from mtmetrology.io.plausibility import check_positive, check_uncertainty, distinct_files
+from mtmetrology.io.plausibility import (
+    check_positive,
+    check_scale,
+    check_uncertainty,
+    distinct_files,
+)
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.readings_table import readings_from_table
@@ -140,6 +145,14 @@ def validate_gauge_from_files(
     rep = load_repeatability_model(repeatability) if repeatability is not None else None
     a, va = read_side(side_a, model, rep)
     b, vb = read_side(side_b, model, rep)
+    # a reference in m or µm is 10³ off the distance the faces' points show
+    faces = [model.forward(r).mean(axis=0) for r in (a, b)]
+    check_scale(
+        calibrated_length,
+        float(np.linalg.norm(faces[1] - faces[0])),
+        "--reference-mm",
+        against="the distance between the mean points of the two faces",
+    )
     cov_e = load_unexplained_covariance(unexplained) if unexplained is not None else None
     reference = thermal_reference_value(
         calibrated_length,
