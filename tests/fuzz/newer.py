@@ -497,6 +497,7 @@ REFUSED = [
         (*VERIFY_LENGTH, "--temperature-c", "293.15"),
         "--temperature-c",
     ),
+    ("verify-length-metres", lambda f: f, _with(VERIFY_LENGTH, "--length", "0.2828"), "--length"),
     ("verify-length-zero", lambda f: f, _with(VERIFY_LENGTH, "--length", "0"), "--length"),
     ("verify-length-gauge-header-only", _header_only("gauge"), VERIFY_LENGTH, "gauge"),
     # huge sizes: refused before the work starts, saying how much

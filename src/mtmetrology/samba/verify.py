@@ -59,6 +59,7 @@ import numpy as np
 from mtmetrology.io.files import InputFileError
 from mtmetrology.io.plausibility import (
     check_positive,
+    check_scale,
     check_temperatures,
     check_uncertainty,
     checked_number,
@@ -408,6 +409,9 @@ def verify_length(
         return np.linalg.norm(pb - pa, axis=-1) - 2.0 * tip_radius
 
     nominal = lengths(None)
+    # a length in m or µm is 10³ off what the machine reads between the ends
+    check_scale(length, float(np.mean(np.abs(nominal))), "--length",
+                against="the mean nominal length the readings show")  # fmt: skip
     compensated = nominal if params is None else lengths(params)
     u_calibration = None
     if parameter_covariance is not None:
