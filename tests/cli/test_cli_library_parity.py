@@ -154,7 +154,7 @@ def case_budget(tmp_path):
         u_cal=0.4e-3,
         u_w=0.3e-3,
         tolerance=Tolerance.parse("50,-0.01,0.01"),
-        name="runs",
+        name=str(runs),
         provenance={"runs": str(runs)},
     )
     return cli, library.to_dict()
