@@ -92,3 +92,18 @@ def test_without_glibc_both_calls_do_nothing(monkeypatch):
     assert _memory.release_free_memory() is None
     monkeypatch.delattr(os, "confstr")
     assert _memory.limit_heap_retention() is False
+
+
+def test_require_memory_refuses_above_half_of_what_is_available_naming_both():
+    _memory.require_memory(2e9, "--grid 10,10,10: 1000 poses", available=4 << 30)
+    with pytest.raises(_memory.ResourceLimitError) as err:
+        _memory.require_memory(2.2e9, "--grid 10,10,10: 1000 poses", available=4 << 30)
+    message = str(err.value)
+    assert message.startswith("--grid 10,10,10: 1000 poses: needs about 2.2 GB of memory;")
+    assert "2.15 GB (half of the 4.29 GB available)" in message
+    with pytest.raises(_memory.ResourceLimitError):  # NaN bytes is never under a limit
+        _memory.require_memory(float("nan"), "x", available=4 << 30)
+
+
+def test_available_memory_is_a_positive_number_of_bytes():
+    assert _memory.available_memory() > 0

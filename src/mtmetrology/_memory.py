@@ -1,4 +1,5 @@
-"""Keeping the resident memory of a run on millions of rows close to what it holds.
+"""Keeping the resident memory of a run on millions of rows close to what it holds, and
+refusing a run that would not fit.
 
 Two allocators serve a run: glibc's ``malloc`` (numpy arrays, Python objects) and
 Arrow's pool (the CSV reader's and writer's buffers).  Both keep freed memory for reuse,
@@ -19,9 +20,14 @@ otherwise stay as large as its largest moment, and the peaks of later steps add 
 - :func:`release_free_memory` hands back, after a large file is read, what both
   allocators hold free (Arrow's ``release_unused``, glibc's ``malloc_trim``).
 
-Both are for the command line (``mtm``), which owns its process; a library call leaves
-the allocators of its host alone.  Elsewhere than on glibc (macOS, Windows, musl) the
-glibc calls are skipped without a word.
+And one check bounds a run before it starts: :func:`require_memory` refuses a request
+whose estimated peak (from the sizes asked: trials, grid nodes, table points) exceeds half
+of the memory available, saying how much it needs (issue 32: runs that grew until the
+system killed them).
+
+The allocator settings are for the command line (``mtm``), which owns its process; a
+library call leaves the allocators of its host alone.  Elsewhere than on glibc (macOS,
+Windows, musl) the glibc calls are skipped without a word.
 
 References
 ----------
@@ -40,6 +46,14 @@ from __future__ import annotations
 
 import os
 import sys
+
+from mtmetrology.errors import ResourceLimitError
+
+#: Share of the available memory one run may plan to hold (the rest: the interpreter, the
+#: temporaries of numpy's expressions, the other programs of the machine).
+MEMORY_SHARE = 0.5
+#: When the available memory cannot be read (no ``/proc/meminfo``, no ``sysconf``).
+FALLBACK_AVAILABLE = 4 << 30
 
 #: ``mallopt`` parameter numbers of the trim and mmap thresholds (glibc ``malloc.h``).
 M_TRIM_THRESHOLD = -1
@@ -96,3 +110,67 @@ def release_free_memory() -> None:
     libc = _glibc()
     if libc is not None:
         libc.malloc_trim(0)
+
+
+def available_memory() -> int:
+    """Bytes of memory the system can give a new allocation now.
+
+    ``MemAvailable`` of ``/proc/meminfo`` (Linux: free plus reclaimable caches), else the
+    physical memory (``sysconf``), else :data:`FALLBACK_AVAILABLE`.
+    """
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, ValueError, OSError):
+        return FALLBACK_AVAILABLE
+
+
+def _gb(nbytes: float) -> str:
+    return f"{nbytes / 1e9:.3g} GB"
+
+
+def require_memory(nbytes: float, what: str, *, available: int | None = None) -> None:
+    """Refuse, before any work, a run that would hold more than its share of the memory.
+
+    The check every sized request (trials, grid nodes, table points, feature points) goes
+    through at the door: its caller estimates the bytes the run holds at its peak from the
+    sizes it was given, and the run is refused when that exceeds :data:`MEMORY_SHARE` of
+    :func:`available_memory` -- rather than growing until the system kills it.
+
+    Parameters
+    ----------
+    nbytes : float
+        Estimated peak of the run, bytes.
+    what : str
+        The request and the reason of the estimate, e.g. ``"--grid 1000,1000,1000: 10⁹
+        poses x 4 stations x 96 bytes"``; it starts the refusal.
+    available : int, optional
+        Bytes available (:func:`available_memory` when omitted; given by tests).
+
+    Raises
+    ------
+    ResourceLimitError
+        ``nbytes`` above the share, with both amounts in the message.
+
+    Examples
+    --------
+    >>> require_memory(1e6, "a small run")
+    >>> require_memory(3e9, "--trials 10**8: 30 bytes per trial", available=4 << 30)
+    Traceback (most recent call last):
+    ...
+    mtmetrology.errors.ResourceLimitError: --trials 10**8: 30 bytes per trial: needs about \
+3 GB of memory; 2.15 GB (half of the 4.29 GB available) is the limit of one run
+    """
+    free = available_memory() if available is None else int(available)
+    limit = MEMORY_SHARE * free
+    if not nbytes <= limit:
+        raise ResourceLimitError(
+            f"{what}: needs about {_gb(nbytes)} of memory; {_gb(limit)} (half of the "
+            f"{_gb(free)} available) is the limit of one run"
+        )

@@ -128,9 +128,9 @@ def test_probe_term_only_above_threshold():
 
 
 def _values():
-    # mean 10.002, sample s = 0.001 (exact construction), n = 4
-    s = 0.001 / math.sqrt(4.0 / 3.0)
-    return 10.002 + s * np.array([-1.0, -1.0, 1.0, 1.0])
+    # mean 10.002, sample s = 0.001 (exact construction), n = 20 (the standard's minimum)
+    a = 0.001 * math.sqrt(19.0 / 20.0)
+    return 10.002 + a * np.tile([-1.0, 1.0], 10)
 
 
 def test_budget_policies_and_reported_result():
@@ -141,13 +141,10 @@ def test_budget_policies_and_reported_result():
     assert p3.u_p == pytest.approx(0.001)
     assert p3.U == pytest.approx(2 * math.sqrt(0.002**2 + 0.001**2 + 0.0005**2))
     assert p3.result == pytest.approx(10.002)
-    # four repeats: the ISO policies take them only as an allowed, recorded deviation
-    few = {"allow_few_repeats": True}
-    p04 = iso15530_3_budget(y, calibrated=cal, u_cal=ucal, policy="2004", **few)
+    p04 = iso15530_3_budget(y, calibrated=cal, u_cal=ucal, policy="2004")
     assert p04.U == pytest.approx(2 * math.sqrt(0.001**2 + 0.0005**2) + 0.002)
-    assert p04.deviations == ("4 repeats, ISO 15530-3 requires at least 20",)
-    assert p3.deviations == ()
-    p11 = iso15530_3_budget(y, calibrated=cal, u_cal=ucal, policy="2011", u_b=0.0003, **few)
+    assert p04.deviations == () and p3.deviations == ()
+    p11 = iso15530_3_budget(y, calibrated=cal, u_cal=ucal, policy="2011", u_b=0.0003)
     assert p11.result == pytest.approx(10.0)
     assert p11.U == pytest.approx(2 * math.sqrt(0.001**2 + 0.0005**2 + 0.0003**2))
 
@@ -220,9 +217,7 @@ def test_cli_iso15530_3(tmp_path):
 
 
 def test_outputs_in_the_uncertainty_result_vocabulary():
-    b = iso15530_3_budget(
-        _values(), calibrated=10.0, u_cal=0.0005, policy="2004", allow_few_repeats=True
-    )
+    b = iso15530_3_budget(_values(), calibrated=10.0, u_cal=0.0005, policy="2004")
     out = b.to_dict()["outputs"][0]
     assert out["value"] == b.result and out["u"] == b.u and out["U"] == b.U
     assert out["k"] == pytest.approx(b.U / b.u) and out["k"] > 2.0  # |b| outside the root
@@ -236,8 +231,8 @@ def _twenty(series=None):
     return 50.002 + a * np.tile([-1.0, 1.0], 10)
 
 
-@pytest.mark.parametrize("policy", ["2004", "2011"])
-def test_iso_policies_require_twenty_repeats(policy):
+@pytest.mark.parametrize("policy", ["2004", "2011", "paper003"])
+def test_every_policy_requires_twenty_repeats(policy):
     y = _twenty()
     ok = iso15530_3_budget(y, calibrated=50.0, u_cal=0.0005, policy=policy)
     assert ok.deviations == () and ok.u_p == pytest.approx(0.001)
@@ -255,8 +250,12 @@ def test_few_repeats_allowed_are_recorded_and_read_back():
     doc = json.loads(json.dumps(b.to_dict()))
     assert doc["deviations"] == list(b.deviations)
     assert ISO15530Budget.from_dict(doc) == b
-    # the paper's policy with the sample s has no minimum beyond 2: nothing to record
-    assert iso15530_3_budget(y, calibrated=50.0, u_cal=0.0005).deviations == ()
+    # the paper's policy with the sample s: the same minimum (issue 32: 2 repeats gave a
+    # u_p of one degree of freedom without a word)
+    with pytest.raises(InputError, match=r"5 repeats, .* at least 20 \(policy paper003"):
+        iso15530_3_budget(y, calibrated=50.0, u_cal=0.0005)
+    allowed = iso15530_3_budget(y, calibrated=50.0, u_cal=0.0005, allow_few_repeats=True)
+    assert allowed.deviations == ("5 repeats, ISO 15530-3 requires at least 20",)
 
 
 # µm or m for mm, also when the values sit a little below the factor 10³ (issue 30: x_cal
@@ -274,9 +273,9 @@ def test_the_unit_check_leaves_form_and_position_near_zero_alone():
     b = iso15530_3_budget(y, calibrated=0.003, u_cal=0.0005)
     assert b.b == pytest.approx(0.037)
     # at the limit: a factor 10^1.5 passes, a little more is refused
-    iso15530_3_budget(np.full(2, 0.1 * 10**1.5), calibrated=0.1, u_cal=0.0)
+    iso15530_3_budget(np.full(20, 0.1 * 10**1.5), calibrated=0.1, u_cal=0.0)
     with pytest.raises(InputError, match="differ by a factor"):
-        iso15530_3_budget(np.full(2, 0.1 * 10**1.5 * 1.01), calibrated=0.1, u_cal=0.0)
+        iso15530_3_budget(np.full(20, 0.1 * 10**1.5 * 1.01), calibrated=0.1, u_cal=0.0)
 
 
 def test_a_part_outside_the_tolerance_is_non_conforming():

@@ -67,8 +67,14 @@ def test_export_writes_the_files_and_a_check_that_equals_the_library_result(para
     ("args", "field"),
     [
         (["linuxcnc", "--pitch", 1000], "pitch: 1000 mm is larger than the travel of X"),
-        (["linuxcnc", "--pitch", 1], "E_XX: 401 points; format linuxcnc accepts at most 256"),
-        (["siemens", "--points", 300], "E_XX: 300 points; format siemens accepts at most 200"),
+        (
+            ["linuxcnc", "--pitch", 1],
+            "--pitch 1: E_XX: 401 points; format linuxcnc accepts at most 256",
+        ),
+        (
+            ["siemens", "--points", 300],
+            "--points 300: E_XX: 300 points; format siemens accepts at most 200",
+        ),
         (["linuxcnc", "--pitch", 10, "--functions", "E_AX"], "E_AX: format linuxcnc cannot"),
         (["siemens", "--pitch", 10, "--functions", "E_CZ"], "E_CZ: format siemens cannot"),
         (["heidenhain", "--pitch", 10], "format: 'heidenhain' is not one of"),

@@ -140,7 +140,7 @@ def case_budget(tmp_path):
     from mtmetrology.budgets.iso15530 import iso15530_3_budget
     from mtmetrology.uncertainty.conformity import Tolerance
 
-    values = 50.0 + 0.001 * np.random.default_rng(4).normal(size=12)
+    values = 50.0 + 0.001 * np.random.default_rng(4).normal(size=20)
     runs = tmp_path / "runs.csv"
     runs.write_text("value\n" + "\n".join(f"{v:.6f}" for v in values) + "\n", "utf-8")
     cli = _json(
@@ -155,7 +155,7 @@ def case_budget(tmp_path):
         u_cal=0.4e-3,
         u_w=0.3e-3,
         tolerance=Tolerance.parse("50,-0.01,0.01"),
-        name="runs",
+        name=str(runs),
         provenance={"runs": str(runs)},
     )
     return cli, library.to_dict()

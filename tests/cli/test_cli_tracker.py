@@ -92,7 +92,8 @@ def test_reading_beyond_tracker_limits_and_nan_reading_refused(measurements, tmp
     res = mtm("tracker", "calibrate", steep, "--machine", MACHINE, "-o", tmp_path / "r.json")
     assert res.exit_code == 2
     assert (
-        res.output.strip() == "error: measurement 5: elevation -60.00° beyond ±45° of the tracker"
+        res.output.strip()
+        == f"error: {steep}, line 6: elevation -60.00° beyond ±45° of the tracker"
     )
     assert not (tmp_path / "r.json").exists()
     cells[9] = "nan"

@@ -224,7 +224,15 @@ def test_check_machine_names_the_models(machine):
         ),
         (
             {**HEADER, "parameters": [{**X0C, "u": -1}]},
-            "p.json: standard uncertainties u must be >= 0",
+            "p.json: parameters[0] (E_X0C): u must be >= 0 (a standard uncertainty), got -1",
+        ),
+        (
+            {
+                **HEADER,
+                "parameters": [{**X0C, "u": -1}],
+                "covariance": {"names": ["E_X0C"], "matrix": [[1e-6]]},
+            },
+            "p.json: parameters[0] (E_X0C): u must be >= 0 (a standard uncertainty), got -1",
         ),
         (
             {**HEADER, "parameters": [{**X0C, "u": "1"}]},

@@ -213,9 +213,9 @@ def test_request_from_files_carries_the_reference_and_names_its_files(tmp_path):
     files = [tmp_path / "a.csv", tmp_path / "b.csv", MACHINE.name, tmp_path / "params.json"]
     thermal = dict(expansion_coefficient=10.8e-6, temperature_difference=1.75)
     r = validate_gauge_from_files(
-        *files, 500.0, 0.2 * UM, recalibrated=True, tip_diameter=0.0, **thermal
+        *files, 150.0, 0.2 * UM, recalibrated=True, tip_diameter=0.0, **thermal
     )
-    y_cal = 500.0 * (1 + 10.8e-6 * 1.75)
+    y_cal = 150.0 * (1 + 10.8e-6 * 1.75)
     assert r.reference_value == pytest.approx(y_cal, abs=1e-12)
     (out,) = r.thermal_reference["outputs"]
     assert out["value"] == pytest.approx(r.reference_value, abs=1e-12)

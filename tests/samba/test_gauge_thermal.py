@@ -8,7 +8,7 @@ import pytest
 from typer.testing import CliRunner
 
 from mtmetrology.cli import app
-from mtmetrology.io.files import InputFileError
+from mtmetrology.errors import InputError
 from mtmetrology.samba.verify import thermal_reference
 
 runner = CliRunner()
@@ -28,8 +28,12 @@ def test_thermal_reference_closed_form_and_the_sources_5_4_um_per_degree():
     assert r.u == pytest.approx(expected, rel=1e-12)
     below = thermal_reference(500.0, 0.0, 18.0, 0.0)
     assert below.length < 500.0 and below.u == 0.0
-    with pytest.raises(InputFileError, match="u of the temperature"):
+    with pytest.raises(InputError, match="--u-temperature-c"):
         thermal_reference(500.0, 0.0, 21.0, -1.0)
+    with pytest.raises(InputError, match="--temperature-c: -300 °C is outside"):
+        thermal_reference(500.0, 0.0, -300.0, 0.1)
+    with pytest.raises(InputError, match="--length: must be > 0 mm"):
+        thermal_reference(-500.0, 0.0, 21.0, 0.1)
 
 
 def _sphere_points(centre, radius, n=25, seed=0):

@@ -36,13 +36,13 @@ evaluated from its inputs (:class:`~mtmetrology.budgets.workpiece.WorkpieceVaria
 u_w = (t − 20 °C)·u_α·l and the temperature and form terms).
 
 The standard's minimum, at least 20 repeats in series of at least 10 cycles, is enforced
-under the ``2004`` and ``2011`` policies and with ``max-over-series``; fewer repeats are
-accepted only when asked (``allow_few_repeats``), and the deviation is then recorded in
-the result (:attr:`ISO15530Budget.deviations`).  The repeats, the production part's
-readings and the calibrated value must be in the same unit (mm): magnitudes that differ
-by more than a factor √10³ (half of the three decades of a µm/mm or mm/m slip, on a log
-scale; magnitudes below 0.1 mm count as 0.1 mm, for form and position near zero) are
-refused, naming both.
+under every policy and u_p method (a u_p from 2 repeats has one degree of freedom, from 19
+it is still not the standard's); fewer repeats are accepted only when asked
+(``allow_few_repeats``), and the deviation is then recorded in the result
+(:attr:`ISO15530Budget.deviations`). The repeats, the production part's readings and the
+calibrated value must be in the same unit (mm): magnitudes that differ by more than a
+factor √10³ (half of the three decades of a µm/mm or mm/m slip, on a log scale; magnitudes
+below 0.1 mm count as 0.1 mm, for form and position near zero) are refused, naming both.
 
 A production part's readings (``part``) give its result, the same U and the ISO 14253-1
 decision against the tolerance (:class:`PartResult`).
@@ -509,8 +509,8 @@ def iso15530_3_budget(
         Specification; the ISO 14253-1 decision of the part's result ± U (of the reference
         workpiece's result without ``part``) is attached.
     allow_few_repeats : bool
-        Proceed with fewer repeats than ISO 15530-3 requires (policies ``2004``/``2011``,
-        ``max-over-series``): the shortfall is recorded in ``deviations``.
+        Proceed with fewer repeats than ISO 15530-3 requires (20 in series of at least 10,
+        under every policy): the shortfall is recorded in ``deviations``.
     part : (m,) array, optional
         Readings of a production part measured like the workpiece (mm); their mean gives
         the part's result (:class:`PartResult`).
@@ -550,14 +550,15 @@ def iso15530_3_budget(
             workpiece = replace(workpiece, length=abs(calibrated))
         u_w = workpiece.u()
     deviations: list[str] = []
-    if policy in ISO_POLICIES or method is RepeatabilityMethod.MAX_OVER_SERIES:
-        shortfall = repeat_shortfall(y.size, series)
-        if shortfall and not allow_few_repeats:
-            raise InputError(
-                f"{name}: {'; '.join(shortfall)} (policy {policy}, --u-p {method}); "
-                "--allow-few-repeats proceeds and records the deviation"
-            )
-        deviations = shortfall
+    # u_p from fewer repeats is itself too uncertain to state (2 repeats: one degree of
+    # freedom), whatever the combination rule: the minimum holds for every policy
+    shortfall = repeat_shortfall(y.size, series)
+    if shortfall and not allow_few_repeats:
+        raise InputError(
+            f"{name}: {'; '.join(shortfall)} (policy {policy}, --u-p {method}); "
+            "--allow-few-repeats proceeds and records the deviation"
+        )
+    deviations = shortfall
     u_p = repeatability(y, series, method, allow_few_repeats=allow_few_repeats)
     mean = float(np.mean(y))
     check_same_unit(mean, calibrated, f"{name}: the repeats' mean")

@@ -38,6 +38,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from mtmetrology._memory import require_memory
 from mtmetrology.budgets.choices import FEATURE_KINDS
 from mtmetrology.budgets.iso15530 import (
     Policy,
@@ -61,6 +62,7 @@ from mtmetrology.fitting import (
     Sphericity,
 )
 from mtmetrology.formatting import format_uncertainty
+from mtmetrology.io.plausibility import check_within
 from mtmetrology.kinematics.volumetric_map import VolumetricMap
 from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.uncertainty.conformity import Tolerance, decide
@@ -319,11 +321,46 @@ def map_for_points(machine, params, points: np.ndarray, spacing: float = 10.0) -
     """
     p = np.asarray(points, dtype=float).reshape(-1, 3)
     low, high = p.min(axis=0) - 1.0, p.max(axis=0) + 1.0
-    grid = tuple(
-        np.linspace(lo, hi, max(2, math.ceil((hi - lo) / spacing) + 1))
-        for lo, hi in zip(low, high, strict=True)
+    counts = [max(2, math.ceil((hi - lo) / spacing) + 1) for lo, hi in zip(low, high, strict=True)]
+    # each node holds its error and its sensitivities to every parameter (float64)
+    require_memory(
+        math.prod(counts) * 3 * (machine.n_params + 1) * 8,
+        f"a map of {' x '.join(map(str, counts))} nodes over the points",
     )
+    grid = tuple(np.linspace(lo, hi, n) for lo, hi, n in zip(low, high, counts, strict=True))
     return VolumetricMap.from_parameters(machine, params, grid)
+
+
+#: Overrun of the points beyond an axis travel, as a share of the travel (a stylus, the
+#: probing direction): beyond it the identified error functions would be extrapolated.
+TRAVEL_MARGIN = 0.05
+
+
+def check_in_travel(machine, points: np.ndarray, where) -> None:
+    """Refuse points whose readings (nominal inverse kinematics, the machine's tool) leave
+    a linear axis travel by more than :data:`TRAVEL_MARGIN` of it: the model's error
+    functions are identified over the travel only.  ``where(i)`` names point i.
+
+    Raises
+    ------
+    InputError
+        The first point outside, its axis and the travel named.
+    """
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    q = machine.inverse(p, np.zeros((len(p), machine.n_axes)), tool=machine.tool)
+    for k, a in enumerate(machine.axis_names):
+        travel = machine.axes[a].travel
+        if travel is None or not machine.axes[a].linear:
+            continue
+        low, high = travel
+        check_within(
+            q[:, k],
+            low,
+            high,
+            lambda i, a=a: f"{where(i)}: its reading {a}",
+            margin=TRAVEL_MARGIN * (high - low),
+            what=f"travel of {a} of {machine.name}",
+        )
 
 
 def _sqrt_psd(cov: np.ndarray) -> np.ndarray:
@@ -331,7 +368,7 @@ def _sqrt_psd(cov: np.ndarray) -> np.ndarray:
     return v * np.sqrt(np.clip(w, 0.0, None))
 
 
-def load_map(machine, path, points: np.ndarray) -> VolumetricMap:
+def load_map(machine, path, points: np.ndarray, where=None) -> VolumetricMap:
     """The volumetric map of a file: a ``volumetric-map`` document as it is, or a parameter
     set (with its covariance) mapped on a grid covering ``points`` (:func:`map_for_points`).
 
@@ -343,10 +380,19 @@ def load_map(machine, path, points: np.ndarray) -> VolumetricMap:
         The map or the parameter set (JSON/YAML).
     points : (N, 3) array
         Points the map must cover, mm.
+    where : callable, optional
+        ``where(i)`` names point i in a refusal (its file and line).
 
     Returns
     -------
     VolumetricMap
+
+    Raises
+    ------
+    InputError
+        A point outside the travel (a parameter set is not extrapolated).
+    ResourceLimitError
+        A map over the points larger than the memory holds.
     """
     from mtmetrology.io.documents import load_document
     from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -356,6 +402,7 @@ def load_map(machine, path, points: np.ndarray) -> VolumetricMap:
     if isinstance(doc, dict) and doc.get("kind") == MAP_KIND:
         return VolumetricMap.from_dict(doc, str(path))
     pset = ParameterSet.from_document(doc, machine, str(path))
+    check_in_travel(machine, points, where or (lambda i: f"points: point {i + 1}"))
     return map_for_points(machine, pset, points)
 
 
@@ -435,6 +482,14 @@ def volumetric_map_budget(
         raise InputError(f"mode: one of {', '.join(MODES)}, got {mode!r}")
     if u_cal_method not in ("guf", "mc"):
         raise InputError(f"u_cal method: 'guf' or 'mc', got {u_cal_method!r}")
+    if u_cal_method == "mc":
+        # the draws of the map at every point of a cycle (3 coordinates) and the points
+        # displaced by them, with the temporaries of the fit: about 4 such arrays
+        n_points = np.asarray(points).size
+        require_memory(
+            4 * 8 * int(trials) * n_points,
+            f"--trials {trials}: map draws at {n_points // 3} points",
+        )
     if u_p is not None and not (math.isfinite(u_p) and u_p >= 0):
         raise InputError(f"u_p: must be >= 0, got {u_p}")
     chars = characteristics(kind, inner=inner, tip_diameter=tip_diameter)

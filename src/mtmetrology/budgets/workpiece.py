@@ -33,34 +33,18 @@ import math
 from dataclasses import dataclass
 
 from mtmetrology.errors import InputError
+from mtmetrology.io.plausibility import check_temperatures, checked_number
 from mtmetrology.units import from_internal
 
 __all__ = ["FORMULA", "REFERENCE_TEMPERATURE", "WorkpieceVariation", "checked_number"]
 
 #: ISO 1:2016 reference temperature of dimensional specifications (°C).
 REFERENCE_TEMPERATURE = 20.0
-#: The plausible range of a workpiece temperature (°C), as every other input of mtm.
-_TEMPERATURE_RANGE = (-50.0, 100.0)
 
 FORMULA = (
     "u_w = √(L²·[(T − 20 °C)²·u_α² + α²·u_T² + u_α²·u_T²] + F²/12), u_α = a_α/√3 "
     "(ISO 15530-3, clause 7: u_w = (t − 20 °C)·u_α·l; JCGM 100:2008, 5.1.2)"
 )
-
-
-def checked_number(value: float | None, name: str, *, minimum: float | None = None) -> float | None:
-    """``value`` as a finite float (None stays None); ``name`` (the option) in the refusal."""
-    if value is None:
-        return None
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: expected a number, got {value!r}") from None
-    if not math.isfinite(x):
-        raise InputError(f"{name}: expected a finite number, got {value!r}")
-    if minimum is not None and x < minimum:
-        raise InputError(f"{name}: must be >= {minimum:g}, got {value!r}")
-    return x
 
 
 @dataclass(frozen=True)
@@ -113,11 +97,8 @@ class WorkpieceVariation:
             object.__setattr__(self, name, value)
         if self.length is not None and self.length <= 0:
             raise InputError(f"--length: must be > 0 mm, got {self.length:g}")
-        low, high = _TEMPERATURE_RANGE
-        if self.temperature is not None and not low <= self.temperature <= high:
-            raise InputError(
-                f"--temperature: {self.temperature:g} °C is outside {low:g} to {high:g} °C"
-            )
+        if self.temperature is not None:
+            check_temperatures(self.temperature, "--temperature")
         if self.alpha_half_width > 0 and self.temperature is None:
             raise InputError("--temperature: needed with --alpha-half-width (u_w)")
         if self.u_temperature > 0 and self.alpha == 0:

@@ -30,8 +30,8 @@ U = k·√(u_cal²+u_p²+u_w²) + |b|; 2011: b corrected, U = k·√(u_cal²+u_p
 paper003 (default): u_b = |b| inside the root.  The probe error enters in quadrature
 above 1 µm (small machine) or 3 µm (large).
 
-The policies 2004 and 2011, and --u-p max-over-series, need the standard's 20 repeats in
-series of at least 10 cycles; --allow-few-repeats proceeds with fewer, says so and records
+Every policy and --u-p method needs the standard's 20 repeats in series of at least 10
+cycles; --allow-few-repeats proceeds with fewer, says so and records
 the deviation in the result.  Repeats, part readings and VALUE must all be in mm.
 
 --part READINGS.csv (value, mm): a production part measured the same way; its result
@@ -205,7 +205,7 @@ def iso15530_3(
         machine_class=machine_class,
         k=coverage_from_options(k, p).k,
         tolerance=tol,
-        name=runs.stem,
+        name=str(runs),
         provenance={"runs": str(runs)} | ({} if part is None else {"part": str(part)}),
         allow_few_repeats=allow_few_repeats,
         part=readings,
@@ -347,7 +347,7 @@ def volumetric_map(
     m = Machine.load(machine)
     table = read_csv_table(points, required=["x", "y", "z"])
     xyz = table.vectors("xyz")
-    vmap = load_map(m, params, xyz)
+    vmap = load_map(m, params, xyz, lambda i: f"{points}, line {table.lines[i]}")
     runs = None
     if repeats is not None:
         r = read_csv_table(repeats, required=["characteristic", "value"], min_rows=2)

@@ -476,12 +476,14 @@ def unexplained(
     json: Annotated[bool, typer.Option("--json", help="Print E.json.")] = False,
     report_path: ReportOption = None,
 ) -> None:
+    from mtmetrology.io.plausibility import distinct_files
     from mtmetrology.samba import load_artefact, read_records, unexplained_from_campaigns
     from mtmetrology.units import from_internal, to_internal
 
     if not noise_um > 0:
         raise InputError(f"--noise-um must be positive, got {noise_um}")
     m = _machine(machine, model, params_only)
+    distinct_files(campaigns, "campaign records")
     art = load_artefact(artefact)
     records = [read_records(path, m, art) for path in campaigns]
     sigma = float(to_internal(noise_um, "µm"))

@@ -103,7 +103,7 @@ def compare(
     rec, pl, pr = read_ballplate_inputs(records, plate, probes)
     choice = parse_model(model)
     if gp_mean != "none":
-        parse_model(gp_mean)
+        parse_model(gp_mean, option="--gp-mean", others=("none",))
     if kernel not in ("rbf", "matern"):
         raise InputFileError(f"--kernel {kernel!r}: use rbf or matern")
     res = compare_held_out(

@@ -54,6 +54,7 @@ def long_term(
 ) -> None:
     from mtmetrology.identification.long_term import VALUE_CHOICES, long_term_parameters
     from mtmetrology.io.documents import load_document
+    from mtmetrology.io.plausibility import distinct_files
     from mtmetrology.kinematics.machine import Machine
     from mtmetrology.kinematics.parameter_set import ParameterSet
 
@@ -64,6 +65,7 @@ def long_term(
             f"give at least 2 calibration files, got {len(calibrations)}: a covariance "
             "needs the scatter of several days"
         )
+    distinct_files(calibrations, "calibration files")
     documents = [load_document(p, "parameter set") for p in calibrations]
     if machine is None:
         named = documents[0].get("machine") if isinstance(documents[0], dict) else None

@@ -152,7 +152,7 @@ def calibrate_tracker(
     m = Machine.load(machine, model)
     noise = files.noise(angle_urad, range_noise, angle_spread, smr)
     known, known_cov = files.load_known_pose(pose)
-    meas = read_measurements(measurements, parse_tools(tool))
+    meas = read_measurements(measurements, parse_tools(tool), m)
     cal = calibrate(
         m,
         meas,

@@ -88,8 +88,13 @@ class ModelChoice:
         return self.degrees is None
 
 
-def parse_model(text: str, overrides: str | None = None) -> ModelChoice:
+def parse_model(
+    text: str, overrides: str | None = None, *, option: str = "--model", others=("auto",)
+) -> ModelChoice:
     """``seed`` or ``full-<d>`` with optional per-function degrees ``"E_YX=3,E_AZ=0"``.
+
+    ``option`` is the option the text came from and ``others`` the further words it takes
+    (handled by the caller), both named in a refusal.
 
     Raises
     ------
@@ -107,7 +112,8 @@ def parse_model(text: str, overrides: str | None = None) -> ModelChoice:
             raise InputError("--degrees applies to a full-<d> model, not to the seed model")
         return ModelChoice("seed")
     if not t.startswith("full-") or not t[5:].isdigit() or not 1 <= int(t[5:]) <= 5:
-        raise InputError(f"--model {text!r}: use seed, auto or full-<d> with d in 1..5")
+        words = ", ".join(("seed", *others))
+        raise InputError(f"{option} {text!r}: use {words} or full-<d> with d in 1..5")
     d = int(t[5:])
     degrees = dict.fromkeys(FUNCTIONS, d)
     if overrides:

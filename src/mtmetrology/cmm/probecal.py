@@ -38,6 +38,7 @@ from mtmetrology.cmm.problem import BallPlateProblem
 from mtmetrology.errors import InputError, RankDeficientError
 from mtmetrology.identification.diagnostics import analyse_identifiability
 from mtmetrology.identification.solver import levenberg_marquardt
+from mtmetrology.io.plausibility import check_scale
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.units import from_internal
 
@@ -98,6 +99,16 @@ class ProbePlateProblem(BallPlateProblem):
             for b in (length.ball_a, length.ball_b):
                 if b not in self.ball_ids:
                     raise InputError(f"length: ball {b!r} is not in the records")
+            if {length.ball_a, length.ball_b} <= set(plate.ids):
+                xyz = plate.coordinates
+                a, b = plate.ids.index(length.ball_a), plate.ids.index(length.ball_b)
+                # the plate's nominal distance: a length in m or µm is 10³ off it
+                check_scale(
+                    length.length,
+                    float(np.linalg.norm(xyz[b] - xyz[a])),
+                    f"--length: {length.ball_a}-{length.ball_b}",
+                    against="the plate's nominal distance",
+                )
         self._inner = len(self.names)  # θ, poses, balls: the base class's block
         extra = [f"probe {k} d{c}" for k in self.probe_ids for c in "xyz"]
         self.names = (*self.names, *extra, "sphere x", "sphere y", "sphere z")

@@ -55,13 +55,14 @@ from functools import partial
 
 import numpy as np
 
+from mtmetrology._memory import require_memory
 from mtmetrology.design.choices import SCALED_CRITERIA
 from mtmetrology.design.criteria import (
     check_criterion,
     criterion_from_spectrum,
     scaled_spectrum,
 )
-from mtmetrology.errors import InputError
+from mtmetrology.errors import InputError, ResourceLimitError
 from mtmetrology.rng import SeedLike, chunk_generators
 from mtmetrology.uncertainty.executors import resolve_executor
 
@@ -74,6 +75,9 @@ STOP_MESSAGES = {
     0: "stopped at the iteration limit",
 }
 
+#: Most random starts of one search: each is a complete exchange search (milliseconds to
+#: seconds), and the best of a few dozen is the optimum in practice.
+MAX_STARTS = 10_000
 _CHUNK = 64  # trial matrices per batched eigenvalue call (bounds memory to 64·n² floats)
 
 
@@ -407,6 +411,8 @@ def detmax(
     ------
     InputError
         If ``size`` is not between 1 and the number of candidates, or ``starts`` < 1.
+    ResourceLimitError
+        More than :data:`MAX_STARTS` starts, or more than the memory holds (before any run).
 
     Examples
     --------
@@ -425,6 +431,13 @@ def detmax(
         raise InputError(f"design size {size} must be between 1 and the {n} candidates")
     if int(starts) < 1:
         raise InputError(f"starts must be at least 1, got {starts}")
+    if int(starts) > MAX_STARTS:
+        raise ResourceLimitError(
+            f"--starts {starts}: at most {MAX_STARTS} random starts (each is a complete "
+            "exchange search; the best of a few dozen is already the optimum in practice)"
+        )
+    # each start keeps its generator (about 1 KB), its design and its run's result
+    require_memory(int(starts) * (2048 + 16 * int(size)), f"--starts {starts}")
     gens = chunk_generators(seed, int(starts))
     tasks = [(space, np.sort(g.choice(n, int(size), replace=False))) for g in gens]
     runner, owned = resolve_executor(executor)

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mtmetrology._memory import require_memory
 from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -181,24 +182,15 @@ class CompensationModel:
         return self.parameters.vector_for(self.machine)
 
 
-def axis_grid(
+def axis_points(
     machine: Machine,
     axis: str,
     *,
     pitch: float | None = None,
     points: int | None = None,
-) -> np.ndarray:
-    """Equally spaced positions over the travel of ``axis`` (internal units).
-
-    Parameters
-    ----------
-    machine : Machine
-    axis : str
-    pitch : float, optional
-        Spacing in mm (linear axis) or degrees (rotary axis); the grid starts at the travel
-        minimum and its last point is the first at or beyond the travel maximum.
-    points : int, optional
-        Number of points from travel minimum to maximum (≥ 2); exclusive with ``pitch``.
+) -> int:
+    """How many positions :func:`axis_grid` gives, refused the same way, without building
+    them: the size every table limit and memory bound is checked on first.
 
     Raises
     ------
@@ -223,11 +215,63 @@ def axis_grid(
                 f"pitch: {pitch:g} {unit} is larger than the travel of {axis} "
                 f"({length / scale:g} {unit})"
             )
-        n = int(np.ceil(length / step - 1e-9)) + 1
-        return lo + step * np.arange(n)
+        return int(np.ceil(length / step - 1e-9)) + 1
     if points < 2:
         raise InputError(f"points: {points} < 2; a table needs two points at least")
-    return np.linspace(lo, hi, points)
+    return int(points)
+
+
+def axis_grid(
+    machine: Machine,
+    axis: str,
+    *,
+    pitch: float | None = None,
+    points: int | None = None,
+) -> np.ndarray:
+    """Equally spaced positions over the travel of ``axis`` (internal units).
+
+    Parameters
+    ----------
+    machine : Machine
+    axis : str
+    pitch : float, optional
+        Spacing in mm (linear axis) or degrees (rotary axis); the grid starts at the travel
+        minimum and its last point is the first at or beyond the travel maximum.
+    points : int, optional
+        Number of points from travel minimum to maximum (≥ 2); exclusive with ``pitch``.
+
+    Raises
+    ------
+    InputError
+        No travel, a pitch not positive or larger than the travel, fewer than 2 points.
+    """
+    n = axis_points(machine, axis, pitch=pitch, points=points)
+    lo, hi = machine.axes[axis].travel
+    if pitch is not None:
+        step = pitch * (1.0 if axis in LINEAR_AXES else _DEG)
+        return lo + step * np.arange(n)
+    return np.linspace(lo, hi, n)
+
+
+def table_sizes(
+    machine: Machine,
+    *,
+    pitch: float | dict | None = None,
+    points: int | dict | None = None,
+    axes: Sequence[str] | None = None,
+) -> dict[str, int]:
+    """Points of each table :func:`compensation_model` would build (function -> n), from
+    the travels alone."""
+    wanted = [a.upper() for a in axes] if axes else None
+    out = {}
+    for function in function_columns(machine):
+        axis = function[3]
+        if (wanted is not None and axis not in wanted) or axis not in machine.axis_names:
+            continue
+        pa = pitch.get(axis) if isinstance(pitch, dict) else pitch
+        pn = points.get(axis) if isinstance(points, dict) else points
+        out[function] = axis_points(machine, axis, pitch=pa, points=pn)
+    return out
 
 
 def design(machine: Machine, columns: Sequence[int], q: np.ndarray, sign: float) -> np.ndarray:
@@ -312,6 +356,8 @@ def compensation_model(
     ------
     InputError
         A parameter set of another machine, an axis not in the machine, a bad grid.
+    ResourceLimitError
+        Tables (and their covariances) larger than the memory holds, before any is built.
 
     Notes
     -----
@@ -339,6 +385,14 @@ def compensation_model(
             raise InputError(
                 f"--reference: {axis} is not an axis of {m.name} ({''.join(m.axis_names)})"
             )
+    # each table holds A (2n x its parameters) and, with the covariance, A U Aᵀ (2n x 2n)
+    cols = function_columns(m)
+    sizes = table_sizes(m, pitch=pitch, points=points, axes=wanted)
+    need = sum(
+        16 * n * (len(cols[f]) + (2 * n if cov is not None else 0)) for f, n in sizes.items()
+    )
+    given = f"pitch {pitch}" if pitch is not None else f"points {points}"
+    require_memory(need, f"{given}: tables of up to {max(sizes.values(), default=0)} points")
     sides = _sides(m)
     tables = []
     refs = {}

@@ -19,6 +19,7 @@ import numpy as np
 from mtmetrology.display import NotebookRepr
 from mtmetrology.errors import InputError
 from mtmetrology.export import etalon, fanuc, grid, isg, linuxcnc, siemens, tabulated
+from mtmetrology.export._common import check_points
 from mtmetrology.export.control import ControlTable, residual
 from mtmetrology.export.emulation import (
     SIGN_NOT_ESTABLISHED,
@@ -26,7 +27,7 @@ from mtmetrology.export.emulation import (
     default_axis_names,
     emulate,
 )
-from mtmetrology.export.model import CompensationModel, compensation_model
+from mtmetrology.export.model import CompensationModel, compensation_model, table_sizes
 from mtmetrology.export.tabulated import MeasuredTable, tabulated_model
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
@@ -176,6 +177,18 @@ def check_readings(machine: Machine, per_axis: int = 5) -> np.ndarray:
             k = np.arange(per_axis) + _CHECK_OFFSET
             columns.append(travel[0] + (travel[1] - travel[0]) * k / per_axis)
     return np.array(list(itertools.product(*columns)))
+
+
+def check_table_limit(fmt: str, machine: Machine, pitch, points, axes) -> None:
+    """Refuse, from the travels alone and before any table is built, a grid with more
+    points in one table than the control accepts (the format's ``MAX_POINTS``: FANUC
+    1024 over all axes, LinuxCNC 256, SINUMERIK 200 per table)."""
+    limit = getattr(FORMATS[fmt], "MAX_POINTS", None)
+    if limit is None:
+        return
+    for function, n in table_sizes(machine, pitch=pitch, points=points, axes=axes).items():
+        given = f"--pitch {pitch:g}" if pitch is not None else f"--points {points}"
+        check_points(fmt, f"{given}: {function}", n, limit, "checked before the tables are built")
 
 
 def _build(fmt: str, model: CompensationModel, functions):
@@ -570,6 +583,8 @@ def export_compensation(
     if pitch is None and points is None:
         raise InputError("give --pitch or --points")
     measured = isinstance(parameters, MeasuredTable)
+    if bound_um is not None and not (np.isfinite(bound_um) and bound_um > 0):
+        raise InputError(f"--bound: the interpolation-error bound must be > 0 µm, got {bound_um:g}")
     if fmt == "grid":
         if measured:
             raise InputError("format: grid takes a parameter set or a map, not a pitch table")
@@ -590,6 +605,7 @@ def export_compensation(
             machine, parameters, pitch=pitch, points=points, axes=axes, reference=reference
         )
     else:
+        check_table_limit(fmt, parameters.machine_for(machine), pitch, points, axes)
         model = compensation_model(
             machine, parameters, pitch=pitch, points=points, axes=axes, reference=reference
         )

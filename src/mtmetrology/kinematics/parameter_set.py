@@ -318,6 +318,13 @@ class ParameterSet(NotebookRepr):
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise InputFileError(f"{source}: parameter(s) listed twice: {', '.join(dup)}")
+        # every u given is a standard uncertainty, with or without a covariance beside it
+        for k, e in enumerate(entries):
+            if "u" in e and _number(e["u"], f"{source}: {e['name']}: u") < 0:
+                raise InputFileError(
+                    f"{source}: parameters[{k}] ({e['name']}): u must be >= 0 (a standard "
+                    f"uncertainty), got {e['u']!r}"
+                )
         cov = None
         if doc.get("covariance") is not None:
             cov = cls._covariance(doc["covariance"], names, np.array(factors), source)
@@ -325,11 +332,7 @@ class ParameterSet(NotebookRepr):
             if not all("u" in e for e in entries):
                 missing = next(e["name"] for e in entries if "u" not in e)
                 raise InputFileError(f"{source}: {missing}: u missing while others have one")
-            u = np.array(
-                [_number(e["u"], f"{source}: {e['name']}: u") for e in entries], dtype=float
-            )
-            if np.any(u < 0):
-                raise InputFileError(f"{source}: standard uncertainties u must be >= 0")
+            u = np.array([float(e["u"]) for e in entries], dtype=float)
             cov = np.diag((u * np.array(factors)) ** 2)
         tool = None
         # A calibration result writes its tool always; it is the identified one only when

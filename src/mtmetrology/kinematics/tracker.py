@@ -428,8 +428,9 @@ class TrackerLimits:
             & (np.abs(s[..., 1]) <= self.azimuth_max)
         )
 
-    def check(self, readings, what: str = "mesh point") -> None:
-        """Raise :class:`InputError` naming the first reading outside the limits."""
+    def check(self, readings, what: str = "mesh point", where=None) -> None:
+        """Raise :class:`InputError` naming the first reading outside the limits: ``what``
+        and its number, or ``where(i)`` (a file and line) when given."""
         s = np.asarray(readings, dtype=float).reshape(-1, 3)
         bad = np.flatnonzero(~self.within(s))
         if bad.size == 0:
@@ -445,7 +446,8 @@ class TrackerLimits:
             why = f"elevation {el / _DEG:.2f}° beyond ±{self.elevation_max / _DEG:g}°"
         else:
             why = f"azimuth {az / _DEG:.2f}° beyond ±{self.azimuth_max / _DEG:g}°"
-        raise InputError(f"{what} {i + 1}: {why} of the tracker")
+        place = f"{what} {i + 1}" if where is None else where(i)
+        raise InputError(f"{place}: {why} of the tracker")
 
 
 def perturb_pose(

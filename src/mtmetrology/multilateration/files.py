@@ -24,12 +24,16 @@ from mtmetrology.io import InputFileError, read_csv_table
 from mtmetrology.io.documents import load_document
 from mtmetrology.io.tables import write_csv_table
 from mtmetrology.kinematics.machine import Machine
+from mtmetrology.kinematics.readings_table import readings_from_table
 from mtmetrology.multilateration.workflow import LengthRecord, Station
 
 __all__ = ["STATIONS_KIND", "read_lengths", "read_stations", "write_lengths"]
 
 STATIONS_KIND = "multilateration-stations"
 _TOOL = ("tool_x", "tool_y", "tool_z")
+
+
+_STATION_KEYS = ("name", "position_mm", "dead_path_mm")
 
 
 def read_stations(path: str | Path) -> list[Station]:
@@ -43,10 +47,18 @@ def read_stations(path: str | Path) -> list[Station]:
     if not isinstance(entries, list) or not entries:
         raise InputFileError(f"{path}: stations: a non-empty list is needed")
     out = []
+    unknown = sorted(set(doc) - {"kind", "version", "stations"})
+    if unknown:
+        raise InputFileError(f"{path}: {unknown[0]}: unknown key (kind, version, stations)")
     for k, e in enumerate(entries):
         where = f"{path}: stations[{k}]"
         if not isinstance(e, dict) or not {"name", "position_mm"} <= set(e):
             raise InputFileError(f"{where}: needs name and position_mm")
+        unknown = sorted(set(e) - set(_STATION_KEYS))
+        if unknown:
+            raise InputFileError(
+                f"{where}: {unknown[0]}: unknown key (a station has {', '.join(_STATION_KEYS)})"
+            )
         pos = e["position_mm"]
         if (
             not isinstance(pos, list)
@@ -55,8 +67,13 @@ def read_stations(path: str | Path) -> list[Station]:
         ):
             raise InputFileError(f"{where}: position_mm must be three numbers")
         dead = e.get("dead_path_mm", 0.0)
-        if not isinstance(dead, int | float) or not math.isfinite(dead):
+        if isinstance(dead, bool) or not isinstance(dead, int | float) or not math.isfinite(dead):
             raise InputFileError(f"{where}: dead_path_mm must be a number")
+        if dead < 0:
+            raise InputFileError(
+                f"{where}: dead_path_mm must be >= 0 (the interferometer's path before the "
+                f"reflector), got {dead:g}"
+            )
         out.append(Station(str(e["name"]), tuple(float(v) for v in pos), float(dead)))
     names = [s.name for s in out]
     if len(set(names)) != len(names):
@@ -65,9 +82,10 @@ def read_stations(path: str | Path) -> list[Station]:
 
 
 def read_lengths(path: str | Path, machine: Machine) -> LengthRecord:
-    """LENGTHS.csv of ``machine`` (module notes): readings in internal units."""
+    """LENGTHS.csv of ``machine`` (module notes): readings in internal units; a reading
+    outside the travel, a NaN or a missing column is refused naming the file and line."""
     table = read_csv_table(path, required=["station", *machine.axis_names, *_TOOL, "length"])
-    q = machine.readings_from_customary({a: table.floats(a) for a in machine.axis_names})
+    q = readings_from_table(machine, table)  # a reading outside the travel is refused
     tools = np.column_stack([table.floats(c) for c in _TOOL])
     lengths = table.floats("length")
     return LengthRecord(q, tools, tuple(table.strings("station")), lengths)

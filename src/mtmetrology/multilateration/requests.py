@@ -3,16 +3,19 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
+from mtmetrology._memory import require_memory
 from mtmetrology.errors import InputError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.multilateration.files import read_lengths
 from mtmetrology.multilateration.problem import parse_spec
 from mtmetrology.multilateration.workflow import (
+    BYTES_PER_LENGTH,
     MultilaterationResult,
     calibrate_multilateration,
     map_monte_carlo,
@@ -44,6 +47,15 @@ def pose_grid(machine: Machine, counts) -> np.ndarray:
     Returns
     -------
     (∏ counts, n_axes) ndarray
+
+    Raises
+    ------
+    InputError
+        Not one count >= 2 per linear axis, an axis without travel.
+    ResourceLimitError
+        A grid larger than the memory holds (the grid itself, and one length row of
+        :data:`~mtmetrology.multilateration.workflow.BYTES_PER_LENGTH` per node), refused
+        before it is built.
     """
     linear = [a for a in machine.axis_names if machine.axes[a].linear]
     if len(counts) != len(linear) or min(counts, default=0) < 2:
@@ -51,6 +63,11 @@ def pose_grid(machine: Machine, counts) -> np.ndarray:
             f"--grid needs {len(linear)} node counts >= 2 (axes {''.join(linear)}), "
             f"got {','.join(map(str, counts))!r}"
         )
+    nodes = math.prod(int(n) for n in counts)
+    require_memory(
+        nodes * BYTES_PER_LENGTH,
+        f"--grid {','.join(map(str, counts))}: {nodes} poses x {BYTES_PER_LENGTH} bytes",
+    )
     axes = []
     for a, n in zip(linear, counts, strict=True):
         travel = machine.axes[a].travel

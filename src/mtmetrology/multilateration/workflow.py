@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mtmetrology._memory import require_memory
 from mtmetrology.errors import InputError
 from mtmetrology.identification import levenberg_marquardt
 from mtmetrology.identification.adequacy import ModelAdequacy, residual_patterns
@@ -53,6 +54,10 @@ __all__ = [
 
 #: Fewest lengths a station must see: its four unknowns and a redundancy of as many.
 MIN_LENGTHS_PER_STATION = 8
+#: Peak bytes a simulated length holds: its pose, reflector, station centre and dead path
+#: rows (float64), the kinematic chain's temporaries on them and the written row; an upper
+#: estimate (about 64 float64), for the memory check before a simulation starts.
+BYTES_PER_LENGTH = 512
 
 
 @dataclass(frozen=True)
@@ -117,10 +122,21 @@ def simulate_lengths(
     -------
     LengthRecord
         Ordered station by station, tool by tool, pose by pose.
+
+    Raises
+    ------
+    ResourceLimitError
+        More lengths than the memory holds (:data:`BYTES_PER_LENGTH` each), before any work.
     """
     rng = as_generator(seed)
     q = np.asarray(readings, dtype=float)
     tools = np.atleast_2d(np.asarray(tools, dtype=float))
+    n_lengths = len(q) * len(tools) * len(stations)
+    require_memory(
+        n_lengths * BYTES_PER_LENGTH,
+        f"{len(q)} poses x {len(tools)} reflectors x {len(stations)} stations: "
+        f"{n_lengths} lengths x {BYTES_PER_LENGTH} bytes",
+    )
     rows_q, rows_t, ids, centre, dead = [], [], [], [], []
     for s in stations:
         for t in tools:

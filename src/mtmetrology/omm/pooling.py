@@ -331,6 +331,12 @@ def pooling_experiment(
         feature = CombinedFeature(tuple(features))  # one GUF per draw for all outputs
     except ValueError as err:
         raise InputError(f"features: {err}") from None
+    need = max(getattr(f, "min_points", 1) for f in features)
+    if points_per_draw < need:
+        raise InputError(
+            f"points_per_draw = {points_per_draw}: the features need at least {need} points "
+            "per draw"
+        )
     m_out = len(feature.output_names)
     refs = [
         (r.value, r.standard_uncertainty) if isinstance(r, ReferenceValue) else r

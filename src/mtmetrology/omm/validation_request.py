@@ -27,6 +27,12 @@ import numpy as np
 from mtmetrology.errors import InputError
 from mtmetrology.fitting.features import SphereDiameter, Sphericity
 from mtmetrology.io import read_csv_table
+from mtmetrology.io.plausibility import (
+    check_positive,
+    check_scale,
+    check_uncertainty,
+    distinct_files,
+)
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.kinematics.readings_table import readings_from_table
@@ -119,7 +125,7 @@ def validate_gauge_from_files(
     ------
     InputError
         Neither or both of ``long_term`` and ``recalibrated``, a calibration or long-term
-        set without covariance, a bad file.
+        set without covariance, a bad file, a reference length not > 0.
 
     References
     ----------
@@ -127,6 +133,8 @@ def validate_gauge_from_files(
     """
     if recalibrated == (long_term is not None):
         raise InputError("give one of --long-term FILE and --recalibrated")
+    check_positive(calibrated_length, "--reference-mm")
+    check_uncertainty(calibration_uncertainty, "--reference-u-um")
     base, pset, model = load_calibration(machine, params)
     sigma_lt = None
     if long_term is not None:
@@ -137,6 +145,14 @@ def validate_gauge_from_files(
     rep = load_repeatability_model(repeatability) if repeatability is not None else None
     a, va = read_side(side_a, model, rep)
     b, vb = read_side(side_b, model, rep)
+    # a reference in m or µm is 10³ off the distance the faces' points show
+    faces = [model.forward(r).mean(axis=0) for r in (a, b)]
+    check_scale(
+        calibrated_length,
+        float(np.linalg.norm(faces[1] - faces[0])),
+        "--reference-mm",
+        against="the distance between the mean points of the two faces",
+    )
     cov_e = load_unexplained_covariance(unexplained) if unexplained is not None else None
     reference = thermal_reference_value(
         calibrated_length,
@@ -231,13 +247,17 @@ def pooling_from_files(
     Raises
     ------
     InputError
-        A calibration without covariance, a bad file, or what
+        A calibration without covariance, a bad file, a diameter not > 0, a set given
+        twice, or what
         :func:`~mtmetrology.omm.pooling.pooling_experiment` refuses (k outside 1 … n).
 
     References
     ----------
     Sepahi Boroujeni (2021), §6.4 (eqs. 6-16 to 6-19), §6.5.
     """
+    check_positive(calibrated_diameter, "--diameter-mm")
+    check_uncertainty(calibration_uncertainty, "--diameter-u-um")
+    distinct_files(sets, "sphere point sets")
     _, pset, model = load_calibration(machine, params)
     rep = load_repeatability_model(repeatability) if repeatability is not None else None
     read = [read_side(path, model, rep) for path in sets]

@@ -39,6 +39,7 @@ from mtmetrology.fitting import fit_spheres
 from mtmetrology.fitting.least_squares import FitError
 from mtmetrology.identification import senses_from_sequence
 from mtmetrology.io.files import InputFileError
+from mtmetrology.io.plausibility import check_scale
 from mtmetrology.io.tables import Table, read_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.readings_table import readings_from_table, senses_from_table
@@ -267,6 +268,7 @@ def read_records(path: str | Path, machine: Machine, artefact: SambaArtefact) ->
         q, balls, rows = mean, [balls[i] for i in first], rows[first]
     lines = table.lines[rows]
     _check_coverage(table.path, balls, lines, artefact)
+    _check_scale_bar(machine, table.path, q, balls, artefact)
     sub = table.take(rows)
     senses = _senses(machine, sub, q)
     tools = None
@@ -289,6 +291,27 @@ def read_records(path: str | Path, machine: Machine, artefact: SambaArtefact) ->
         campaigns=campaigns,
         sphere_rms=rms,
         tools=tools,
+    )
+
+
+def _check_scale_bar(machine: Machine, path, q: np.ndarray, balls, artefact) -> None:
+    """Refuse a scale-bar length the records cannot be of: the distance between the mean
+    nominal stylus centres probed on its two end balls (within a ball's radius of the
+    centres, so within a few mm of the bar's length) against the artefact's ``length_mm``
+    (:func:`~mtmetrology.io.plausibility.check_scale`: a factor beyond √10 is a unit slip,
+    not a machine's scale error)."""
+    if artefact.scale_bar is None:
+        return
+    ends = artefact.scale_bar.ends
+    ids = np.asarray(balls)
+    if not all(np.any(ids == e) for e in ends):
+        return  # _check_coverage names the missing end
+    p = machine.forward(q)
+    centres = [p[ids == e].mean(axis=0) for e in ends]
+    check_scale(
+        artefact.scale_bar.length_mm,
+        float(np.linalg.norm(centres[1] - centres[0])),
+        f"{path}: the artefact's scale_bar.length_mm ({ends[0]}-{ends[1]})",
     )
 
 

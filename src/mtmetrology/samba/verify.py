@@ -57,6 +57,13 @@ from pathlib import Path
 import numpy as np
 
 from mtmetrology.io.files import InputFileError
+from mtmetrology.io.plausibility import (
+    check_positive,
+    check_scale,
+    check_temperatures,
+    check_uncertainty,
+    checked_number,
+)
 from mtmetrology.io.tables import read_csv_table, write_csv_table
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.readings_table import readings_from_table
@@ -129,6 +136,12 @@ def thermal_reference(
     ThermalReference
         ``L_T = L₂₀ (1 + α (T − 20))`` and ``u(L_T)`` by the law of propagation.
 
+    Raises
+    ------
+    InputError
+        A length not > 0, a temperature outside −50 to 100 °C, a negative uncertainty or
+        a non-finite input (each named by its option).
+
     References
     ----------
     Alami Mchichi (2018), §6.5.3; JCGM 100:2008, 5.1.2.
@@ -139,15 +152,12 @@ def thermal_reference(
     >>> round(r.length, 6), round(r.sensitivities["temperature"] * 1e3, 3)
     (500.0054, 5.4)
     """
-    for name, v in (
-        ("u of the length", u_length20),
-        ("u of the temperature", u_temperature_c),
-        ("u of the expansion coefficient", u_cte),
-    ):
-        if not (v >= 0 and np.isfinite(v)):
-            raise InputFileError(f"{name} must be >= 0, got {v}")
-    if not (np.isfinite(temperature_c) and np.isfinite(cte)):
-        raise InputFileError("temperature and expansion coefficient must be finite numbers")
+    check_positive(length20, "--length")
+    check_uncertainty(u_length20, "--u-length", "mm")
+    check_temperatures(temperature_c, "--temperature-c")
+    check_uncertainty(u_temperature_c, "--u-temperature-c", "°C")
+    checked_number(cte, "--cte")
+    check_uncertainty(u_cte, "--u-cte")
     dt = temperature_c - REFERENCE_TEMPERATURE_C
     sens = {"length20": 1.0 + cte * dt, "cte": length20 * dt, "temperature": length20 * cte}
     contrib = {
@@ -395,7 +405,7 @@ def verify_length(
     0.0
     """
     if not (length > 0 and np.isfinite(length)):
-        raise InputFileError(f"the calibrated length must be positive, got {length}")
+        raise InputFileError(f"--length: the calibrated length must be > 0 mm, got {length}")
     if not (tip_radius >= 0 and np.isfinite(tip_radius)):
         raise InputFileError(f"the tip radius must be >= 0, got {tip_radius}")
 
@@ -405,6 +415,9 @@ def verify_length(
         return np.linalg.norm(pb - pa, axis=-1) - 2.0 * tip_radius
 
     nominal = lengths(None)
+    # a length in m or µm is 10³ off what the machine reads between the ends
+    check_scale(length, float(np.mean(np.abs(nominal))), "--length",
+                against="the mean nominal length the readings show")  # fmt: skip
     compensated = nominal if params is None else lengths(params)
     u_calibration = None
     if parameter_covariance is not None:

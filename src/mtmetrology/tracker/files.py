@@ -23,6 +23,7 @@ from mtmetrology.units import to_internal
 
 __all__ = [
     "DEFAULT_TOOL",
+    "POSE_KEYS",
     "POSE_U_KEYS",
     "load_conditions",
     "load_known_pose",
@@ -44,7 +45,13 @@ def load_pose(path: str | Path | None) -> TrackerPose:
     doc = load_document(path, "tracker pose")
     if not isinstance(doc, dict) or doc.get("kind") != "tracker-pose":
         raise InputError(f"{path}: kind: expected 'tracker-pose'")
-    fields = {k: v for k, v in doc.items() if k not in ("kind", "version")}
+    known = ("kind", "version", *POSE_KEYS, *POSE_U_KEYS)
+    unknown = [k for k in doc if k not in known]
+    if unknown:
+        raise InputError(
+            f"{path}: {unknown[0]}: unknown key (a tracker pose has {', '.join(known[2:])})"
+        )
+    fields = {k: v for k, v in doc.items() if k in POSE_KEYS}
     return TrackerPose.from_dict(fields, str(path))
 
 
@@ -131,6 +138,8 @@ def noise(
     return replace(default, **kwargs)
 
 
+#: The fields of a ``tracker-pose`` document (eq. 22: position along x, y, z; R = Rx Ry Rz).
+POSE_KEYS = ("D_mm", "L_mm", "H_mm", "alpha_deg", "beta_deg", "delta_deg")
 #: Standard uncertainties of a known pose used as a prior (``tracker-pose`` document).
 POSE_U_KEYS = ("u_D_mm", "u_L_mm", "u_H_mm", "u_alpha_deg", "u_beta_deg", "u_delta_deg")
 

@@ -31,7 +31,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mtmetrology.errors import InputError
+from mtmetrology._memory import require_memory
+from mtmetrology.errors import InputError, ResourceLimitError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.tracker import (
     TrackerLimits,
@@ -49,6 +50,11 @@ __all__ = ["PAPER_REGION", "PlacementStudy", "plan_placement"]
 #: Allowed tracker region of the paper, (D, L, H) bounds in mm (Section 3).
 PAPER_REGION = ((-2000.0, -500.0), (-2000.0, 2000.0), (350.0, 2000.0))
 _CHUNK = 10_000
+#: Most candidate poses one study draws: 10⁷, about 25 µs each (4 minutes); the best of 10⁴
+#: (the default) is already within the criterion's noise of the optimum.
+MAX_TRIALS = 10_000_000
+#: Bytes kept per accepted candidate: position and yaw, criterion, largest error (float64).
+_BYTES_PER_TRIAL = 6 * 8
 
 
 @dataclass(frozen=True, eq=False)
@@ -183,6 +189,8 @@ def plan_placement(
     ------
     InputError
         Bad options, or no candidate satisfies the limits.
+    ResourceLimitError
+        More than :data:`MAX_TRIALS` trials or than the memory holds (before any work).
     """
     if direction not in ("x", "y"):
         raise InputError(f"--direction must be x or y, got {direction!r}")
@@ -190,6 +198,14 @@ def plan_placement(
         raise InputError(f"--criterion must be max or mean, got {criterion!r}")
     if not isinstance(trials, int | np.integer) or trials < 1:
         raise InputError(f"--trials must be a positive integer, got {trials}")
+    if trials > MAX_TRIALS:
+        raise ResourceLimitError(
+            f"--trials {trials}: at most {MAX_TRIALS} candidate poses (about 25 µs each: "
+            f"{trials} would take about {trials * 25e-6 / 60:.3g} min)"
+        )
+    require_memory(
+        trials * _BYTES_PER_TRIAL, f"--trials {trials}: {_BYTES_PER_TRIAL} bytes per candidate"
+    )
     reg = np.asarray(region, dtype=float)
     if reg.shape != (3, 2) or not np.all(np.isfinite(reg)) or np.any(reg[:, 1] < reg[:, 0]):
         raise InputError("--region needs finite D0:D1,L0:L1,H0:H1 with lower <= upper")

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mtmetrology.errors import InputError
+from mtmetrology.io.plausibility import check_expansion_coefficient, check_temperatures
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.tracker import TrackerLimits, TrackerPose, spherical
 from mtmetrology.units import to_internal
@@ -167,6 +168,8 @@ class MachineConditions:
             if v.shape != shape or not np.all(np.isfinite(v)):
                 raise InputError(f"conditions: {name} must be {shape} finite numbers, got {v}")
             object.__setattr__(self, name, v)
+        check_temperatures(self.sensor_temperatures, "conditions: sensor_temperatures_C")
+        check_expansion_coefficient(self.cte, "conditions: cte_per_K")
         if self.u_cte is None:
             object.__setattr__(self, "u_cte", np.array([cte_uncertainty(a) for a in self.cte]))
         u = np.asarray(self.u_cte, dtype=float)

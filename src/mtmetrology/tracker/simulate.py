@@ -27,6 +27,7 @@ import numpy as np
 from mtmetrology.errors import InputError
 from mtmetrology.identification.observations import senses_from_sequence
 from mtmetrology.io.files import atomic_write
+from mtmetrology.io.plausibility import check_temperatures, check_within
 from mtmetrology.io.tables import read_csv_table, write_columns
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.tracker import (
@@ -121,7 +122,9 @@ class TrackerMeasurements:
 
 
 def read_measurements(
-    path: str | Path, tools: dict[str, np.ndarray] | None = None
+    path: str | Path,
+    tools: dict[str, np.ndarray] | None = None,
+    machine: Machine | None = None,
 ) -> TrackerMeasurements:
     """Read a MEASUREMENTS CSV; a missing column, a non-number or NaN names file and line.
 
@@ -132,12 +135,17 @@ def read_measurements(
         Tool offsets (mm) by id (``mtm tracker calibrate --tool ID=x,y,z``): the rows of
         the file's ``tool`` column with that id take it, in place of their ``tool_x``,
         ``tool_y``, ``tool_z`` (which a file with a ``tool`` column may leave out).
+    machine : Machine, optional
+        The machine measured: its travels bound X, Y, Z, and the tracker points must be
+        congruent with its nominal tool points (:func:`check_plausible`).
 
     Raises
     ------
     InputError
         A tool id with no offset (neither given nor in the file), tools given for a file
-        without a ``tool`` column, or a cell that is not a number.
+        without a ``tool`` column, a cell that is not a number, a temperature outside
+        −50 to 100 °C, and with ``machine`` a position outside its travel or tracker
+        readings that are not the positions commanded (angles in radians, a range in m).
     """
     by_id = dict(tools or {})
     fixed = [c for c in COLUMNS[1:] if not c.startswith("tool_")]
@@ -172,7 +180,70 @@ def read_measurements(
     bad = np.flatnonzero(sph[:, 0] <= 0)
     if bad.size:
         raise InputError(f"{path}, data row {bad[0] + 1}: column 'range' must be > 0")
-    return TrackerMeasurements(readings, tool_rows, sph, temps, {"source": str(path)})
+    check_temperatures(
+        temps, lambda i: f"{path}, line {table.lines[i // 3]}: column 'T_{'XYZ'[i % 3]}'"
+    )
+    meas = TrackerMeasurements(readings, tool_rows, sph, temps, {"source": str(path)})
+    if machine is not None:
+        check_plausible(machine, meas, lambda i: f"{path}, line {table.lines[i]}")
+    return meas
+
+
+#: Largest RMS (mm) of the tracker points about the commanded tool points after the best
+#: rigid fit, plus this share of the mesh's extent: a machine's errors and the scale's
+#: expansion stay far below (tens of µm per metre); angles read in the wrong unit or a
+#: range in metres leave hundreds of mm.
+CONGRUENCE_MM = 1.0
+CONGRUENCE_SHARE = 1e-3
+
+
+def check_plausible(machine: Machine, meas: TrackerMeasurements, where) -> None:
+    """Refuse readings that cannot be what the file says they are.
+
+    - X, Y, Z of every row inside the travel of ``machine``;
+    - every reading within the tracker's limits (:class:`TrackerLimits`, the paper's);
+    - the tracker points (range, azimuth, elevation in mm and degrees) congruent with the
+      nominal tool points the rows command: after the best rigid fit (Kabsch) the RMS of
+      the differences must stay below :data:`CONGRUENCE_MM` plus :data:`CONGRUENCE_SHARE`
+      of the mesh's extent.
+
+    ``where(i)`` names row i (file and line).
+
+    Raises
+    ------
+    InputError
+        The first row outside the travel, or the row farthest from the fit.
+    """
+    for k, a in enumerate("XYZ"):
+        travel = machine.axes[a].travel if a in machine.axis_names else None
+        if travel is not None:
+            check_within(
+                meas.readings[:, k],
+                *travel,
+                lambda i, a=a: f"{where(i)}: column '{a}'",
+                what=f"travel of {a} of {machine.name}",
+            )
+    TrackerLimits().check(meas.spherical, where=where)
+    q = np.zeros((len(meas), machine.n_axes))
+    for k, a in enumerate("XYZ"):
+        if a in machine.axis_names:
+            q[:, machine.axis_names.index(a)] = meas.readings[:, k]
+    nominal = machine.forward(q, tool=meas.tools)
+    seen = cartesian(meas.spherical)
+    a0, b0 = nominal - nominal.mean(axis=0), seen - seen.mean(axis=0)
+    u, _, vt = np.linalg.svd(b0.T @ a0)
+    d = np.sign(np.linalg.det(u @ vt))
+    rot = u @ np.diag([1.0, 1.0, d]) @ vt  # seen ≈ rot · nominal
+    miss = np.linalg.norm(b0 - a0 @ rot.T, axis=1)
+    rms = float(np.sqrt(np.mean(miss**2)))
+    extent = float(np.ptp(nominal, axis=0).max())
+    if rms > CONGRUENCE_MM + CONGRUENCE_SHARE * extent:
+        i = int(np.argmax(miss))
+        raise InputError(
+            f"{where(i)}: the tracker readings do not match the commanded positions (RMS "
+            f"{rms:.3g} mm after the best rigid fit, this row {miss[i]:.3g} mm); range in mm, "
+            "azimuth and elevation in degrees?"
+        )
 
 
 def geometric_draws(

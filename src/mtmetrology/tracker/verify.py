@@ -40,7 +40,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from mtmetrology.errors import InputError
+from mtmetrology._memory import require_memory
+from mtmetrology.errors import InputError, ResourceLimitError
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.tracker import (
     TrackerLimits,
@@ -64,6 +65,13 @@ __all__ = ["TrackerVerification", "verify"]
 _CHUNK = 1000
 #: Verifications whose full per-point final errors are kept (histograms).
 _KEEP = 200
+#: Most verifications one run simulates: JCGM 101:2008's 10⁶ trials (7.9.1, enough for a
+#: 95 % interval to two significant digits); each is a complete identification (about
+#: 4 ms on one core), so 10⁶ already takes an hour.
+MAX_TRIALS = 1_000_000
+#: Bytes kept per verification: mean initial, mean final and maximum final error (float64)
+#: and the held-out coverage flag.
+_BYTES_PER_TRIAL = 3 * 8 + 1
 
 
 @dataclass(frozen=True, eq=False)
@@ -269,9 +277,27 @@ def verify(
     Returns
     -------
     TrackerVerification
+
+    Raises
+    ------
+    InputError
+        Fewer than 10 trials, a truth of the wrong size, a pose the limits refuse.
+    ResourceLimitError
+        More than :data:`MAX_TRIALS` trials, or more than the memory holds (checked before
+        any work).
     """
     if not isinstance(trials, int | np.integer) or trials < 10:
         raise InputError(f"--trials must be an integer >= 10, got {trials}")
+    if trials > MAX_TRIALS:
+        raise ResourceLimitError(
+            f"--trials {trials}: at most {MAX_TRIALS} verifications (JCGM 101's 10⁶ trials; "
+            f"each is a complete identification, about 4 ms: {trials} would take about "
+            f"{trials * 4e-3 / 3600:.3g} h)"
+        )
+    require_memory(
+        trials * _BYTES_PER_TRIAL,
+        f"--trials {trials}: {_BYTES_PER_TRIAL} bytes kept per verification",
+    )
     noise = noise or TrackerNoise()
     conditions = conditions or MachineConditions()
     limits = limits or TrackerLimits()
