@@ -19,7 +19,9 @@ The convention (docs/contributing.md) for every page under ``docs/`` and ``READM
   ``FILE TERM [± TERM ...] [UNIT]``: a JSON file of the working folder, dotted paths into
   it (``outputs.0.u``) or numbers added or subtracted, and the display unit to convert
   the internal value (mm, rad, a fraction) to (``µm``, ``µrad``, ``%``); or ``$ REGEX``:
-  the first group of the regular expression in the output of the last command run; or
+  the first group of the regular expression in the output of the last command run;
+  ``py EXPR [UNIT]``: a Python expression evaluated in the page's namespace (after the
+  python blocks before the marker), converted from the internal unit when given; or
   ``bench SECTION "CONTENDER" [UNIT]``: the median time (s, or converted to ``min``, ``h``)
   of that contender in that section of ``bench/RESULTS.md`` (a time is quoted from the
   benchmarks, never from a page's run).
@@ -174,8 +176,18 @@ def _walk(document, path: str):
     return value
 
 
-def marker_value(source: str, folder: Path, last_output: str) -> float | str:
+def marker_value(
+    source: str, folder: Path, last_output: str, namespace: dict | None = None
+) -> float | str:
     """The run's number named by a marker's ``SOURCE`` (see the module docstring)."""
+    if source.startswith("py "):
+        if namespace is None:
+            raise LookupError(f"{source!r}: no python namespace")
+        expression, _, unit = source[3:].rpartition(" ")
+        if not _is_unit(unit):  # the last word is part of the expression
+            expression, unit = source[3:], ""
+        value = float(eval(expression, namespace))  # the page's own code, as exec'd above
+        return float(from_internal(value, unit)) if unit else value
     if source.startswith("bench "):
         section, contender, *unit = shlex.split(source)[1:]
         seconds = bench_median(RESULTS.read_text(encoding="utf-8"), section, contender)
@@ -197,6 +209,15 @@ def marker_value(source: str, folder: Path, last_output: str) -> float | str:
         value += term(terms[1]) * (1 if terms[0] == "+" else -1)
         terms = terms[2:]
     return float(from_internal(value, terms[0])) if terms else value
+
+
+def _is_unit(word: str) -> bool:
+    """Whether ``word`` is a display unit :func:`from_internal` converts to."""
+    try:
+        from_internal(1.0, word)
+    except (ValueError, KeyError, TypeError):
+        return False
+    return True
 
 
 def bench_median(results: str, section: str, contender: str) -> float:
@@ -246,8 +267,8 @@ def run_page(name: str, text: str, folder: Path) -> PageRun:
             quoted = quoted_before(text[:position])
             where = f"{name}:{text.count(chr(10), 0, position) + 1}"
             try:
-                actual = marker_value(match.group(1), folder, last_output)
-            except (LookupError, OSError, ValueError, IndexError, KeyError) as exc:
+                actual = marker_value(match.group(1), folder, last_output, namespace)
+            except (LookupError, OSError, ValueError, IndexError, KeyError, NameError) as exc:
                 run.problems.append(f"{where}: marker {match.group(1)!r}: {exc!r}")
                 continue
             if quoted is None:
