@@ -11,6 +11,8 @@ The convention (docs/contributing.md) for every page under ``docs/`` and ``READM
 - the lines shown after a command are **compared** with what it prints: each shown line
   must be printed, in order (a line ``...`` skips any number of lines, a line ending in
   ``...`` is a prefix), with the same text and the same numbers at the precision quoted;
+- a fenced block with a ``from="FILE"`` attribute shows lines of a file the page's
+  commands wrote: they are compared with the file as shown output is;
 - a fenced ``python`` block without a title runs, in one namespace per page, in the
   page's folder after the blocks before it; a block whose first line starts with
   ``# not run`` is a fragment and is skipped;
@@ -48,6 +50,7 @@ RESULTS = Path(__file__).resolve().parents[2] / "bench" / "RESULTS.md"
 
 FENCE = re.compile(r"^```([\w-]*)([^\n]*)\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
 TITLE = re.compile(r'title="([^"]+)"')
+SHOWS = re.compile(r'from="([^"]+)"')
 MARKER = re.compile(r"<!-- from: (.+?) -->")
 # A number as a person reads it: sign (ASCII or Unicode minus), digits, decimals, exponent;
 # not part of a name (E_XX1, T00, u_c²) nor continued by letters or digits.
@@ -279,7 +282,18 @@ def run_page(name: str, text: str, folder: Path) -> PageRun:
                 )
             continue
         language, title, body = match.group(1), TITLE.search(match.group(2)), match.group(3)
-        if title is not None:
+        shows = SHOWS.search(match.group(2))
+        if shows is not None:
+            where = f"{name}:{text.count(chr(10), 0, position) + 1}: {shows.group(1)}"
+            try:
+                written = (folder / shows.group(1)).read_text(encoding="utf-8")
+            except OSError as exc:
+                run.problems.append(f"{where}: {exc!r}")
+                continue
+            shown = body.splitlines()
+            run.compared_lines += sum(1 for s in shown if s.strip() not in ("", "...", "…"))
+            run.problems += [f"{where}: {p}" for p in compare_output(shown, written)]
+        elif title is not None:
             target = PurePosixPath(title.group(1))
             assert not target.is_absolute() and ".." not in target.parts, f"{name}: {target}"
             (folder / target).parent.mkdir(parents=True, exist_ok=True)
