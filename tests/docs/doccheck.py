@@ -7,7 +7,8 @@ The convention (docs/contributing.md) for every page under ``docs/`` and ``READM
 - a fenced ``console`` block holds commands, one per line starting with ``$ mtm`` (a
   trailing backslash continues a line); every other command must exit with code 0, except
   that an output line starting with ``error:`` means the command must fail with exit
-  code 2 and an ``error:`` line on stderr;
+  code 2 and an ``error:`` line on stderr, and a shown line ``(exit code N)`` that it must
+  end with code N (``mtm export check`` ends with 4 when the check does not confirm);
 - the lines shown after a command are **compared** with what it prints: each shown line
   must be printed, in order (a line ``...`` skips any number of lines, a line ending in
   ``...`` is a prefix), with the same text and the same numbers at the precision quoted;
@@ -51,6 +52,7 @@ RESULTS = Path(__file__).resolve().parents[2] / "bench" / "RESULTS.md"
 FENCE = re.compile(r"^```([\w-]*)([^\n]*)\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
 TITLE = re.compile(r'title="([^"]+)"')
 SHOWS = re.compile(r'from="([^"]+)"')
+EXIT_CODE = re.compile(r"^\(exit code (\d+)\)$")
 MARKER = re.compile(r"<!-- from: (.+?) -->")
 # A number as a person reads it: sign (ASCII or Unicode minus), digits, decimals, exponent;
 # not part of a name (E_XX1, T00, u_c²) nor continued by letters or digits.
@@ -308,11 +310,13 @@ def run_page(name: str, text: str, folder: Path) -> PageRun:
                 result = runner.invoke(app, argv[1:])
                 last_output = result.output
                 context = f"{name}: $ {shlex.join(argv)}\n{result.output}"
+                stated = [int(m.group(1)) for s in shown if (m := EXIT_CODE.match(s.strip()))]
+                shown = [s for s in shown if not EXIT_CODE.match(s.strip())]
                 if must_fail:
                     assert result.exit_code == 2, context
                     assert result.stderr.startswith("error: "), context
                 else:
-                    assert result.exit_code == 0, context
+                    assert result.exit_code == (stated or [0])[0], context
                 run.commands += 1
                 compared = [s for s in shown if s.strip() and s.strip() not in ("...", "…")]
                 run.compared_lines += len(compared)

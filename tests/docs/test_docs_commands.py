@@ -143,6 +143,19 @@ def test_the_convention_finds_files_commands_and_markers() -> None:
     assert quoted_before("u = 8.8 µm") is None and quoted_before("T00") is None
 
 
+def test_a_shown_file_and_a_stated_exit_code_are_checked(tmp_path: Path, monkeypatch) -> None:
+    """A ``from="FILE"`` fence is compared with the file the page wrote (a moved number is
+    reported); ``(exit code N)`` after a command makes any other exit code fail."""
+    monkeypatch.chdir(tmp_path)
+    page = '```csv title="a.csv"\nx,u\n1.25,0.5\n```\n\n```text from="a.csv"\nx,u\n1.3,0.5\n```\n'
+    assert run_page("p.md", page, tmp_path).problems == []
+    [moved] = run_page("p.md", page.replace("1.3,0.5", "1.4,0.5"), tmp_path).problems
+    assert moved.startswith("p.md:6: a.csv: shown '1.4,0.5'"), moved
+    assert run_page("p.md", "```console\n$ mtm formats\n```\n", tmp_path).problems == []
+    with pytest.raises(AssertionError, match=r"\$ mtm formats"):
+        run_page("p.md", "```console\n$ mtm formats\n(exit code 4)\n```\n", tmp_path)
+
+
 def test_bench_times_come_from_the_results_table() -> None:
     """``bench SECTION "CONTENDER"``: the median column of the first row whose contender
     starts so, in that section only."""
