@@ -10,7 +10,9 @@
   ``mtm machine show`` prints).
 
 A ``<!-- from: ... -->`` marker right after a quoted number (tests/docs/doccheck.py compares the
-number with a run of the page) is removed from the page: it is for the test, not the reader.
+number with a run of the page) is removed from the page: it is for the test, not the reader,
+and so is the ``from="FILE"`` of a fence that shows lines of a file the page wrote
+(superfences would not render a fence with an attribute it does not know).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ CLI_MARKER = re.compile(r"^<!-- mtm:cli-reference -->$", re.MULTILINE)
 CONVENTIONS = re.compile(r"^<!-- mtm:conventions (\S+) (\S+) -->$", re.MULTILINE)
 # a fenced block is matched first and kept: a marker shown in a code example stays
 FROM_MARKER = re.compile(r"(^```.*?^```)|(?<=\d)<!-- from: .+? -->", re.MULTILINE | re.DOTALL)
+FENCE_FROM = re.compile(r'^(```[\w-]*[^\n]*?) from="[^"]*"', re.MULTILINE)
 # The Markdown that Typer's generator adds around the help texts (left as it is): headings,
 # section labels, the fences of the usage blocks, and the "* `name`: " of each list item.
 STRUCTURE = re.compile(r"^(#+ `[^`]*`|\*\*\w+\*\*:|```\w*)$")
@@ -86,4 +89,5 @@ def on_page_markdown(markdown: str, page, config, files) -> str:
     if CLI_MARKER.search(markdown):
         markdown = CLI_MARKER.sub(lambda _: _cli_reference(), markdown)
     markdown = FROM_MARKER.sub(lambda m: m.group(1) or "", markdown)
+    markdown = FENCE_FROM.sub(r"\1", markdown)
     return CONVENTIONS.sub(_conventions, markdown)

@@ -7,10 +7,13 @@ The convention (docs/contributing.md) for every page under ``docs/`` and ``READM
 - a fenced ``console`` block holds commands, one per line starting with ``$ mtm`` (a
   trailing backslash continues a line); every other command must exit with code 0, except
   that an output line starting with ``error:`` means the command must fail with exit
-  code 2 and an ``error:`` line on stderr;
+  code 2 and an ``error:`` line on stderr, and a shown line ``(exit code N)`` that it must
+  end with code N (``mtm export check`` ends with 4 when the check does not confirm);
 - the lines shown after a command are **compared** with what it prints: each shown line
   must be printed, in order (a line ``...`` skips any number of lines, a line ending in
   ``...`` is a prefix), with the same text and the same numbers at the precision quoted;
+- a fenced block with a ``from="FILE"`` attribute shows lines of a file the page's
+  commands wrote: they are compared with the file as shown output is;
 - a fenced ``python`` block without a title runs, in one namespace per page, in the
   page's folder after the blocks before it; a block whose first line starts with
   ``# not run`` is a fragment and is skipped;
@@ -19,7 +22,9 @@ The convention (docs/contributing.md) for every page under ``docs/`` and ``READM
   ``FILE TERM [± TERM ...] [UNIT]``: a JSON file of the working folder, dotted paths into
   it (``outputs.0.u``) or numbers added or subtracted, and the display unit to convert
   the internal value (mm, rad, a fraction) to (``µm``, ``µrad``, ``%``); or ``$ REGEX``:
-  the first group of the regular expression in the output of the last command run; or
+  the first group of the regular expression in the output of the last command run;
+  ``py EXPR [UNIT]``: a Python expression evaluated in the page's namespace (after the
+  python blocks before the marker), converted from the internal unit when given; or
   ``bench SECTION "CONTENDER" [UNIT]``: the median time (s, or converted to ``min``, ``h``)
   of that contender in that section of ``bench/RESULTS.md`` (a time is quoted from the
   benchmarks, never from a page's run).
@@ -46,6 +51,8 @@ RESULTS = Path(__file__).resolve().parents[2] / "bench" / "RESULTS.md"
 
 FENCE = re.compile(r"^```([\w-]*)([^\n]*)\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
 TITLE = re.compile(r'title="([^"]+)"')
+SHOWS = re.compile(r'from="([^"]+)"')
+EXIT_CODE = re.compile(r"^\(exit code (\d+)\)$")
 MARKER = re.compile(r"<!-- from: (.+?) -->")
 # A number as a person reads it: sign (ASCII or Unicode minus), digits, decimals, exponent;
 # not part of a name (E_XX1, T00, u_c²) nor continued by letters or digits.
@@ -174,8 +181,18 @@ def _walk(document, path: str):
     return value
 
 
-def marker_value(source: str, folder: Path, last_output: str) -> float | str:
+def marker_value(
+    source: str, folder: Path, last_output: str, namespace: dict | None = None
+) -> float | str:
     """The run's number named by a marker's ``SOURCE`` (see the module docstring)."""
+    if source.startswith("py "):
+        if namespace is None:
+            raise LookupError(f"{source!r}: no python namespace")
+        expression, _, unit = source[3:].rpartition(" ")
+        if not _is_unit(unit):  # the last word is part of the expression
+            expression, unit = source[3:], ""
+        value = float(eval(expression, namespace))  # the page's own code, as exec'd above
+        return float(from_internal(value, unit)) if unit else value
     if source.startswith("bench "):
         section, contender, *unit = shlex.split(source)[1:]
         seconds = bench_median(RESULTS.read_text(encoding="utf-8"), section, contender)
@@ -197,6 +214,15 @@ def marker_value(source: str, folder: Path, last_output: str) -> float | str:
         value += term(terms[1]) * (1 if terms[0] == "+" else -1)
         terms = terms[2:]
     return float(from_internal(value, terms[0])) if terms else value
+
+
+def _is_unit(word: str) -> bool:
+    """Whether ``word`` is a display unit :func:`from_internal` converts to."""
+    try:
+        from_internal(1.0, word)
+    except (ValueError, KeyError, TypeError):
+        return False
+    return True
 
 
 def bench_median(results: str, section: str, contender: str) -> float:
@@ -246,8 +272,8 @@ def run_page(name: str, text: str, folder: Path) -> PageRun:
             quoted = quoted_before(text[:position])
             where = f"{name}:{text.count(chr(10), 0, position) + 1}"
             try:
-                actual = marker_value(match.group(1), folder, last_output)
-            except (LookupError, OSError, ValueError, IndexError, KeyError) as exc:
+                actual = marker_value(match.group(1), folder, last_output, namespace)
+            except (LookupError, OSError, ValueError, IndexError, KeyError, NameError) as exc:
                 run.problems.append(f"{where}: marker {match.group(1)!r}: {exc!r}")
                 continue
             if quoted is None:
@@ -258,7 +284,18 @@ def run_page(name: str, text: str, folder: Path) -> PageRun:
                 )
             continue
         language, title, body = match.group(1), TITLE.search(match.group(2)), match.group(3)
-        if title is not None:
+        shows = SHOWS.search(match.group(2))
+        if shows is not None:
+            where = f"{name}:{text.count(chr(10), 0, position) + 1}: {shows.group(1)}"
+            try:
+                written = (folder / shows.group(1)).read_text(encoding="utf-8")
+            except OSError as exc:
+                run.problems.append(f"{where}: {exc!r}")
+                continue
+            shown = body.splitlines()
+            run.compared_lines += sum(1 for s in shown if s.strip() not in ("", "...", "…"))
+            run.problems += [f"{where}: {p}" for p in compare_output(shown, written)]
+        elif title is not None:
             target = PurePosixPath(title.group(1))
             assert not target.is_absolute() and ".." not in target.parts, f"{name}: {target}"
             (folder / target).parent.mkdir(parents=True, exist_ok=True)
@@ -273,11 +310,13 @@ def run_page(name: str, text: str, folder: Path) -> PageRun:
                 result = runner.invoke(app, argv[1:])
                 last_output = result.output
                 context = f"{name}: $ {shlex.join(argv)}\n{result.output}"
+                stated = [int(m.group(1)) for s in shown if (m := EXIT_CODE.match(s.strip()))]
+                shown = [s for s in shown if not EXIT_CODE.match(s.strip())]
                 if must_fail:
                     assert result.exit_code == 2, context
                     assert result.stderr.startswith("error: "), context
                 else:
-                    assert result.exit_code == 0, context
+                    assert result.exit_code == (stated or [0])[0], context
                 run.commands += 1
                 compared = [s for s in shown if s.strip() and s.strip() not in ("...", "…")]
                 run.compared_lines += len(compared)

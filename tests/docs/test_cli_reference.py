@@ -120,3 +120,10 @@ def test_number_markers_are_removed_from_the_page_but_not_from_code() -> None:
     text = "u = 8.8<!-- from: task.json outputs.0.u µm --> µm\n\n" + code
     out = hook.on_page_markdown(text, None, None, None)
     assert out == "u = 8.8 µm\n\n" + code
+
+
+def test_a_fence_showing_a_file_renders_as_a_plain_fence() -> None:
+    """``from="FILE"`` is for the docs test: the hook drops it so the fence renders."""
+    text = '```text from="records.csv"\nball,X\n```\n\n```yaml title="a.yaml"\nx: 1\n```\n'
+    out = hook.on_page_markdown(text, None, None, None)
+    assert out == '```text\nball,X\n```\n\n```yaml title="a.yaml"\nx: 1\n```\n'

@@ -23,6 +23,7 @@ from doccheck import (
     blocks,
     commands,
     compare_output,
+    marker_value,
     quoted_before,
     run_page,
 )
@@ -74,6 +75,32 @@ def test_a_changed_number_fails_the_page(tmp_path: Path, monkeypatch) -> None:
     assert "quoted 8 but the run gives 3.81" in run.problems[1]
 
 
+def test_a_drifted_python_result_fails_the_page(tmp_path: Path, monkeypatch) -> None:
+    """A number marked against the page's python namespace (``py EXPR``) is checked too:
+    the CMM page with the kinematic model's held-out RMS length error quoted as 0.96 µm
+    instead of the run's 0.86 µm reports exactly that marker, with the run's value."""
+    page = DOCS / "tutorials" / "cmm.md"
+    text = page.read_text(encoding="utf-8")
+    quoted = 'uncompensated, 0.86<!-- from: py result.table[1]["rms_error_um"] -->'
+    assert text.count(quoted) == 1
+    text = text.replace(quoted, quoted.replace("0.86", "0.96"))
+    run = _run(page, text, tmp_path, monkeypatch)
+    assert len(run.problems) == 1, run.problems
+    assert run.problems[0].startswith("docs/tutorials/cmm.md:"), run.problems
+    assert "quoted 0.96 but the run gives 0.858" in run.problems[0], run.problems
+
+
+def test_python_markers_read_the_page_namespace() -> None:
+    """``py EXPR [UNIT]``: the expression in the page's namespace, converted from the
+    internal unit when the last word is a display unit, left as is otherwise."""
+    namespace = {"x": 0.00146, "b": 1.0, "rows": [{"coverage": 0.978}]}
+    assert marker_value("py x µm", Path("."), "", namespace) == pytest.approx(1.46)
+    assert marker_value("py x + b", Path("."), "", namespace) == pytest.approx(1.00146)
+    assert marker_value('py rows[0]["coverage"] %', Path("."), "", namespace) == 97.8
+    with pytest.raises(NameError):
+        marker_value("py missing", Path("."), "", namespace)
+
+
 def test_agreement_at_the_quoted_precision() -> None:
     """Half a unit in the last digit of each: a coarser print of the same value agrees, a
     moved value does not."""
@@ -114,6 +141,19 @@ def test_the_convention_finds_files_commands_and_markers() -> None:
     assert quoted_before("line 1\nE_XX1 is u = 8.8") == "8.8"
     assert quoted_before("u = −0.25") == "−0.25"
     assert quoted_before("u = 8.8 µm") is None and quoted_before("T00") is None
+
+
+def test_a_shown_file_and_a_stated_exit_code_are_checked(tmp_path: Path, monkeypatch) -> None:
+    """A ``from="FILE"`` fence is compared with the file the page wrote (a moved number is
+    reported); ``(exit code N)`` after a command makes any other exit code fail."""
+    monkeypatch.chdir(tmp_path)
+    page = '```csv title="a.csv"\nx,u\n1.25,0.5\n```\n\n```text from="a.csv"\nx,u\n1.3,0.5\n```\n'
+    assert run_page("p.md", page, tmp_path).problems == []
+    [moved] = run_page("p.md", page.replace("1.3,0.5", "1.4,0.5"), tmp_path).problems
+    assert moved.startswith("p.md:6: a.csv: shown '1.4,0.5'"), moved
+    assert run_page("p.md", "```console\n$ mtm formats\n```\n", tmp_path).problems == []
+    with pytest.raises(AssertionError, match=r"\$ mtm formats"):
+        run_page("p.md", "```console\n$ mtm formats\n(exit code 4)\n```\n", tmp_path)
 
 
 def test_bench_times_come_from_the_results_table() -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -53,3 +54,20 @@ def test_an_unknown_name_is_refused_with_the_names():
         describe_format("nope")
     result = runner.invoke(build_app(), ["formats", "nope"])
     assert result.exit_code == 2
+
+
+def test_json_for_programs_keeps_full_precision():
+    """The ``precision`` section's claim on a real document: ``mtm uncertainty run --json``
+    states u of GUM H.1 with more than the two significant digits the console prints
+    (JCGM 100 7.2.6 is for people), and ``mtm formats precision`` says so."""
+    root = Path(__file__).resolve().parents[2]
+    model = root / "examples" / "gum-h1-end-gauge.yaml"
+    result = runner.invoke(build_app(), ["uncertainty", "run", str(model), "--json"])
+    assert result.exit_code == 0
+    [out] = json.loads(result.output)["outputs"]
+    digits = repr(out["u"]).replace(".", "").lstrip("0")
+    assert len(digits) > 2 and out["u"] != float(f"{out['u']:.2g}")
+    section = runner.invoke(build_app(), ["formats", "precision"])
+    assert section.exit_code == 0
+    assert section.output == describe_format("precision").text
+    assert section.output.startswith("## Precision of machine-readable outputs\n")
