@@ -57,18 +57,37 @@ CLIENTS = 50
 REQUESTS = 10
 ROUNDS = 5
 PASSWORD = "bench-password"
+WORKERS = os.cpu_count() or 1
+# the server module (an import string, so that uvicorn can start worker processes)
 SERVER = """
-import sys, uvicorn
-from starlette.applications import Starlette
-from starlette.staticfiles import StaticFiles
-kind, target, port = sys.argv[1], sys.argv[2], int(sys.argv[3])
-if kind == "app":
-    from mtmetrology.web import create_app
-    app = create_app(target, secret="b" * 40)
-else:
+import os, sys, uvicorn
+
+
+def make():
+    kind, target = os.environ["BENCH_KIND"], os.environ["BENCH_TARGET"]
+    if kind == "app":
+        from mtmetrology.web.app import create_app, worker_app
+
+        if int(os.environ["BENCH_WORKERS"]) > 1:
+            return worker_app()  # as mtm serve --workers: $MTMETROLOGY_DB, version per request
+        return create_app(target)
+    from starlette.applications import Starlette
+    from starlette.staticfiles import StaticFiles
+
     app = Starlette()
     app.mount("/", StaticFiles(directory=target))
-uvicorn.run(app, host="127.0.0.1", port=port, log_level="warning")
+    return app
+
+
+if __name__ == "__main__":
+    uvicorn.run(
+        "bench_web_server:make",
+        factory=True,
+        workers=int(os.environ["BENCH_WORKERS"]),
+        host="127.0.0.1",
+        port=int(sys.argv[1]),
+        log_level="warning",
+    )
 """
 
 
@@ -78,10 +97,22 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _serve(kind: str, target: str) -> tuple[subprocess.Popen, str]:
+def _serve(kind: str, target: str, workers: int = 1) -> tuple[subprocess.Popen, str]:
     port = _free_port()
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
-    process = subprocess.Popen([sys.executable, "-c", SERVER, kind, target, str(port)], env=env)
+    folder = Path(target).parent
+    (folder / "bench_web_server.py").write_text(SERVER)
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(folder), *sys.path]),
+        "BENCH_KIND": kind,
+        "BENCH_TARGET": target,
+        "BENCH_WORKERS": str(workers),
+        "MTMETROLOGY_DB": target,
+        "MTMETROLOGY_WEB_SECRET": "b" * 40,
+    }
+    process = subprocess.Popen(
+        [sys.executable, str(folder / "bench_web_server.py"), str(port)], env=env
+    )
     base = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
@@ -124,6 +155,35 @@ async def _round(base: str, paths: list[list[str]], cookies: dict) -> list[float
     return latencies
 
 
+def _first_page(path: Path, machine: str) -> tuple[float, bytes]:
+    """The time of the first (cold) machine page, one process, and the page."""
+    process, base = _serve("app", str(path))
+    try:
+        cookies = _login(base)
+        with httpx.Client(base_url=base, cookies=cookies, timeout=600) as client:
+            start = time.perf_counter()
+            page = client.get(f"/machines/{machine}")
+            return time.perf_counter() - start, page.content
+    finally:
+        process.terminate()
+        process.wait(timeout=30)
+
+
+def _p95s(kind: str, target: str, paths, login: bool, workers: int = 1) -> list[float]:
+    """ROUNDS rounds' p95 latencies against a fresh server (the first round, which warms
+    the connections and each worker's cache, is not counted)."""
+    process, base = _serve(kind, target, workers)
+    try:
+        cookies = _login(base) if login else {}
+        return [
+            float(np.percentile(asyncio.run(_round(base, paths, cookies)), 95))
+            for _ in range(ROUNDS + 1)
+        ][1:]
+    finally:
+        process.terminate()
+        process.wait(timeout=30)
+
+
 def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "history.sqlite"
@@ -142,41 +202,29 @@ def main() -> None:
             ]
             for _ in range(CLIENTS)
         ]
-        process, base = _serve("app", str(path))
-        try:
-            cookies = _login(base)
-            with httpx.Client(base_url=base, cookies=cookies, timeout=600) as client:
-                start = time.perf_counter()
-                page = client.get(f"/machines/{machine.name}")
-                cold = time.perf_counter() - start
-            size = len(page.content)
-            static = Path(tmp) / "static"
-            static.mkdir()
-            (static / "machine.html").write_bytes(page.content)
-            ours = [
-                float(np.percentile(asyncio.run(_round(base, paths, cookies)), 95))
-                for _ in range(ROUNDS + 1)
-            ][1:]  # the first round warms the connections
-        finally:
-            process.terminate()
-            process.wait(timeout=30)
-        process, base = _serve("static", str(static))
-        try:
-            flat = [["/machine.html"] * REQUESTS for _ in range(CLIENTS)]
-            floor = [
-                float(np.percentile(asyncio.run(_round(base, flat, {})), 95))
-                for _ in range(ROUNDS + 1)
-            ][1:]
-        finally:
-            process.terminate()
-            process.wait(timeout=30)
+        cold, page = _first_page(path, machine.name)
+        static = Path(tmp) / "static"
+        static.mkdir()
+        (static / "machine.html").write_bytes(page)
+        flat = [["/machine.html"] * REQUESTS for _ in range(CLIENTS)]
+        ours = _p95s("app", str(path), paths, True)
+        ours_workers = _p95s("app", str(path), paths, True, WORKERS)
+        floor = _p95s("static", str(static), flat, False)
+        floor_workers = _p95s("static", str(static), flat, False, WORKERS)
+        size = len(page)
         bench = Benchmark(
             "web",
             f"machine page, {RUNS} runs × {len(names)} parameters, {CLIENTS} clients × "
             f"{REQUESTS} requests, p95 latency per round",
         )
         bench.timings.append(Timing("ours: machine page p95", "ours", ours))
+        bench.timings.append(
+            Timing(f"ours, mtm serve --workers {WORKERS}: machine page p95", "ours", ours_workers)
+        )
         bench.timings.append(Timing("floor: static file p95 (same size)", "floor", floor))
+        bench.timings.append(
+            Timing(f"floor, {WORKERS} workers: static file p95", "floor", floor_workers)
+        )
         bench.target("ours: machine page p95", 0.3, text="issue 34")
         bench.notes.append(
             json.dumps(
@@ -185,6 +233,7 @@ def main() -> None:
                     "page_bytes": size,
                     "clients": CLIENTS,
                     "requests_per_client": REQUESTS,
+                    "workers": WORKERS,
                 }
             )
         )
