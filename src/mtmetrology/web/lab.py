@@ -100,6 +100,7 @@ class Lab:
         self.version_seconds = version_seconds
         self._cache: OrderedDict = OrderedDict()
         self._lock = threading.Lock()
+        self._pending: dict[tuple, threading.Lock] = {}
         self._version: tuple = (None, -1.0)
 
     # -- cache ---------------------------------------------------------------------------
@@ -135,17 +136,32 @@ class Lab:
             return tuple(connection.execute(select(*parts)).one())
 
     def cached(self, key: tuple, compute):
-        """``compute()`` under ``key`` and the current version (recomputed after a change)."""
+        """``compute()`` under ``key`` and the current version (recomputed after a change).
+
+        One request computes, the others asking for the same key meanwhile wait for its
+        result: 50 readers arriving after an upload would otherwise each compute the 84
+        charts (seconds each) at once, and all of them time out."""
         full = (self.version(), *key)
         with self._lock:
             if full in self._cache:
                 self._cache.move_to_end(full)
                 return self._cache[full]
-        value = compute()
-        with self._lock:
-            self._cache[full] = value
-            while len(self._cache) > _CACHE_SIZE:
-                self._cache.popitem(last=False)
+            pending = self._pending.setdefault(full, threading.Lock())
+        with pending:
+            with self._lock:
+                if full in self._cache:  # computed while this request waited
+                    return self._cache[full]
+            try:
+                value = compute()
+            except BaseException:
+                with self._lock:
+                    self._pending.pop(full, None)  # the next request tries again
+                raise
+            with self._lock:
+                self._cache[full] = value
+                self._pending.pop(full, None)
+                while len(self._cache) > _CACHE_SIZE:
+                    self._cache.popitem(last=False)
         return value
 
     # -- machines ------------------------------------------------------------------------
