@@ -57,6 +57,8 @@ CLIENTS = 50
 REQUESTS = 10
 ROUNDS = 5
 PASSWORD = "bench-password"
+#: Requests that failed (connection reset ...), by exception name: a p95 with them is inf.
+ERRORS: list[str] = []
 WORKERS = os.cpu_count() or 1
 # the server module (an import string, so that uvicorn can start worker processes)
 SERVER = """
@@ -84,6 +86,7 @@ if __name__ == "__main__":
         "bench_web_server:make",
         factory=True,
         workers=int(os.environ["BENCH_WORKERS"]),
+        timeout_worker_healthcheck=120,  # as mtm serve --workers
         host="127.0.0.1",
         port=int(sys.argv[1]),
         log_level="warning",
@@ -146,7 +149,12 @@ async def _round(base: str, paths: list[list[str]], cookies: dict) -> list[float
         async def one_client(mine: list[str]):
             for path in mine:
                 start = time.perf_counter()
-                response = await client.get(path)
+                try:
+                    response = await client.get(path)
+                except httpx.TransportError as err:  # counted (as an infinite latency)
+                    ERRORS.append(type(err).__name__)
+                    latencies.append(float("inf"))
+                    continue
                 latencies.append(time.perf_counter() - start)
                 if response.status_code != 200:
                     raise RuntimeError(f"{path}: {response.status_code}")
@@ -173,14 +181,17 @@ def _p95s(kind: str, target: str, paths, login: bool, workers: int = 1) -> list[
     """ROUNDS rounds' p95 latencies against a fresh server (the first round, which warms
     the connections and each worker's cache, is not counted)."""
     process, base = _serve(kind, target, workers)
+    ERRORS.clear()
     try:
         cookies = _login(base) if login else {}
         with httpx.Client(base_url=base, cookies=cookies, timeout=600) as client:
             client.get(paths[0][0])  # the cold page (one worker's)
-        return [
+        p95 = [
             float(np.percentile(asyncio.run(_round(base, paths, cookies)), 95))
             for _ in range(ROUNDS + 1)
         ][1:]
+        print(f"{kind}, {workers} worker(s): p95 {p95}, failed requests {ERRORS}", flush=True)
+        return p95
     finally:
         process.terminate()
         process.wait(timeout=30)

@@ -25,6 +25,8 @@ Db = Annotated[
     str | None,
     typer.Option("--db", help="SQLite file or URL (postgresql://...) [$MTMETROLOGY_DB]."),
 ]
+#: How long the uvicorn supervisor waits for a busy worker's answer before killing it.
+WORKER_HEALTHCHECK_SECONDS = 120
 Workers = Annotated[
     int,
     typer.Option(
@@ -55,6 +57,10 @@ def _run(db: str | None, host: str, port: int, workers: int = 1) -> None:
         "mtmetrology.web.app:worker_app",
         factory=True,
         workers=workers,
+        # a worker computing the charts after a change (10-20 s for 10^4 runs of the
+        # 84-coefficient model) answers the supervisor's ping late; at uvicorn's 5 s it was
+        # killed mid-computation and its connections reset
+        timeout_worker_healthcheck=WORKER_HEALTHCHECK_SECONDS,
         host=host,
         port=port,
         log_level="warning",
