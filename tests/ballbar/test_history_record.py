@@ -65,9 +65,9 @@ def test_the_calibration_embeds_the_machines_parameters(machine, ballbar):
 def test_history_records_calibration_and_verification(machine, ballbar, tmp_path):
     sim, diagnosis = ballbar
     engine = open_history(tmp_path / "h.db")
-    add_result(engine, diagnosis.to_dict(machine.name), machine, source="cal.json")
+    add_result(engine, diagnosis.to_dict(machine.name), machine, source="cal.json", by="test")
     analysis = CircularAnalysis(machine.name, tuple(sim), tuple(circular_results(t) for t in sim))
-    add_result(engine, analysis.to_dict(), machine, source="circ.json")
+    add_result(engine, analysis.to_dict(), machine, source="circ.json", by="test")
     (cal,) = list_runs(engine, machine=machine.name)
     (ver,) = list_runs(engine, machine=machine.name, category="verification")
     assert (cal.kind, ver.kind) == ("iso230-4-calibration", "iso230-4-circular")

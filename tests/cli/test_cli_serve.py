@@ -84,4 +84,14 @@ def test_demo_lab(tmp_path):
         ("five-axis-wcbxfzyst", 24),
     ]
     assert overview[1].due_parameter == "E_X0C"  # its MPE is set
+    with Session(open_history(db)) as session:
+        added = list(session.scalars(select(AuditEntry).where(AuditEntry.action == "add")))
+    # one audit row per recorded result (48 calibrations, the length check), by "demo"
+    assert len(added) == 49 and {e.actor for e in added} == {"demo"}
     assert _mtm("serve", "demo-lab", "--from", demo, "--db", db).exit_code == 2  # not empty
+
+
+def test_serve_refuses_no_workers(tmp_path):
+    refused = _mtm("serve", "--db", tmp_path / "h.sqlite", "--workers", "0")
+    assert refused.exit_code == 2
+    assert not (tmp_path / "h.sqlite").exists()  # refused before the history is opened

@@ -26,9 +26,14 @@ def _two_runs(engine, make_calibration):
         performed_at=datetime(2026, 1, 5, tzinfo=UTC),
         note="first",
         temperature_c=20.1,
+        by="test",
     )
     second = add_result(
-        engine, make_calibration([2.0] * 13), MACHINE, performed_at=datetime(2026, 2, 5, tzinfo=UTC)
+        engine,
+        make_calibration([2.0] * 13),
+        MACHINE,
+        performed_at=datetime(2026, 2, 5, tzinfo=UTC),
+        by="test",
     )
     return first, second
 
@@ -96,4 +101,6 @@ def test_append_only_tables_refuse_update_and_delete(history_url, make_calibrati
         with pytest.raises((DBAPIError, InputError), match="append-only"), engine.begin() as c:
             c.execute(text(statement))
     with engine.connect() as c:
-        assert c.execute(text(f"SELECT count(*) FROM {table}")).scalar() == 1
+        # the audit log: the two runs recorded and the amendment
+        rows = {"amendments": 1, "audit_log": 3}[table]
+        assert c.execute(text(f"SELECT count(*) FROM {table}")).scalar() == rows

@@ -27,7 +27,13 @@ START = datetime(2026, 1, 1, 7, 0)
 
 def _record(engine, rows, make_calibration):
     for k, row in enumerate(rows):
-        add_result(engine, make_calibration(row), MACHINE, performed_at=START + timedelta(days=k))
+        add_result(
+            engine,
+            make_calibration(row),
+            MACHINE,
+            performed_at=START + timedelta(days=k),
+            by="test",
+        )
 
 
 def _whitened(sample_cov, sigma, k):

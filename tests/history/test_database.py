@@ -82,7 +82,7 @@ def test_first_schema_version_upgrades_with_its_data_intact(history_url, make_ca
     assert np.frombuffer(vector, dtype="<f8").tolist() == list(range(13))
     # the 0002 change holds: the same document cannot be recorded a second time
     with pytest.raises(InputError, match="already recorded as calibration run 1"):
-        add_result(engine, document, MACHINE)
+        add_result(engine, document, MACHINE, by="test")
 
 
 def test_a_database_that_does_not_answer_is_one_environment_failure():
@@ -121,7 +121,7 @@ _CHILD = textwrap.dedent(
             if any(isinstance(o, RunParameter) for o in session.new):
                 print("in the transaction", flush=True)
                 time.sleep(120)
-    add_result(engine, document, Machine.load("five-axis-wcbxfzyst"))
+    add_result(engine, document, Machine.load("five-axis-wcbxfzyst"), by="test")
     """
 )
 
@@ -141,7 +141,7 @@ def test_add_killed_inside_its_transaction_leaves_the_run_absent(history_url, ma
     """SIGKILL after the run and its parameters were flushed, before COMMIT: nothing of the
     run is left, and the next writer is not blocked."""
     engine = open_history(history_url)
-    add_result(engine, make_calibration([1.0] * 13), MACHINE)
+    add_result(engine, make_calibration([1.0] * 13), MACHINE, by="test")
     child = _child(history_url, make_calibration([2.0] * 13), "pause")
     line = child.stdout.readline()
     assert line.strip() == "in the transaction", child.stderr.read()
@@ -151,7 +151,7 @@ def test_add_killed_inside_its_transaction_leaves_the_run_absent(history_url, ma
     assert [r.id for r in list_runs(engine)] == [1]
     with engine.connect() as c:
         assert c.execute(text("SELECT COUNT(*) FROM run_parameters")).scalar() == 13
-    record = add_result(engine, make_calibration([3.0] * 13), MACHINE)
+    record = add_result(engine, make_calibration([3.0] * 13), MACHINE, by="test")
     assert [p["value"] for p in record.parameters] == [3.0] * 13
 
 
@@ -165,7 +165,7 @@ def test_two_concurrent_writers_lose_nothing(history_url, make_calibration):
         from mtmetrology.kinematics.machine import Machine
         engine, machine = open_history(sys.argv[1]), Machine.load("five-axis-wcbxfzyst")
         for document in json.loads(sys.argv[2]):
-            add_result(engine, document, machine)
+            add_result(engine, document, machine, by="test")
         """
     )
     env = {**os.environ, "PYTHONPATH": SRC, "OMP_NUM_THREADS": "1"}
@@ -282,7 +282,7 @@ def test_a_held_write_transaction_does_not_delay_a_reader(history_url, make_cali
     opening the database and listing its runs takes well under 1 s (it waited the 60 s busy
     timeout before: the migration check took the write lock)."""
     engine = open_history(history_url)
-    add_result(engine, make_calibration([1.0] * 13), MACHINE)
+    add_result(engine, make_calibration([1.0] * 13), MACHINE, by="test")
     holder = _holder(history_url)
     try:
         start = time.perf_counter()

@@ -52,7 +52,7 @@ def _correlated_calibration(seed: int = 7) -> dict:
 @pytest.fixture
 def record(tmp_path):
     engine = open_history(tmp_path / "h.sqlite")
-    return add_result(engine, _correlated_calibration(), MACHINE)
+    return add_result(engine, _correlated_calibration(), MACHINE, by="test")
 
 
 ISSUER = {
@@ -215,7 +215,7 @@ def test_a_run_without_uncertainty_is_refused(tmp_path):
         machine=MACHINE.name,
         model="13",
     ).to_document()
-    stored = add_result(engine, document, MACHINE)
+    stored = add_result(engine, document, MACHINE, by="test")
     with pytest.raises(InputError, match=r"run 1: parameter E_A0B: no uncertainty to certify"):
         calibration_certificate(stored, **ISSUER)
 
@@ -235,7 +235,7 @@ def _record_of(n: int, tmp_path, seed: int = 11):
         machine=MACHINE.name,
     )
     engine = open_history(tmp_path / f"h{n}.sqlite")
-    return add_result(engine, pset.to_document(), MACHINE)
+    return add_result(engine, pset.to_document(), MACHINE, by="test")
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 13])
@@ -309,7 +309,12 @@ def test_the_certificate_names_its_people_and_states_the_recorded_conditions(tmp
     measuring equipment; all read back from the validated XML."""
     engine = open_history(tmp_path / "h.sqlite")
     stored = add_result(
-        engine, _correlated_calibration(), MACHINE, temperature_c=20.4, artefact="SAMBA 4 balls"
+        engine,
+        _correlated_calibration(),
+        MACHINE,
+        temperature_c=20.4,
+        artefact="SAMBA 4 balls",
+        by="test",
     )
     cert = calibration_certificate(stored, **ISSUER, customer="Plant 2")
     path = tmp_path / "cert.xml"

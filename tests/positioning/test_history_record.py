@@ -29,7 +29,7 @@ def test_two_laser_runs_trend_e_a_r_b(tmp_path):
         test = simulate_test(m, truth, "X", iso_targets(800, 1200, 9, seed=1), seed=k)
         docs.append(analyse(test, machine=m).to_dict())
         when = datetime(2026, 11, 1 + 7 * k, tzinfo=UTC)
-        add_result(engine, docs[-1], m, source=f"laser{k}.json", performed_at=when)
+        add_result(engine, docs[-1], m, source=f"laser{k}.json", performed_at=when, by="test")
     runs = list_runs(engine, machine=m.name)
     assert [r.kind for r in runs] == ["iso230-2-positioning"] * 2
     stats = [show_run(engine, r.id).residual_statistics for r in runs]

@@ -52,6 +52,7 @@ class Lab:
                 MACHINE,
                 performed_at=start + timedelta(days=30 * k),
                 note=f"run {k}",
+                by="test",
             ).id
             for k in range(6)
         ]

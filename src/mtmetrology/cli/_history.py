@@ -29,6 +29,8 @@ HistoryOption = Annotated[
 
 def record_in_history(document: dict, machine: Machine, command: str, inputs: list[Path]) -> None:
     """Record ``document`` (before any output is written: a refusal leaves nothing)."""
+    import getpass
+
     from mtmetrology.history import add_result, open_history
 
     record = add_result(
@@ -37,6 +39,7 @@ def record_in_history(document: dict, machine: Machine, command: str, inputs: li
         machine,
         source=command,
         input_files=tuple(p for p in inputs if Path(p).is_file()),
+        by=f"cli:{getpass.getuser()}",
     )
     typer.echo(f"recorded calibration run {record.id} in the history", err=True)
 

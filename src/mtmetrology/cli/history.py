@@ -136,11 +136,14 @@ def add(
     inputs: Annotated[
         list[Path] | None, typer.Option("--input", help="Input file whose SHA-256 is kept.")
     ] = None,
+    by: Annotated[str | None, typer.Option("--by", help="Who records [the login name].")] = None,
     db: Db = None,
     json: Annotated[bool, typer.Option("--json", help="Print the stored run(s).")] = False,
 ) -> None:
-    """Record results in the history. Several files are one transaction: all are recorded
-    or, if one is refused, none (the options apply to each)."""
+    """Record results in the history. Several files are one transaction: all are recorded,
+    each with its audit row, or, if one is refused, none (the options apply to each)."""
+    import getpass
+
     from mtmetrology.history.database import open_history
     from mtmetrology.history.records import add_results, check_temperature
     from mtmetrology.io.documents import load_document
@@ -175,7 +178,7 @@ def add(
                 "input_files": tuple(inputs or ()),
             }
         )
-    records = add_results(open_history(db), items)
+    records = add_results(open_history(db), items, by=f"cli:{by or getpass.getuser()}")
 
     def summary() -> None:
         for record in records:

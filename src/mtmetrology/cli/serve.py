@@ -25,18 +25,47 @@ Db = Annotated[
     str | None,
     typer.Option("--db", help="SQLite file or URL (postgresql://...) [$MTMETROLOGY_DB]."),
 ]
+#: How long the uvicorn supervisor waits for a busy worker's answer before killing it.
+WORKER_HEALTHCHECK_SECONDS = 120
+Workers = Annotated[
+    int,
+    typer.Option(
+        "--workers",
+        help="Server processes (one per core; each keeps its own cache of the charts).",
+    ),
+]
 #: Environment variable with the administrator's password (scripts; else a prompt).
 PASSWORD_ENV = "MTM_ADMIN_PASSWORD"
 
 
-def _run(db: str | None, host: str, port: int) -> None:
+def _run(db: str | None, host: str, port: int, workers: int = 1) -> None:
     import uvicorn
 
     from mtmetrology.web import create_app
 
+    if workers < 1:
+        raise InputError(f"--workers {workers}: at least 1")
+    # opens (upgrades) the history and makes the session secret before any worker starts
     application = create_app(db)
     typer.echo(f"serving the history on http://{host}:{port} (Ctrl-C stops)", err=True)
-    uvicorn.run(application, host=host, port=port, log_level="warning", proxy_headers=False)
+    if workers == 1:
+        uvicorn.run(application, host=host, port=port, log_level="warning", proxy_headers=False)
+        return
+    if db is not None:
+        os.environ["MTMETROLOGY_DB"] = str(db)  # the workers' history
+    uvicorn.run(
+        "mtmetrology.web.app:worker_app",
+        factory=True,
+        workers=workers,
+        # a worker computing the charts after a change (10-20 s for 10^4 runs of the
+        # 84-coefficient model) answers the supervisor's ping late; at uvicorn's 5 s it was
+        # killed mid-computation and its connections reset
+        timeout_worker_healthcheck=WORKER_HEALTHCHECK_SECONDS,
+        host=host,
+        port=port,
+        log_level="warning",
+        proxy_headers=False,
+    )
 
 
 @app.callback()
@@ -46,10 +75,11 @@ def serve(
     db: Db = None,
     host: Annotated[str, typer.Option("--host", help="Address to listen on.")] = "127.0.0.1",
     port: Annotated[int, typer.Option("--port", help="TCP port.")] = 8000,
+    workers: Workers = 1,
 ) -> None:
     """Run the web application (machines, due dates, trends, reports, audit trail)."""
     if ctx.invoked_subcommand is None:
-        _run(db, host, port)
+        _run(db, host, port, workers)
     else:
         ctx.obj = {"db": db, "host": host, "port": port}
 
@@ -60,9 +90,10 @@ def run(
     db: Db = None,
     host: Annotated[str, typer.Option("--host", help="Address to listen on.")] = "127.0.0.1",
     port: Annotated[int, typer.Option("--port", help="TCP port.")] = 8000,
+    workers: Workers = 1,
 ) -> None:
     """Run the web application (the same as mtm serve)."""
-    _run(db, host, port)
+    _run(db, host, port, workers)
 
 
 @app.command("create-admin")

@@ -5,7 +5,9 @@ form (``kind`` and ``version``): a calibration (``parameter-set``, ``samba-calib
 ``ballplate-calibration``), a task uncertainty (``uncertainty-result``) or a verification
 (``length-check``, ``conformity-decision``). A calibration is checked against the machine's
 definition (:meth:`ParameterSet.from_document`) and against the machine's earlier runs (the
-same error model and parameter names), then stored with its parameters in one transaction.
+same error model and parameter names), then stored with its parameters in one transaction,
+together with one row of the audit log per result (:mod:`mtmetrology.history.audit`: who
+recorded it, from which file), so that no result is recorded without its audit row.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from sqlalchemy.orm import Session
 import mtmetrology
 from mtmetrology.errors import InputError
 from mtmetrology.history import schema
+from mtmetrology.history.audit import audit
 from mtmetrology.history.database import canonical_sha256, database_fault, writer
 
 if TYPE_CHECKING:  # the read path (list, show) imports no machine model
@@ -316,8 +319,11 @@ def add_result(
     temperature_c: float | None = None,
     serial: str | None = None,
     input_files: tuple[str | Path, ...] = (),
+    by: str,
+    action: str = "add",
+    detail: dict | None = None,
 ) -> RunRecord:
-    """Record one result document in the history (one transaction).
+    """Record one result document in the history and its audit row (one transaction).
 
     Parameters
     ----------
@@ -337,6 +343,13 @@ def add_result(
         serial number (recorded with the machine on its first run).
     input_files : tuple of path
         Input files whose SHA-256 is recorded with the run (records, artefact file).
+    by : str
+        Who records it, the audit row's actor (a web user's name, ``cli:LOGIN``).
+    action : str
+        The audit row's action (``add`` from the command line, ``upload`` from the web).
+    detail : dict, optional
+        Added to the audit row's detail (which names the file, kind, machine, the
+        result's SHA-256 and whether the machine is new to the history).
 
     Returns
     -------
@@ -348,7 +361,7 @@ def add_result(
         Not a result document, an unknown kind, a result of another machine or category
         (naming both), a task or verification result that names no machine, a calibration
         of another error model, parameters that differ from the machine's earlier runs, a
-        temperature outside -50...100 °C, or a result already recorded.
+        temperature outside -50...100 °C, a result already recorded, or no ``by``.
     """
     return add_results(
         engine,
@@ -363,8 +376,11 @@ def add_result(
                 "temperature_c": temperature_c,
                 "serial": serial,
                 "input_files": input_files,
+                "detail": detail,
             }
         ],
+        by=by,
+        action=action,
     )[0]
 
 
@@ -378,6 +394,7 @@ class _Prepared:
     source: str
     pset: object
     columns: dict
+    detail: dict
 
 
 def _prepare(
@@ -391,6 +408,7 @@ def _prepare(
     temperature_c: float | None = None,
     serial: str | None = None,
     input_files: tuple[str | Path, ...] = (),
+    detail: dict | None = None,
 ) -> _Prepared:
     category = _check_document(document, machine, source)
     check_temperature(temperature_c, "temperature")
@@ -420,13 +438,36 @@ def _prepare(
         result=document,
         content_sha256=canonical_sha256(document),
     )
-    return _Prepared(category, machine, serial, source, pset, columns)
+    return _Prepared(category, machine, serial, source, pset, columns, detail or {})
 
 
-def _insert(session: Session, item: _Prepared) -> int:
-    """Insert one prepared result (and a calibration's parameters); its id."""
+def _insert(session: Session, item: _Prepared, by: str, action: str) -> int:
+    """Insert one prepared result (a calibration's parameters) and its audit row; its id."""
     table = _TABLES[item.category]
+    new_machine = (
+        session.scalar(select(schema.Machine.id).where(schema.Machine.name == item.machine.name))
+        is None
+    )
     row = _machine_row(session, item.machine, item.serial)
+    run = _insert_run(session, item, table, row)
+    audit(
+        session,
+        by,
+        action,
+        f"{item.category} run {run}",
+        {
+            "file": item.source,
+            "kind": item.columns["kind"],
+            "machine": item.machine.name,
+            "content_sha256": item.columns["content_sha256"],
+            "new_machine": new_machine,
+            **item.detail,
+        },
+    )
+    return run
+
+
+def _insert_run(session: Session, item: _Prepared, table, row: schema.Machine) -> int:
     if item.category != "calibration":
         run = table(machine_id=row.id, **item.columns)
         session.add(run)
@@ -457,19 +498,27 @@ def _insert(session: Session, item: _Prepared) -> int:
     return run.id
 
 
-def add_results(engine: Engine, items: list[dict]) -> list[RunRecord]:
-    """Record several results in ONE transaction: all of them or none.
+def add_results(
+    engine: Engine, items: list[dict], *, by: str, action: str = "add"
+) -> list[RunRecord]:
+    """Record several results in ONE transaction: all of them and their audit rows, or none.
 
     Every document is checked (:func:`add_result`'s rules) before anything is written; a
     refusal of any (a document, a result recorded earlier or twice in ``items``) leaves
-    the history as it was and names the file.
+    the history as it was, without an audit row, and names the file. Each recorded result
+    writes one audit row in the same transaction: a crash between the two cannot record a
+    result nobody is answerable for.
 
     Parameters
     ----------
     engine : Engine
     items : list of dict
         The keyword arguments of :func:`add_result` for each result (``document``,
-        ``machine`` and the optional ones).
+        ``machine`` and the optional ones, ``detail`` included).
+    by : str
+        Who records them (the audit rows' actor).
+    action : str
+        The audit rows' action.
 
     Returns
     -------
@@ -481,6 +530,8 @@ def add_results(engine: Engine, items: list[dict]) -> list[RunRecord]:
     InputError
         As :func:`add_result`, naming the file refused.
     """
+    if not isinstance(by, str) or not by.strip():
+        raise InputError("history add: name who records the results (by)")
     prepared = [_prepare(**item) for item in items]
     seen: dict[tuple[str, str], str] = {}
     for item in prepared:
@@ -494,7 +545,7 @@ def add_results(engine: Engine, items: list[dict]) -> list[RunRecord]:
                 # writers queue (SQLite's BEGIN IMMEDIATE does the same): two first runs of
                 # a new machine would otherwise both insert it
                 session.execute(text("SELECT pg_advisory_xact_lock(24025)"))
-            ids = [_insert(session, item) for item in prepared]
+            ids = [_insert(session, item, by, action) for item in prepared]
     except IntegrityError as err:
         with Session(engine) as session:
             for item in prepared:

@@ -25,7 +25,7 @@ from starlette.middleware.sessions import SessionMiddleware
 from mtmetrology.errors import InputError
 from mtmetrology.history.database import open_history
 from mtmetrology.web import api, pages
-from mtmetrology.web.lab import Lab
+from mtmetrology.web.lab import VERSION_SECONDS, Lab
 from mtmetrology.web.security import SECURITY_HEADERS, SESSION_SECONDS, Refused
 
 __all__ = ["MAX_UPLOAD_BYTES", "SECRET_ENV", "create_app"]
@@ -113,9 +113,18 @@ def _secret(url: str) -> str:
     path = folder / "web-secret"
     if not path.exists():
         folder.mkdir(parents=True, exist_ok=True)
-        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        # written whole under another name, then linked: a process starting at the same time
+        # (a worker) reads either no file or the whole secret, and one secret wins
+        spare = folder / f".web-secret-{os.getpid()}-{secrets.token_hex(4)}"
+        fd = os.open(spare, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
         with os.fdopen(fd, "w") as fh:
             fh.write(secrets.token_urlsafe(48))
+        try:
+            os.link(spare, path)
+        except FileExistsError:
+            pass
+        finally:
+            spare.unlink()
     return path.read_text().strip()
 
 
@@ -125,6 +134,7 @@ def create_app(
     secret: str | None = None,
     max_upload_bytes: int = MAX_UPLOAD_BYTES,
     https_only: bool = False,
+    version_seconds: float = VERSION_SECONDS,
 ) -> FastAPI:
     """The web application over the history database ``db`` (as ``mtm history --db``).
 
@@ -138,6 +148,9 @@ def create_app(
         Largest request body.
     https_only : bool
         Mark the session cookie ``Secure`` (behind a TLS proxy).
+    version_seconds : float
+        How long the history's version is trusted before it is read again
+        (:class:`~mtmetrology.web.lab.Lab`); 0 when several processes serve the history.
     """
     from mtmetrology.history.database import database_url
 
@@ -150,7 +163,7 @@ def create_app(
         openapi_url=None,
     )
     app.state.engine = engine
-    app.state.lab = Lab(engine)
+    app.state.lab = Lab(engine, version_seconds)
     app.state.max_upload = max_upload_bytes
     # every template escapes what it shows (select_autoescape would miss the .j2 suffix)
     templates = Jinja2Templates(
@@ -205,6 +218,14 @@ def create_app(
     app.add_middleware(BodyLimit, limit=max_upload_bytes)
     app.add_middleware(SecurityHeaders)
     return app
+
+
+def worker_app() -> FastAPI:
+    """The application of one of several uvicorn worker processes (``mtm serve --workers``):
+    the database from ``$MTMETROLOGY_DB``, the secret shared through its file (or
+    ``$MTMETROLOGY_WEB_SECRET``), the history's version read at every request (each process
+    has its own cache; a write through one must show at the next request of any)."""
+    return create_app(version_seconds=0.0)
 
 
 def _error_page(request: Request, status: int, message: str) -> HTMLResponse:

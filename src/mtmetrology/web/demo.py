@@ -74,6 +74,7 @@ def build_demo_lab(engine, demo: str | Path, now: datetime | None = None) -> str
     rng = as_generator(SEED)
     start = now - timedelta(days=30 * MONTHS)
     count = 0
+    by = "demo"
     for key, drift in (("five", {"E_X0C": 0.9}), ("cmm", {})):
         document = json.loads(needed[key].read_text())
         machine = Machine.load(document["machine"])
@@ -86,6 +87,7 @@ def build_demo_lab(engine, demo: str | Path, now: datetime | None = None) -> str
                 performed_at=start + timedelta(days=30 * k),
                 note=f"monthly calibration {k + 1}",
                 temperature_c=float(20 + rng.normal(0, 0.3)),
+                by=by,
             )
             count += 1
     five = Machine.load("five-axis-wcbxfzyst")
@@ -96,6 +98,7 @@ def build_demo_lab(engine, demo: str | Path, now: datetime | None = None) -> str
         source=str(needed["length"]),
         performed_at=now - timedelta(days=3),
         note="length check after the last calibration",
+        by=by,
     )
     for task in sorted((demo / "task").glob("sphere-*.json"))[:3]:
         add_result(
@@ -105,8 +108,8 @@ def build_demo_lab(engine, demo: str | Path, now: datetime | None = None) -> str
             source=str(task),
             performed_at=now - timedelta(days=2),
             note=task.stem,
+            by=by,
         )
-    by = "demo"
     set_machine_limit(engine, five.name, "E_X0C", 40.0, 0.95, by=by)
     set_machine_limit(engine, "cmm-moving-bridge", "E_XX1", 25.0, 0.95, by=by)
     set_lab_settings(

@@ -5,8 +5,9 @@ strict parser :func:`mtmetrology.io.documents.parse_document`), the machine is t
 document names, and :func:`mtmetrology.history.add_result` validates and stores it in one
 transaction. On the server only the preset machines are known (a machine named by a file
 path is refused: the server reads no file a document names). A machine the history does not
-hold yet is created by an administrator's upload only. One audit row records the upload:
-who, the file name, its SHA-256 and the run it became.
+hold yet is created by an administrator's upload only. One audit row, written in the same
+transaction as the run, records the upload: who, the file name, its SHA-256 and the run it
+became.
 """
 
 from __future__ import annotations
@@ -14,11 +15,7 @@ from __future__ import annotations
 import hashlib
 from datetime import UTC, datetime
 
-from sqlalchemy.orm import Session
-
 from mtmetrology.errors import InputError
-from mtmetrology.history.audit import audit
-from mtmetrology.history.database import writer
 from mtmetrology.history.records import RunRecord, add_result, machine_names
 from mtmetrology.io.documents import MAX_BYTES, parse_document
 
@@ -80,7 +77,7 @@ def upload_result(
             raise InputError(f"date {date!r}: not an ISO 8601 date (2026-03-01T08:30)") from None
         # the instant in UTC (naive: UTC), so that every backend stores the same instant
         when = when.replace(tzinfo=UTC) if when.tzinfo is None else when.astimezone(UTC)
-    record = add_result(
+    return add_result(
         engine,
         document,
         Machine.load(name),
@@ -88,18 +85,7 @@ def upload_result(
         performed_at=when,
         note=note,
         temperature_c=temperature_c,
+        by=user.username,
+        action="upload",
+        detail={"sha256": hashlib.sha256(data).hexdigest()},
     )
-    with Session(writer(engine)) as session, session.begin():
-        audit(
-            session,
-            user.username,
-            "upload",
-            f"{record.category} run {record.id}",
-            {
-                "file": source,
-                "sha256": hashlib.sha256(data).hexdigest(),
-                "machine": name,
-                "new_machine": new_machine,
-            },
-        )
-    return record
