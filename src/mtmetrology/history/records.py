@@ -19,7 +19,6 @@ from datetime import UTC, datetime, timedelta, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
 from sqlalchemy import Engine, select, text
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
@@ -30,7 +29,9 @@ from mtmetrology.history import schema
 from mtmetrology.history.audit import audit
 from mtmetrology.history.database import canonical_sha256, database_fault, writer
 
-if TYPE_CHECKING:  # the read path (list, show) imports no machine model
+if TYPE_CHECKING:  # the read path (list, show) imports no machine model and no numpy
+    import numpy as np
+
     from mtmetrology.kinematics.machine import Machine
 
 __all__ = [
@@ -692,6 +693,8 @@ def parameter_matrix(
         Run ids, dates (UTC), parameter names and units (the machine's first run's order)
         and the (K, P) values in those units.
     """
+    import numpy as np  # here, not at the top: the read path needs no numpy
+
     cal, par = schema.CalibrationRun, schema.RunParameter
     with Session(engine) as session:
         machine_id = _machine_id(session, machine)
@@ -722,6 +725,8 @@ def parameter_series(
         Run ids, dates (UTC), the unit, the (K,) values and standard uncertainties in it
         (NaN where a run has none).
     """
+    import numpy as np  # here, not at the top: the read path needs no numpy
+
     cal, par = schema.CalibrationRun, schema.RunParameter
     with Session(engine) as session:
         machine_id = _machine_id(session, machine)
@@ -770,6 +775,8 @@ def document_covariance(
     (:func:`mtmetrology.io.covariance.symmetric_covariance`: ``max |C − Cᵀ| ≤ 1e-9 max |C|``,
     then ``(C + Cᵀ)/2``); an asymmetric one raises InputFileError naming ``source``.
     """
+    import numpy as np  # here, not at the top: the read path needs no numpy
+
     from mtmetrology.io.covariance import symmetric_covariance
     from mtmetrology.units import parse_unit
 
