@@ -8,7 +8,7 @@ from __future__ import annotations
 import csv
 import io
 import math
-from datetime import UTC, datetime, timedelta
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated
 
@@ -424,7 +424,8 @@ def trend(
 
 def _trend_report(ctx: typer.Context, result, drifted):
     from mtmetrology.formatting import format_result
-    from mtmetrology.report import Report, figures
+    from mtmetrology.report import Report
+    from mtmetrology.report.figures.monitoring import trend_chart
 
     report = Report(
         f"Control chart of {result.parameter}, {result.machine}", command=command_line(ctx)
@@ -436,14 +437,7 @@ def _trend_report(ctx: typer.Context, result, drifted):
         f"{result.unit} from the first {result.baseline} runs; "
         f"{int(result.out_of_control.sum())} point(s) out of control.",
     )
-    prediction = due = mpe = None
     if drifted is not None:
-        span = (result.dates[-1] - result.dates[0]) / 2
-        end = drifted.due_date if drifted.due_date is not None else drifted.last_date + span
-        step = max((end - drifted.last_date) / 60, timedelta(days=1))
-        ahead = [drifted.last_date + k * step for k in range(61)]
-        mean, std = drifted.predict(ahead)
-        prediction = (ahead, mean, 2 * std)
         due, mpe = drifted.due_date, drifted.mpe
         slope = format_result(
             drifted.slope * 365.25, drifted.u_slope * 365.25, f"{result.unit}/year", name="slope"
@@ -453,20 +447,7 @@ def _trend_report(ctx: typer.Context, result, drifted):
             f"{'beyond the horizon' if due is None else f'{due:%Y-%m-%d}'} (P(|x| > "
             f"{mpe:g} {result.unit}) passes {1 - drifted.reliability:.3g})."
         )
-    report.figure(
-        figures.control_chart(
-            result.dates,
-            result.values,
-            result.centre,
-            (result.lower_limit, result.upper_limit),
-            result.out_of_control,
-            name=result.parameter,
-            unit=result.unit,
-            prediction=prediction,
-            mpe=mpe,
-            due_date=due,
-        )
-    )
+    report.figure(trend_chart(result, drifted))
     report.table(
         ["run", "date", f"{result.parameter} ({result.unit})", "out of control"],
         [

@@ -1,44 +1,14 @@
-"""The figures and documents of the web pages: the control chart with its drift band
-(:func:`mtmetrology.report.figures.control_chart`, as ``mtm history trend --report``
-draws it), a recorded run's HTML report and its certificate."""
+"""The documents of the web pages: a recorded run's HTML report and its certificate (the
+control chart is :func:`mtmetrology.report.figures.monitoring.trend_chart`, as ``mtm
+history trend --report`` draws it)."""
 
 from __future__ import annotations
 
 import math
-from datetime import timedelta
 
 from mtmetrology.errors import InputError, MtmetrologyError
 
-__all__ = ["certificate_xml", "run_report", "trend_figure"]
-
-
-def trend_figure(result, drifted):
-    """The individuals chart of ``result`` (TrendResult) and, when ``drifted`` (a
-    DriftResult with an MPE) is given, the prediction ± 2 standard deviations of the drift
-    model up to the due date, the ±MPE lines and the due date."""
-    from mtmetrology.report import figures
-
-    prediction = due = mpe = None
-    if drifted is not None:
-        span = (result.dates[-1] - result.dates[0]) / 2
-        end = drifted.due_date if drifted.due_date is not None else drifted.last_date + span
-        step = max((end - drifted.last_date) / 60, timedelta(days=1))
-        ahead = [drifted.last_date + k * step for k in range(61)]
-        mean, std = drifted.predict(ahead)
-        prediction = (ahead, mean, 2 * std)
-        due, mpe = drifted.due_date, drifted.mpe
-    return figures.control_chart(
-        result.dates,
-        result.values,
-        result.centre,
-        (result.lower_limit, result.upper_limit),
-        result.out_of_control,
-        name=result.parameter,
-        unit=result.unit,
-        prediction=prediction,
-        mpe=mpe,
-        due_date=due,
-    )
+__all__ = ["certificate_xml", "run_report"]
 
 
 def run_report(record, amendments=()) -> str:

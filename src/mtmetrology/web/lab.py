@@ -284,12 +284,12 @@ class Lab:
 
     def _svg(self, machine: str, parameter: str) -> str:
         from mtmetrology.report.document import figure_svg
-        from mtmetrology.web.figures import trend_figure
+        from mtmetrology.report.figures.monitoring import trend_chart
 
         row = next((r for r in self.parameter_table(machine) if r["parameter"] == parameter), None)
         if row is None or row["trend"] is None:
             raise InputError(f"parameter {parameter!r}: no control chart for {machine!r}")
-        fig = trend_figure(row["trend"], row["drift"])
+        fig = trend_chart(row["trend"], row["drift"])
         try:
             return figure_svg(fig, prefix="trend")
         finally:

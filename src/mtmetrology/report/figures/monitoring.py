@@ -3,7 +3,7 @@ probing approach and the control chart of a monitored quantity."""
 
 from __future__ import annotations
 
-from datetime import UTC
+from datetime import UTC, timedelta
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -163,3 +163,44 @@ def control_chart(
     ax.set_title(f"{name} over time: individuals control chart (ISO 7870-2)")
     legend_below(fig, ax)
     return plain_ticks(fig)
+
+
+def trend_chart(result, drifted=None) -> Figure:
+    """The individuals chart of a parameter's history with, when ``drifted`` is given, the
+    drift model's prediction ± 2 standard deviations up to the due date (or half the
+    history's span ahead), the ±MPE lines and the due date: what ``mtm history trend
+    --report`` and the web application's machine page draw.
+
+    Parameters
+    ----------
+    result : TrendResult
+        :func:`mtmetrology.history.parameter_trend`'s result (dates, values, centre, limits,
+        out-of-control flags, parameter name and unit).
+    drifted : DriftResult, optional
+        :func:`mtmetrology.history.parameter_drift`'s result.
+
+    Returns
+    -------
+    Figure
+    """
+    prediction = due = mpe = None
+    if drifted is not None:
+        span = (result.dates[-1] - result.dates[0]) / 2
+        end = drifted.due_date if drifted.due_date is not None else drifted.last_date + span
+        step = max((end - drifted.last_date) / 60, timedelta(days=1))
+        ahead = [drifted.last_date + k * step for k in range(61)]
+        mean, std = drifted.predict(ahead)
+        prediction = (ahead, mean, 2 * std)
+        due, mpe = drifted.due_date, drifted.mpe
+    return control_chart(
+        result.dates,
+        result.values,
+        result.centre,
+        (result.lower_limit, result.upper_limit),
+        result.out_of_control,
+        name=result.parameter,
+        unit=result.unit,
+        prediction=prediction,
+        mpe=mpe,
+        due_date=due,
+    )
