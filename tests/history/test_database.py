@@ -106,22 +106,19 @@ def test_url_resolution_default_env_and_plain_path(tmp_path, monkeypatch):
 _CHILD = textwrap.dedent(
     """
     import sys, time
-    from sqlalchemy import event
-    from sqlalchemy.orm import Session
-    from mtmetrology.history import add_result, open_history
+    from mtmetrology.history import add_result, open_history, records
     from mtmetrology.kinematics.machine import Machine
     import json
 
     url, document, pause = sys.argv[1], json.loads(sys.argv[2]), sys.argv[3] == "pause"
-    engine = open_history(url)
+    open_history(url).dispose()
     if pause:
-        @event.listens_for(Session, "after_flush")
-        def _stop(session, context):
-            from mtmetrology.history.schema import RunParameter
-            if any(isinstance(o, RunParameter) for o in session.new):
-                print("in the transaction", flush=True)
-                time.sleep(120)
-    add_result(engine, document, Machine.load("five-axis-wcbxfzyst"), by="test")
+        def _stop(*args):  # the run and its parameters are written, the audit row is next
+            print("in the transaction", flush=True)
+            time.sleep(120)
+        records.write_audit = _stop
+    # the URL: a SQLite file at the current schema is written through sqlite3
+    add_result(url, document, Machine.load("five-axis-wcbxfzyst"), by="test")
     """
 )
 

@@ -295,7 +295,7 @@ def test_a_failing_audit_write_records_no_result(tmp_path, make_calibration, mon
     def broken(*args, **kwargs):
         raise RuntimeError("crash between the run and its audit row")
 
-    monkeypatch.setattr(records, "audit", broken)
+    monkeypatch.setattr(records, "write_audit", broken)
     with pytest.raises(RuntimeError):
         add_result(engine, make_calibration([1.0] * 13), MACHINE, by="test")
     assert list_runs(engine) == ()

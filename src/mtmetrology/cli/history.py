@@ -144,7 +144,6 @@ def add(
     each with its audit row, or, if one is refused, none (the options apply to each)."""
     import getpass
 
-    from mtmetrology.history.database import open_history
     from mtmetrology.history.records import add_results, check_temperature
     from mtmetrology.io.documents import load_document
     from mtmetrology.kinematics.machine import Machine
@@ -178,7 +177,7 @@ def add(
                 "input_files": tuple(inputs or ()),
             }
         )
-    records = add_results(open_history(db), items, by=f"cli:{by or getpass.getuser()}")
+    records = add_results(db, items, by=f"cli:{by or getpass.getuser()}")
 
     def summary() -> None:
         for record in records:
@@ -217,11 +216,10 @@ def list_(
     json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """List the recorded runs, oldest first."""
-    from mtmetrology.history.database import open_history
     from mtmetrology.history.records import list_runs
 
     runs = list_runs(
-        open_history(db, read_only=True),
+        db,
         machine=machine,
         category=_category(category),
         since=_date(since, "--since"),
@@ -259,9 +257,8 @@ def show(
     """Show one recorded run."""
     from mtmetrology.formatting import format_result
     from mtmetrology.history.amendments import show_amended
-    from mtmetrology.history.database import open_history
 
-    record, amendments = show_amended(open_history(db, read_only=True), run, _category(category))
+    record, amendments = show_amended(db, run, _category(category))
     document = {**record.to_dict(), "amendments": [a.to_dict() for a in amendments]}
 
     def summary() -> None:

@@ -21,16 +21,17 @@ import math
 from dataclasses import dataclass
 from datetime import UTC, datetime
 
-from sqlalchemy import JSON, DateTime, Integer, String, Text, select, text
-from sqlalchemy.orm import Mapped, Session, mapped_column
-
 from mtmetrology.errors import InputError
-from mtmetrology.history import schema
-from mtmetrology.history.audit import audit
-from mtmetrology.history.database import writer
-from mtmetrology.history.records import TEMPERATURE_RANGE_C, RunRecord, offset_minutes, show_run
+from mtmetrology.history.records import (
+    TABLES,
+    TEMPERATURE_RANGE_C,
+    RunRecord,
+    offset_minutes,
+    run_record,
+)
+from mtmetrology.history.sql import connect, instant
 
-__all__ = ["FIELDS", "Amendment", "AmendmentRow", "amend_run", "run_amendments", "show_amended"]
+__all__ = ["FIELDS", "Amendment", "amend_run", "run_amendments", "show_amended"]
 
 #: Amendable fields -> the run column they change (None: kept in the amendments only).
 FIELDS = {
@@ -39,26 +40,6 @@ FIELDS = {
     "temperature_c": "temperature_c",
     "operator": None,
 }
-_TABLES = {
-    "calibration": schema.CalibrationRun,
-    "task": schema.TaskResult,
-    "verification": schema.VerificationResult,
-}
-
-
-class AmendmentRow(schema.Base):
-    """One amended field of one run (append-only)."""
-
-    __tablename__ = "amendments"
-    id: Mapped[int] = mapped_column(Integer, primary_key=True)
-    category: Mapped[str] = mapped_column(String(20))
-    run_id: Mapped[int] = mapped_column(Integer, index=True)
-    field: Mapped[str] = mapped_column(String(50))
-    old_value: Mapped[object] = mapped_column(JSON)
-    new_value: Mapped[object] = mapped_column(JSON)
-    reason: Mapped[str] = mapped_column(Text)
-    amended_by: Mapped[str] = mapped_column(String(200))
-    amended_at: Mapped[datetime] = mapped_column(DateTime(timezone=True))
 
 
 @dataclass(frozen=True)
@@ -163,8 +144,15 @@ def amend_run(
         No such run, an unknown field, an implausible value, a blank reason, a temperature
         on a run without one (task and verification results), or nothing that changes.
     """
-    if category not in _TABLES:
-        raise InputError(f"category {category!r}: not one of {', '.join(_TABLES)}")
+    from sqlalchemy import text
+    from sqlalchemy.orm import Session
+
+    from mtmetrology.history import schema
+    from mtmetrology.history.audit import audit
+    from mtmetrology.history.database import writer
+
+    if category not in TABLES:
+        raise InputError(f"category {category!r}: not one of {', '.join(TABLES)}")
     if not isinstance(reason, str) or not reason.strip():
         raise InputError("amendment: --why: give the reason for the amendment")
     if not isinstance(by, str) or not by.strip():
@@ -178,7 +166,7 @@ def amend_run(
         else None
     )
     wanted = _checked(changes)
-    table = _TABLES[category]
+    table = schema.RUNS[category]
     if "temperature_c" in wanted and category != "calibration":
         raise InputError(f"amendment: a {category} run records no temperature")
     now = datetime.now(UTC)
@@ -199,7 +187,7 @@ def amend_run(
             if name == "performed_at":
                 run.performed_at_offset_min = offset_min
             rows.append(
-                AmendmentRow(
+                schema.AmendmentRow(
                     category=category,
                     run_id=run_id,
                     field=name,
@@ -224,7 +212,11 @@ def amend_run(
         return tuple(_amendment(r) for r in rows)
 
 
-def _current(session: Session, run, category: str) -> dict:
+def _current(session, run, category: str) -> dict:
+    from sqlalchemy import select
+
+    from mtmetrology.history.schema import AmendmentRow
+
     operator = session.scalar(
         select(AmendmentRow.new_value)
         .where(
@@ -243,7 +235,8 @@ def _current(session: Session, run, category: str) -> dict:
     }
 
 
-def _amendment(row: AmendmentRow) -> Amendment:
+def _amendment(row) -> Amendment:
+    """An :class:`Amendment` of a row of the ORM (:func:`amend_run`)."""
     return Amendment(
         id=row.id,
         category=row.category,
@@ -257,23 +250,49 @@ def _amendment(row: AmendmentRow) -> Amendment:
     )
 
 
-def run_amendments(engine, run_id: int, category: str = "calibration") -> tuple[Amendment, ...]:
-    """A run's amendments, oldest first."""
-    with Session(engine) as session:
-        rows = session.scalars(
-            select(AmendmentRow)
-            .where(AmendmentRow.category == category, AmendmentRow.run_id == run_id)
-            .order_by(AmendmentRow.id)
+#: A run's amendments, oldest first.
+_AMENDMENTS = (
+    "SELECT id, category, run_id, field, old_value, new_value, reason, amended_by, amended_at "
+    "FROM amendments WHERE category = :category AND run_id = :run ORDER BY id"
+)
+
+
+def amendments_of(c, run_id: int, category: str = "calibration") -> tuple[Amendment, ...]:
+    """A run's amendments, oldest first, read on an open connection
+    (:func:`mtmetrology.history.sql.connect`)."""
+    return tuple(
+        Amendment(
+            id=r[0],
+            category=r[1],
+            run_id=r[2],
+            field=r[3],
+            old_value=c.json(r[4]),
+            new_value=c.json(r[5]),
+            reason=r[6],
+            amended_by=r[7],
+            amended_at=instant(r[8]),
         )
-        return tuple(_amendment(r) for r in rows)
+        for r in c.rows(_AMENDMENTS, category=category, run=run_id)
+    )
+
+
+def run_amendments(engine, run_id: int, category: str = "calibration") -> tuple[Amendment, ...]:
+    """A run's amendments, oldest first (``engine``: an engine or the database, as
+    :func:`~mtmetrology.history.records.show_run` takes it)."""
+    with connect(engine, read_only=True) as history, history.transaction() as c:
+        return amendments_of(c, run_id, category)
 
 
 def show_amended(
     engine, run_id: int, category: str = "calibration"
 ) -> tuple[RunRecord, tuple[Amendment, ...]]:
     """A run as it stands (:func:`~mtmetrology.history.records.show_run`) and its
-    amendments, oldest first (what ``mtm history show`` and the web application show)."""
-    return show_run(engine, run_id, category), run_amendments(engine, run_id, category)
+    amendments, oldest first, in one read transaction (what ``mtm history show`` and the
+    web application show; ``engine``: an engine or the database, opened as a reader)."""
+    if category not in TABLES:
+        raise InputError(f"category {category!r}: not one of {', '.join(TABLES)}")
+    with connect(engine, read_only=True) as history, history.transaction() as c:
+        return run_record(c, run_id, category), amendments_of(c, run_id, category)
 
 
 def original_values(amendments: tuple[Amendment, ...]) -> dict:

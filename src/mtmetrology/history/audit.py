@@ -28,6 +28,7 @@ from sqlalchemy import (
 from sqlalchemy.orm import Mapped, Session, mapped_column
 
 from mtmetrology.history.schema import Base
+from mtmetrology.history.sql import Alchemy, write_audit
 
 __all__ = ["ROLES", "ApiToken", "AuditEntry", "User", "audit", "audit_entries"]
 
@@ -73,17 +74,12 @@ class ApiToken(Base):
 
 def audit(
     session: Session, actor: str, action: str, target: str, detail: dict | None = None
-) -> AuditEntry:
-    """Add one audit row to ``session`` (committed with the change it records)."""
-    entry = AuditEntry(
-        at=datetime.now(UTC),
-        actor=actor,
-        action=action,
-        target=target,
-        detail=detail or {},
-    )
-    session.add(entry)
-    return entry
+) -> int:
+    """Add one audit row in ``session``'s transaction (committed with the change it
+    records); its id. The row is written by the one writer of the log,
+    :func:`mtmetrology.history.sql.write_audit`, on the session's connection (the short
+    commands write it through :mod:`sqlite3` with the same statement)."""
+    return write_audit(Alchemy(session.connection()), actor, action, target, detail)
 
 
 def audit_entries(

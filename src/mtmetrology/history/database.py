@@ -21,6 +21,10 @@ starts with ``BEGIN IMMEDIATE`` (it takes the write lock at once and waits up to
 timeout for another writer, instead of failing on a read-to-write upgrade); reads begin
 with a plain ``BEGIN`` and, in WAL mode, never wait for a writer.
 
+The constants and functions that need no SQLAlchemy (:data:`HEAD`, :func:`database_url`,
+:func:`database_fault`...) live in :mod:`mtmetrology.history.sql`, the driver of the short
+commands (``list``, ``show``, ``add``), and are imported from there.
+
 Faults (:func:`database_fault`, attached to every engine): whatever the database driver
 raises becomes one line naming the database and the fault, never "a bug":
 
@@ -38,8 +42,6 @@ before any table is created in it.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import os
 import warnings
 from contextlib import nullcontext
@@ -52,6 +54,19 @@ from sqlalchemy.exc import ArgumentError, IntegrityError
 from sqlalchemy.pool import NullPool
 
 from mtmetrology.errors import EnvironmentFailure, InputError
+from mtmetrology.history.sql import (
+    BUSY_TIMEOUT_S,
+    DB_ENV,
+    HEAD,
+    REVISIONS,
+    canonical_sha256,
+    database_fault,
+    database_url,
+    default_location,
+    read_only_medium,
+    sqlite_configure,
+    sqlite_open,
+)
 
 if TYPE_CHECKING:
     from sqlalchemy import Engine
@@ -71,14 +86,7 @@ __all__ = [
     "writer",
 ]
 
-#: Environment variable naming the history database (a file or a URL).
-DB_ENV = "MTMETROLOGY_DB"
-#: The schema revisions this version knows, oldest first; the last is the current one.
-REVISIONS = ("0001", "0002", "0003", "0004", "0005")
-#: The current schema revision.
-HEAD = REVISIONS[-1]
 _MIGRATIONS = Path(__file__).with_name("migrations")
-_BUSY_TIMEOUT_S = 60.0
 #: The tables of the history (any revision): a database holding other tables and not
 #: these is another application's and is refused.
 _OURS = frozenset(
@@ -98,56 +106,10 @@ _OURS = frozenset(
         "lab_settings",
     }
 )
-#: Driver messages of faults of the machine (exit 3); any other is a fault of the database.
-_ENVIRONMENT = (
-    ("database or disk is full", "the disk is full"),
-    ("no space left", "the disk is full"),
-    ("readonly database", "the file or its directory is read-only"),
-    ("read-only", "the file or its directory is read-only"),
-    ("unable to open database file", "the file cannot be opened (permissions or directory)"),
-    ("disk i/o error", "input/output error of the disk"),
-    ("database is locked", "locked by another process beyond the busy timeout"),
-    ("connection", "does not answer"),
-    ("could not connect", "does not answer"),
-    ("timeout", "does not answer"),
-    ("permission denied", "permission denied"),
-)
-#: SQLite's words for faults the file system names better (:func:`_file_system`).
-_AMBIGUOUS = ("unable to open database file", "disk i/o error", "readonly database")
-_DATABASE = (
-    ("file is not a database", "not a database (or a corrupted one)"),
-    ("malformed", "corrupted or truncated"),
-    ("no such table", "a table of the history is missing (the database was altered)"),
-    ("no such column", "a column of the history is missing (the database was altered)"),
-    ("does not exist", "a table or database does not exist"),
-    ("append-only", "the amendments and the audit log are append-only"),
-)
 
 
 class HistoryUpgradeWarning(UserWarning):
     """A migration changed data to reach the current schema (say what, once)."""
-
-
-def canonical_sha256(document: dict) -> str:
-    """SHA-256 of ``document`` as canonical JSON (sorted keys, no spaces, UTF-8)."""
-    text = json.dumps(document, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def default_location() -> Path:
-    """The default SQLite file, in the user's data directory."""
-    import platformdirs
-
-    return Path(platformdirs.user_data_dir("mtmetrology", appauthor=False)) / "history.sqlite"
-
-
-def database_url(db: str | os.PathLike | None = None) -> str:
-    """The URL of the history database: ``db``, else ``$MTMETROLOGY_DB``, else the default
-    file. A plain path (no ``://``) is a SQLite file."""
-    chosen = str(db) if db is not None else os.environ.get(DB_ENV) or str(default_location())
-    if "://" in chosen:
-        return chosen
-    return f"sqlite:///{Path(chosen).expanduser().resolve()}"
 
 
 def _shown(url) -> str:
@@ -157,73 +119,6 @@ def _shown(url) -> str:
     if parsed.get_backend_name() == "sqlite" and parsed.database:
         return parsed.database
     return parsed.render_as_string(hide_password=True)
-
-
-def _file_system(path: str) -> str | None:
-    """What the file system says of a SQLite file's place: read-only, full, or nothing.
-
-    SQLite reports a full disk under a WAL file as "disk I/O error" and a read-only file
-    system as "unable to open database file"; the file system says which it is."""
-    try:
-        state = os.statvfs(Path(path).parent)
-    except OSError:
-        return None
-    if state.f_flag & os.ST_RDONLY:
-        return "on a read-only file system"
-    free = state.f_bavail * state.f_frsize
-    if free < 1 << 20:
-        return f"the disk is full ({free // 1024} KiB free)"
-    if Path(path).exists() and not os.access(path, os.W_OK):
-        return "the file is read-only"
-    return None
-
-
-def database_fault(
-    database: str, err: BaseException, path: str | None = None
-) -> InputError | EnvironmentFailure:
-    """The one refusal for a fault of the database driver (see the module docstring).
-
-    Parameters
-    ----------
-    database : str
-        The file or URL, as :func:`_shown` gives it.
-    err : BaseException
-        The DBAPI exception (``sqlite3`` or ``psycopg``), or SQLAlchemy's wrapper of it.
-    path : str, optional
-        The SQLite file: a fault of the machine is then named from its file system
-        (read-only, full) when the driver's words do not say it.
-
-    Returns
-    -------
-    InputError or EnvironmentFailure
-        One line: ``database <where>: <what> (<driver's words>)``.
-    """
-    original = getattr(err, "orig", None) or err
-    words = " ".join(str(original).split())[:200]
-    lowered = words.lower()
-    if isinstance(err, IntegrityError) or type(original).__name__ == "IntegrityError":
-        return InputError(f"database {database}: a constraint of the history fails ({words})")
-    for needle, what in _DATABASE:
-        if needle in lowered:
-            return InputError(f"database {database}: {what} ({words})")
-    needle = next((needle for needle, _ in _ENVIRONMENT if needle in lowered), None)
-    what = dict(_ENVIRONMENT).get(needle)
-    if path is not None and (needle is None or needle in _AMBIGUOUS):
-        what = _file_system(path) or what
-    if what is not None:
-        return EnvironmentFailure(f"database {database}: {what} ({words})")
-    if isinstance(original, OSError) or type(original).__name__ == "OperationalError":
-        return EnvironmentFailure(f"database {database}: {words}")
-    return InputError(f"database {database}: cannot be used as a history ({words})")
-
-
-def _read_only_medium(path: str) -> bool:
-    """Whether an existing SQLite file sits on a read-only file system (a CD, a snapshot, a
-    read-only mount): nobody can write it, so it is read as immutable."""
-    try:
-        return Path(path).is_file() and bool(os.statvfs(Path(path).parent).f_flag & os.ST_RDONLY)
-    except OSError:
-        return False
 
 
 def _engine(url: str, read_only: bool = False) -> Engine:
@@ -246,25 +141,18 @@ def _engine(url: str, read_only: bool = False) -> Engine:
                 raise InputError(f"database {shown}: a directory, not a SQLite file")
         # A reader of a file on a read-only file system: WAL mode needs its -shm file,
         # which cannot be made there; no writer can exist, so the file is immutable.
-        frozen = read_only and bool(path) and _read_only_medium(path)
+        frozen = read_only and bool(path) and read_only_medium(path)
         options = {}
         if frozen:
-            import sqlite3
-            from urllib.parse import quote
-
-            uri = f"file:{quote(path)}?mode=ro&immutable=1"
-            options["creator"] = lambda: sqlite3.connect(uri, uri=True, check_same_thread=False)
+            options["creator"] = lambda: sqlite_open(path, frozen=True)
         engine = create_engine(
-            parsed, poolclass=NullPool, connect_args={"timeout": _BUSY_TIMEOUT_S}, **options
+            parsed, poolclass=NullPool, connect_args={"timeout": BUSY_TIMEOUT_S}, **options
         )
 
         @event.listens_for(engine, "connect")
         def _connect(dbapi_connection, _record):
-            dbapi_connection.isolation_level = None  # SQLAlchemy, not pysqlite, begins
-            try:
-                dbapi_connection.execute("PRAGMA foreign_keys = ON")
-                if not frozen:
-                    dbapi_connection.execute("PRAGMA journal_mode = WAL")
+            try:  # the configuration of the sqlite3 driver of mtmetrology.history.sql
+                sqlite_configure(dbapi_connection, frozen)
             except Exception as err:  # sqlite3.Error: raised outside SQLAlchemy's wrapping
                 raise database_fault(shown, err, path) from None
 

@@ -14,23 +14,28 @@ from __future__ import annotations
 
 import hashlib
 import math
+import os
 from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from sqlalchemy import Engine, select, text
-from sqlalchemy.exc import IntegrityError
-from sqlalchemy.orm import Session
-
 import mtmetrology
 from mtmetrology.errors import InputError
-from mtmetrology.history import schema
-from mtmetrology.history.audit import audit
-from mtmetrology.history.database import canonical_sha256, database_fault, writer
+from mtmetrology.history.sql import (
+    Conflict,
+    Json,
+    canonical_sha256,
+    connect,
+    database_fault,
+    instant,
+    write_audit,
+)
 
-if TYPE_CHECKING:  # the read path (list, show) imports no machine model and no numpy
+if TYPE_CHECKING:  # list, show and add import no SQLAlchemy; list and show no numpy
     import numpy as np
+    from sqlalchemy import Engine
+    from sqlalchemy.orm import Session
 
     from mtmetrology.kinematics.machine import Machine
 
@@ -62,11 +67,14 @@ TASK_KINDS = ("uncertainty-result",)
 VERIFICATION_KINDS = ("length-check", "conformity-decision", "iso230-4-circular")
 #: Plausible workshop temperatures, °C (issue 32: a value outside is a unit or a typo).
 TEMPERATURE_RANGE_C = (-50.0, 100.0)
-_TABLES = {
-    "calibration": schema.CalibrationRun,
-    "task": schema.TaskResult,
-    "verification": schema.VerificationResult,
+#: The table of each category.
+TABLES = {
+    "calibration": "calibration_runs",
+    "task": "task_results",
+    "verification": "verification_results",
 }
+#: The JSON columns of a run.
+_JSON = ("residual_statistics", "input_hashes", "result")
 
 
 @dataclass(frozen=True)
@@ -258,51 +266,54 @@ def _residual_statistics(doc: dict) -> dict:
     return stats
 
 
-def _machine_row(session: Session, machine: Machine, serial: str | None) -> schema.Machine:
-    row = session.scalar(select(schema.Machine).where(schema.Machine.name == machine.name))
+def _machine_row(c, machine: Machine, serial: str | None) -> tuple[int, bool]:
+    """The machine's row id, inserted on its first result; whether it is new."""
+    row = c.first("SELECT id, serial FROM machines WHERE name = :name", name=machine.name)
     if row is None:
-        row = schema.Machine(
+        created = c.insert(
+            "INSERT INTO machines (name, topology, model, serial) "
+            "VALUES (:name, :topology, NULL, :serial)",
             name=machine.name,
             topology=machine.topology.string,
-            model=None,
             serial=serial,
         )
-        session.add(row)
-        session.flush()
-    elif serial is not None and row.serial not in (None, serial):
+        return created, True
+    if serial is not None and row[1] not in (None, serial):
         raise InputError(
-            f"--serial {serial!r}: machine {machine.name!r} is recorded with serial {row.serial!r}"
+            f"--serial {serial!r}: machine {machine.name!r} is recorded with serial {row[1]!r}"
         )
-    return row
+    return row[0], False
 
 
-def _check_against_history(session: Session, row: schema.Machine, pset, source: str):
-    """The machine's first run's parameter order; refuse another model or other names."""
-    first = session.scalar(
-        select(schema.CalibrationRun.id)
-        .where(schema.CalibrationRun.machine_id == row.id)
-        .order_by(schema.CalibrationRun.id)
-        .limit(1)
+def _check_against_history(c, machine_id: int, machine: str, pset, source: str) -> list[str]:
+    """The machine's first run's parameter order; refuse another model or other names (the
+    machine takes the model of its first calibration)."""
+    (model,) = c.first("SELECT model FROM machines WHERE id = :id", id=machine_id)
+    if model is not None and pset.model != model:
+        raise InputError(
+            f"{source}: error model {pset.model!r}; the history of {machine!r} holds "
+            f"calibrations of model {model!r}"
+        )
+    if model != pset.model:
+        c.execute(
+            "UPDATE machines SET model = :model WHERE id = :id", model=pset.model, id=machine_id
+        )
+    first = c.first(
+        "SELECT id FROM calibration_runs WHERE machine_id = :machine ORDER BY id LIMIT 1",
+        machine=machine_id,
     )
-    if row.model is not None and pset.model != row.model:
-        raise InputError(
-            f"{source}: error model {pset.model!r}; the history of {row.name!r} holds "
-            f"calibrations of model {row.model!r}"
-        )
-    row.model = pset.model
     if first is None:
         return list(pset.names)
-    names = list(
-        session.scalars(
-            select(schema.RunParameter.name)
-            .where(schema.RunParameter.run_id == first)
-            .order_by(schema.RunParameter.position)
+    names = [
+        r[0]
+        for r in c.rows(
+            "SELECT name FROM run_parameters WHERE run_id = :run ORDER BY position", run=first[0]
         )
-    )
+    ]
     if sorted(names) != sorted(pset.names):
         extra = sorted(set(names) ^ set(pset.names))
         raise InputError(
-            f"{source}: parameters differ from the runs of machine {row.name!r} in the history "
+            f"{source}: parameters differ from the runs of machine {machine!r} in the history "
             f"(not in both: {', '.join(extra[:5])}{' ...' if len(extra) > 5 else ''})"
         )
     return names
@@ -442,17 +453,12 @@ def _prepare(
     return _Prepared(category, machine, serial, source, pset, columns, detail or {})
 
 
-def _insert(session: Session, item: _Prepared, by: str, action: str) -> int:
+def _insert(c, item: _Prepared, by: str, action: str) -> int:
     """Insert one prepared result (a calibration's parameters) and its audit row; its id."""
-    table = _TABLES[item.category]
-    new_machine = (
-        session.scalar(select(schema.Machine.id).where(schema.Machine.name == item.machine.name))
-        is None
-    )
-    row = _machine_row(session, item.machine, item.serial)
-    run = _insert_run(session, item, table, row)
-    audit(
-        session,
+    machine_id, new_machine = _machine_row(c, item.machine, item.serial)
+    run = _insert_run(c, item, machine_id)
+    write_audit(
+        c,
         by,
         action,
         f"{item.category} run {run}",
@@ -468,39 +474,50 @@ def _insert(session: Session, item: _Prepared, by: str, action: str) -> int:
     return run
 
 
-def _insert_run(session: Session, item: _Prepared, table, row: schema.Machine) -> int:
-    if item.category != "calibration":
-        run = table(machine_id=row.id, **item.columns)
-        session.add(run)
-        session.flush()
-        return run.id
-    pset = item.pset
-    order = _check_against_history(session, row, pset, item.source)
-    index = [pset.names.index(name) for name in order]
-    f = pset.scales()[index]
-    values = pset.values[index] / f
-    u = pset.standard_uncertainty
-    u = [None] * len(order) if u is None else (u[index] / f).tolist()
-    run = table(machine_id=row.id, parameter_vector=values.astype("<f8").tobytes(), **item.columns)
-    session.add(run)
-    session.flush()
-    session.add_all(
-        schema.RunParameter(
-            run_id=run.id,
-            position=k,
-            name=name,
-            unit=pset.units[i],
-            value=float(values[k]),
-            u=u[k],
-        )
-        for k, (name, i) in enumerate(zip(order, index, strict=True))
+def _insert_run(c, item: _Prepared, machine_id: int) -> int:
+    columns = {"machine_id": machine_id, **item.columns}
+    if item.category == "calibration":
+        pset = item.pset
+        order = _check_against_history(c, machine_id, item.machine.name, pset, item.source)
+        index = [pset.names.index(name) for name in order]
+        f = pset.scales()[index]
+        values = pset.values[index] / f
+        u = pset.standard_uncertainty
+        u = [None] * len(order) if u is None else (u[index] / f).tolist()
+        columns["parameter_vector"] = values.astype("<f8").tobytes()
+    table = TABLES[item.category]
+    # under the write lock: the unique index would refuse it, this names the run
+    earlier = c.first(
+        f"SELECT id FROM {table} WHERE content_sha256 = :sha", sha=columns["content_sha256"]
     )
-    session.flush()
-    return run.id
+    if earlier is not None:
+        raise InputError(f"{item.source}: already recorded as {item.category} run {earlier[0]}")
+    names = ", ".join(columns)
+    run = c.insert(
+        f"INSERT INTO {table} ({names}) VALUES ({', '.join(f':{k}' for k in columns)})",
+        **{k: Json(v) if k in _JSON else v for k, v in columns.items()},
+    )
+    if item.category == "calibration":
+        for k, (name, i) in enumerate(zip(order, index, strict=True)):
+            c.execute(
+                "INSERT INTO run_parameters (run_id, position, name, unit, value, u) "
+                "VALUES (:run, :position, :name, :unit, :value, :u)",
+                run=run,
+                position=k,
+                name=name,
+                unit=pset.units[i],
+                value=float(values[k]),
+                u=u[k],
+            )
+    return run
 
 
 def add_results(
-    engine: Engine, items: list[dict], *, by: str, action: str = "add"
+    engine: Engine | str | os.PathLike | None,
+    items: list[dict],
+    *,
+    by: str,
+    action: str = "add",
 ) -> list[RunRecord]:
     """Record several results in ONE transaction: all of them and their audit rows, or none.
 
@@ -512,7 +529,10 @@ def add_results(
 
     Parameters
     ----------
-    engine : Engine
+    engine : Engine, str, path or None
+        An engine (:func:`~mtmetrology.history.database.open_history`), or the database
+        (a SQLite file or URL; None: ``$MTMETROLOGY_DB`` or the default file), opened as a
+        writer (:func:`mtmetrology.history.sql.connect`: an older schema is upgraded).
     items : list of dict
         The keyword arguments of :func:`add_result` for each result (``document``,
         ``machine`` and the optional ones, ``detail`` included).
@@ -524,7 +544,7 @@ def add_results(
     Returns
     -------
     list of RunRecord
-        In the order of ``items``.
+        In the order of ``items``, as stored.
 
     Raises
     ------
@@ -540,71 +560,83 @@ def add_results(
         if key in seen:
             raise InputError(f"{item.source}: the same result as {seen[key]} (given twice)")
         seen[key] = item.source
-    try:
-        with Session(writer(engine)) as session, session.begin():
-            if engine.dialect.name == "postgresql":
-                # writers queue (SQLite's BEGIN IMMEDIATE does the same): two first runs of
-                # a new machine would otherwise both insert it
-                session.execute(text("SELECT pg_advisory_xact_lock(24025)"))
-            ids = [_insert(session, item, by, action) for item in prepared]
-    except IntegrityError as err:
-        with Session(engine) as session:
-            for item in prepared:
-                table = _TABLES[item.category]
-                sha = item.columns["content_sha256"]
-                earlier = session.scalar(select(table.id).where(table.content_sha256 == sha))
-                if earlier is not None:
-                    raise InputError(
-                        f"{item.source}: already recorded as {item.category} run {earlier}"
-                    ) from None
-        raise database_fault(str(engine.url), err) from None
-    with Session(engine) as session:
-        return [
-            _record(session, session.get(_TABLES[item.category], i), item.category)
-            for item, i in zip(prepared, ids, strict=True)
-        ]
+    with connect(engine) as history:
+        try:
+            with history.transaction(write=True) as c:
+                ids = [_insert(c, item, by, action) for item in prepared]
+        except Conflict as err:
+            raise database_fault(c.shown, err.original) from None
+        with history.transaction() as c:
+            return [run_record(c, i, item.category) for item, i in zip(prepared, ids, strict=True)]
 
 
-def _record(session: Session, run, category: str) -> RunRecord:
-    machine = session.get(schema.Machine, run.machine_id)
+#: A run's fields as :class:`RunRecord` reads them (a calibration's own columns, NULL for
+#: the task and verification results, which have none).
+_RUN = (
+    "SELECT r.id, m.name, r.kind, r.performed_at, r.performed_at_offset_min, r.recorded_at, "
+    "r.software_version, r.operator_note, {calibration}, r.input_hashes, r.content_sha256, "
+    "r.result FROM {table} r JOIN machines m ON m.id = r.machine_id WHERE r.id = :id"
+)
+
+
+def run_record(c, run_id: int, category: str = "calibration") -> RunRecord:
+    """One stored run, read on an open connection (:func:`mtmetrology.history.sql.connect`).
+
+    Raises
+    ------
+    InputError
+        An unknown category, or no such run.
+    """
+    if category not in TABLES:
+        raise InputError(f"category {category!r}: not one of {', '.join(TABLES)}")
+    own = "r.artefact, r.temperature_c, r.residual_statistics"
+    row = c.first(
+        _RUN.format(
+            calibration=own if category == "calibration" else "NULL, NULL, NULL",
+            table=TABLES[category],
+        ),
+        id=run_id,
+    )
+    if row is None:
+        raise InputError(f"run {run_id}: no {category} run of that number in the history")
     parameters: tuple[dict, ...] = ()
     if category == "calibration":
         parameters = tuple(
-            {"name": p.name, "unit": p.unit, "value": p.value, "u": p.u}
-            for p in session.scalars(
-                select(schema.RunParameter)
-                .where(schema.RunParameter.run_id == run.id)
-                .order_by(schema.RunParameter.position)
+            {"name": name, "unit": unit, "value": value, "u": u}
+            for name, unit, value, u in c.rows(
+                "SELECT name, unit, value, u FROM run_parameters WHERE run_id = :run "
+                "ORDER BY position",
+                run=run_id,
             )
         )
     return RunRecord(
-        id=run.id,
+        id=row[0],
         category=category,
-        machine=machine.name,
-        kind=run.kind,
-        performed_at=_as_given(run.performed_at, run.performed_at_offset_min),
-        recorded_at=run.recorded_at,
-        software_version=run.software_version,
-        operator_note=run.operator_note,
-        artefact=getattr(run, "artefact", None),
-        temperature_c=getattr(run, "temperature_c", None),
-        residual_statistics=getattr(run, "residual_statistics", {}) or {},
-        input_hashes=run.input_hashes,
-        content_sha256=run.content_sha256,
+        machine=row[1],
+        kind=row[2],
+        performed_at=_as_given(instant(row[3]), row[4]),
+        recorded_at=instant(row[5]),
+        software_version=row[6],
+        operator_note=row[7],
+        artefact=row[8],
+        temperature_c=row[9],
+        residual_statistics=c.json(row[10]) or {},
+        input_hashes=c.json(row[11]),
+        content_sha256=row[12],
         parameters=parameters,
-        result=run.result,
+        result=c.json(row[13]),
     )
 
 
-def show_run(engine: Engine, run_id: int, category: str = "calibration") -> RunRecord:
-    """One stored run. Raises InputError when there is no such run."""
-    if category not in _TABLES:
-        raise InputError(f"category {category!r}: not one of {', '.join(_TABLES)}")
-    with Session(engine) as session:
-        run = session.get(_TABLES[category], run_id)
-        if run is None:
-            raise InputError(f"run {run_id}: no {category} run of that number in the history")
-        return _record(session, run, category)
+def show_run(
+    engine: Engine | str | os.PathLike | None, run_id: int, category: str = "calibration"
+) -> RunRecord:
+    """One stored run (``engine``: an engine or the database, opened as a reader, see
+    :func:`add_results`). Raises InputError when there is no such run."""
+    if category not in TABLES:
+        raise InputError(f"category {category!r}: not one of {', '.join(TABLES)}")
+    with connect(engine, read_only=True) as history, history.transaction() as c:
+        return run_record(c, run_id, category)
 
 
 @dataclass(frozen=True)
@@ -631,50 +663,65 @@ class RunSummary:
 
 
 def list_runs(
-    engine: Engine,
+    engine: Engine | str | os.PathLike | None,
     *,
     machine: str | None = None,
     category: str = "calibration",
     since: datetime | None = None,
 ) -> tuple[RunSummary, ...]:
-    """The stored runs of a category, oldest first (optionally of one machine, since a date)."""
-    if category not in _TABLES:
-        raise InputError(f"category {category!r}: not one of {', '.join(_TABLES)}")
-    table = _TABLES[category]
-    query = (
-        select(
-            table.id,
-            schema.Machine.name,
-            table.kind,
-            table.performed_at,
-            table.performed_at_offset_min,
-            table.operator_note,
-        )
-        .join(schema.Machine, schema.Machine.id == table.machine_id)
-        .order_by(table.performed_at, table.id)
-    )
+    """The stored runs of a category, oldest first (optionally of one machine, since a
+    date); ``engine``: an engine or the database, opened as a reader (see
+    :func:`add_results`)."""
+    if category not in TABLES:
+        raise InputError(f"category {category!r}: not one of {', '.join(TABLES)}")
+    where, params = [], {}
     if machine is not None:
-        query = query.where(schema.Machine.name == machine)
+        where.append("m.name = :machine")
+        params["machine"] = machine
     if since is not None:
-        query = query.where(table.performed_at >= _utc(since))
-    with Session(engine) as session:
-        rows = session.execute(query).all()
-    return tuple(RunSummary(r[0], category, r[1], r[2], _as_given(r[3], r[4]), r[5]) for r in rows)
+        where.append("r.performed_at >= :since")
+        params["since"] = _utc(since)
+    query = (
+        "SELECT r.id, m.name, r.kind, r.performed_at, r.performed_at_offset_min, "
+        f"r.operator_note FROM {TABLES[category]} r JOIN machines m ON m.id = r.machine_id"
+        + "".join(f" {'AND' if k else 'WHERE'} {w}" for k, w in enumerate(where))
+        + " ORDER BY r.performed_at, r.id"
+    )
+    with connect(engine, read_only=True) as history, history.transaction() as c:
+        rows = c.rows(query, **params)
+    return tuple(
+        RunSummary(r[0], category, r[1], r[2], _as_given(instant(r[3]), r[4]), r[5]) for r in rows
+    )
+
+
+def _orm():
+    """SQLAlchemy's ``select`` and ``Session`` and the ORM tables, imported on use: the
+    functions below (the analyses' reads) use the ORM; list, show and add import none of it.
+    """
+    from sqlalchemy import select
+    from sqlalchemy.orm import Session
+
+    from mtmetrology.history import schema
+
+    return select, Session, schema
 
 
 def machine_names(engine: Engine) -> list[str]:
     """Names of the machines in the history."""
+    select, Session, schema = _orm()
     with Session(engine) as session:
         return list(session.scalars(select(schema.Machine.name).order_by(schema.Machine.name)))
 
 
 def machine_model(engine: Engine, machine: str) -> str | None:
     """The error model of a machine's recorded calibrations."""
+    select, Session, schema = _orm()
     with Session(engine) as session:
         return session.scalar(select(schema.Machine.model).where(schema.Machine.name == machine))
 
 
 def _machine_id(session: Session, machine: str) -> int:
+    select, _, schema = _orm()
     row = session.scalar(select(schema.Machine.id).where(schema.Machine.name == machine))
     if row is None:
         known = ", ".join(session.scalars(select(schema.Machine.name))) or "none"
@@ -695,6 +742,7 @@ def parameter_matrix(
     """
     import numpy as np  # here, not at the top: the read path needs no numpy
 
+    select, Session, schema = _orm()
     cal, par = schema.CalibrationRun, schema.RunParameter
     with Session(engine) as session:
         machine_id = _machine_id(session, machine)
@@ -727,6 +775,7 @@ def parameter_series(
     """
     import numpy as np  # here, not at the top: the read path needs no numpy
 
+    select, Session, schema = _orm()
     cal, par = schema.CalibrationRun, schema.RunParameter
     with Session(engine) as session:
         machine_id = _machine_id(session, machine)
@@ -796,6 +845,7 @@ def document_covariance(
 def run_covariances(engine: Engine, ids: list[int], names: list[str]) -> list[np.ndarray | None]:
     """Each calibration run's own parameter covariance (internal units, ``names``' order),
     None where its document has none."""
+    select, Session, schema = _orm()
     cal = schema.CalibrationRun
     with Session(engine) as session:
         documents = dict(session.execute(select(cal.id, cal.result).where(cal.id.in_(ids))).all())

@@ -32,6 +32,8 @@ from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 from sqlalchemy.types import TypeDecorator
 
 __all__ = [
+    "RUNS",
+    "AmendmentRow",
     "Base",
     "CalibrationRun",
     "DuplicateResult",
@@ -161,3 +163,22 @@ class DuplicateResult(Base):
     operator_note: Mapped[str | None] = mapped_column(Text)
     result: Mapped[dict] = mapped_column(JSON)
     set_aside_at: Mapped[datetime] = mapped_column(UtcDateTime)
+
+
+class AmendmentRow(Base):
+    """One amended field of one run (append-only)."""
+
+    __tablename__ = "amendments"
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    category: Mapped[str] = mapped_column(String(20))
+    run_id: Mapped[int] = mapped_column(Integer, index=True)
+    field: Mapped[str] = mapped_column(String(50))
+    old_value: Mapped[object] = mapped_column(JSON)
+    new_value: Mapped[object] = mapped_column(JSON)
+    reason: Mapped[str] = mapped_column(Text)
+    amended_by: Mapped[str] = mapped_column(String(200))
+    amended_at: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+
+
+#: The table of each category of result.
+RUNS = {"calibration": CalibrationRun, "task": TaskResult, "verification": VerificationResult}
