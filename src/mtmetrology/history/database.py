@@ -22,8 +22,9 @@ timeout for another writer, instead of failing on a read-to-write upgrade); read
 with a plain ``BEGIN`` and, in WAL mode, never wait for a writer.
 
 The constants and functions that need no SQLAlchemy (:data:`HEAD`, :func:`database_url`,
-:func:`database_fault`...) live in :mod:`mtmetrology.history.sql`, the driver of the short
-commands (``list``, ``show``, ``add``), and are imported from there.
+:func:`database_fault`...) live in :mod:`mtmetrology.history.opening` and are imported
+from there: the short commands (``list``, ``show``, ``add``) read a SQLite file at the
+current revision without SQLAlchemy (:mod:`mtmetrology.history.sql`).
 
 Faults (:func:`database_fault`, attached to every engine): whatever the database driver
 raises becomes one line naming the database and the fault, never "a bug":
@@ -54,7 +55,7 @@ from sqlalchemy.exc import ArgumentError, IntegrityError
 from sqlalchemy.pool import NullPool
 
 from mtmetrology.errors import EnvironmentFailure, InputError
-from mtmetrology.history.sql import (
+from mtmetrology.history.opening import (
     BUSY_TIMEOUT_S,
     DB_ENV,
     HEAD,

@@ -22,15 +22,8 @@ from typing import TYPE_CHECKING
 
 import mtmetrology
 from mtmetrology.errors import InputError
-from mtmetrology.history.sql import (
-    Conflict,
-    Json,
-    canonical_sha256,
-    connect,
-    database_fault,
-    instant,
-    write_audit,
-)
+from mtmetrology.history.opening import canonical_sha256, database_fault
+from mtmetrology.history.sql import Conflict, Json, connect, instant, write_audit
 
 if TYPE_CHECKING:  # list, show and add import no SQLAlchemy; list and show no numpy
     import numpy as np
