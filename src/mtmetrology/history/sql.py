@@ -156,11 +156,11 @@ class _Sqlite(_Decoding):
         self._run("BEGIN IMMEDIATE" if write else "BEGIN", {})
         try:
             yield self
+            self._run("COMMIT", {})
         except BaseException:
-            if self.raw.in_transaction:
+            if self.raw.in_transaction:  # a refusal, or a COMMIT the disk refused
                 self.raw.rollback()
             raise
-        self._run("COMMIT", {})
 
 
 class Alchemy(_Decoding):
