@@ -8,6 +8,13 @@ definition (:meth:`ParameterSet.from_document`) and against the machine's earlie
 same error model and parameter names), then stored with its parameters in one transaction,
 together with one row of the audit log per result (:mod:`mtmetrology.history.audit`: who
 recorded it, from which file), so that no result is recorded without its audit row.
+
+:func:`add_results`, :func:`list_runs` and :func:`show_run` are SQL text run by
+:mod:`mtmetrology.history.sql`: through :mod:`sqlite3` on a SQLite file at the current
+schema (``mtm history list``, ``show`` and ``add`` import no SQLAlchemy), through
+SQLAlchemy on PostgreSQL or on an engine given. They take an engine or the database itself
+(a file or URL). The analyses' reads below them (:func:`parameter_series`,
+:func:`parameter_matrix` ...) use the ORM.
 """
 
 from __future__ import annotations
