@@ -15,8 +15,8 @@ resident set of the child (``VmHWM``):
   ``mtm history add`` of 16 calibrations in one call (one transaction);
 - baseline: ``mtm --help`` (the command line's own start-up);
 - floor: ``python -c "import numpy"`` (first: the yardstick); second, ``import
-  sqlalchemy.orm`` (the database layer the history is written on, imported by any of
-  its commands).
+  sqlalchemy.orm`` (the database layer list, show and add imported before they ran on
+  :mod:`sqlite3`; the other history commands still import it).
 
 Run: ``python bench/bench_history_cli.py``. On a shared host the wall times mostly measure
 the other processes: the notes give each command's CPU seconds (user + system, least of

@@ -280,9 +280,11 @@ def connect(db: Any = None, *, read_only: bool = False) -> Iterator[_Sqlite | _E
 
     Yields
     ------
-    An object with ``dialect`` and ``transaction(write)``, which yields a connection with
-    ``rows``, ``first``, ``insert`` and ``execute`` of SQL text: :mod:`sqlite3` for a
-    SQLite file at :data:`HEAD`, SQLAlchemy otherwise.
+    history : object
+        With ``dialect`` and ``transaction(write=False)``, a context that yields a
+        connection with ``rows``, ``first``, ``insert``, ``execute`` (SQL text, ``:name``
+        parameters) and ``json`` (decoding): :mod:`sqlite3` for a SQLite file at
+        :data:`HEAD`, SQLAlchemy otherwise.
 
     Raises
     ------
