@@ -25,10 +25,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from mtmetrology.errors import InputError
+
+if TYPE_CHECKING:  # values may be arrays; converting needs no numpy (mtm history show)
+    import numpy as np
 
 __all__ = [
     "Unit",
@@ -170,13 +172,13 @@ def parse_unit(symbol: str) -> Unit:
 def to_internal(value: float | np.ndarray, unit: str | Unit) -> float | np.ndarray:
     """Convert ``value`` given in ``unit`` to internal units (mm, rad, 1)."""
     u = unit if isinstance(unit, Unit) else parse_unit(unit)
-    return np.multiply(value, u.factor) if isinstance(value, np.ndarray) else value * u.factor
+    return value * u.factor  # a float, or an array elementwise
 
 
 def from_internal(value: float | np.ndarray, unit: str | Unit) -> float | np.ndarray:
     """Convert ``value`` in internal units to ``unit``."""
     u = unit if isinstance(unit, Unit) else parse_unit(unit)
-    return np.divide(value, u.factor) if isinstance(value, np.ndarray) else value / u.factor
+    return value / u.factor  # a float, or an array elementwise
 
 
 def convert(value: float | np.ndarray, from_unit: str, to_unit: str) -> float | np.ndarray:

@@ -84,7 +84,7 @@ def test_a_sqlite_file_at_the_current_revision_is_opened_without_sqlalchemy(
 
 def test_list_show_and_add_on_sqlite_import_no_sqlalchemy(tmp_path, make_calibration):
     """The three short commands, each in a fresh interpreter on a SQLite file at the
-    current schema: SQLAlchemy, Alembic and SciPy are never imported."""
+    current schema: SQLAlchemy, Alembic and SciPy are never imported, numpy by add only."""
     db = tmp_path / "h.sqlite"
     _added(db, make_calibration)
     amend_run(open_history(db), 1, {"operator": "bob"}, reason="forgotten", by="ada")
@@ -110,6 +110,7 @@ def test_list_show_and_add_on_sqlite_import_no_sqlalchemy(tmp_path, make_calibra
         assert run.returncode == 0, err
         modules = set(json.loads(err.rpartition("MODULES ")[2]))
         assert {"sqlalchemy", "alembic", "scipy"}.isdisjoint(modules), name
+        assert ("numpy" in modules) == (name == "add"), name  # add checks the parameter set
         if name == "show":
             assert "amended" in out and "'bob'" in out  # the amendments are shown
     assert [r.id for r in list_runs(open_history(db))] == [1, 2]
