@@ -18,6 +18,21 @@ resident set of the child (``VmHWM``):
   sqlalchemy.orm`` (the database layer list, show and add imported before they ran on
   :mod:`sqlite3`; the other history commands still import it).
 
+Result (2026-11-28, 2 shared cores, three runs; RESULTS.md holds the last): list, show
+and add on a SQLite file at the current schema now run on :mod:`sqlite3` and import no
+SQLAlchemy (mtmetrology.history.sql); before, ``import sqlalchemy`` alone was about twice
+the numpy floor. The last run, median (min) over the numpy floor's median 0.109 s (min
+0.097 s): ``list`` 0.260 s (0.218 s), 2.4x, **met** (2.0x and 2.1x in the two earlier
+runs); ``show 1`` 0.281 s (0.244 s), 2.6x, **met** (2.8x and 3.2x before ``units`` stopped
+importing numpy); ``add`` of 1 file 0.500 s (0.407 s), 4.6x, **missed** (3.4x and 3.5x in
+the earlier runs), of 16 files 0.428 s (0.360 s), 3.9x, **missed** (4.3x, 3.3x). CPU
+seconds over the floor's: list 2.3x, show 2.5x, add 3.6-4.2x. What add still costs over
+list is numpy and the machine model (a calibration is checked against the machine's
+definition: ``Machine.load``, ``ParameterSet.from_document``), about 0.14 s; the database
+work of 16 files is a few milliseconds. The numpy + SQLAlchemy ORM floor (0.44 s) is now
+above every command. Part of every command's start-up is typer's own (``mtm --help``
+0.18 s; typer 0.29 imports pydantic to convert each option when a command runs).
+
 Run: ``python bench/bench_history_cli.py``. On a shared host the wall times mostly measure
 the other processes: the notes give each command's CPU seconds (user + system, least of
 the repeats) over the floor's, the ratio that load does not inflate.
