@@ -51,10 +51,11 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import asyncio
 import json
 import re
+import shutil
 import socket
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -70,11 +71,16 @@ from harness import Benchmark, Timing
 from mtmetrology.web.security import create_user
 
 CLIENTS = 50
-REQUESTS = 10
+#: Seconds of one counted round, of the uncounted warm-up; counted rounds.
+ROUND_S = 10.0
+WARM_UP_S = 30.0
 ROUNDS = 5
+#: Distinct machine pages the clients read in turn (parameter and page of runs drawn once).
+PATHS = 500
 PASSWORD = "bench-password"
-#: Requests that failed (connection reset ...), by exception name: a p95 with them is inf.
-ERRORS: list[str] = []
+#: The load generator (Debian package wrk, installed by ``make bench``): compiled, one
+#: epoll thread, so that the client takes a small share of the 2 cores the server runs on.
+WRK = shutil.which("wrk")
 WORKERS = os.cpu_count() or 1
 # the server module (an import string, so that uvicorn can start worker processes)
 SERVER = """
@@ -155,28 +161,63 @@ def _login(base: str) -> dict:
         return dict(client.cookies)
 
 
-async def _round(base: str, paths: list[list[str]], cookies: dict) -> list[float]:
-    latencies: list[float] = []
-    limits = httpx.Limits(max_connections=CLIENTS, max_keepalive_connections=CLIENTS)
-    async with httpx.AsyncClient(
-        base_url=base, cookies=cookies, limits=limits, timeout=120
-    ) as client:
+#: wrk's Lua script: each request the next of the paths (in turn, across the connections),
+#: the session cookie, and at the end one JSON line: percentiles of wrk's latency histogram
+#: (µs), the requests and the failures.
+LUA = r"""
+local paths = {PATHS}
+local i = 0
+wrk.headers["Cookie"] = COOKIE
+request = function()
+  i = i + 1
+  return wrk.format("GET", paths[(i % #paths) + 1])
+end
+done = function(summary, latency, requests)
+  local e = summary.errors
+  io.write(string.format(
+    '{"p50": %d, "p95": %d, "max": %d, "requests": %d, "failed": %d, "non_2xx": %d}\n',
+    latency:percentile(50), latency:percentile(95), latency.max, summary.requests,
+    e.connect + e.read + e.write + e.timeout, e.status))
+end
+"""
 
-        async def one_client(mine: list[str]):
-            for path in mine:
-                start = time.perf_counter()
-                try:
-                    response = await client.get(path)
-                except httpx.TransportError as err:  # counted (as an infinite latency)
-                    ERRORS.append(type(err).__name__)
-                    latencies.append(float("inf"))
-                    continue
-                latencies.append(time.perf_counter() - start)
-                if response.status_code != 200:
-                    raise RuntimeError(f"{path}: {response.status_code}")
 
-        await asyncio.gather(*(one_client(p) for p in paths))
-    return latencies
+def _script(folder: Path, paths: list[str], cookies: dict) -> Path:
+    """The Lua script of a round over ``paths`` with the session ``cookies``."""
+    cookie = "; ".join(f"{k}={v}" for k, v in cookies.items())
+    script = folder / "bench_web.lua"
+    script.write_text(
+        LUA.replace("PATHS", ",".join(json.dumps(p) for p in paths)).replace(
+            "COOKIE", json.dumps(cookie)
+        )
+    )
+    return script
+
+
+def _wrk(base: str, script: Path, seconds: float, timeout: float = 10.0) -> dict:
+    """One round: CLIENTS connections, each sending its next request as soon as the last
+    is answered, for ``seconds``. The p95 is in seconds; a failed request (connection
+    error, timeout, a status other than 2xx/3xx) makes it infinite."""
+    out = subprocess.run(
+        [
+            WRK,
+            "-t1",
+            f"-c{CLIENTS}",
+            f"-d{seconds:g}s",
+            f"--timeout={timeout:g}s",
+            "-s",
+            str(script),
+            base,
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=seconds + timeout + 60,
+    ).stdout
+    result = json.loads(out.strip().splitlines()[-1])
+    failed = result["failed"] + result["non_2xx"]
+    result["p95_s"] = float("inf") if failed else result["p95"] * 1e-6
+    return result
 
 
 def _first_page(path: Path, machine: str) -> tuple[float, bytes]:
@@ -193,27 +234,29 @@ def _first_page(path: Path, machine: str) -> tuple[float, bytes]:
         process.wait(timeout=30)
 
 
-def _p95s(kind: str, target: str, paths, login: bool, workers: int = 1) -> list[float]:
-    """ROUNDS rounds' p95 latencies against a fresh server (the first round, which warms
-    the connections and each worker's cache, is not counted)."""
+def _p95s(kind: str, target: str, paths: list[str], login: bool, workers: int = 1):
+    """ROUNDS rounds' p95 latencies against a fresh server, after a warm-up round that is
+    not counted (it opens the connections and computes each worker's cache: a cold worker
+    takes seconds for the 84 charts, hence its long timeout). Returns the p95s and the
+    rounds' requests per second."""
     process, base = _serve(kind, target, workers)
-    ERRORS.clear()
     try:
         cookies = _login(base) if login else {}
-        with httpx.Client(base_url=base, cookies=cookies, timeout=600) as client:
-            client.get(paths[0][0])  # the cold page (one worker's)
-        p95 = [
-            float(np.percentile(asyncio.run(_round(base, paths, cookies)), 95))
-            for _ in range(ROUNDS + 1)
-        ][1:]
-        print(f"{kind}, {workers} worker(s): p95 {p95}, failed requests {ERRORS}", flush=True)
-        return p95
+        script = _script(Path(target).parent, paths, cookies)
+        _wrk(base, script, WARM_UP_S, timeout=120)
+        rounds = [_wrk(base, script, ROUND_S) for _ in range(ROUNDS)]
+        p95 = [r["p95_s"] for r in rounds]
+        rate = [r["requests"] / ROUND_S for r in rounds]
+        print(f"{kind}, {workers} worker(s): p95 {p95} s, {rate} requests/s", flush=True)
+        return p95, rate
     finally:
         process.terminate()
         process.wait(timeout=30)
 
 
 def main() -> None:
+    if WRK is None:
+        raise SystemExit("bench_web: wrk (the load generator) is not installed: make bench")
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "history.sqlite"
         engine, machine, _ = setup(path)
@@ -224,45 +267,48 @@ def main() -> None:
         rng = np.random.default_rng(34)
         names = machine.parameter_names
         paths = [
-            [
-                f"/machines/{machine.name}?parameter={names[rng.integers(len(names))]}"
-                f"&page={rng.integers(1, 200)}"
-                for _ in range(REQUESTS)
-            ]
-            for _ in range(CLIENTS)
+            f"/machines/{machine.name}?parameter={names[rng.integers(len(names))]}"
+            f"&page={rng.integers(1, 200)}"
+            for _ in range(PATHS)
         ]
         cold, page = _first_page(path, machine.name)
         static = Path(tmp) / "static"
         static.mkdir()
         (static / "machine.html").write_bytes(page)
-        flat = [["/machine.html"] * REQUESTS for _ in range(CLIENTS)]
-        ours = _p95s("app", str(path), paths, True)
-        ours_workers = _p95s("app", str(path), paths, True, WORKERS)
-        floor = _p95s("static", str(static), flat, False)
-        floor_workers = _p95s("static", str(static), flat, False, WORKERS)
-        size = len(page)
+        runs = {
+            "ours: machine page p95": _p95s("app", str(path), paths, True),
+            f"ours, mtm serve --workers {WORKERS}: machine page p95": _p95s(
+                "app", str(path), paths, True, WORKERS
+            ),
+            "floor: static file p95 (same size)": _p95s(
+                "static", str(static), ["/machine.html"], False
+            ),
+            f"floor, {WORKERS} workers: static file p95": _p95s(
+                "static", str(static), ["/machine.html"], False, WORKERS
+            ),
+        }
         bench = Benchmark(
             "web",
-            f"machine page, {RUNS} runs × {len(names)} parameters, {CLIENTS} clients × "
-            f"{REQUESTS} requests, p95 latency per round",
+            f"machine page, {RUNS} runs × {len(names)} parameters, {CLIENTS} clients "
+            f"(wrk connections) for {ROUND_S:g} s a round, p95 latency per round",
         )
-        bench.timings.append(Timing("ours: machine page p95", "ours", ours))
-        bench.timings.append(
-            Timing(f"ours, mtm serve --workers {WORKERS}: machine page p95", "ours", ours_workers)
-        )
-        bench.timings.append(Timing("floor: static file p95 (same size)", "floor", floor))
-        bench.timings.append(
-            Timing(f"floor, {WORKERS} workers: static file p95", "floor", floor_workers)
-        )
+        for label, (p95, rate) in runs.items():
+            kind = "floor" if label.startswith("floor") else "ours"
+            note = f"{statistics.median(rate):.0f} pages/s"
+            bench.timings.append(Timing(label, kind, p95, note=note))
         bench.target("ours: machine page p95", 0.3, text="issue 34")
+        bench.target(f"ours, mtm serve --workers {WORKERS}: machine page p95", 0.3, text="issue 34")
         bench.notes.append(
             json.dumps(
                 {
                     "cold_first_page_s": round(cold, 2),
-                    "page_bytes": size,
+                    "page_bytes": len(page),
                     "clients": CLIENTS,
-                    "requests_per_client": REQUESTS,
+                    "round_s": ROUND_S,
                     "workers": WORKERS,
+                    "load_generator": subprocess.run(
+                        [WRK, "--version"], capture_output=True, text=True
+                    ).stdout.split(" [")[0],
                 }
             )
         )
