@@ -1,6 +1,6 @@
 """What the pages and the API show, from the same library calls as ``mtm history``.
 
-A machine's status comes from :func:`~mtmetrology.history.parameter_trend` (the Shewhart
+A machine's status comes from :func:`~mtmetrology.history.parameter_trends` (the Shewhart
 chart of each parameter: is the latest run out of control?) and
 :func:`~mtmetrology.history.parameter_drift` (the drift model of each parameter with a
 maximum permissible error: the date P(|x| > MPE) passes 1 − reliability); the machine is
@@ -35,7 +35,7 @@ from sqlalchemy.orm import Session
 
 from mtmetrology.errors import InputError
 from mtmetrology.history import schema
-from mtmetrology.history.analysis import parameter_drift, parameter_trend
+from mtmetrology.history.analysis import parameter_drift, parameter_trends
 from mtmetrology.history.audit import AuditEntry
 from mtmetrology.history.records import list_runs, machine_names
 from mtmetrology.history.settings import lab_settings, machine_limits
@@ -222,9 +222,10 @@ class Lab:
     def _parameter_table(self, machine: str) -> list[dict]:
         limits = machine_limits(self.engine, machine)
         rows = []
-        charted = self._runs(machine) > 1  # a control chart needs two runs
+        # a control chart needs two runs; every parameter's from one read of the runs
+        trends = parameter_trends(self.engine, machine) if self._runs(machine) > 1 else {}
         for name in self.parameters(machine):
-            trend = parameter_trend(self.engine, machine, name) if charted else None
+            trend = trends.get(name)
             row = {"parameter": name, "trend": trend, "drift": None, "mpe": None, "why": None}
             if name in limits and trend is not None:
                 mpe, reliability = limits[name]

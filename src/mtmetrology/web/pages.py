@@ -217,9 +217,7 @@ def _tables(request: Request, name: str) -> dict[str, Markup]:
     macros = _macros(request)
     m = {"name": name}
     table = lab.parameter_table(name)
-    others = {
-        c: list_runs(lab.engine, machine=name, category=c) for c in ("task", "verification")
-    }
+    others = {c: list_runs(lab.engine, machine=name, category=c) for c in ("task", "verification")}
     return {
         "parameters": macros.parameters(m, table),
         "options": macros.parameter_options(table),
