@@ -52,8 +52,13 @@ format: $(STAMP)
 fuzz: $(STAMP)
 	MTM_FUZZ=all $(BIN)/python -m pytest tests/fuzz -q -p no:xdist
 
+# The web benchmark drives the server with wrk, a compiled HTTP load generator (Debian's
+# package; a Python client took most of the 2 cores itself): installed here when missing.
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e ".[test,bench]"
+	@command -v wrk >/dev/null 2>&1 || ! command -v apt-get >/dev/null 2>&1 || \
+	  { export DEBIAN_FRONTEND=noninteractive; apt-get install -y -qq wrk >/dev/null 2>&1 || \
+	    { apt-get update -qq && apt-get install -y -qq wrk >/dev/null; }; }
 	$(BIN)/python bench/run_all.py
 
 # Mutation testing on demand, not in CI (tests/MUTATION.md): `make mutation`, or

@@ -15,6 +15,7 @@ from mtmetrology.history import (
     long_term_covariance,
     open_history,
     parameter_trend,
+    parameter_trends,
 )
 from mtmetrology.identification.long_term import long_term_parameters
 from mtmetrology.kinematics.machine import Machine
@@ -123,6 +124,27 @@ def test_control_chart_limits_in_closed_form_and_the_crash_flagged(history_url, 
         parameter_trend(engine, MACHINE.name, "E_Q0Q")
     with pytest.raises(InputError, match="--baseline 1"):
         parameter_trend(engine, MACHINE.name, "E_X0C", baseline=1)
+
+
+def test_every_parameters_chart_from_one_read_equals_the_chart_of_each(
+    history_url, make_calibration
+):
+    """parameter_trends (one row a run, the stored vectors) gives the same chart as
+    parameter_trend (the parameter's own rows) for every parameter, with a baseline and
+    a date filter; a machine without runs is refused."""
+    rows = np.random.default_rng(34).normal(size=(12, 13)) * 3.0
+    rows[-1, 0] += 40.0  # one point out of control
+    engine = open_history(history_url)
+    _record(engine, rows, make_calibration)
+    for options in ({}, {"baseline": 8}, {"since": START + timedelta(days=2)}):
+        every = parameter_trends(engine, MACHINE.name, **options)
+        assert list(every) == list(MACHINE.parameter_names)
+        for name, chart in every.items():
+            alone = parameter_trend(engine, MACHINE.name, name, **options)
+            assert chart.to_dict() == alone.to_dict()
+    assert every[MACHINE.parameter_names[0]].out_of_control[-1]
+    with pytest.raises(InputError, match="'nowhere'"):
+        parameter_trends(engine, "nowhere")
 
 
 def test_add_within_adds_the_mean_of_the_runs_own_covariances(history_url, make_calibration):

@@ -3,6 +3,7 @@ what several server processes (``mtm serve --workers``) share."""
 
 from __future__ import annotations
 
+import json
 import threading
 
 from lxml import html
@@ -119,3 +120,31 @@ def test_concurrent_requests_compute_a_cached_value_once(sqlite_lab):
     for t in threads:
         t.join()
     assert calls == [1] and results == [1] * 8
+
+
+def test_a_reading_request_reads_the_version_once_and_a_write_shows_at_the_next(
+    sqlite_lab, monkeypatch
+):
+    # as mtm serve --workers: version_seconds = 0, so without the per-request snapshot
+    # every cached value of a page would read the version again (six for a machine page)
+    view = sqlite_lab.app.state.lab
+    monkeypatch.setattr(view, "version_seconds", 0)
+    reads: list[tuple] = []
+    read = view._read_version
+    monkeypatch.setattr(view, "_read_version", lambda: reads.append(read()) or reads[-1])
+    engineer = sqlite_lab.client("engineer")
+    reads.clear()
+    assert engineer.get(f"/machines/{MACHINE.name}").status_code == 200
+    assert len(reads) == 1
+    before = reads[0]
+    document = json.dumps(calibration([5.0] * 13)).encode()
+    done = engineer.post(
+        "/upload",
+        data={"csrf": csrf_of(engineer, "/upload"), "note": "n"},
+        files={"result": ("cal.json", document, "application/json")},
+    )
+    assert done.status_code == 303, done.text
+    reads.clear()
+    assert engineer.get(f"/machines/{MACHINE.name}").status_code == 200
+    assert len(reads) == 1 and reads[0] != before
+    assert view.machine(MACHINE.name).runs == len(sqlite_lab.runs) + 1

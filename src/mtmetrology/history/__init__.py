@@ -15,6 +15,7 @@ _WHERE = {
     "long_term_covariance": "analysis",
     "parameter_drift": "analysis",
     "parameter_trend": "analysis",
+    "parameter_trends": "analysis",
     "DB_ENV": "database",
     "database_url": "database",
     "open_history": "database",

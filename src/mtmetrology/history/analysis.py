@@ -40,6 +40,7 @@ __all__ = [
     "long_term_covariance",
     "parameter_drift",
     "parameter_trend",
+    "parameter_trends",
     "pattern_tests",
 ]
 
@@ -218,6 +219,40 @@ def parameter_trend(
         (:func:`pattern_tests`).
     """
     ids, dates, unit, values, _ = parameter_series(engine, machine, parameter, since=since)
+    return _chart(machine, parameter, unit, ids, dates, values, baseline)
+
+
+def parameter_trends(
+    engine: Engine,
+    machine: str,
+    *,
+    since: datetime | None = None,
+    baseline: int | None = None,
+) -> dict[str, TrendResult]:
+    """The individuals chart of every parameter of a machine, from one read of its runs.
+
+    The same charts as :func:`parameter_trend` parameter by parameter, read from each
+    run's stored vector (:func:`~mtmetrology.history.records.parameter_matrix`: one row a
+    run) instead of one query of K rows per parameter: for 10⁴ runs of the 84-coefficient
+    model, one query instead of 84 (the web application's machine page; 7 s before).
+
+    Returns
+    -------
+    dict
+        :class:`TrendResult` by parameter name, in the runs' parameter order.
+    """
+    ids, dates, names, units, matrix = parameter_matrix(engine, machine, since=since)
+    if not ids:
+        raise InputError(f"machine {machine!r}: no calibration in the history to chart")
+    return {
+        name: _chart(machine, name, unit, ids, dates, matrix[:, j].copy(), baseline)
+        for j, (name, unit) in enumerate(zip(names, units, strict=True))
+    }
+
+
+def _chart(machine, parameter, unit, ids, dates, values, baseline) -> TrendResult:
+    """The chart of one series (values in ``unit``, oldest first): limits from the first
+    ``baseline`` runs (all by default), the points outside them, the pattern tests."""
     n = len(values) if baseline is None else baseline
     if not 2 <= n <= len(values):
         raise InputError(f"--baseline {n}: must be between 2 and the {len(values)} runs")

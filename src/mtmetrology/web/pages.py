@@ -180,39 +180,49 @@ def machine_page(
     lab = request.app.state.lab
     overview = lab.machine(name)
     table = lab.parameter_table(name)
-    names = [r["parameter"] for r in table]
-    chosen = parameter if parameter in names else (names[0] if names else None)
+    rows = {r["parameter"]: r for r in table}
+    chosen = parameter if parameter in rows else next(iter(rows), None)
     runs = lab.cached(("runs", name), lambda: list_runs(lab.engine, machine=name))[::-1]
-    engine = lab.engine
-    others = lab.cached(
-        ("others", name),
-        lambda: {c: list_runs(engine, machine=name, category=c) for c in ("task", "verification")},
-    )
+    shown = runs[(page - 1) * PAGE_RUNS : page * PAGE_RUNS]
+    macros = _macros(request)
     return render(
         request,
         "machine.html.j2",
         user,
         m=overview,
-        table=table,
-        chosen=chosen,
-        runs=runs[(page - 1) * PAGE_RUNS : page * PAGE_RUNS],
+        chart=None
+        if chosen is None
+        else lab.cached(("chart", name, chosen), lambda: macros.chart(overview, rows[chosen])),
+        runs=lab.cached(
+            ("runs-page", name, page),
+            lambda: macros.runs_rows(shown, "calibration"),
+        ),
         page=page,
         pages=max(1, -(-len(runs) // PAGE_RUNS)),
-        others=others,
         tables=lab.cached(("tables", name), lambda: _tables(request, name)),
     )
 
 
+def _macros(request: Request):
+    return request.app.state.templates.get_template("machine_tables.html.j2").module
+
+
 def _tables(request: Request, name: str) -> dict[str, Markup]:
-    """The machine page's parameter and covariance tables, rendered (autoescaped) once per
-    history version: they depend on the history only, and their 2 × 84 rows were most of a
-    warm page's time (about 9 of 16 ms, cProfile, 10⁴ runs of the 84-coefficient model)."""
+    """The machine page's parts that depend on the history only, rendered (autoescaped)
+    once per history version: the parameter table, the MPE form's options, the covariance
+    and the task and verification results. With the chart and the page of runs, also
+    cached, these rows were nearly all of a warm page's time (cProfile, 10⁴ runs of the
+    84-coefficient model: 16 ms before any was cached, 1 ms of rendering with them)."""
     lab = request.app.state.lab
-    macros = request.app.state.templates.get_template("machine_tables.html.j2").module
+    macros = _macros(request)
     m = {"name": name}
+    table = lab.parameter_table(name)
+    others = {c: list_runs(lab.engine, machine=name, category=c) for c in ("task", "verification")}
     return {
-        "parameters": macros.parameters(m, lab.parameter_table(name)),
+        "parameters": macros.parameters(m, table),
+        "options": macros.parameter_options(table),
         "covariance": macros.covariance_section(m, _covariance(lab.engine, name)),
+        "others": macros.others_section(others),
     }
 
 
