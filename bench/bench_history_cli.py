@@ -18,20 +18,24 @@ resident set of the child (``VmHWM``):
   sqlalchemy.orm`` (the database layer list, show and add imported before they ran on
   :mod:`sqlite3`; the other history commands still import it).
 
-Result (2026-11-28, 2 shared cores, three runs; RESULTS.md holds the last): list, show
-and add on a SQLite file at the current schema now run on :mod:`sqlite3` and import no
-SQLAlchemy (mtmetrology.history.sql); before, ``import sqlalchemy`` alone was about twice
-the numpy floor. The last run, median (min) over the numpy floor's median 0.109 s (min
-0.097 s): ``list`` 0.260 s (0.218 s), 2.4x, **met** (2.0x and 2.1x in the two earlier
-runs); ``show 1`` 0.281 s (0.244 s), 2.6x, **met** (2.8x and 3.2x before ``units`` stopped
-importing numpy); ``add`` of 1 file 0.500 s (0.407 s), 4.6x, **missed** (3.4x and 3.5x in
-the earlier runs), of 16 files 0.428 s (0.360 s), 3.9x, **missed** (4.3x, 3.3x). CPU
-seconds over the floor's: list 2.3x, show 2.5x, add 3.6-4.2x. What add still costs over
-list is numpy and the machine model (a calibration is checked against the machine's
-definition: ``Machine.load``, ``ParameterSet.from_document``), about 0.14 s; the database
-work of 16 files is a few milliseconds. The numpy + SQLAlchemy ORM floor (0.44 s) is now
-above every command. Part of every command's start-up is typer's own (``mtm --help``
-0.18 s; typer 0.29 imports pydantic to convert each option when a command runs).
+Result (2026-11-28, 2 cores): list, show and add on a SQLite file at the current schema run
+on :mod:`sqlite3` and import no SQLAlchemy (mtmetrology.history.sql); before, ``import
+sqlalchemy`` alone was about twice the numpy floor. RESULTS.md holds the run of 04:04 UTC
+(load average 0.6), median (min) over the numpy floor's median 0.101 s (min 0.091 s):
+``list`` 0.221 s (0.217 s), 2.2x, **met**; ``show 1`` 0.234 s (0.228 s), 2.3x, **met**;
+``add`` of 1 file 0.364 s (0.357 s), 3.6x, **missed**; of 16 files 0.399 s (0.389 s), 4.0x,
+**missed** (three earlier runs under load: list 2.0-2.4x, show 2.6-3.2x, add 3.3-4.6x).
+Peak RSS: list and show 35 MiB (was 56 and 69), add 82 MiB. What add costs over list,
+0.14 s, measured in the process: numpy (about 0.08 s, with OpenBLAS starting its threads:
+add's CPU seconds exceed its wall time), the machine's definition (YAML, its pydantic
+models, the kinematics modules: about 0.06 s), ``Machine.load`` 8 ms and the database work
+12 ms (16 files: a few ms more). Every command also pays typer's start-up (``mtm --help``
+0.17 s, 1.7x the floor) and, when it runs, typer 0.29's option conversion, which builds a
+pydantic TypeAdapter for each option (about 0.07 s with pydantic's import; ``add`` has 13
+options). So add, which needs what list needs and numpy (the check of a calibration is
+arithmetic on its parameter vector), is at 2.2x + 0.8x = 3.0x before it reads the machine's
+definition: the 3x target is out of reach for add without replacing typer's conversion or
+the machine definition's loader. The numpy + SQLAlchemy ORM floor (0.44 s) is above every command.
 
 Run: ``python bench/bench_history_cli.py``. On a shared host the wall times mostly measure
 the other processes: the notes give each command's CPU seconds (user + system, least of
