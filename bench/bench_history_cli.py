@@ -30,12 +30,16 @@ Peak RSS: list and show 35 MiB (was 56 and 69), add 82 MiB. What add costs over 
 add's CPU seconds exceed its wall time), the machine's definition (YAML, its pydantic
 models, the kinematics modules: about 0.06 s), ``Machine.load`` 8 ms and the database work
 12 ms (16 files: a few ms more). Every command also pays typer's start-up (``mtm --help``
-0.17 s, 1.7x the floor) and, when it runs, typer 0.29's option conversion, which builds a
-pydantic TypeAdapter for each option (about 0.07 s with pydantic's import; ``add`` has 13
-options). So add, which needs what list needs and numpy (the check of a calibration is
-arithmetic on its parameter vector), is at 2.2x + 0.8x = 3.0x before it reads the machine's
-definition: the 3x target is out of reach for add without replacing typer's conversion or
-the machine definition's loader. The numpy + SQLAlchemy ORM floor (0.44 s) is above every command.
+0.17 s, 1.7x the floor) and, when it runs, typer 0.29's option conversion, which imports
+pydantic and builds a TypeAdapter for each option (``add`` has 13). So add, which needs
+what list needs and numpy (the check of a calibration is arithmetic on its parameter
+vector), is at 2.2x + 0.8x = 3.0x before it reads the machine's definition. Tried and
+dropped: typer 0.28 (before the pydantic conversion) put first on the path gave add no
+gain (0.46 / 0.54 s against 0.45 / 0.49 s, min / median of 8, alternating; pydantic is
+imported by the machine definition's models all the same). What remains is building the
+kinematic chain at load (its modules and the optimiser's, about 0.035 s, could be imported
+on first evaluation), not enough alone for 3x. The numpy + SQLAlchemy ORM floor (0.44 s)
+is above every command.
 
 Run: ``python bench/bench_history_cli.py``. On a shared host the wall times mostly measure
 the other processes: the notes give each command's CPU seconds (user + system, least of
