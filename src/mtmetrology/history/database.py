@@ -117,7 +117,7 @@ class HistoryUpgradeWarning(UserWarning):
     """A migration changed data to reach the current schema (say what, once)."""
 
 
-def _shown(url) -> str:
+def shown_name(url) -> str:
     """The database as a person names it: the file of a SQLite URL, else the URL without
     its password."""
     parsed = make_url(url) if isinstance(url, str) else url
@@ -131,7 +131,7 @@ def _engine(url: str, read_only: bool = False, pooled: bool = False) -> Engine:
         parsed = make_url(url)
     except ArgumentError:
         raise InputError(f"database URL {url!r} is not a URL (dialect://user@host/name)") from None
-    shown = _shown(parsed)
+    shown = shown_name(parsed)
     path = None
     if parsed.get_backend_name() == "sqlite":
         path = parsed.database
@@ -243,7 +243,7 @@ def schema_revision(engine: Engine) -> str | None:
         tables = _tables(connection)
     foreign = sorted(tables - _OURS)
     if foreign or tables:
-        shown = _shown(engine.url)
+        shown = shown_name(engine.url)
         listed = ", ".join(foreign[:5] or sorted(tables)[:5])
         raise InputError(
             f"database {shown}: not a calibration history (it holds other tables: {listed}); "
@@ -266,7 +266,7 @@ def migrate(engine: Engine, revision: str = HEAD) -> None:
         config.attributes["notices"] = notices = []
         command.upgrade(config, revision)
     for notice in notices:
-        warnings.warn(f"database {_shown(engine.url)}: {notice}", HistoryUpgradeWarning, 2)
+        warnings.warn(f"database {shown_name(engine.url)}: {notice}", HistoryUpgradeWarning, 2)
 
 
 def open_history(
@@ -306,7 +306,7 @@ def open_history(
     current = schema_revision(engine)
     if current == revision:
         return engine
-    shown = _shown(url)
+    shown = shown_name(url)
     if current is not None and current not in REVISIONS:
         raise EnvironmentFailure(
             f"database {shown}: schema revision {current!r} is newer than this mtmetrology "

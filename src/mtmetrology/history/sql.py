@@ -172,12 +172,12 @@ class Alchemy(_Decoding):
         from sqlalchemy import JSON, bindparam, text
         from sqlalchemy.exc import IntegrityError
 
-        from mtmetrology.history.database import _shown
+        from mtmetrology.history.database import shown_name
         from mtmetrology.history.schema import UtcDateTime
 
         self.connection = connection
         self.dialect = connection.dialect.name
-        self.shown = _shown(connection.engine.url)
+        self.shown = shown_name(connection.engine.url)
         self._text, self._bind, self._integrity = text, bindparam, IntegrityError
         self._types = {Json: JSON(), datetime: UtcDateTime()}
 
