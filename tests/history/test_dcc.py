@@ -21,7 +21,7 @@ from mtmetrology.history.dcc import (
     validate_certificate,
 )
 from mtmetrology.history.dcc_read import certified_length, read_certificate
-from mtmetrology.history.records import document_covariance
+from mtmetrology.history.series import document_covariance
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 

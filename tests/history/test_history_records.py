@@ -18,7 +18,7 @@ from mtmetrology.history import (
     open_history,
     show_run,
 )
-from mtmetrology.history.records import export_rows
+from mtmetrology.history.series import export_rows
 from mtmetrology.kinematics.machine import Machine
 
 MACHINE = Machine.load("five-axis-wcbxfzyst")
@@ -125,7 +125,7 @@ def test_list_filters_and_export_rows(history_url, make_calibration):
 
 def test_a_recorded_covariance_asymmetric_by_rounding_comes_back_exactly_symmetric():
     """document_covariance applies the one reader rule (mtmetrology.io.covariance)."""
-    from mtmetrology.history.records import document_covariance
+    from mtmetrology.history.series import document_covariance
     from mtmetrology.io.files import InputFileError
 
     doc = {

@@ -8,7 +8,8 @@ from datetime import UTC, datetime
 import numpy as np
 
 from mtmetrology.history.database import open_history
-from mtmetrology.history.records import add_result, list_runs, parameter_series, show_run
+from mtmetrology.history.records import add_result, list_runs, show_run
+from mtmetrology.history.series import parameter_series
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.positioning.identify import axis_machine

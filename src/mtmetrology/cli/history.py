@@ -83,7 +83,7 @@ def _category(category: str) -> str:
 
 
 def _one_machine(engine, machine: str | None) -> str:
-    from mtmetrology.history.records import machine_names
+    from mtmetrology.history.series import machine_names
 
     if machine is not None:
         return machine

@@ -28,7 +28,7 @@ _WHERE = {
     "RunSummary": "records",
     "add_result": "records",
     "add_results": "records",
-    "export_rows": "records",
+    "export_rows": "series",
     "list_runs": "records",
     "show_run": "records",
 }

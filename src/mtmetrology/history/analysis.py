@@ -22,7 +22,7 @@ from sqlalchemy import Engine
 
 from mtmetrology.errors import InputError
 from mtmetrology.history.drift import DriftResult, fit_drift
-from mtmetrology.history.records import (
+from mtmetrology.history.series import (
     machine_model,
     parameter_matrix,
     parameter_series,
@@ -232,7 +232,7 @@ def parameter_trends(
     """The individuals chart of every parameter of a machine, from one read of its runs.
 
     The same charts as :func:`parameter_trend` parameter by parameter, read from each
-    run's stored vector (:func:`~mtmetrology.history.records.parameter_matrix`: one row a
+    run's stored vector (:func:`~mtmetrology.history.series.parameter_matrix`: one row a
     run) instead of one query of K rows per parameter: for 10⁴ runs of the 84-coefficient
     model, one query instead of 84 (the web application's machine page; 7 s before).
 

@@ -33,7 +33,8 @@ import numpy as np
 from lxml import etree
 
 from mtmetrology.errors import InputError
-from mtmetrology.history.records import RunRecord, document_covariance
+from mtmetrology.history.records import RunRecord
+from mtmetrology.history.series import document_covariance
 from mtmetrology.io.covariance import symmetric
 from mtmetrology.uncertainty.normal_coverage import RegionCoverage, normal_region_coverage
 from mtmetrology.units import from_internal, parse_unit, to_internal

@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from mtmetrology.errors import InputError
-from mtmetrology.history.records import add_result, machine_names
+from mtmetrology.history.records import add_result
+from mtmetrology.history.series import machine_names
 from mtmetrology.history.settings import set_lab_settings, set_machine_limit
 from mtmetrology.rng import as_generator
 

@@ -37,7 +37,8 @@ from mtmetrology.errors import InputError
 from mtmetrology.history import schema
 from mtmetrology.history.analysis import parameter_drift, parameter_trends
 from mtmetrology.history.audit import AuditEntry
-from mtmetrology.history.records import list_runs, machine_names
+from mtmetrology.history.records import list_runs
+from mtmetrology.history.series import machine_names
 from mtmetrology.history.settings import lab_settings, machine_limits
 
 __all__ = ["STATUSES", "Lab", "MachineOverview", "reading"]

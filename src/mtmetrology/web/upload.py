@@ -16,7 +16,8 @@ import hashlib
 from datetime import UTC, datetime
 
 from mtmetrology.errors import InputError
-from mtmetrology.history.records import RunRecord, add_result, machine_names
+from mtmetrology.history.records import RunRecord, add_result
+from mtmetrology.history.series import machine_names
 from mtmetrology.io.documents import MAX_BYTES, parse_document
 
 __all__ = ["upload_result"]
