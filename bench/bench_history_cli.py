@@ -7,11 +7,13 @@ write lock. Target: list, show and add within 3x of ``python -c "import numpy"``
 no command starts without numpy); the revision is checked with one SELECT and Alembic runs
 only when it differs.
 
-Contenders, each a fresh interpreter timed over 5 repeats (min and median), with the peak
-resident set of the child (``VmHWM``):
+Contenders, each a fresh interpreter, timed in alternation (a, b, c, a, b, c, ...: a change
+of load on the shared host hits all alike) over 9 repeats after one uncounted round (min
+and median), with the peak resident set of the child (``VmHWM``):
 
 - ours: ``mtm history list``, ``mtm history show 1``, ``mtm history add`` of one new
-  calibration (a new document each repeat: the same one is refused as recorded), and
+  calibration (a new document each repeat, all written before the timing: the same one is
+  refused as recorded), and
   ``mtm history add`` of 16 calibrations in one call (one transaction);
 - baseline: ``mtm --help`` (the command line's own start-up);
 - floor: ``python -c "import numpy"`` (first: the yardstick); second, ``import
@@ -20,26 +22,30 @@ resident set of the child (``VmHWM``):
 
 Result (2026-11-28, 2 cores): list, show and add on a SQLite file at the current schema run
 on :mod:`sqlite3` and import no SQLAlchemy (mtmetrology.history.sql); before, ``import
-sqlalchemy`` alone was about twice the numpy floor. RESULTS.md holds the run of 04:04 UTC
-(load average 0.6), median (min) over the numpy floor's median 0.101 s (min 0.091 s):
-``list`` 0.221 s (0.217 s), 2.2x, **met**; ``show 1`` 0.234 s (0.228 s), 2.3x, **met**;
-``add`` of 1 file 0.364 s (0.357 s), 3.6x, **missed**; of 16 files 0.399 s (0.389 s), 4.0x,
-**missed** (three earlier runs under load: list 2.0-2.4x, show 2.6-3.2x, add 3.3-4.6x).
-Peak RSS: list and show 35 MiB (was 56 and 69), add 82 MiB. What add costs over list,
-0.14 s, measured in the process: numpy (about 0.08 s, with OpenBLAS starting its threads:
-add's CPU seconds exceed its wall time), the machine's definition (YAML, its pydantic
-models, the kinematics modules: about 0.06 s), ``Machine.load`` 8 ms and the database work
-12 ms (16 files: a few ms more). Every command also pays typer's start-up (``mtm --help``
-0.17 s, 1.7x the floor) and, when it runs, typer 0.29's option conversion, which imports
-pydantic and builds a TypeAdapter for each option (``add`` has 13). So add, which needs
-what list needs and numpy (the check of a calibration is arithmetic on its parameter
-vector), is at 2.2x + 0.8x = 3.0x before it reads the machine's definition. Tried and
-dropped: typer 0.28 (before the pydantic conversion) put first on the path gave add no
-gain (0.46 / 0.54 s against 0.45 / 0.49 s, min / median of 8, alternating; pydantic is
-imported by the machine definition's models all the same). What remains is building the
-kinematic chain at load (its modules and the optimiser's, about 0.035 s, could be imported
-on first evaluation), not enough alone for 3x. The numpy + SQLAlchemy ORM floor (0.44 s)
-is above every command.
+sqlalchemy`` alone was about twice the numpy floor. RESULTS.md holds the run of 04:29 UTC
+(load average 1.5; in alternation), median (min) over the numpy floor's median 0.091 s
+(min 0.081 s): ``list`` 0.190 s (0.184 s), 2.1x, **met**; ``show 1`` 0.195 s (0.184 s),
+2.1x, **met**; ``add`` of 1 file 0.304 s (0.291 s), 3.3x, **missed**; of 16 files 0.323 s
+(0.308 s), 3.5x, **missed**. (Earlier runs in blocks, one contender's repeats after
+another's: list 2.0-2.4x, show 2.3-3.2x, add 3.3-4.6x.) Peak RSS: list and show 33-34 MiB
+(were 56 and 69), add 82 MiB.
+
+Where add's time goes, measured in the process (one file, ms from the interpreter's
+start): the command line (typer) 49; the imports add needs beyond it, 150 (numpy about 65,
+pydantic with its plugin discovery about 45, YAML 17, the machine definition's pydantic
+models and the kinematics modules about 25); typer's conversion of the 13 options (a
+pydantic TypeAdapter each, typer 0.29) 21; reading the document 0.6, ``Machine.load`` 8, the
+database work 6.5 (16 files: a few ms more); then about 45 ms of interpreter start and exit
+(the exit's garbage collection of 40 000 objects alone 10-13 ms). Every part but the last
+three is an import or a start-up of a dependency the command cannot do without: numpy
+(the check of a calibration is arithmetic on its parameter vector), the machine's
+definition (YAML validated by pydantic models) and typer. Tried and dropped: typer 0.28
+(before the pydantic conversion) first on the path: no gain for add (0.46 / 0.54 s against
+0.45 / 0.49 s, min / median of 8 in alternation on a busier host; pydantic is imported by
+the machine definition's models all the same); importing the kinematic chain and the
+optimiser only on first evaluation: the machine module adds 0-10 ms over its definition,
+within the noise; ``PYDANTIC_DISABLE_PLUGINS``: 7 ms. The numpy + SQLAlchemy ORM floor
+(0.38 s) is above every command.
 
 Run: ``python bench/bench_history_cli.py``. On a shared host the wall times mostly measure
 the other processes: the notes give each command's CPU seconds (user + system, least of
@@ -64,6 +70,9 @@ FLOOR = [sys.executable, "-c", f"{OWN_PEAK}; import numpy"]
 ORM_FLOOR = [sys.executable, "-c", f"{OWN_PEAK}; import numpy, sqlalchemy.orm"]
 MACHINE = Machine.load("five-axis-wcbxfzyst")
 BATCH = 16
+#: Repeats of each contender (in alternation), after one uncounted round.
+REPEATS = 9
+WARMUP = 1
 
 
 class Documents:
@@ -93,15 +102,16 @@ class Documents:
 
 
 class Adding(Child):
-    """``mtm history add`` of ``n`` new documents, written before each run (not timed
-    apart: writing a 3 kB file is microseconds next to a process start)."""
+    """``mtm history add`` of ``n`` new documents a call, all written before the timing
+    starts (one set per call: the same document twice is refused as recorded)."""
 
-    def __init__(self, db: Path, documents: Documents, n: int):
+    def __init__(self, db: Path, documents: Documents, n: int, calls: int):
         super().__init__([])
-        self.db, self.documents, self.n = db, documents, n
+        self.db = db
+        self.batches = [documents.write(n) for _ in range(calls)]
 
     def __call__(self) -> None:
-        self.args = [*MTM, "history", "add", *self.documents.write(self.n), "--db", str(self.db)]
+        self.args = [*MTM, "history", "add", *self.batches.pop(0), "--db", str(self.db)]
         super().__call__()
 
 
@@ -111,28 +121,38 @@ def main() -> None:
         directory = Path(tmp)
         documents = Documents(directory)
         one = directory / "one.sqlite"
-        Adding(one, documents, 1)()  # the database, at the current schema, with one run
+        Adding(one, documents, 1, 1)()  # the database, at the current schema, with one run
+        calls = WARMUP + REPEATS
         floor = Child(FLOOR)
-        bench.time('python -c "import numpy"', "floor", floor)
-        bench.timings[-1].note = floor.note()
-        orm = Child(ORM_FLOOR)
-        bench.time("import numpy, sqlalchemy.orm", "floor", orm)
-        bench.timings[-1].note = orm.note()
         children = {
-            "mtm --help": Child([*MTM, "--help"]),
-            "mtm history list": Child([*MTM, "history", "list", "--db", str(one)]),
-            "mtm history show 1": Child([*MTM, "history", "show", "1", "--db", str(one)]),
-            "mtm history add (1 file)": Adding(directory / "add.sqlite", documents, 1),
-            f"mtm history add ({BATCH} files)": Adding(
-                directory / "batch.sqlite", documents, BATCH
+            'python -c "import numpy"': ("floor", floor),
+            "import numpy, sqlalchemy.orm": ("floor", Child(ORM_FLOOR)),
+            "mtm --help": ("baseline", Child([*MTM, "--help"])),
+            "mtm history list": ("ours", Child([*MTM, "history", "list", "--db", str(one)])),
+            "mtm history show 1": ("ours", Child([*MTM, "history", "show", "1", "--db", str(one)])),
+            "mtm history add (1 file)": (
+                "ours",
+                Adding(directory / "add.sqlite", documents, 1, calls),
+            ),
+            f"mtm history add ({BATCH} files)": (
+                "ours",
+                Adding(directory / "batch.sqlite", documents, BATCH, calls),
             ),
         }
-        for label, child in children.items():
-            bench.time(label, "baseline" if label == "mtm --help" else "ours", child)
-            bench.timings[-1].note = child.note()
-            if label != "mtm --help":
-                bench.target(label, 3.0, relative_to='python -c "import numpy"')
-        for label, child in children.items():
+        # in alternation, so that a change of load on the shared host hits all alike
+        bench.time_interleaved(
+            [(label, kind, child) for label, (kind, child) in children.items()],
+            repeats=REPEATS,
+            warmup=WARMUP,
+        )
+        for timing in bench.timings:
+            timing.note = children[timing.label][1].note()
+            if timing.kind == "ours":
+                bench.target(timing.label, 3.0, relative_to='python -c "import numpy"')
+        orm = children["import numpy, sqlalchemy.orm"][1]
+        for label, (kind, child) in children.items():
+            if kind == "floor":
+                continue
             ratio = min(child.cpu) / min(floor.cpu)
             bench.notes.append(
                 f"CPU {label}: {ratio:.1f}x the numpy floor's ({'met' if ratio <= 3 else 'over'}"
