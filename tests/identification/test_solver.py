@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from mtmetrology.errors import InputError
 from mtmetrology.identification import (
     BallCentreProblem,
     IdentificationError,
@@ -52,6 +53,11 @@ def test_noise_free_13_parameter_round_trip(samba_setup):
     np.testing.assert_allclose(result.estimate[-3:], tool_error, atol=1e-10)
     balls = result.estimate[m.n_params : m.n_params + 3].reshape(1, 3)
     np.testing.assert_allclose(balls[0], samba_setup.balls["1"], atol=1e-9)
+    j = m.parameter_names.index("E_XX1")
+    assert result.value("E_XX1") == result.estimate[j]
+    assert result.u("E_XX1") == result.standard_uncertainty[j]
+    with pytest.raises(InputError, match="'E_Q0Q': not an unknown"):
+        result.value("E_Q0Q")
     pset = result.parameter_set(m)
     assert pset.names == m.parameter_names and pset.units[8] == "µm/m"
     np.testing.assert_allclose(pset.values, theta, rtol=1e-9, atol=1e-12 * np.abs(theta).max())

@@ -219,11 +219,11 @@ class BallbarDiagnosis:
 
     def value(self, name: str) -> float:
         """Identified value of an unknown, internal units."""
-        return float(self.identification.estimate[self.names.index(name)])
+        return self.identification.value(name)
 
     def u(self, name: str) -> float:
         """Standard uncertainty of an unknown, internal units."""
-        return float(self.identification.standard_uncertainty[self.names.index(name)])
+        return self.identification.u(name)
 
     def units(self) -> list[str]:
         """Display unit of every unknown."""

@@ -122,6 +122,19 @@ class IdentificationResult(NotebookRepr):
         """Square roots of the diagonal of :attr:`covariance`, internal units."""
         return np.sqrt(np.diag(self.covariance))
 
+    def value(self, name: str) -> float:
+        """Estimate of the unknown ``name``, internal units."""
+        return float(self.estimate[self._position(name)])
+
+    def u(self, name: str) -> float:
+        """Standard uncertainty of the unknown ``name``, internal units."""
+        return float(np.sqrt(self.covariance[(i := self._position(name)), i]))
+
+    def _position(self, name: str) -> int:
+        if name not in self.names:
+            raise InputError(f"{name!r}: not an unknown of this identification")
+        return self.names.index(name)
+
     def with_adequacy(
         self, rule: str = "scale", alpha: float = SIGNIFICANCE
     ) -> IdentificationResult:

@@ -115,10 +115,12 @@ class RTestCalibration:
         return self.identification.names
 
     def value(self, name: str) -> float:
-        return float(self.identification.estimate[self.names.index(name)])
+        """Identified value of an unknown, internal units."""
+        return self.identification.value(name)
 
     def u(self, name: str) -> float:
-        return float(self.identification.standard_uncertainty[self.names.index(name)])
+        """Standard uncertainty of an unknown, internal units."""
+        return self.identification.u(name)
 
     def _scales_units(self):
         m = self.machine
