@@ -37,6 +37,7 @@ from mtmetrology.identification import (
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameter_set import ParameterSet
 from mtmetrology.rng import SeedLike, as_generator
+from mtmetrology.uncertainty.coverage import DEFAULT, DEFAULT_K
 from mtmetrology.units import from_internal, to_internal
 
 __all__ = [
@@ -54,8 +55,8 @@ __all__ = [
 #: The calibration document of ``mtm ballbar calibrate`` (``iso230-4-circular`` is the
 #: ISO 230-4 verification of ``mtm ballbar analyse``): one kind, one history category.
 KIND = "iso230-4-calibration"
-#: k of the expanded uncertainties U = k u (EA-4/02: k = 2, about 95 %).
-COVERAGE_FACTOR = 2.0
+#: k of the expanded uncertainties U = k u: the coverage policy (EA-4/02: k = 2).
+COVERAGE_FACTOR = DEFAULT_K
 #: Converged when the scaled step is below a millionth of the reading uncertainty.
 XTOL = 1e-6
 
@@ -300,7 +301,7 @@ class BallbarDiagnosis:
             "estimates": self.parameter_rows(),
             "estimate_covariance": {"names": list(self.names), "matrix": cov.tolist()},
             "covariance_source": self.covariance_source,
-            "coverage": {"k": COVERAGE_FACTOR, "rule": "U = k u, k = 2 (EA-4/02)"},
+            "coverage": DEFAULT.to_dict(),
             "conventions": [c.to_dict() for c in describe_parameters(self.machine)],
             "dynamic_conventions": _DYNAMIC_CONVENTIONS,
             "identification": {

@@ -41,6 +41,7 @@ from mtmetrology.errors import InputError
 from mtmetrology.formatting import format_uncertainty, format_value
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.kinematics.parameters import parse_parameter
+from mtmetrology.uncertainty.coverage import DEFAULT
 from mtmetrology.units import to_internal
 
 __all__ = [
@@ -256,7 +257,7 @@ def diagnosis_summary(result: BallbarDiagnosis) -> str:
         f"{result.problem.n_rows} readings",
         f"  {result.identification.message}",
         f"  covariance: {result.covariance_source}",
-        f"  {'parameter':<22} {'value':>12} {'u':>9} {'U (k = 2)':>10}  unit",
+        f"  {'parameter':<22} {'value':>12} {'u':>9} {f'U ({DEFAULT.label})':>10}  unit",
     ]
     for row in result.parameter_rows():
         if row["nuisance"]:

@@ -31,12 +31,13 @@ from mtmetrology.identification import (
 from mtmetrology.kinematics.machine import Machine
 from mtmetrology.rng import SeedLike, as_generator
 from mtmetrology.rtest.model import RTestProblem, Sensors, rotary_location_candidates
+from mtmetrology.uncertainty.coverage import DEFAULT, DEFAULT_K
 from mtmetrology.units import from_internal, to_internal
 
 __all__ = ["KIND", "RTestCalibration", "calibrate", "simulate"]
 
 KIND = "r-test"
-COVERAGE_FACTOR = 2.0
+COVERAGE_FACTOR = DEFAULT_K  # the coverage policy (mtmetrology.uncertainty.coverage)
 XTOL = 1e-6
 
 
@@ -167,7 +168,7 @@ class RTestCalibration:
             "estimates": self.parameter_rows(),
             "estimate_covariance": {"names": list(self.names), "matrix": cov.tolist()},
             "covariance_source": self.covariance_source,
-            "coverage": {"k": COVERAGE_FACTOR, "rule": "U = k u, k = 2 (EA-4/02)"},
+            "coverage": DEFAULT.to_dict(),
             "conventions": [c.to_dict() for c in describe_parameters(self.machine)],
             "sensors": self.problem.sensors.to_dict(),
             "indexations": int(self.problem.readings.shape[0]),

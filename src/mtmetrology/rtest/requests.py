@@ -26,6 +26,7 @@ from mtmetrology.kinematics.parameters import parse_parameter
 from mtmetrology.kinematics.topology import LINEAR_AXES
 from mtmetrology.rtest.calibrate import RTestCalibration, calibrate, simulate
 from mtmetrology.rtest.model import Sensors, indexations
+from mtmetrology.uncertainty.coverage import DEFAULT
 from mtmetrology.units import from_internal, to_internal
 
 __all__ = [
@@ -185,15 +186,15 @@ def calibrate_file(
 
 
 def calibration_summary(result: RTestCalibration) -> str:
-    """Console lines: the identified errors with u (2 significant digits) and U (k = 2),
-    and what the programme could not separate."""
+    """Console lines: the identified errors with u (2 significant digits) and U (the
+    coverage policy's k), and what the programme could not separate."""
     lines = [
         f"R-test of {result.machine.name}: {result.problem.readings.shape[0]} indexations, "
         f"{result.problem.sensors.count} sensors",
         f"  {result.identification.message}",
         f"  datum: {result.datum.message}",
         f"  covariance: {result.covariance_source}",
-        f"  {'parameter':<16} {'value':>12} {'u':>9} {'U (k = 2)':>10}  unit",
+        f"  {'parameter':<16} {'value':>12} {'u':>9} {f'U ({DEFAULT.label})':>10}  unit",
     ]
     for row in result.parameter_rows():
         if row["nuisance"]:
