@@ -179,12 +179,13 @@ def machine_page(
     user = user_of(request)
     lab = request.app.state.lab
     overview = lab.machine(name)
-    table = lab.parameter_table(name)
-    rows = {r["parameter"]: r for r in table}
+    # every part below is computed once per history version (cache misses only): a warm
+    # page only looks them up
+    rows = lab.cached(
+        ("rows", name), lambda: {r["parameter"]: r for r in lab.parameter_table(name)}
+    )
     chosen = parameter if parameter in rows else next(iter(rows), None)
-    runs = lab.cached(("runs", name), lambda: list_runs(lab.engine, machine=name))[::-1]
-    shown = runs[(page - 1) * PAGE_RUNS : page * PAGE_RUNS]
-    macros = _macros(request)
+    newest_first = lab.cached(("runs", name), lambda: list_runs(lab.engine, machine=name)[::-1])
     return render(
         request,
         "machine.html.j2",
@@ -192,13 +193,17 @@ def machine_page(
         m=overview,
         chart=None
         if chosen is None
-        else lab.cached(("chart", name, chosen), lambda: macros.chart(overview, rows[chosen])),
+        else lab.cached(
+            ("chart", name, chosen), lambda: _macros(request).chart(overview, rows[chosen])
+        ),
         runs=lab.cached(
             ("runs-page", name, page),
-            lambda: macros.runs_rows(shown, "calibration"),
+            lambda: _macros(request).runs_rows(
+                newest_first[(page - 1) * PAGE_RUNS : page * PAGE_RUNS], "calibration"
+            ),
         ),
         page=page,
-        pages=max(1, -(-len(runs) // PAGE_RUNS)),
+        pages=max(1, -(-len(newest_first) // PAGE_RUNS)),
         tables=lab.cached(("tables", name), lambda: _tables(request, name)),
     )
 
