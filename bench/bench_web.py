@@ -22,15 +22,16 @@ ours   the machine page: the session's user (one select), the history's version 
 floor  uvicorn serving a static file of the same page (Starlette ``StaticFiles``), same
        clients, 1 and N processes: the server, the HTTP stack and the client alone.
 (`/ floor` in RESULTS.md is over the one-process floor; against its own, N-process floor
-ours with N workers is 3.2×.)
+ours with N workers is 2.6×.)
 
 Target: ours' p95 under 0.3 s (issue 34).
 
-Measured 2026-11-28 03:42 UTC (2 cores, shared with another agent's tests: load average 2
-to 7), min / median of 5 rounds:
-ours, 1 process: 0.140 / 0.142 s (675 pages/s); 2 workers: 0.097 / 0.102 s (1133 pages/s);
-static floor, 1 process: 0.060 / 0.062 s (1081 files/s); 2 processes: 0.027 / 0.032 s.
-Both targets met (0.142 and 0.102 s < 0.3 s). The first (cold) page takes 0.61 s.
+Measured 2026-11-28 04:50 UTC (2 cores; load average about 2), min / median of 5 rounds:
+ours, 1 process: 0.138 / 0.146 s (637 pages/s); 2 workers: 0.090 / 0.100 s (1228 pages/s);
+static floor, 1 process: 0.071 / 0.080 s (935 files/s); 2 processes: 0.025 / 0.038 s.
+Both targets met (0.146 and 0.100 s < 0.3 s). The first (cold) page takes 0.53 s. (A run
+at 03:42, before the page's hot path stopped reversing the 10⁴ runs and fetching the
+template module per request: 0.142 / 0.102 s against floors of 0.062 / 0.032 s.)
 Before (this change's parent, measured with wrk): 1 process 0.316 s, 250 pages/s, just
 over the target; 2 workers 0.98 s with 41 failed requests (each
 worker computed the 84 charts for 7 s on its first request, and read the version six times
